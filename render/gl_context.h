@@ -1,0 +1,66 @@
+// GL contexts behind one interface (after Filament's platforms): a headless EGL
+// context for tests and batch runs, a GLFW window for the sandbox. Whatever made
+// the context, the renderer and the deformation passes use the same GL objects.
+#pragma once
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+struct GLFWwindow;
+
+namespace crumple::render {
+
+struct ContextError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class GlContext {
+ public:
+  virtual ~GlContext() = default;
+  virtual void makeCurrent() = 0;
+  // Human-readable: platform, GL_RENDERER and GL_VERSION.
+  virtual std::string description() const = 0;
+};
+
+struct HeadlessOptions {
+  bool preferGpu = true;    // EGL device platform with a hardware device if one exists
+  bool debug = true;        // KHR_debug messages routed to the log
+};
+
+// OpenGL 4.5 core without a window. Throws ContextError (with the reason) when
+// no context can be made; never crashes.
+std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options = {});
+
+struct WindowOptions {
+  int width = 1280;
+  int height = 720;
+  std::string title = "crumple";
+  bool visible = true;
+  bool debug = true;
+  bool vsync = true;
+};
+
+class WindowContext : public GlContext {
+ public:
+  explicit WindowContext(const WindowOptions& options);
+  ~WindowContext() override;
+  WindowContext(const WindowContext&) = delete;
+  WindowContext& operator=(const WindowContext&) = delete;
+  void makeCurrent() override;
+  std::string description() const override;
+  GLFWwindow* window() const { return window_; }
+  bool shouldClose() const;
+  void swapBuffers();
+  void pollEvents();
+  void framebufferSize(int& width, int& height) const;
+
+ private:
+  GLFWwindow* window_ = nullptr;
+};
+
+// Installs the KHR_debug callback on the current context (no-op when absent).
+void installDebugOutput();
+// GL_RENDERER / GL_VERSION of the current context.
+std::string currentRendererString();
+
+}  // namespace crumple::render

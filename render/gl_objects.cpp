@@ -1,0 +1,134 @@
+#include "render/gl_objects.h"
+
+#include <stdexcept>
+
+namespace crumple::render {
+
+namespace shaders {
+std::string_view shaderSource(std::string_view name);
+}
+std::string_view renderShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
+
+static GLuint makeBuffer() {
+  GLuint id = 0;
+  glCreateBuffers(1, &id);
+  return id;
+}
+
+Buffer::Buffer(size_t bytes, const void* data, GLbitfield flags) : GlName(makeBuffer()), size_(bytes) {
+  glNamedBufferStorage(id(), static_cast<GLsizeiptr>(bytes ? bytes : 4), data, flags);
+}
+
+void Buffer::upload(size_t offset, size_t bytes, const void* data) {
+  glNamedBufferSubData(id(), static_cast<GLintptr>(offset), static_cast<GLsizeiptr>(bytes), data);
+}
+
+static GLuint makeTexture() {
+  GLuint id = 0;
+  glCreateTextures(GL_TEXTURE_2D, 1, &id);
+  return id;
+}
+
+Texture2D::Texture2D(int width, int height, GLenum internalFormat, int levels)
+    : GlName(makeTexture()), width_(width), height_(height), format_(internalFormat) {
+  if (width <= 0 || height <= 0) throw std::invalid_argument("texture size must be positive");
+  glTextureStorage2D(id(), levels, internalFormat, width, height);
+  setFilter(levels > 1 ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR, GL_LINEAR);
+  setWrap(GL_CLAMP_TO_EDGE);
+}
+
+void Texture2D::upload(GLenum format, GLenum type, const void* data, int level) {
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(id(), level, 0, 0, std::max(1, width_ >> level), std::max(1, height_ >> level),
+                      format, type, data);
+}
+
+void Texture2D::setFilter(GLenum minFilter, GLenum magFilter) {
+  glTextureParameteri(id(), GL_TEXTURE_MIN_FILTER, static_cast<GLint>(minFilter));
+  glTextureParameteri(id(), GL_TEXTURE_MAG_FILTER, static_cast<GLint>(magFilter));
+}
+
+void Texture2D::setWrap(GLenum wrap) {
+  glTextureParameteri(id(), GL_TEXTURE_WRAP_S, static_cast<GLint>(wrap));
+  glTextureParameteri(id(), GL_TEXTURE_WRAP_T, static_cast<GLint>(wrap));
+}
+
+void Texture2D::download(GLenum format, GLenum type, void* data, size_t bytes) const {
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glGetTextureImage(id(), 0, format, type, static_cast<GLsizei>(bytes), data);
+}
+
+static GLuint makeFramebuffer() {
+  GLuint id = 0;
+  glCreateFramebuffers(1, &id);
+  return id;
+}
+
+Framebuffer::Framebuffer() : GlName(makeFramebuffer()) {}
+
+void Framebuffer::attachColor(const Texture2D& t, int index) {
+  glNamedFramebufferTexture(id(), GL_COLOR_ATTACHMENT0 + static_cast<GLenum>(index), t.id(), 0);
+}
+void Framebuffer::attachDepth(const Texture2D& t) { glNamedFramebufferTexture(id(), GL_DEPTH_ATTACHMENT, t.id(), 0); }
+
+void Framebuffer::checkComplete() const {
+  GLenum status = glCheckNamedFramebufferStatus(id(), GL_FRAMEBUFFER);
+  if (status != GL_FRAMEBUFFER_COMPLETE) {
+    throw std::runtime_error("framebuffer incomplete: status 0x" + [&] {
+      char buf[16];
+      std::snprintf(buf, sizeof buf, "%04x", status);
+      return std::string(buf);
+    }());
+  }
+}
+void Framebuffer::bind() const { glBindFramebuffer(GL_FRAMEBUFFER, id()); }
+
+static GLuint makeVertexArray() {
+  GLuint id = 0;
+  glCreateVertexArrays(1, &id);
+  return id;
+}
+VertexArray::VertexArray() : GlName(makeVertexArray()) {}
+
+Program::Program(const std::vector<Stage>& stages) : GlName(glCreateProgram()) {
+  std::vector<GLuint> shaders;
+  for (const auto& s : stages) {
+    label_ += (label_.empty() ? "" : "+") + s.name;
+    GLuint sh = glCreateShader(s.type);
+    const char* src = s.source.c_str();
+    glShaderSource(sh, 1, &src, nullptr);
+    glCompileShader(sh);
+    GLint ok = 0;
+    glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      GLint len = 0;
+      glGetShaderiv(sh, GL_INFO_LOG_LENGTH, &len);
+      std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
+      glGetShaderInfoLog(sh, len, nullptr, log.data());
+      glDeleteShader(sh);
+      for (GLuint o : shaders) glDeleteShader(o);
+      throw std::runtime_error("shader " + s.name + " failed to compile:\n" + log);
+    }
+    glAttachShader(id(), sh);
+    shaders.push_back(sh);
+  }
+  glLinkProgram(id());
+  for (GLuint sh : shaders) {
+    glDetachShader(id(), sh);
+    glDeleteShader(sh);
+  }
+  GLint ok = 0;
+  glGetProgramiv(id(), GL_LINK_STATUS, &ok);
+  if (!ok) {
+    GLint len = 0;
+    glGetProgramiv(id(), GL_INFO_LOG_LENGTH, &len);
+    std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
+    glGetProgramInfoLog(id(), len, nullptr, log.data());
+    throw std::runtime_error("program " + label_ + " failed to link:\n" + log);
+  }
+}
+
+void Program::use() const { glUseProgram(id()); }
+GLint Program::uniform(const char* name) const { return glGetUniformLocation(id(), name); }
+
+}  // namespace crumple::render

@@ -1,0 +1,66 @@
+// Rigid bodies: state, mass properties and the frame conventions.
+//
+// Frames: a body's shape is defined in its shape frame (the frame of the mesh
+// file or primitive). The body's state x is the world position of the centre of
+// mass, q its orientation; the shape frame's origin is x - R(q) * localCom.
+#pragma once
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include <memory>
+#include <string>
+
+#include "physics/shape.h"
+
+namespace crumple {
+
+struct Pose {
+  glm::dvec3 position{0};  // centre of mass, world
+  glm::dquat orientation{1, 0, 0, 0};
+};
+
+struct BodyDef {
+  std::shared_ptr<const Shape> shape;
+  glm::dvec3 origin{0};  // world position of the shape frame's origin
+  glm::dquat orientation{1, 0, 0, 0};
+  glm::dvec3 linearVelocity{0};   // of the centre of mass
+  glm::dvec3 angularVelocity{0};  // rad/s, world
+  double density = 1000;
+  double mass = 0;  // > 0 overrides density
+  double restitution = 0.5;
+  double friction = 0.5;
+  bool isStatic = false;
+};
+
+struct RigidBody {
+  std::shared_ptr<const Shape> shape;
+  glm::dvec3 localCom{0};
+  double mass = 0, invMass = 0;
+  glm::dmat3 inertiaBody{1}, invInertiaBody{0};  // about the centre of mass, shape axes
+  glm::dvec3 x{0};
+  glm::dquat q{1, 0, 0, 0};
+  glm::dvec3 v{0}, w{0};
+  double restitution = 0.5, friction = 0.5;
+  bool isStatic = false;
+  bool asleep = false;
+  double stillTime = 0;
+
+  glm::dmat3 rotation() const { return glm::mat3_cast(q); }
+  glm::dvec3 origin() const { return x - rotation() * localCom; }
+  glm::dmat3 invInertiaWorld() const {
+    const glm::dmat3 r = rotation();
+    return r * invInertiaBody * glm::transpose(r);
+  }
+  glm::dvec3 velocityAt(const glm::dvec3& p) const { return v + glm::cross(w, p - x); }
+  bool movable() const { return !isStatic && !asleep; }
+};
+
+// Shape-frame point to world for a body at pose (x, q) with centre localCom.
+inline glm::dvec3 toWorld(const Pose& pose, const glm::dvec3& localCom, const glm::dvec3& p) {
+  return pose.position + glm::mat3_cast(pose.orientation) * (p - localCom);
+}
+inline glm::dvec3 toShape(const Pose& pose, const glm::dvec3& localCom, const glm::dvec3& p) {
+  return glm::transpose(glm::mat3_cast(pose.orientation)) * (p - pose.position) + localCom;
+}
+
+}  // namespace crumple

@@ -1,0 +1,35 @@
+// Collision impulses (Guendelman et al. 2003, section 7; the deformation paper's eq. 4).
+#pragma once
+#include <glm/glm.hpp>
+
+namespace crumple {
+
+// One side of a contact for the impulse: inverse mass, world inverse inertia,
+// offset r from the centre of mass to the contact point. A static or frozen
+// body has invMass 0 and a zero inverse inertia.
+struct ImpulseSide {
+  double invMass = 0;
+  glm::dmat3 invInertia{0};
+  glm::dvec3 r{0};
+};
+
+// K = sum over sides of (1/m) Id - r* I^-1 r*   (r* the cross-product matrix).
+// An impulse j applied to B (and -j to A) changes the relative velocity u = v_B - v_A by K j.
+glm::dmat3 collisionMatrix(const ImpulseSide& a, const ImpulseSide& b);
+
+// Eq. (4) of Wrotek et al. for two free point masses, normal N owned by A:
+// j = -N (1 + eps) N.(v_B - v_A) / (1/m_A + 1/m_B), the impulse on B.
+glm::dvec3 pointMassImpulse(const glm::dvec3& n, double eps, const glm::dvec3& vA, const glm::dvec3& vB, double mA,
+                            double mB);
+
+// Frictionless impulse on B for relative velocity u, unit normal n (out of A):
+// j = -(1 + eps) (u.n) / (n^T K n) n. Zero when u.n >= 0 (separating).
+glm::dvec3 frictionlessImpulse(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& n, double eps);
+
+// With Coulomb friction mu: the sticking impulse K^-1(-eps (u.n) n - u) when it
+// lies inside the friction cone, otherwise the sliding impulse along n - mu T.
+// The result never pulls the bodies together (j.n >= 0) and never adds kinetic
+// energy. Zero when u.n >= 0.
+glm::dvec3 frictionImpulse(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu);
+
+}  // namespace crumple

@@ -1,0 +1,33 @@
+// Triangle meshes as the physics and the renderer both see them: per-vertex
+// positions, normals and texture coordinates (seams split vertices), and
+// counter-clockwise triangles seen from outside.
+#pragma once
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace crumple {
+
+struct TriangleMesh {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;
+  std::vector<glm::vec2> uvs;  // empty when the mesh has no parameterisation
+  std::vector<glm::uvec3> triangles;
+
+  bool empty() const { return triangles.empty(); }
+  void computeNormals();  // area-weighted vertex normals
+  glm::vec3 boundsMin() const;
+  glm::vec3 boundsMax() const;
+};
+
+// Mass properties of a closed mesh of unit density (Mirtich's / Eberly's
+// polyhedral integrals): volume, centre of mass and the inertia tensor about it.
+struct MassProperties {
+  double volume = 0;
+  glm::dvec3 centerOfMass{0};
+  glm::dmat3 inertia{1};  // per unit density, about the centre of mass
+};
+MassProperties polyhedralMassProperties(const TriangleMesh& mesh);
+
+}  // namespace crumple

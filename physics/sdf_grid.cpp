@@ -1,0 +1,250 @@
+#include "physics/sdf_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+
+namespace crumple {
+
+namespace {
+
+// Ericson, Real-Time Collision Detection 5.1.5; returns barycentrics (u, v, w) of the closest point.
+glm::dvec3 closestOnTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return {1, 0, 0};
+  const glm::dvec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return {0, 1, 0};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const double v = d1 / (d1 - d3);
+    return {1 - v, v, 0};
+  }
+  const glm::dvec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return {0, 0, 1};
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const double w = d2 / (d2 - d6);
+    return {1 - w, 0, w};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {0, 1 - w, w};
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return {1 - v - w, v, w};
+}
+
+double boxDistance2(const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi) {
+  const glm::dvec3 d = glm::max(glm::max(lo - p, p - hi), glm::dvec3(0));
+  return glm::dot(d, d);
+}
+
+}  // namespace
+
+TriangleBvh::TriangleBvh(const TriangleMesh& mesh) {
+  const size_t n = mesh.triangles.size();
+  a_.resize(n);
+  b_.resize(n);
+  c_.resize(n);
+  centroid_.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    a_[i] = mesh.positions[mesh.triangles[i].x];
+    b_[i] = mesh.positions[mesh.triangles[i].y];
+    c_[i] = mesh.positions[mesh.triangles[i].z];
+    centroid_[i] = (a_[i] + b_[i] + c_[i]) / 3.0;
+  }
+  order_.resize(n);
+  std::iota(order_.begin(), order_.end(), 0);
+  nodes_.reserve(2 * n + 1);
+  if (n) build(0, static_cast<int>(n));
+}
+
+int TriangleBvh::build(int first, int count) {
+  Node node;
+  node.lo = glm::dvec3(std::numeric_limits<double>::max());
+  node.hi = -node.lo;
+  for (int i = first; i < first + count; ++i) {
+    const int t = order_[i];
+    node.lo = glm::min(node.lo, glm::min(a_[t], glm::min(b_[t], c_[t])));
+    node.hi = glm::max(node.hi, glm::max(a_[t], glm::max(b_[t], c_[t])));
+  }
+  const int index = static_cast<int>(nodes_.size());
+  nodes_.push_back(node);
+  if (count <= 4) {
+    nodes_[index].first = first;
+    nodes_[index].count = count;
+    return index;
+  }
+  const glm::dvec3 ext = node.hi - node.lo;
+  const int axis = ext.x > ext.y ? (ext.x > ext.z ? 0 : 2) : (ext.y > ext.z ? 1 : 2);
+  const int mid = first + count / 2;
+  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + first + count,
+                   [&](int x, int y) {
+                     if (centroid_[x][axis] != centroid_[y][axis]) return centroid_[x][axis] < centroid_[y][axis];
+                     return x < y;  // deterministic ties
+                   });
+  const int left = build(first, mid - first);
+  const int right = build(mid, first + count - mid);
+  nodes_[index].left = left;
+  nodes_[index].right = right;
+  return index;
+}
+
+TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p) const {
+  Hit best;
+  best.distance2 = std::numeric_limits<double>::max();
+  if (nodes_.empty()) return best;
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top) {
+    const Node& node = nodes_[stack[--top]];
+    if (boxDistance2(p, node.lo, node.hi) >= best.distance2) continue;
+    if (node.left < 0) {
+      for (int i = node.first; i < node.first + node.count; ++i) {
+        const int t = order_[i];
+        const glm::dvec3 bc = closestOnTriangle(p, a_[t], b_[t], c_[t]);
+        const glm::dvec3 q = bc.x * a_[t] + bc.y * b_[t] + bc.z * c_[t];
+        const double d2 = glm::dot(q - p, q - p);
+        if (d2 < best.distance2) {
+          best = {d2, q, t, bc};
+        }
+      }
+      continue;
+    }
+    const double dl = boxDistance2(p, nodes_[node.left].lo, nodes_[node.left].hi);
+    const double dr = boxDistance2(p, nodes_[node.right].lo, nodes_[node.right].hi);
+    if (top + 2 > 128) continue;  // cannot happen for balanced trees under 2^64 triangles
+    if (dl < dr) {
+      stack[top++] = node.right;
+      stack[top++] = node.left;
+    } else {
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+    }
+  }
+  return best;
+}
+
+SdfGrid::SdfGrid(const TriangleMesh& mesh, int resolution) : bvh_(mesh) {
+  // Weld positions so that seams (split for UVs) do not break the pseudo-normals.
+  std::map<std::tuple<float, float, float>, unsigned> weld;
+  std::vector<unsigned> remap(mesh.positions.size());
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    const auto& p = mesh.positions[i];
+    auto [it, inserted] = weld.try_emplace({p.x, p.y, p.z}, static_cast<unsigned>(positions_.size()));
+    if (inserted) positions_.push_back(glm::dvec3(p));
+    remap[i] = it->second;
+  }
+  triangles_.reserve(mesh.triangles.size());
+  for (const auto& t : mesh.triangles) triangles_.push_back({remap[t.x], remap[t.y], remap[t.z]});
+
+  faceNormal_.resize(triangles_.size());
+  vertexNormal_.assign(positions_.size(), glm::dvec3(0));
+  edgeNormal_.assign(triangles_.size() * 3, glm::dvec3(0));
+  std::map<std::pair<unsigned, unsigned>, glm::dvec3> edgeSum;
+  for (size_t f = 0; f < triangles_.size(); ++f) {
+    const auto& t = triangles_[f];
+    const glm::dvec3 v[3] = {positions_[t.x], positions_[t.y], positions_[t.z]};
+    const glm::dvec3 cr = glm::cross(v[1] - v[0], v[2] - v[0]);
+    const double len = glm::length(cr);
+    const glm::dvec3 n = len > 0 ? cr / len : glm::dvec3(0);
+    faceNormal_[f] = n;
+    const unsigned idx[3] = {t.x, t.y, t.z};
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3 e1 = v[(k + 1) % 3] - v[k], e2 = v[(k + 2) % 3] - v[k];
+      const double l1 = glm::length(e1), l2 = glm::length(e2);
+      if (l1 > 0 && l2 > 0) {
+        const double angle = std::acos(std::clamp(glm::dot(e1, e2) / (l1 * l2), -1.0, 1.0));
+        vertexNormal_[idx[k]] += angle * n;
+      }
+      const unsigned a = idx[k], b = idx[(k + 1) % 3];
+      edgeSum[{std::min(a, b), std::max(a, b)}] += n;
+    }
+  }
+  for (size_t f = 0; f < triangles_.size(); ++f) {
+    const unsigned idx[3] = {triangles_[f].x, triangles_[f].y, triangles_[f].z};
+    for (int k = 0; k < 3; ++k) {
+      const unsigned a = idx[k], b = idx[(k + 1) % 3];
+      edgeNormal_[f * 3 + k] = edgeSum[{std::min(a, b), std::max(a, b)}];  // edge (k, k+1)
+    }
+  }
+
+  const glm::dvec3 lo = glm::dvec3(mesh.boundsMin()), hi = glm::dvec3(mesh.boundsMax());
+  const glm::dvec3 ext = hi - lo;
+  const double longest = std::max({ext.x, ext.y, ext.z, 1e-9});
+  cell_ = longest / std::max(4, resolution);
+  const double pad = 2 * cell_;
+  origin_ = lo - pad;
+  dims_ = glm::ivec3(glm::ceil((ext + 2 * pad) / cell_)) + 1;
+  values_.resize(static_cast<size_t>(dims_.x) * dims_.y * dims_.z);
+  for (int k = 0; k < dims_.z; ++k)
+    for (int j = 0; j < dims_.y; ++j)
+      for (int i = 0; i < dims_.x; ++i)
+        values_[(static_cast<size_t>(k) * dims_.y + j) * dims_.x + i] =
+            exactDistance(origin_ + cell_ * glm::dvec3(i, j, k));
+}
+
+double SdfGrid::exactDistance(const glm::dvec3& p) const {
+  const TriangleBvh::Hit hit = bvh_.closest(p);
+  if (hit.triangle < 0) return std::numeric_limits<double>::max();
+  // Feature of the closest point: face interior, an edge, or a vertex.
+  const double tol = 1e-9;
+  const glm::dvec3& bc = hit.barycentric;
+  const int zeros = (bc.x <= tol) + (bc.y <= tol) + (bc.z <= tol);
+  glm::dvec3 pseudo;
+  const auto& t = triangles_[static_cast<size_t>(hit.triangle)];
+  if (zeros == 0) {
+    pseudo = faceNormal_[static_cast<size_t>(hit.triangle)];
+  } else if (zeros == 1) {
+    // The edge opposite the zero barycentric: (y,z) if x==0 -> edge k=1; (x,z) if y==0 -> k=2; (x,y) if z==0 -> k=0.
+    const int k = bc.x <= tol ? 1 : (bc.y <= tol ? 2 : 0);
+    pseudo = edgeNormal_[static_cast<size_t>(hit.triangle) * 3 + k];
+  } else {
+    const unsigned v = bc.x > tol ? t.x : (bc.y > tol ? t.y : t.z);
+    pseudo = vertexNormal_[v];
+  }
+  const double d = std::sqrt(hit.distance2);
+  return glm::dot(p - hit.point, pseudo) < 0 ? -d : d;
+}
+
+double SdfGrid::distance(const glm::dvec3& p, glm::dvec3* gradient) const {
+  const glm::dvec3 g = (p - origin_) / cell_;
+  const glm::dvec3 maxg = glm::dvec3(dims_ - 1) - 1e-9;
+  const glm::dvec3 gc = glm::clamp(g, glm::dvec3(0), maxg);
+  const double outside = glm::length((g - gc) * cell_);
+  const glm::ivec3 i0 = glm::ivec3(glm::floor(gc));
+  const glm::dvec3 f = gc - glm::dvec3(i0);
+  double c[2][2][2];
+  for (int dz = 0; dz < 2; ++dz)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dx = 0; dx < 2; ++dx) c[dz][dy][dx] = node(i0.x + dx, i0.y + dy, i0.z + dz);
+  const double c00 = c[0][0][0] * (1 - f.x) + c[0][0][1] * f.x;
+  const double c10 = c[0][1][0] * (1 - f.x) + c[0][1][1] * f.x;
+  const double c01 = c[1][0][0] * (1 - f.x) + c[1][0][1] * f.x;
+  const double c11 = c[1][1][0] * (1 - f.x) + c[1][1][1] * f.x;
+  const double c0 = c00 * (1 - f.y) + c10 * f.y;
+  const double c1 = c01 * (1 - f.y) + c11 * f.y;
+  const double value = c0 * (1 - f.z) + c1 * f.z;
+  if (gradient) {
+    // Analytic gradient of the trilinear interpolant.
+    const double gx = ((c[0][0][1] - c[0][0][0]) * (1 - f.y) + (c[0][1][1] - c[0][1][0]) * f.y) * (1 - f.z) +
+                      ((c[1][0][1] - c[1][0][0]) * (1 - f.y) + (c[1][1][1] - c[1][1][0]) * f.y) * f.z;
+    const double gy = (c10 - c00) * (1 - f.z) + (c11 - c01) * f.z;
+    const double gz = c1 - c0;
+    glm::dvec3 grad(gx, gy, gz);
+    if (outside > 0) grad += (g - gc);  // points away from the grid
+    const double len = glm::length(grad);
+    *gradient = len > 1e-12 ? grad / len : glm::dvec3(0, 1, 0);
+  }
+  return value + outside;
+}
+
+}  // namespace crumple

@@ -1,0 +1,52 @@
+// Collision shapes. Every shape answers the same question, the signed distance
+// phi(p) (negative inside) and its gradient in the shape's own frame, and offers
+// sample points that are tested against other bodies' distance fields
+// (Guendelman et al. 2003: vertices of B against phi_A and the reverse).
+// Primitives use exact analytic distances; meshes a grid built from the mesh.
+#pragma once
+#include <glm/glm.hpp>
+
+#include <memory>
+#include <vector>
+
+#include "physics/mesh.h"
+#include "physics/sdf_grid.h"
+
+namespace crumple {
+
+enum class ShapeType { Box, Sphere, Capsule, Cylinder, Mesh };
+const char* shapeTypeName(ShapeType t);
+
+struct Shape {
+  ShapeType type = ShapeType::Box;
+  glm::dvec3 halfExtents{0.5};  // box
+  double radius = 0.5;          // sphere, capsule, cylinder (axis y)
+  double halfHeight = 0.5;      // capsule: half the straight part; cylinder: half the height
+
+  // Points tested against other shapes' fields. A rounded shape (sphere,
+  // capsule) tests its core points: the surface point is p - sampleRadius * n.
+  std::vector<glm::dvec3> samples;
+  double sampleRadius = 0.0;
+
+  glm::dvec3 boundsMin{0}, boundsMax{0};  // shape frame
+  double boundingRadius = 0;              // about the shape origin
+  MassProperties unitMass;                // density 1
+  std::shared_ptr<const SdfGrid> grid;    // meshes only
+
+  // Signed distance at p (shape frame) and, if asked, its unit gradient. Where
+  // the gradient is ambiguous inside (a box's edges), `hint`, a unit direction
+  // in the shape frame towards the other body, chooses the face.
+  double distance(const glm::dvec3& p, glm::dvec3* gradient = nullptr, const glm::dvec3* hint = nullptr) const;
+  // The distance from the shape's thinnest section centre to its surface: the
+  // penetration a sample may reach before the field points it out the far side.
+  double halfThickness() const;
+};
+
+std::shared_ptr<Shape> makeBox(const glm::dvec3& size);
+std::shared_ptr<Shape> makeSphere(double radius);
+std::shared_ptr<Shape> makeCapsule(double radius, double height);  // height of the straight part
+std::shared_ptr<Shape> makeCylinder(double radius, double height);
+// A closed triangle mesh. `gridResolution` cells along the longest side.
+std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolution = 48);
+
+}  // namespace crumple

@@ -1,0 +1,520 @@
+#include "physics/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+#include <stdexcept>
+
+#include "physics/impulse.h"
+
+namespace crumple {
+
+namespace {
+
+bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+struct Aabb {
+  glm::dvec3 lo, hi;
+};
+
+Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& pose) {
+  const glm::dvec3 c = (s.boundsMin + s.boundsMax) * 0.5, e = (s.boundsMax - s.boundsMin) * 0.5;
+  const glm::dmat3 r = glm::mat3_cast(pose.orientation);
+  const glm::dvec3 wc = pose.position + r * (c - localCom);
+  glm::dvec3 we(0);
+  for (int col = 0; col < 3; ++col) we += glm::abs(r[col]) * e[col];
+  return {wc - we, wc + we};
+}
+
+Aabb merge(const Aabb& a, const Aabb& b) { return {glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; }
+
+glm::dquat integrateOrientation(const glm::dquat& q, const glm::dvec3& w, double h) {
+  const glm::dquat spin(0, w.x, w.y, w.z);
+  glm::dquat r = q + (0.5 * h) * (spin * q);
+  return glm::normalize(r);
+}
+
+}  // namespace
+
+World::World(const WorldSettings& settings) : settings_(settings) {}
+
+int World::addBody(const BodyDef& def) {
+  if (!def.shape) throw std::invalid_argument("body has no shape");
+  if (!finite(def.origin) || !finite(def.linearVelocity) || !finite(def.angularVelocity) ||
+      !std::isfinite(def.orientation.w) || !std::isfinite(def.orientation.x) || !std::isfinite(def.orientation.y) ||
+      !std::isfinite(def.orientation.z)) {
+    throw std::invalid_argument("body state is not finite");
+  }
+  if (!(def.restitution >= 0 && def.restitution <= 1)) throw std::invalid_argument("restitution outside [0, 1]");
+  if (!(def.friction >= 0) || !std::isfinite(def.friction)) throw std::invalid_argument("friction must be >= 0");
+  RigidBody b;
+  b.shape = def.shape;
+  b.restitution = def.restitution;
+  b.friction = def.friction;
+  b.isStatic = def.isStatic;
+  b.q = glm::normalize(def.orientation);
+  const MassProperties& mp = def.shape->unitMass;
+  b.localCom = mp.centerOfMass;
+  b.x = def.origin + glm::mat3_cast(b.q) * b.localCom;
+  if (!def.isStatic) {
+    if (def.mass > 0) {
+      b.mass = def.mass;
+    } else {
+      if (!(def.density > 0)) throw std::invalid_argument("density must be positive");
+      b.mass = def.density * mp.volume;
+    }
+    if (!(b.mass > 0) || !std::isfinite(b.mass)) throw std::invalid_argument("mass must be positive and finite");
+    b.invMass = 1.0 / b.mass;
+    b.inertiaBody = mp.inertia * (b.mass / mp.volume);
+    b.invInertiaBody = glm::inverse(b.inertiaBody);
+    b.v = def.linearVelocity;
+    b.w = def.angularVelocity;
+  }
+  bodies_.push_back(b);
+  force_.emplace_back(0);
+  torque_.emplace_back(0);
+  minHalfThickness_ = std::min(minHalfThickness_, def.shape->halfThickness());
+  return static_cast<int>(bodies_.size() - 1);
+}
+
+void World::wake(int i) {
+  RigidBody& b = body(i);
+  if (b.isStatic) return;
+  b.asleep = false;
+  b.stillTime = 0;
+}
+
+void World::addForce(int i, const glm::dvec3& f) {
+  force_.at(static_cast<size_t>(i)) += f;
+  if (glm::dot(f, f) > 0) wake(i);
+}
+void World::addTorque(int i, const glm::dvec3& t) {
+  torque_.at(static_cast<size_t>(i)) += t;
+  if (glm::dot(t, t) > 0) wake(i);
+}
+void World::addForceAtPoint(int i, const glm::dvec3& f, const glm::dvec3& p) {
+  addForce(i, f);
+  addTorque(i, glm::cross(p - body(i).x, f));
+}
+
+uint64_t World::stateHash() const {
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&](const void* data, size_t n) {
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  };
+  for (const auto& b : bodies_) {
+    mix(&b.x, sizeof b.x);
+    mix(&b.q, sizeof b.q);
+    mix(&b.v, sizeof b.v);
+    mix(&b.w, sizeof b.w);
+  }
+  return h;
+}
+
+glm::dvec3 World::acceleration(int i) const {
+  const RigidBody& b = bodies_[static_cast<size_t>(i)];
+  return settings_.gravity + force_[static_cast<size_t>(i)] * b.invMass;
+}
+
+glm::dvec3 World::angularAcceleration(int i) const {
+  const RigidBody& b = bodies_[static_cast<size_t>(i)];
+  const glm::dmat3 r = b.rotation();
+  const glm::dmat3 inertiaWorld = r * b.inertiaBody * glm::transpose(r);
+  return b.invInertiaWorld() * (torque_[static_cast<size_t>(i)] - glm::cross(b.w, inertiaWorld * b.w));
+}
+
+Pose World::predict(const RigidBody& b, double h, bool withForces) const {
+  if (!b.movable()) return {b.x, b.q};
+  const int i = static_cast<int>(&b - bodies_.data());
+  glm::dvec3 v = b.v, w = b.w;
+  if (withForces) {
+    v += h * acceleration(i);
+    w += h * angularAcceleration(i);
+  }
+  return {b.x + h * v, integrateOrientation(b.q, w, h)};
+}
+
+void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const {
+  out.clear();
+  const RigidBody& A = bodies_[static_cast<size_t>(ia)];
+  const RigidBody& B = bodies_[static_cast<size_t>(ib)];
+  auto oneWay = [&](int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
+                    const Pose& pother) {
+    const Shape& so = *owner.shape;
+    const Shape& st = *other.shape;
+    const double r = st.sampleRadius;
+    const glm::dvec3 lo = so.boundsMin - r, hi = so.boundsMax + r;
+    const glm::dmat3 ro = glm::mat3_cast(po.orientation);
+    const glm::dmat3 rot = glm::transpose(ro);
+    const glm::dmat3 rt = glm::mat3_cast(pother.orientation);
+    glm::dvec3 hint = rot * (pother.position - po.position);
+    const double hintLen = glm::length(hint);
+    hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
+    for (const glm::dvec3& s : st.samples) {
+      const glm::dvec3 world = pother.position + rt * (s - other.localCom);
+      const glm::dvec3 local = rot * (world - po.position) + owner.localCom;
+      if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
+        continue;
+      glm::dvec3 g;
+      const double phi = so.distance(local, &g, &hint) - r;
+      if (phi >= 0) continue;
+      Contact c;
+      c.a = iOwner;
+      c.b = iOther;
+      c.normal = glm::normalize(ro * g);
+      c.point = world - r * c.normal;
+      c.phi = phi;
+      out.push_back(c);
+    }
+  };
+  oneWay(ia, A, pa, ib, B, pb);
+  oneWay(ib, B, pb, ia, A, pa);
+  std::stable_sort(out.begin(), out.end(), [](const Contact& x, const Contact& y) { return x.phi < y.phi; });
+}
+
+// Resting contact treats a pair's penetrating points together: one impulse at
+// their centre of pressure (points weighted by depth) along their mean normal.
+// Processing the points one by one (Guendelman's deepest point) makes a box
+// resting on a face rock from corner to corner and walk; the averaged contact
+// is the face's resultant and leaves no spurious torque.
+Contact World::centreOfPressure(const std::vector<Contact>& contacts) {
+  const Contact& deepest = contacts.front();
+  glm::dvec3 point(0), normal(0);
+  double weight = 0;
+  for (const Contact& c : contacts) {
+    const double w = -c.phi + 1e-6;
+    point += w * c.point;
+    normal += w * (c.a == deepest.a ? c.normal : -c.normal);
+    weight += w;
+  }
+  Contact m = deepest;
+  m.point = point / weight;
+  const double len = glm::length(normal);
+  m.normal = len > 1e-12 ? normal / len : deepest.normal;
+  return m;
+}
+
+void World::applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j) {
+  RigidBody& A = bodies_[static_cast<size_t>(a)];
+  RigidBody& B = bodies_[static_cast<size_t>(b)];
+  if (A.movable() && !frozen_[static_cast<size_t>(a)]) {
+    A.v -= j * A.invMass;
+    A.w -= A.invInertiaWorld() * glm::cross(p - A.x, j);
+  }
+  if (B.movable() && !frozen_[static_cast<size_t>(b)]) {
+    B.v += j * B.invMass;
+    B.w += B.invInertiaWorld() * glm::cross(p - B.x, j);
+  }
+}
+
+glm::dvec3 World::contactImpulse(int a, int b, const Contact& c, double eps, bool frozenA, bool frozenB,
+                                 double* elastic, bool withFriction) const {
+  const RigidBody& A = bodies_[static_cast<size_t>(a)];
+  const RigidBody& B = bodies_[static_cast<size_t>(b)];
+  ImpulseSide sa, sb;
+  if (A.movable() && !frozenA) {
+    sa.invMass = A.invMass;
+    sa.invInertia = A.invInertiaWorld();
+  }
+  if (B.movable() && !frozenB) {
+    sb.invMass = B.invMass;
+    sb.invInertia = B.invInertiaWorld();
+  }
+  sa.r = c.point - A.x;
+  sb.r = c.point - B.x;
+  const glm::dmat3 K = collisionMatrix(sa, sb);
+  const glm::dvec3 u = B.velocityAt(c.point) - A.velocityAt(c.point);
+  if (elastic) *elastic = glm::length(frictionlessImpulse(K, u, c.normal, 1.0));
+  const double mu = withFriction ? std::sqrt(A.friction * B.friction) : 0.0;
+  return frictionImpulse(K, u, c.normal, eps, mu);
+}
+
+void World::findPairs(double h) {
+  pairs_.clear();
+  const size_t n = bodies_.size();
+  std::vector<Aabb> box(n);
+  for (size_t i = 0; i < n; ++i) {
+    const RigidBody& b = bodies_[i];
+    const Pose now{b.x, b.q};
+    box[i] = worldBounds(*b.shape, b.localCom, now);
+    if (b.movable()) {
+      box[i] = merge(box[i], worldBounds(*b.shape, b.localCom, predict(b, h, true)));
+      const double margin = 0.005 + 2 * h * glm::length(b.v);
+      box[i].lo -= margin;
+      box[i].hi += margin;
+    }
+  }
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int x, int y) {
+    if (box[static_cast<size_t>(x)].lo.x != box[static_cast<size_t>(y)].lo.x)
+      return box[static_cast<size_t>(x)].lo.x < box[static_cast<size_t>(y)].lo.x;
+    return x < y;
+  });
+  std::vector<int> wakeList;
+  for (size_t oi = 0; oi < n; ++oi) {
+    const int i = order[oi];
+    const Aabb& bi = box[static_cast<size_t>(i)];
+    for (size_t oj = oi + 1; oj < n; ++oj) {
+      const int j = order[oj];
+      const Aabb& bj = box[static_cast<size_t>(j)];
+      if (bj.lo.x > bi.hi.x) break;
+      if (bj.lo.y > bi.hi.y || bi.lo.y > bj.hi.y || bj.lo.z > bi.hi.z || bi.lo.z > bj.hi.z) continue;
+      const RigidBody& A = bodies_[static_cast<size_t>(i)];
+      const RigidBody& B = bodies_[static_cast<size_t>(j)];
+      if (!A.movable() && !B.movable()) continue;
+      if (A.asleep) wakeList.push_back(i);
+      if (B.asleep) wakeList.push_back(j);
+      pairs_.push_back({std::min(i, j), std::max(i, j)});
+    }
+  }
+  for (int i : wakeList) wake(i);
+  std::sort(pairs_.begin(), pairs_.end(), [](const Pair& x, const Pair& y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+}
+
+bool World::collide(double h) {
+  std::vector<Contact> contacts;
+  std::vector<int> eventOfPair(pairs_.size(), -1);
+  bool any = false;
+  for (int pass = 0; pass < settings_.collisionPasses; ++pass) {
+    bool passAny = false;
+    for (size_t pi = 0; pi < pairs_.size(); ++pi) {
+      const int ia = pairs_[pi].a, ib = pairs_[pi].b;
+      for (int it = 0; it < settings_.collisionIterations; ++it) {
+        const RigidBody& A = bodies_[static_cast<size_t>(ia)];
+        const RigidBody& B = bodies_[static_cast<size_t>(ib)];
+        const Pose pa = predict(A, h, true), pb = predict(B, h, true);
+        findContacts(ia, ib, pa, pb, contacts);
+        const Contact* hit = nullptr;
+        for (const Contact& c : contacts) {
+          const glm::dvec3 u = bodies_[static_cast<size_t>(c.b)].velocityAt(c.point) -
+                               bodies_[static_cast<size_t>(c.a)].velocityAt(c.point);
+          if (glm::dot(u, c.normal) < 0) {
+            hit = &c;
+            break;
+          }
+        }
+        if (!hit) break;
+        const double eps = std::min(A.restitution, B.restitution);
+        double elastic = 0;
+        const glm::dvec3 j = contactImpulse(hit->a, hit->b, *hit, eps, false, false, &elastic);
+        if (glm::dot(j, j) == 0) break;
+        applyImpulse(hit->a, hit->b, hit->point, j);
+        passAny = true;
+        int& ev = eventOfPair[pi];
+        if (ev < 0) {
+          CollisionEvent e;
+          e.time = time_;
+          e.a = hit->a;
+          e.b = hit->b;
+          e.point = hit->point;
+          e.normal = hit->normal;
+          e.penetration = -hit->phi;
+          e.elasticImpulse = elastic;
+          e.poseA = hit->a == ia ? pa : pb;
+          e.poseB = hit->a == ia ? pb : pa;
+          ev = static_cast<int>(events_.size());
+          events_.push_back(e);
+        }
+        CollisionEvent& e = events_[static_cast<size_t>(ev)];
+        e.impulseVector += hit->a == e.a ? j : -j;
+        e.impulse = glm::length(e.impulseVector);
+      }
+    }
+    any = any || passAny;
+    if (!passAny) break;
+  }
+  for (int ev : eventOfPair) stats_.collisions += ev >= 0;
+  return any;
+}
+
+void World::contact(double h) {
+  std::vector<Contact> contacts;
+  const int n = std::max(1, settings_.contactPasses);
+  for (int pass = 1; pass <= n; ++pass) {
+    const double eps = -1.0 + static_cast<double>(pass) / n;
+    for (const Pair& pair : pairs_) {
+      const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
+      const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
+      findContacts(pair.a, pair.b, pa, pb, contacts);
+      if (contacts.empty()) continue;
+      if (pass == n) stats_.contacts += static_cast<int>(contacts.size());
+      const Contact c = centreOfPressure(contacts);
+      const glm::dvec3 j = contactImpulse(c.a, c.b, c, eps, false, false);
+      if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+    }
+  }
+}
+
+void World::shockPropagation(double h) {
+  if (settings_.shockPasses <= 0) return;
+  const size_t n = bodies_.size();
+  std::vector<Contact> contacts;
+  // Contact graph on positions moved with the new velocities; levels from the
+  // static (and sleeping) bodies up by breadth-first search, which collapses
+  // cycles into one level and never loops.
+  std::vector<std::vector<int>> adjacency(n);
+  std::vector<size_t> touching;
+  for (size_t pi = 0; pi < pairs_.size(); ++pi) {
+    const Pair& pair = pairs_[pi];
+    findContacts(pair.a, pair.b, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
+                 predict(bodies_[static_cast<size_t>(pair.b)], h, false), contacts);
+    if (contacts.empty()) continue;
+    adjacency[static_cast<size_t>(pair.a)].push_back(pair.b);
+    adjacency[static_cast<size_t>(pair.b)].push_back(pair.a);
+    touching.push_back(pi);
+  }
+  level_.assign(n, -1);
+  std::vector<int> queue;
+  for (size_t i = 0; i < n; ++i) {
+    if (!bodies_[i].movable()) {
+      level_[i] = 0;
+      queue.push_back(static_cast<int>(i));
+    }
+  }
+  int maxLevel = 0;
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int i = queue[head];
+    for (int j : adjacency[static_cast<size_t>(i)]) {
+      if (level_[static_cast<size_t>(j)] < 0) {
+        level_[static_cast<size_t>(j)] = level_[static_cast<size_t>(i)] + 1;
+        maxLevel = std::max(maxLevel, level_[static_cast<size_t>(j)]);
+        queue.push_back(j);
+      }
+    }
+  }
+  for (int level = 1; level <= maxLevel; ++level) {
+    for (size_t i = 0; i < n; ++i) frozen_[i] = level_[i] >= 0 && level_[i] < level;
+    for (int pass = 0; pass < settings_.shockPasses; ++pass) {
+      for (size_t pi : touching) {
+        const Pair& pair = pairs_[pi];
+        const int la = level_[static_cast<size_t>(pair.a)], lb = level_[static_cast<size_t>(pair.b)];
+        if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
+        findContacts(pair.a, pair.b, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
+                     predict(bodies_[static_cast<size_t>(pair.b)], h, false), contacts);
+        if (contacts.empty()) continue;
+        const Contact c = centreOfPressure(contacts);
+        const glm::dvec3 j = contactImpulse(c.a, c.b, c, 0.0, frozen_[static_cast<size_t>(c.a)] != 0,
+                                            frozen_[static_cast<size_t>(c.b)] != 0);
+        if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+      }
+    }
+  }
+  std::fill(frozen_.begin(), frozen_.end(), 0);
+}
+
+void World::integratePositions(double h) {
+  for (RigidBody& b : bodies_) {
+    if (!b.movable()) continue;
+    b.x += h * b.v;
+    b.q = integrateOrientation(b.q, b.w, h);
+  }
+}
+
+void World::projectPositions() {
+  std::vector<Contact> contacts;
+  for (int it = 0; it < 2; ++it) {
+    for (const Pair& pair : pairs_) {
+      const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
+      const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
+      findContacts(pair.a, pair.b, {A.x, A.q}, {B.x, B.q}, contacts);
+      if (contacts.empty()) continue;
+      const Contact& c = contacts.front();
+      const double depth = -c.phi - settings_.penetrationSlop;
+      if (depth <= 0) continue;
+      RigidBody& ca = bodies_[static_cast<size_t>(c.a)];
+      RigidBody& cb = bodies_[static_cast<size_t>(c.b)];
+      const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
+      if (wa + wb <= 0) continue;
+      const double corr = settings_.penetrationCorrection * depth / (wa + wb);
+      ca.x -= c.normal * corr * wa;
+      cb.x += c.normal * corr * wb;
+    }
+  }
+}
+
+void World::updateSleep(double h) {
+  const size_t n = bodies_.size();
+  for (RigidBody& b : bodies_) {
+    if (!b.movable()) continue;
+    const bool still = glm::length(b.v) < settings_.sleepLinear && glm::length(b.w) < settings_.sleepAngular;
+    b.stillTime = still ? b.stillTime + h : 0;
+  }
+  if (!settings_.sleeping) return;
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[static_cast<size_t>(x)] != x) x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+    return x;
+  };
+  for (const Pair& p : pairs_) {
+    if (bodies_[static_cast<size_t>(p.a)].isStatic || bodies_[static_cast<size_t>(p.b)].isStatic) continue;
+    const int ra = find(p.a), rb = find(p.b);
+    if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
+  }
+  std::vector<char> islandStill(n, 1);
+  for (size_t i = 0; i < n; ++i) {
+    const RigidBody& b = bodies_[i];
+    if (b.isStatic) continue;
+    if (b.movable() && b.stillTime < settings_.sleepTime) islandStill[static_cast<size_t>(find(static_cast<int>(i)))] = 0;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    RigidBody& b = bodies_[i];
+    if (!b.movable() || !islandStill[static_cast<size_t>(find(static_cast<int>(i)))]) continue;
+    b.asleep = true;
+    b.v = glm::dvec3(0);
+    b.w = glm::dvec3(0);
+  }
+}
+
+void World::substep(double h) {
+  findPairs(h);
+  stats_.pairs += static_cast<int>(pairs_.size());
+  // 1. collision with restitution on predicted positions (emits events)
+  collide(h);
+  // 2. velocities
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    RigidBody& b = bodies_[i];
+    if (!b.movable()) continue;
+    const glm::dvec3 a = acceleration(static_cast<int>(i));
+    const glm::dvec3 alpha = angularAcceleration(static_cast<int>(i));
+    b.v += h * a;
+    b.w += h * alpha;
+  }
+  // 3. contact with the restitution ramp, 4. shock propagation
+  contact(h);
+  shockPropagation(h);
+  // 5. positions, then the positional projection
+  integratePositions(h);
+  projectPositions();
+  // 6. sleeping
+  updateSleep(h);
+  time_ += h;
+}
+
+void World::step(double h) {
+  if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
+  events_.clear();
+  stats_ = {};
+  frozen_.assign(bodies_.size(), 0);
+  // Substeps: no body may move more than a fraction of the thinnest half thickness.
+  double maxTravel = 0;
+  for (const RigidBody& b : bodies_) {
+    if (!b.movable()) continue;
+    const double speed = glm::length(b.v) + glm::length(settings_.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
+    maxTravel = std::max(maxTravel, speed * h);
+  }
+  const double allowed = settings_.substepFraction * std::max(minHalfThickness_, 1e-4);
+  const int n = std::clamp(static_cast<int>(std::ceil(maxTravel / allowed)), 1, std::max(1, settings_.maxSubsteps));
+  for (int s = 0; s < n; ++s) substep(h / n);
+  stats_.substeps = n;
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    force_[i] = glm::dvec3(0);
+    torque_[i] = glm::dvec3(0);
+    stats_.awake += bodies_[i].movable();
+  }
+}
+
+}  // namespace crumple

@@ -1,0 +1,288 @@
+// Physics against physics: analytic answers, conservation laws, stacking, tunnelling.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <glm/gtc/quaternion.hpp>
+
+#include "physics/impulse.h"
+#include "physics/stress_strain.h"
+#include "physics/world.h"
+
+using namespace crumple;
+using doctest::Approx;
+
+namespace {
+int addGround(World& w, double friction = 0.5, double restitution = 1.0) {
+  BodyDef g;
+  g.shape = makeBox({40, 1, 40});
+  g.origin = {0, -0.5, 0};
+  g.isStatic = true;
+  g.friction = friction;
+  g.restitution = restitution;
+  return w.addBody(g);
+}
+}  // namespace
+
+TEST_CASE("eq. 4: two point masses head-on") {
+  const glm::dvec3 n(1, 0, 0);
+  const glm::dvec3 j = pointMassImpulse(n, 0.5, {2, 0, 0}, {-1, 0, 0}, 2.0, 1.0);
+  // u.n = -3, 1/mA + 1/mB = 1.5  =>  j = 1.5 * 3 / 1.5 = 3 along +x on B.
+  CHECK(j.x == Approx(3.0));
+  // The general K formula with r = 0 agrees.
+  ImpulseSide a{0.5, glm::dmat3(0), {}}, b{1.0, glm::dmat3(0), {}};
+  const glm::dvec3 jk = frictionlessImpulse(collisionMatrix(a, b), glm::dvec3(-3, 0, 0), n, 0.5);
+  CHECK(jk.x == Approx(3.0));
+  // Separating: no impulse.
+  CHECK(glm::length(frictionlessImpulse(collisionMatrix(a, b), glm::dvec3(1, 0, 0), n, 0.5)) == 0.0);
+}
+
+TEST_CASE("impulse at an offset point uses the inertia") {
+  // A static A; B a unit-mass body with inertia I = diag(0.1) hit at r = (0, 0.5, 0) along x:
+  // n.K.n = 1/m + r_y^2 / I_zz = 1 + 0.25/0.1 = 3.5.
+  ImpulseSide a{}, b{1.0, glm::dmat3(10.0), {0, 0.5, 0}};
+  const glm::dmat3 K = collisionMatrix(a, b);
+  CHECK(glm::dot(glm::dvec3(1, 0, 0), K * glm::dvec3(1, 0, 0)) == Approx(3.5));
+  const glm::dvec3 j = frictionlessImpulse(K, {-2, 0, 0}, {1, 0, 0}, 1.0);
+  CHECK(j.x == Approx(4.0 / 3.5));
+}
+
+TEST_CASE("friction impulse stays in the cone and adds no energy") {
+  ImpulseSide a{}, b{1.0, glm::dmat3(6.0), {0.1, -0.5, 0.2}};
+  const glm::dmat3 K = collisionMatrix(a, b);
+  const glm::dvec3 n(0, 1, 0);
+  for (double mu : {0.0, 0.2, 0.5, 1.5}) {
+    for (glm::dvec3 u : {glm::dvec3(3, -1, 0), glm::dvec3(0.1, -2, 0.3), glm::dvec3(-5, -0.5, 2)}) {
+      const glm::dvec3 j = frictionImpulse(K, u, n, 0.3, mu);
+      const double jn = glm::dot(j, n);
+      CHECK(jn >= 0);
+      CHECK(glm::length(j - jn * n) <= mu * jn + 1e-9);
+      CHECK(glm::dot(j, u) + 0.5 * glm::dot(j, K * j) <= 1e-9);
+    }
+  }
+}
+
+TEST_CASE("eq. 6 and eq. 5 at their edges") {
+  CHECK(yieldThreshold(0.0) == 0.0);
+  CHECK(yieldThreshold(0.5) == Approx(1.0));
+  CHECK(std::isinf(yieldThreshold(1.0)));
+  CHECK(percentDeform(0.1, 5.0, yieldThreshold(1.0)) == 0.0);  // eps = 1 never deforms
+  CHECK(percentDeform(0.1, 1.0, 1.0) == 0.0);                  // exactly at the threshold
+  CHECK(percentDeform(0.1, 0.5, 1.0) == 0.0);                  // below
+  CHECK(percentDeform(0.1, 3.0, 1.0) == Approx(0.2));          // above: kappa (j - Y)
+  CHECK(percentDeform(0.1, 3.0, yieldThreshold(0.0)) == Approx(0.3));
+  CHECK(deformDepth(0.05, 0.2) == Approx(0.01));
+  CHECK(percentDeform(0.1, std::nan(""), 1.0) == 0.0);
+  CHECK(percentDeformFromStress(2e6, 1e6, 1e8, 1e10) == Approx(1e6 * (1e-8 - 1e-10)));
+  CHECK(percentDeformFromStress(0.5e6, 1e6, 1e8, 1e10) == 0.0);
+}
+
+TEST_CASE("free fall matches x = x0 - g t^2 / 2") {
+  World w;
+  BodyDef d;
+  d.shape = makeSphere(0.5);
+  d.origin = {0, 100, 0};
+  const int i = w.addBody(d);
+  const double h = 1.0 / 240;
+  for (int s = 0; s < 240; ++s) w.step(h);
+  // Symplectic Euler: x_n = x0 - g h^2 n(n+1)/2
+  CHECK(w.body(i).x.y == Approx(100 - 9.81 * h * h * 240 * 241 / 2).epsilon(1e-9));
+  CHECK(w.body(i).v.y == Approx(-9.81).epsilon(1e-9));
+}
+
+TEST_CASE("a bouncing sphere reaches eps^2 h") {
+  for (double eps : {0.9, 0.5}) {
+    World w;
+    addGround(w, 0.0, 1.0);
+    BodyDef d;
+    d.shape = makeSphere(0.25);
+    d.origin = {0, 0.25 + 2.0, 0};
+    d.restitution = eps;
+    d.friction = 0.0;
+    const int i = w.addBody(d);
+    const double h = 1.0 / 240;
+    bool bounced = false;
+    double apex = 0;
+    for (int s = 0; s < 240 * 3; ++s) {
+      w.step(h);
+      const auto& b = w.body(i);
+      if (b.v.y > 0) bounced = true;
+      if (bounced) apex = std::max(apex, b.x.y - 0.25);
+      if (bounced && b.v.y < 0) break;
+    }
+    CHECK(bounced);
+    CHECK(apex == Approx(eps * eps * 2.0).epsilon(0.04));
+  }
+}
+
+TEST_CASE("head-on collision of unequal masses with partial restitution, zero gravity") {
+  WorldSettings s;
+  s.gravity = {0, 0, 0};
+  World w(s);
+  BodyDef a, b;
+  a.shape = makeSphere(0.5);
+  a.origin = {-2, 0, 0};
+  a.linearVelocity = {3, 0, 0};
+  a.mass = 2;
+  a.restitution = 0.6;
+  a.friction = 0;
+  b = a;
+  b.origin = {2, 0, 0};
+  b.linearVelocity = {-1, 0, 0};
+  b.mass = 1;
+  b.restitution = 0.8;
+  const int ia = w.addBody(a), ib = w.addBody(b);
+  const double p0 = 2 * 3 + 1 * -1;
+  for (int s2 = 0; s2 < 480; ++s2) w.step(1.0 / 240);
+  const double va = w.body(ia).v.x, vb = w.body(ib).v.x;
+  CHECK(2 * va + vb == Approx(p0));
+  // eps = min(0.6, 0.8): v_b - v_a = eps * 4
+  CHECK(vb - va == Approx(0.6 * 4.0));
+  CHECK(w.body(ia).v.y == Approx(0.0));
+}
+
+TEST_CASE("momentum is conserved among tumbling boxes in zero gravity") {
+  WorldSettings s;
+  s.gravity = {0, 0, 0};
+  World w(s);
+  glm::dvec3 p0(0), L0(0);
+  for (int k = 0; k < 6; ++k) {
+    BodyDef d;
+    d.shape = makeBox({0.5 + 0.1 * k, 0.4, 0.6});
+    d.origin = {std::cos(k * 1.1) * 1.5, std::sin(k * 0.7) * 1.5, (k % 3) * 0.8 - 0.8};
+    d.linearVelocity = -d.origin * 0.8;
+    d.angularVelocity = {0.3 * k, -0.2, 0.1};
+    d.restitution = 0.5;
+    d.friction = 0.3;
+    w.addBody(d);
+  }
+  for (const auto& b : w.bodies()) p0 += b.mass * b.v;
+  int collisions = 0;
+  for (int k = 0; k < 480; ++k) {
+    w.step(1.0 / 240);
+    collisions += static_cast<int>(w.events().size());
+  }
+  CHECK(collisions >= 3);
+  glm::dvec3 p1(0);
+  for (const auto& b : w.bodies()) p1 += b.mass * b.v;
+  CHECK(glm::length(p1 - p0) < 1e-9 * (1 + glm::length(p0)));
+  (void)L0;
+}
+
+namespace {
+// A box resting on an incline of angle theta (rotated about z); returns the
+// displacement along the slope after `seconds` and the measured acceleration.
+struct InclineResult {
+  double travel, accel;
+};
+InclineResult inclineRun(double thetaDeg, double mu, double seconds) {
+  World w;
+  const double th = glm::radians(thetaDeg);
+  const glm::dquat rot = glm::angleAxis(th, glm::dvec3(0, 0, 1));
+  BodyDef plane;
+  plane.shape = makeBox({20, 1, 4});
+  plane.orientation = rot;
+  plane.origin = rot * glm::dvec3(0, -0.5, 0);
+  plane.isStatic = true;
+  plane.friction = mu;
+  plane.restitution = 0;
+  w.addBody(plane);
+  BodyDef box;
+  box.shape = makeBox({0.4, 0.4, 0.4});
+  box.orientation = rot;
+  box.origin = rot * glm::dvec3(0, 0.2 + 0.001, 0);
+  box.friction = mu;
+  box.restitution = 0;
+  w.settings().sleeping = false;
+  const int i = w.addBody(box);
+  const glm::dvec3 down = rot * glm::dvec3(-1, 0, 0);  // down the slope
+  const glm::dvec3 x0 = w.body(i).x;
+  const double h = 1.0 / 240;
+  const int n = static_cast<int>(seconds / h);
+  double v1 = 0;
+  for (int s = 0; s < n; ++s) {
+    w.step(h);
+    if (s == n / 2) v1 = glm::dot(w.body(i).v, down);
+  }
+  const double v2 = glm::dot(w.body(i).v, down);
+  return {glm::dot(w.body(i).x - x0, down), (v2 - v1) / (h * (n - 1 - n / 2))};
+}
+}  // namespace
+
+TEST_CASE("a block on an incline sticks when mu > tan(theta)") {
+  // tan(20 deg) = 0.364
+  const InclineResult r = inclineRun(20, 0.5, 2.0);
+  CHECK(std::abs(r.travel) < 0.01);
+}
+
+TEST_CASE("a block on an incline slides with a = g (sin theta - mu cos theta)") {
+  const double theta = 30, mu = 0.2;
+  const InclineResult r = inclineRun(theta, mu, 1.0);
+  const double expected = 9.81 * (std::sin(glm::radians(theta)) - mu * std::cos(glm::radians(theta)));
+  CHECK(r.accel == Approx(expected).epsilon(0.05));
+  CHECK(r.travel > 0.5 * expected * 0.8 * 0.8);
+}
+
+TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm") {
+  World w;
+  addGround(w, 0.6, 0.0);
+  const int levels = 10;
+  const double size = 0.5;
+  std::vector<int> ids;
+  std::vector<glm::dvec3> start;
+  for (int row = 0; row < levels; ++row) {
+    const int count = levels - row;
+    for (int k = 0; k < count; ++k) {
+      BodyDef d;
+      d.shape = makeBox({size, size, size});
+      d.origin = {(k - (count - 1) / 2.0) * size * 1.02, size / 2 + row * size, 0};
+      d.friction = 0.6;
+      d.restitution = 0.0;
+      ids.push_back(w.addBody(d));
+      start.push_back(w.body(ids.back()).x);
+    }
+  }
+  const double h = 1.0 / 240;
+  for (int s = 0; s < 2400; ++s) w.step(h);
+  double drift = 0;
+  for (size_t k = 0; k < ids.size(); ++k) drift = std::max(drift, glm::length(w.body(ids[k]).x - start[k]));
+  MESSAGE("pyramid max drift after 10 s: " << drift << " m");
+  CHECK(drift < 0.01);
+}
+
+TEST_CASE("a fast box does not tunnel through a thin static rail at 40 m/s") {
+  WorldSettings s;
+  s.gravity = {0, 0, 0};
+  World w(s);
+  BodyDef rail;
+  rail.shape = makeBox({0.2, 0.8, 6});
+  rail.isStatic = true;
+  rail.restitution = 0.2;
+  w.addBody(rail);
+  BodyDef car;
+  car.shape = makeBox({4.2, 1.3, 1.8});
+  car.origin = {-4, 0, 0};
+  car.linearVelocity = {40, 0, 0};
+  car.mass = 1200;
+  car.restitution = 0.2;
+  const int i = w.addBody(car);
+  for (int k = 0; k < 120; ++k) w.step(1.0 / 240);
+  CHECK(w.body(i).x.x < -2.1 + 0.05);   // front face never past the rail's near face (by more than 5 cm)
+  CHECK(w.body(i).v.x <= 0.0);
+}
+
+TEST_CASE("the same scene twice gives bit-identical states") {
+  auto run = [] {
+    World w;
+    addGround(w);
+    for (int k = 0; k < 12; ++k) {
+      BodyDef d;
+      d.shape = k % 2 ? makeBox({0.3, 0.2, 0.4}) : makeSphere(0.15);
+      d.origin = {0.1 * (k % 3), 0.5 + 0.45 * k, 0.05 * (k % 4)};
+      d.angularVelocity = {0.1 * k, 0, 0.2};
+      w.addBody(d);
+    }
+    for (int s = 0; s < 600; ++s) w.step(1.0 / 240);
+    return w.stateHash();
+  };
+  CHECK(run() == run());
+}

@@ -1,0 +1,17 @@
+#!/usr/bin/env bash
+# Sets up (Debian packages), builds and runs the whole test suite with ctest.
+# Usage: tools/test.sh [--sanitize]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=build
+extra=()
+if [ "${1:-}" = "--sanitize" ]; then
+  build=build-asan
+  extra=(-DCRUMPLE_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug)
+fi
+tools/setup-deps.sh
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${extra[@]}" >/dev/null
+cmake --build "$build" -j"$(nproc)"
+# Tests that need a window run under a virtual X server.
+cd "$build"
+xvfb-run -a -s "-screen 0 1280x720x24" ctest --output-on-failure -j"$(nproc)"

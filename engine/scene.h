@@ -1,0 +1,127 @@
+// A scene as read from a scene file (shared/design/scene-format.md), validated.
+// Units: SI; angles in the file are degrees, here radians/quaternions.
+#pragma once
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace crumple {
+
+// Bad input: names the file, the key path and what is wrong. Apps exit with 2.
+struct SceneError : std::runtime_error {
+  SceneError(const std::string& file, const std::string& keyPath, const std::string& what)
+      : std::runtime_error(file + ": " + (keyPath.empty() ? "" : keyPath + ": ") + what),
+        file(file), keyPath(keyPath), reason(what) {}
+  std::string file, keyPath, reason;
+};
+
+struct Material {
+  std::string name;
+  double density = 1000;
+  double restitution = 0.5;  // the paper's epsilon
+  double friction = 0.5;
+  double kappa = 0.1;        // the paper's kappa (m/s per unit impulse above Y)
+  double thickness = 0.05;   // the paper's t (m)
+  glm::vec3 color{0.7f, 0.7f, 0.7f};
+};
+
+enum class DeformPath { Gpu, Readback };
+enum class TangentCorrection { None, Multiply, Divide };
+
+struct DeformationSettings {
+  bool enabled = true;
+  double impulseFloor = 0.0;
+  double bumpDepth = 0.1;          // k (m)
+  double bumpDepthCollide = 0.02;  // k' (m)
+  int addressMap = 512;
+  DeformPath path = DeformPath::Gpu;
+  TangentCorrection tangentCorrection = TangentCorrection::None;
+  double tangentFloor = 0.2;       // for Divide: |N . N_C| never below this
+  bool craterRims = false;
+  bool lazyMaps = true;
+};
+
+struct ShapeDesc {
+  std::string type;  // box, sphere, capsule, cylinder, mesh
+  glm::dvec3 size{1};
+  double radius = 0.5;
+  double height = 1.0;
+  std::string file;         // mesh: absolute or resolved path
+  glm::dvec3 scale{1};
+};
+
+struct BumpMapDesc {
+  bool present = false;
+  int resolution = 256;
+  std::string image;  // resolved path, empty when none
+  std::optional<double> bumpDepth, bumpDepthCollide;
+};
+
+struct VehicleInput {
+  double time = 0;
+  double throttle = 0, steer = 0, brake = 0;  // throttle, brake in [0,1]; steer in [-1,1]
+  bool handbrake = false;
+};
+
+struct VehicleDesc {
+  bool present = false;
+  std::vector<glm::dvec3> wheels;  // attachment points, body frame
+  double wheelRadius = 0.35;
+  double suspensionRest = 0.3;
+  double suspensionStiffness = 40000;
+  double suspensionDamping = 4000;
+  double engineForce = 6000;
+  double brakeForce = 9000;
+  double maxSteer = 0.6;  // rad
+  double tyreGrip = 1.2;
+  std::vector<VehicleInput> script;
+};
+
+struct BodyDesc {
+  std::string name;
+  ShapeDesc shape;
+  std::string material;
+  bool isStatic = false;
+  glm::dvec3 position{0};
+  glm::dquat orientation{1, 0, 0, 0};
+  glm::dvec3 velocity{0};
+  glm::dvec3 angularVelocity{0};
+  std::optional<double> mass;
+  BumpMapDesc bumpMap;
+  bool contactDeformation = false;
+  VehicleDesc vehicle;
+};
+
+struct CameraDesc {
+  std::string name;
+  glm::dvec3 position{4, 3, 4};
+  glm::dvec3 target{0};
+  glm::dvec3 up{0, 1, 0};
+  double fov = 45;  // degrees, vertical
+};
+
+struct Scene {
+  std::string file;   // where it came from ("<built-in>" for defaults)
+  std::string name;
+  glm::dvec3 gravity{0, -9.81, 0};
+  double timestep = 1.0 / 240;
+  double duration = 2.0;
+  std::map<std::string, Material> materials;
+  DeformationSettings deformation;
+  std::vector<BodyDesc> bodies;
+  std::vector<CameraDesc> cameras;
+};
+
+// Parses and validates. Throws SceneError for every problem, naming the key path.
+Scene loadScene(const std::string& path);
+Scene parseScene(const std::string& jsonText, const std::string& fileName, const std::string& baseDir);
+
+// Euler degrees [x, y, z]: rotate about x, then y, then z (extrinsic), q = qz qy qx.
+glm::dquat eulerDegreesToQuat(const glm::dvec3& degrees);
+
+}  // namespace crumple

@@ -1,0 +1,446 @@
+// Scene-file loading: every check names the file, the key path and the reason.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "engine/scene.h"
+#include "physics/log.h"
+
+namespace crumple {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+glm::dquat eulerDegreesToQuat(const glm::dvec3& d) {
+  const glm::dvec3 r = glm::radians(d);
+  const glm::dquat qx = glm::angleAxis(r.x, glm::dvec3(1, 0, 0));
+  const glm::dquat qy = glm::angleAxis(r.y, glm::dvec3(0, 1, 0));
+  const glm::dquat qz = glm::angleAxis(r.z, glm::dvec3(0, 0, 1));
+  return glm::normalize(qz * qy * qx);
+}
+
+namespace {
+
+const char* typeName(const json& j) {
+  switch (j.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::object: return "an object";
+    case json::value_t::array: return "an array";
+    case json::value_t::string: return "a string";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned: return "an integer";
+    case json::value_t::number_float: return "a number";
+    default: return "something else";
+  }
+}
+
+std::string shortDump(const json& j) {
+  std::string s = j.dump();
+  if (s.size() > 40) s = s.substr(0, 37) + "...";
+  return s;
+}
+
+// A view of one JSON object at a key path, with typed, validated getters.
+class Node {
+ public:
+  Node(const json& j, std::string path, const std::string& file) : j_(j), path_(std::move(path)), file_(file) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& why) const {
+    throw SceneError(file_, join(key), why);
+  }
+  std::string join(const std::string& key) const {
+    if (key.empty()) return path_;
+    if (!key.empty() && key[0] == '[') return path_ + key;
+    return path_.empty() ? key : path_ + "." + key;
+  }
+  bool has(const std::string& key) const { return j_.is_object() && j_.contains(key); }
+  const json& raw(const std::string& key) const { return j_.at(key); }
+
+  void requireObject() const {
+    if (!j_.is_object()) throw SceneError(file_, path_, std::string("must be an object, got ") + typeName(j_));
+  }
+
+  // Warn about keys nobody reads: likely typos.
+  void checkKeys(std::initializer_list<const char*> known) const {
+    for (auto it = j_.begin(); it != j_.end(); ++it) {
+      bool ok = false;
+      for (const char* k : known) ok = ok || it.key() == k;
+      if (!ok) logWarning(file_, ": ", join(it.key()), ": unknown key, ignored");
+    }
+  }
+
+  double number(const std::string& key, double def, double lo, double hi, bool loOpen = false, bool hiOpen = false) const {
+    if (!has(key)) return def;
+    return numberValue(j_.at(key), key, lo, hi, loOpen, hiOpen);
+  }
+  double requiredNumber(const std::string& key, double lo, double hi, bool loOpen = false) const {
+    if (!has(key)) fail(key, "is required");
+    return numberValue(j_.at(key), key, lo, hi, loOpen, false);
+  }
+  double numberValue(const json& v, const std::string& key, double lo, double hi, bool loOpen, bool hiOpen) const {
+    if (!v.is_number()) fail(key, std::string("must be a number, got ") + typeName(v) + " " + shortDump(v));
+    const double x = v.get<double>();
+    if (!std::isfinite(x)) fail(key, "must be finite");
+    if ((loOpen ? !(x > lo) : !(x >= lo)) || (hiOpen ? !(x < hi) : !(x <= hi))) {
+      std::ostringstream os;
+      os << "must be in " << (loOpen ? "(" : "[") << lo << ", " << hi << (hiOpen ? ")" : "]") << ", got " << x;
+      fail(key, os.str());
+    }
+    return x;
+  }
+  int integer(const std::string& key, int def, int lo, int hi) const {
+    if (!has(key)) return def;
+    const json& v = j_.at(key);
+    if (!v.is_number_integer() && !(v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()))
+      fail(key, std::string("must be an integer, got ") + typeName(v) + " " + shortDump(v));
+    const double x = v.get<double>();
+    if (!(x >= lo && x <= hi)) {
+      std::ostringstream os;
+      os << "must be in [" << lo << ", " << hi << "], got " << shortDump(v);
+      fail(key, os.str());
+    }
+    return static_cast<int>(x);
+  }
+  bool boolean(const std::string& key, bool def) const {
+    if (!has(key)) return def;
+    const json& v = j_.at(key);
+    if (!v.is_boolean()) fail(key, std::string("must be true or false, got ") + typeName(v));
+    return v.get<bool>();
+  }
+  std::string string(const std::string& key, const std::string& def) const {
+    if (!has(key)) return def;
+    const json& v = j_.at(key);
+    if (!v.is_string()) fail(key, std::string("must be a string, got ") + typeName(v));
+    return v.get<std::string>();
+  }
+  std::string requiredString(const std::string& key) const {
+    if (!has(key)) fail(key, "is required");
+    return string(key, "");
+  }
+  glm::dvec3 vec3(const std::string& key, glm::dvec3 def, double limit = 1e6) const {
+    if (!has(key)) return def;
+    return vec3Value(j_.at(key), key, limit);
+  }
+  glm::dvec3 vec3Value(const json& v, const std::string& key, double limit) const {
+    if (!v.is_array() || v.size() != 3) fail(key, "must be an array of 3 numbers, got " + shortDump(v));
+    glm::dvec3 r;
+    for (int i = 0; i < 3; ++i) r[i] = Node(v, join(key), file_).numberValue(v[static_cast<size_t>(i)], "[" + std::to_string(i) + "]", -limit, limit, false, false);
+    return r;
+  }
+  Node child(const std::string& key) const {
+    Node n(j_.at(key), join(key), file_);
+    n.requireObject();
+    return n;
+  }
+  const json& value() const { return j_; }
+  const std::string& path() const { return path_; }
+  const std::string& file() const { return file_; }
+
+ private:
+  const json& j_;
+  std::string path_;
+  const std::string& file_;
+};
+
+std::string lineColumn(const std::string& text, size_t byte) {
+  size_t line = 1, col = 1;
+  for (size_t i = 0; i < byte && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(col);
+}
+
+std::string resolvePath(const std::string& baseDir, const std::string& p) {
+  fs::path path(p);
+  if (path.is_relative()) path = fs::path(baseDir) / path;
+  return path.lexically_normal().string();
+}
+
+Material parseMaterial(const Node& n, const std::string& name) {
+  n.requireObject();
+  n.checkKeys({"density", "restitution", "friction", "kappa", "thickness", "color"});
+  Material m;
+  m.name = name;
+  m.density = n.number("density", m.density, 0, 1e6, true);
+  m.restitution = n.number("restitution", m.restitution, 0, 1);
+  m.friction = n.number("friction", m.friction, 0, 100);
+  m.kappa = n.number("kappa", m.kappa, 0, 1e6);
+  m.thickness = n.number("thickness", m.thickness, 0, 1e3, true);
+  if (n.has("color")) {
+    const glm::dvec3 c = n.vec3("color", glm::dvec3(m.color));
+    for (int i = 0; i < 3; ++i)
+      if (c[i] < 0 || c[i] > 1) n.fail("color", "components must be in [0, 1]");
+    m.color = glm::vec3(c);
+  }
+  return m;
+}
+
+ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
+  n.requireObject();
+  ShapeDesc s;
+  s.type = n.requiredString("type");
+  if (s.type == "box") {
+    n.checkKeys({"type", "size"});
+    if (!n.has("size")) n.fail("size", "is required for a box");
+    s.size = n.vec3("size", s.size);
+    for (int i = 0; i < 3; ++i)
+      if (!(s.size[i] > 0)) n.fail("size", "must be positive in every component");
+    if (std::max({s.size.x, s.size.y, s.size.z}) > 1e4) n.fail("size", "larger than 10 km");
+  } else if (s.type == "sphere") {
+    n.checkKeys({"type", "radius"});
+    s.radius = n.requiredNumber("radius", 0, 1e4, true);
+  } else if (s.type == "capsule" || s.type == "cylinder") {
+    n.checkKeys({"type", "radius", "height"});
+    s.radius = n.requiredNumber("radius", 0, 1e4, true);
+    s.height = n.requiredNumber("height", 0, 1e4, s.type == "cylinder");
+  } else if (s.type == "mesh") {
+    n.checkKeys({"type", "file", "scale"});
+    const std::string f = n.requiredString("file");
+    if (f.empty()) n.fail("file", "must not be empty");
+    s.file = resolvePath(baseDir, f);
+    std::error_code ec;
+    if (!fs::is_regular_file(s.file, ec)) n.fail("file", "no such file: " + s.file);
+    if (n.has("scale")) {
+      const json& v = n.raw("scale");
+      if (v.is_number()) {
+        const double k = n.number("scale", 1, 0, 1e6, true);
+        s.scale = glm::dvec3(k);
+      } else {
+        s.scale = n.vec3("scale", s.scale);
+        for (int i = 0; i < 3; ++i)
+          if (!(s.scale[i] > 0)) n.fail("scale", "must be positive in every component");
+      }
+    }
+  } else {
+    n.fail("type", "unknown shape type '" + s.type + "' (expected box, sphere, capsule, cylinder or mesh)");
+  }
+  return s;
+}
+
+VehicleDesc parseVehicle(const Node& n) {
+  n.requireObject();
+  n.checkKeys({"wheels", "wheel_radius", "suspension_rest", "suspension_stiffness", "suspension_damping",
+               "engine_force", "brake_force", "max_steer", "tyre_grip", "script"});
+  VehicleDesc v;
+  v.present = true;
+  if (!n.has("wheels")) n.fail("wheels", "is required (wheel attachment points in the body frame)");
+  const json& w = n.raw("wheels");
+  if (!w.is_array() || w.size() < 3 || w.size() > 16) n.fail("wheels", "must be an array of 3 to 16 points");
+  for (size_t i = 0; i < w.size(); ++i) v.wheels.push_back(n.vec3Value(w[i], "wheels[" + std::to_string(i) + "]", 1e3));
+  v.wheelRadius = n.number("wheel_radius", v.wheelRadius, 0, 10, true);
+  v.suspensionRest = n.number("suspension_rest", v.suspensionRest, 0, 10, true);
+  v.suspensionStiffness = n.number("suspension_stiffness", v.suspensionStiffness, 0, 1e9, true);
+  v.suspensionDamping = n.number("suspension_damping", v.suspensionDamping, 0, 1e9);
+  v.engineForce = n.number("engine_force", v.engineForce, 0, 1e9);
+  v.brakeForce = n.number("brake_force", v.brakeForce, 0, 1e9);
+  v.maxSteer = glm::radians(n.number("max_steer", glm::degrees(v.maxSteer), 0, 89));
+  v.tyreGrip = n.number("tyre_grip", v.tyreGrip, 0, 100);
+  if (n.has("script")) {
+    const json& s = n.raw("script");
+    if (!s.is_array()) n.fail("script", "must be an array of timed inputs");
+    double last = -1;
+    for (size_t i = 0; i < s.size(); ++i) {
+      Node e(s[i], n.join("script[" + std::to_string(i) + "]"), n.file());
+      e.requireObject();
+      e.checkKeys({"t", "throttle", "steer", "brake", "handbrake"});
+      VehicleInput in;
+      in.time = e.requiredNumber("t", 0, 1e6);
+      if (in.time < last) e.fail("t", "script times must not decrease");
+      last = in.time;
+      in.throttle = e.number("throttle", 0, -1, 1);
+      in.steer = e.number("steer", 0, -1, 1);
+      in.brake = e.number("brake", 0, 0, 1);
+      in.handbrake = e.boolean("handbrake", false);
+      v.script.push_back(in);
+    }
+  }
+  return v;
+}
+
+BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir) {
+  n.requireObject();
+  n.checkKeys({"name", "shape", "material", "static", "position", "orientation", "velocity", "angular_velocity",
+               "mass", "bump_map", "vehicle", "contact_deformation"});
+  BodyDesc b;
+  b.name = n.requiredString("name");
+  if (b.name.empty()) n.fail("name", "must not be empty");
+  if (b.name.size() > 128) n.fail("name", "longer than 128 characters");
+  for (unsigned char c : b.name) {
+    if (c < 32 || c == '/' || c == '\\' || c == 127) n.fail("name", "must not contain '/', '\\' or control characters (it names output files)");
+  }
+  if (b.name == "." || b.name == "..") n.fail("name", "must not be '.' or '..'");
+  if (!n.has("shape")) n.fail("shape", "is required");
+  b.shape = parseShape(n.child("shape"), baseDir);
+  b.material = n.requiredString("material");
+  if (!scene.materials.count(b.material)) {
+    std::string known;
+    for (const auto& [k, v] : scene.materials) known += (known.empty() ? "" : ", ") + k;
+    n.fail("material", "unknown material '" + b.material + "' (defined: " + (known.empty() ? "none" : known) + ")");
+  }
+  b.isStatic = n.boolean("static", false);
+  b.position = n.vec3("position", b.position);
+  if (n.has("orientation")) {
+    const json& o = n.raw("orientation");
+    if (o.is_array()) {
+      b.orientation = eulerDegreesToQuat(n.vec3("orientation", glm::dvec3(0), 1e5));
+    } else if (o.is_object()) {
+      Node on = n.child("orientation");
+      on.checkKeys({"quat"});
+      if (!on.has("quat")) on.fail("quat", "is required ([w, x, y, z])");
+      const json& q = on.raw("quat");
+      if (!q.is_array() || q.size() != 4) on.fail("quat", "must be [w, x, y, z]");
+      double c[4];
+      for (int i = 0; i < 4; ++i)
+        c[i] = on.numberValue(q[static_cast<size_t>(i)], "quat[" + std::to_string(i) + "]", -1e6, 1e6, false, false);
+      const glm::dquat r(c[0], c[1], c[2], c[3]);  // glm's constructor takes w first
+      const double len = std::sqrt(r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z);
+      if (!(len > 1e-9)) on.fail("quat", "must not be zero");
+      b.orientation = glm::normalize(r);
+    } else {
+      n.fail("orientation", "must be Euler degrees [x, y, z] or {\"quat\": [w, x, y, z]}");
+    }
+  }
+  b.velocity = n.vec3("velocity", b.velocity, 1e4);
+  b.angularVelocity = n.vec3("angular_velocity", b.angularVelocity, 1e4);
+  if (n.has("mass")) b.mass = n.number("mass", 1, 0, 1e9, true);
+  if (n.has("bump_map")) {
+    Node bm = n.child("bump_map");
+    bm.checkKeys({"resolution", "image", "bump_depth", "bump_depth_collide"});
+    b.bumpMap.present = true;
+    b.bumpMap.resolution = bm.integer("resolution", b.bumpMap.resolution, 8, 4096);
+    if (bm.has("image")) {
+      const std::string img = bm.string("image", "");
+      if (img.empty()) bm.fail("image", "must not be empty");
+      b.bumpMap.image = resolvePath(baseDir, img);
+      std::error_code ec;
+      if (!fs::is_regular_file(b.bumpMap.image, ec)) bm.fail("image", "no such file: " + b.bumpMap.image);
+    }
+    if (bm.has("bump_depth")) b.bumpMap.bumpDepth = bm.number("bump_depth", 0.1, 0, 10, true);
+    if (bm.has("bump_depth_collide")) b.bumpMap.bumpDepthCollide = bm.number("bump_depth_collide", 0.02, 0, 10);
+  }
+  b.contactDeformation = n.boolean("contact_deformation", false);
+  if (n.has("vehicle")) {
+    b.vehicle = parseVehicle(n.child("vehicle"));
+    if (b.isStatic) n.fail("vehicle", "a static body cannot be a vehicle");
+  }
+  return b;
+}
+
+}  // namespace
+
+Scene parseScene(const std::string& text, const std::string& file, const std::string& baseDir) {
+  json root;
+  try {
+    root = json::parse(text);
+  } catch (const json::parse_error& e) {
+    std::string what = e.what();
+    const auto pos = what.find("syntax error");
+    throw SceneError(file, "", "malformed JSON at " + lineColumn(text, e.byte ? e.byte - 1 : 0) + ": " +
+                                   (pos != std::string::npos ? what.substr(pos) : what));
+  }
+  Node n(root, "", file);
+  if (!root.is_object()) throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
+  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "materials", "deformation", "bodies", "cameras"});
+  Scene s;
+  s.file = file;
+  if (n.has("format")) {
+    const std::string f = n.string("format", "");
+    if (f != "crumple-scene/1") n.fail("format", "unsupported format '" + f + "' (expected crumple-scene/1)");
+  }
+  s.name = n.string("name", fs::path(file).stem().string());
+  s.gravity = n.vec3("gravity", s.gravity, 1e3);
+  s.timestep = n.number("timestep", s.timestep, 1e-5, 0.1, false);
+  if (n.has("timestep") && !(n.raw("timestep").get<double>() > 0)) n.fail("timestep", "must be positive");
+  s.duration = n.number("duration", s.duration, 0, 1e5, true);
+  if (s.duration / s.timestep > 1e8) n.fail("duration", "more than 10^8 steps");
+
+  if (n.has("materials")) {
+    Node mats = n.child("materials");
+    for (auto it = mats.value().begin(); it != mats.value().end(); ++it) {
+      if (it.key().empty()) mats.fail("", "a material name must not be empty");
+      s.materials[it.key()] = parseMaterial(Node(it.value(), mats.join(it.key()), file), it.key());
+    }
+  }
+  if (n.has("deformation")) {
+    Node d = n.child("deformation");
+    d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
+                 "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps"});
+    auto& ds = s.deformation;
+    ds.enabled = d.boolean("enabled", ds.enabled);
+    ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
+    ds.bumpDepth = d.number("bump_depth", ds.bumpDepth, 0, 10, true);
+    ds.bumpDepthCollide = d.number("bump_depth_collide", ds.bumpDepthCollide, 0, 10);
+    ds.addressMap = d.integer("address_map", ds.addressMap, 16, 4096);
+    const std::string path = d.string("path", "gpu");
+    if (path == "gpu") ds.path = DeformPath::Gpu;
+    else if (path == "readback") ds.path = DeformPath::Readback;
+    else d.fail("path", "must be \"gpu\" or \"readback\", got '" + path + "'");
+    const std::string tc = d.string("tangent_correction", "none");
+    if (tc == "none") ds.tangentCorrection = TangentCorrection::None;
+    else if (tc == "multiply") ds.tangentCorrection = TangentCorrection::Multiply;
+    else if (tc == "divide") ds.tangentCorrection = TangentCorrection::Divide;
+    else d.fail("tangent_correction", "must be \"none\", \"multiply\" or \"divide\", got '" + tc + "'");
+    ds.tangentFloor = d.number("tangent_floor", ds.tangentFloor, 0, 1, true);
+    ds.craterRims = d.boolean("crater_rims", ds.craterRims);
+    ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);
+  }
+  if (!n.has("bodies")) n.fail("bodies", "is required");
+  const json& bodies = n.raw("bodies");
+  if (!bodies.is_array()) n.fail("bodies", std::string("must be an array, got ") + typeName(bodies));
+  if (bodies.size() > 100000) n.fail("bodies", "more than 100000 bodies");
+  std::set<std::string> names;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const std::string path = "bodies[" + std::to_string(i) + "]";
+    BodyDesc b = parseBody(Node(bodies[i], path, file), s, baseDir);
+    if (!names.insert(b.name).second) throw SceneError(file, path + ".name", "duplicate body name '" + b.name + "'");
+    s.bodies.push_back(std::move(b));
+  }
+  if (n.has("cameras")) {
+    const json& cams = n.raw("cameras");
+    if (!cams.is_array()) n.fail("cameras", "must be an array");
+    std::set<std::string> camNames;
+    for (size_t i = 0; i < cams.size(); ++i) {
+      Node c(cams[i], "cameras[" + std::to_string(i) + "]", file);
+      c.requireObject();
+      c.checkKeys({"name", "position", "target", "up", "fov"});
+      CameraDesc cd;
+      cd.name = c.string("name", "camera" + std::to_string(i));
+      for (unsigned char ch : cd.name)
+        if (ch < 32 || ch == '/' || ch == '\\') c.fail("name", "must not contain '/', '\\' or control characters");
+      if (cd.name.empty()) c.fail("name", "must not be empty");
+      if (!camNames.insert(cd.name).second) c.fail("name", "duplicate camera name '" + cd.name + "'");
+      cd.position = c.vec3("position", cd.position);
+      cd.target = c.vec3("target", cd.target);
+      cd.up = c.vec3("up", cd.up);
+      cd.fov = c.number("fov", cd.fov, 0, 180, true, true);
+      if (glm::length(cd.target - cd.position) < 1e-9) c.fail("target", "must differ from position");
+      if (glm::length(glm::cross(glm::normalize(cd.target - cd.position), cd.up)) < 1e-6)
+        c.fail("up", "must not be parallel to the view direction");
+      s.cameras.push_back(cd);
+    }
+  }
+  return s;
+}
+
+Scene loadScene(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw SceneError(path, "", "no such file");
+  if (fs::is_directory(path, ec)) throw SceneError(path, "", "is a directory, not a scene file");
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw SceneError(path, "", "cannot be opened for reading");
+  std::ostringstream os;
+  os << f.rdbuf();
+  const std::string base = fs::absolute(path, ec).parent_path().string();
+  return parseScene(os.str(), path, base);
+}
+
+}  // namespace crumple

@@ -346,6 +346,10 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     const auto pos = what.find("syntax error");
     throw SceneError(file, "", "malformed JSON at " + lineColumn(text, e.byte ? e.byte - 1 : 0) + ": " +
                                    (pos != std::string::npos ? what.substr(pos) : what));
+  } catch (const json::exception& e) {
+    std::string what = e.what();
+    const auto pos = what.find("] ");
+    throw SceneError(file, "", "malformed JSON: " + (pos != std::string::npos ? what.substr(pos + 2) : what));
   }
   Node n(root, "", file);
   if (!root.is_object()) throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));

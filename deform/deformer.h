@@ -1,0 +1,104 @@
+// The deformation stage of Wrotek, Rice & McGuire, section 4 and figure 11.
+//
+// For one collision event and each side X with deformX > 0: both bodies are
+// placed at their collision poses, retracted by d_C and X advanced into the
+// other by deformX along the normal; an orthographic camera looks at X along
+// -N; the address-map passes render X's front faces (depth LESS) and the other
+// body's back faces (depth GREATER) with colour = texture coordinate and depth
+// offset by the height maps scaled by k'; where both wrote, X's map drops by
+// dD (zfar - znear) / k, the deepest write winning per texel. Both sides are
+// computed before either is committed.
+//
+// Path::Gpu keeps everything on the GPU (compute shaders, image atomics, an
+// indirect dispatch over the touched region). Path::Readback is the paper's
+// path: glReadPixels of the address maps and a CPU scatter, kept as a reference.
+#pragma once
+#include <glm/glm.hpp>
+#include <glm/gtc/quaternion.hpp>
+
+#include <memory>
+#include <vector>
+
+#include "deform/surface.h"
+#include "render/gl_objects.h"
+
+namespace crumple::deform {
+
+enum class Path { Gpu, Readback };
+enum class TangentMode { None, Multiply, Divide };
+
+struct DeformOptions {
+  int addressMap = 512;
+  Path path = Path::Gpu;
+  TangentMode tangent = TangentMode::None;
+  float tangentFloor = 0.2f;
+};
+
+// One body as the deformation sees it: its surface (null when it has no bump
+// map: it still shapes the dent, as flat geometry) and its shape-frame-to-world
+// transform at collision time.
+struct DeformBody {
+  Surface* surface = nullptr;
+  const GpuMesh* mesh = nullptr;
+  glm::dmat4 model{1};
+};
+
+struct DeformRequest {
+  DeformBody a, b;
+  glm::dvec3 point{0};   // P_C
+  glm::dvec3 normal{0};  // N_C, out of A
+  double penetration = 0;
+  double deformA = 0, deformB = 0;  // t * percentDeform per side (m)
+};
+
+// What one side's update did; filled when stats are fetched.
+struct SideStats {
+  int texelsChanged = 0;
+  double maxDent = 0;  // m: largest drop of one texel, times k
+  bool saturated = false;  // some texel reached 0
+};
+
+// The address-map camera for deforming the side whose outward normal is n.
+struct AddressCamera {
+  glm::dmat4 view{1}, projection{1};
+  double zNear = 0, zFar = 1;
+  double extent = 1;  // side of the square viewport (m)
+};
+AddressCamera addressCamera(const glm::dvec3& point, const glm::dvec3& n, const glm::dvec3 boundsX[2],
+                            const glm::dvec3 boundsOther[2]);
+// World AABB of a mesh under a transform.
+void worldBounds(const GpuMesh& mesh, const glm::dmat4& model, glm::dvec3 out[2]);
+
+class Deformer {
+ public:
+  explicit Deformer(const DeformOptions& options);
+  ~Deformer();
+  Deformer(const Deformer&) = delete;
+  Deformer& operator=(const Deformer&) = delete;
+
+  const DeformOptions& options() const { return options_; }
+  void setOptions(const DeformOptions& options);
+
+  // Runs both sides of one event. Returns a handle to its stats (two entries).
+  int deform(const DeformRequest& request);
+  // Stats of handle h (side 0 = A, 1 = B). Reads the small stats buffer back once.
+  SideStats stats(int handle, int side);
+
+  // Maps for a new surface: a flat map or the given image, with its normal map.
+  std::shared_ptr<SurfaceMaps> createMaps(int resolution, const render::Image* initial, float bumpDepth,
+                                          float texelSize);
+  // Recomputes the normal map of a surface over texels [lo, hi] (inclusive).
+  void regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi);
+  // The last address maps of side 0 (uv of X), for the renderer's debug view.
+  const render::Texture2D& lastAddressMap() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  DeformOptions options_;
+};
+
+// Shaders of the deform layer embedded at build time.
+std::string_view deformShader(std::string_view fileName);
+
+}  // namespace crumple::deform

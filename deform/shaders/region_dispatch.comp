@@ -1,0 +1,30 @@
+#version 450 core
+// region_dispatch.comp: turns the touched region of side uSide into indirect
+// dispatch sizes (16x16 groups): one for the commit over the region, one for
+// the normal map over the region grown by a texel. An empty region dispatches nothing.
+// in:  uRegion[uSide]; out: uIndirect[uSide * 6 .. + 5], uNormalRegion[uSide]
+layout(local_size_x = 1) in;
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
+layout(std430, binding = 2) buffer Indirect { uint uIndirect[]; };
+layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };
+uniform int uSide;
+uniform int uResolution;
+void main() {
+  ivec4 r = uRegion[uSide];
+  uint base = uint(uSide) * 6u;
+  if (r.z < r.x || r.w < r.y) {
+    for (uint i = 0u; i < 6u; ++i) uIndirect[base + i] = 0u;
+    uNormalRegion[uSide] = ivec4(0, 0, -1, -1);
+    return;
+  }
+  ivec2 size = r.zw - r.xy + 1;
+  uIndirect[base + 0u] = uint((size.x + 15) / 16);
+  uIndirect[base + 1u] = uint((size.y + 15) / 16);
+  uIndirect[base + 2u] = 1u;
+  ivec4 n = ivec4(max(r.xy - 1, ivec2(0)), min(r.zw + 1, ivec2(uResolution - 1)));
+  ivec2 ns = n.zw - n.xy + 1;
+  uIndirect[base + 3u] = uint((ns.x + 15) / 16);
+  uIndirect[base + 4u] = uint((ns.y + 15) / 16);
+  uIndirect[base + 5u] = 1u;
+  uNormalRegion[uSide] = n;
+}

@@ -1,0 +1,58 @@
+// A deformable surface: a body's render mesh on the GPU with its height map
+// (R32F, 0 = deepest dent, 0.5 = flat, 1 = highest bump) and the normal map
+// derived from it. Bodies of one mesh share the undeformed maps until their
+// first dent (lazy maps, Wrotek et al. section 6).
+#pragma once
+#include <glm/glm.hpp>
+
+#include <memory>
+
+#include "physics/mesh.h"
+#include "render/gl_objects.h"
+#include "render/image.h"
+
+namespace crumple::deform {
+
+struct GpuMesh {
+  render::VertexArray vao;
+  render::Buffer vertices;  // position (3), normal (3), uv (2) floats
+  render::Buffer indices;
+  GLsizei indexCount = 0;
+  glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame
+  double metresPerUv = 1;                // sqrt(surface area / uv area)
+  explicit GpuMesh(const TriangleMesh& mesh);
+  void draw() const;
+};
+
+struct SurfaceMaps {
+  render::Texture2D height;  // R32F
+  render::Texture2D normal;  // RGBA8, tangent space
+  SurfaceMaps(int resolution);
+};
+
+class Surface {
+ public:
+  // `initial` is the starting height map (resolution x resolution, 1 channel) or
+  // null for a flat map. `shared` maps may be passed to start lazily.
+  Surface(std::shared_ptr<const GpuMesh> mesh, int resolution, float bumpDepth, float bumpDepthCollide,
+          std::shared_ptr<SurfaceMaps> shared);
+  const GpuMesh& mesh() const { return *mesh_; }
+  int resolution() const { return resolution_; }
+  float bumpDepth() const { return k_; }
+  float bumpDepthCollide() const { return kCollide_; }
+  const render::Texture2D& height() const { return maps_->height; }
+  const render::Texture2D& normal() const { return maps_->normal; }
+  // Gives this surface its own maps (copies of the shared ones) before it is changed.
+  void makeUnique();
+  bool isShared() const { return maps_.use_count() > 1; }
+  float texelSize() const { return static_cast<float>(mesh_->metresPerUv / resolution_); }
+  render::Image downloadHeight() const;
+
+ private:
+  std::shared_ptr<const GpuMesh> mesh_;
+  std::shared_ptr<SurfaceMaps> maps_;
+  int resolution_;
+  float k_, kCollide_;
+};
+
+}  // namespace crumple::deform

@@ -1,0 +1,198 @@
+// The deformation stage against geometry: a sphere pressed into a plate leaves
+#include <algorithm>
+// a spherical cap; the GPU path, the read-back path and the CPU oracle agree.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "deform/cpu_reference.h"
+#include "deform/deformer.h"
+#include "engine/primitives.h"
+#include "gl_fixture.h"
+#include "physics/stress_strain.h"
+
+using namespace crumple;
+using namespace crumple::deform;
+using doctest::Approx;
+
+namespace {
+
+// World position of every texel centre that lies on a triangle whose normal
+// points along `facing` (NaN elsewhere): the atlas inverted by rasterisation.
+std::vector<glm::dvec3> texelPositions(const TriangleMesh& m, const glm::dmat4& model, int res, glm::dvec3 facing) {
+  std::vector<glm::dvec3> out(static_cast<size_t>(res) * res, glm::dvec3(std::nan("")));
+  for (const auto& t : m.triangles) {
+    const glm::dvec3 p0(m.positions[t.x]), p1(m.positions[t.y]), p2(m.positions[t.z]);
+    if (glm::dot(glm::normalize(glm::cross(p1 - p0, p2 - p0)), facing) < 0.9) continue;
+    const glm::dvec2 a = glm::dvec2(m.uvs[t.x]) * double(res), b = glm::dvec2(m.uvs[t.y]) * double(res),
+                     c = glm::dvec2(m.uvs[t.z]) * double(res);
+    const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    for (int y = static_cast<int>(std::min({a.y, b.y, c.y})); y <= static_cast<int>(std::max({a.y, b.y, c.y})); ++y)
+      for (int x = static_cast<int>(std::min({a.x, b.x, c.x})); x <= static_cast<int>(std::max({a.x, b.x, c.x})); ++x) {
+        if (x < 0 || y < 0 || x >= res || y >= res) continue;
+        const glm::dvec2 q(x + 0.5, y + 0.5);
+        const double w0 = ((b.x - q.x) * (c.y - q.y) - (b.y - q.y) * (c.x - q.x)) / area;
+        const double w1 = ((c.x - q.x) * (a.y - q.y) - (c.y - q.y) * (a.x - q.x)) / area;
+        const double w2 = 1 - w0 - w1;
+        if (w0 < -1e-9 || w1 < -1e-9 || w2 < -1e-9) continue;
+        out[static_cast<size_t>(y) * res + x] = glm::dvec3(model * glm::dvec4(w0 * p0 + w1 * p1 + w2 * p2, 1));
+      }
+  }
+  return out;
+}
+
+struct SphereIntoPlate {
+  static constexpr int kRes = 512;
+  static constexpr double R = 0.25, k = 0.1, kc = 0.02;
+  TriangleMesh plateMesh = boxMesh({2, 0.2, 2}, kRes);
+  TriangleMesh ballMesh = sphereMesh(R, 256);
+  std::shared_ptr<GpuMesh> plateGpu = std::make_shared<GpuMesh>(plateMesh);
+  std::shared_ptr<GpuMesh> ballGpu = std::make_shared<GpuMesh>(ballMesh);
+  glm::dmat4 plateModel{1};
+  glm::dmat4 ballModel = glm::translate(glm::dmat4(1), glm::dvec3(0, 0.1 + R, 0));
+
+  render::Image run(Deformer& d, double depth) {
+    auto maps = d.createMaps(kRes, nullptr, static_cast<float>(k), static_cast<float>(plateGpu->metresPerUv / kRes));
+    Surface plate(plateGpu, kRes, static_cast<float>(k), static_cast<float>(kc), maps);
+    DeformRequest rq;
+    rq.a = {&plate, plateGpu.get(), plateModel};
+    rq.b = {nullptr, ballGpu.get(), ballModel};
+    rq.point = {0, 0.1, 0};
+    rq.normal = {0, 1, 0};
+    rq.penetration = 0;
+    rq.deformA = depth;
+    const int h = d.deform(rq);
+    lastStats = d.stats(h, 0);
+    return plate.downloadHeight();
+  }
+  SideStats lastStats;
+};
+
+}  // namespace
+
+TEST_CASE("a sphere pressed into a plate leaves a spherical cap of the predicted depth and radius") {
+  test::glContext();
+  SphereIntoPlate s;
+  Deformer d({512, Path::Gpu});
+  const double depth = 0.02;
+  const render::Image h = s.run(d, depth);
+  const auto pos = texelPositions(s.plateMesh, s.plateModel, SphereIntoPlate::kRes, {0, 1, 0});
+  double maxDent = 0, dentRadius = 0, worstProfile = 0;
+  const double texel = s.plateGpu->metresPerUv / SphereIntoPlate::kRes;
+  for (size_t i = 0; i < pos.size(); ++i) {
+    if (std::isnan(pos[i].x)) continue;
+    const double dent = (0.5 - h.pixels[i]) * SphereIntoPlate::k;
+    const double r = std::hypot(pos[i].x, pos[i].z);
+    const double R = SphereIntoPlate::R;
+    const double expected = r < R ? std::max(0.0, depth - R + std::sqrt(R * R - r * r)) : 0.0;
+    maxDent = std::max(maxDent, dent);
+    if (dent > 1e-4) dentRadius = std::max(dentRadius, r);
+    // Profile: within the depth change across two texels of the slope at r.
+    const double slope = r < R * 0.999 ? r / std::sqrt(R * R - r * r) : 10.0;
+    const double allowed = 2 * texel * slope + 2e-4;
+    worstProfile = std::max(worstProfile, std::abs(dent - expected) - allowed);
+  }
+  const double predictedRadius = std::sqrt(2 * SphereIntoPlate::R * depth - depth * depth);
+  MESSAGE("cap depth " << maxDent << " (predicted " << depth << "), radius " << dentRadius << " (predicted "
+                       << predictedRadius << "), texel " << texel);
+  CHECK(maxDent == Approx(depth).epsilon(0.02));
+  CHECK(std::abs(dentRadius - predictedRadius) <= 2 * texel);
+  CHECK(worstProfile <= 0.0);
+  CHECK(s.lastStats.texelsChanged > 100);
+  CHECK(s.lastStats.maxDent == Approx(maxDent).epsilon(1e-4));
+  CHECK_FALSE(s.lastStats.saturated);
+}
+
+TEST_CASE("the GPU path, the read-back path and the CPU oracle give the same map") {
+  test::glContext();
+  SphereIntoPlate s;
+  Deformer gpu({256, Path::Gpu}), readback({256, Path::Readback});
+  const render::Image a = s.run(gpu, 0.015);
+  const render::Image b = s.run(readback, 0.015);
+  ReferenceBody x{&s.plateMesh, s.plateModel, nullptr, SphereIntoPlate::k, SphereIntoPlate::kc};
+  ReferenceBody o{&s.ballMesh, s.ballModel, nullptr, 0.1, 0.02};
+  render::Image flat(SphereIntoPlate::kRes, SphereIntoPlate::kRes, 1, 0.5f);
+  x.height = &flat;
+  const render::Image c = referenceDeform(x, o, {0, 0.1, 0}, {0, 1, 0}, 0, 0.015, 256);
+  double gpuVsReadback = 0, gpuVsOracle = 0;
+  int changed = 0, oracleChanged = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) {
+    gpuVsReadback = std::max(gpuVsReadback, double(std::abs(a.pixels[i] - b.pixels[i])));
+    gpuVsOracle = std::max(gpuVsOracle, double(std::abs(a.pixels[i] - c.pixels[i])));
+    changed += a.pixels[i] < 0.5f;
+    oracleChanged += c.pixels[i] < 0.5f;
+  }
+  MESSAGE("texels changed: gpu " << changed << ", oracle " << oracleChanged << "; max |gpu - oracle| " << gpuVsOracle);
+  CHECK(changed > 50);
+  CHECK(gpuVsReadback <= 1e-5);
+  // The oracle casts exact rays; the rasteriser's coverage differs only on triangle edges.
+  CHECK(std::abs(changed - oracleChanged) <= changed / 20 + 4);
+  CHECK(gpuVsOracle <= 0.01);  // 1 mm of depth at k = 0.1
+}
+
+TEST_CASE("material asymmetry and the threshold: below Y nothing changes") {
+  // Eq. 5/6 decide the depth; a zero depth leaves the map untouched.
+  const double hardEps = 0.95, softEps = 0.2, j = 3.0;
+  const double hard = percentDeform(0.1, j, yieldThreshold(hardEps));   // Y = 19: nothing
+  const double soft = percentDeform(0.1, j, yieldThreshold(softEps));   // Y = 0.25
+  CHECK(hard == 0.0);
+  CHECK(soft > 0.0);
+  test::glContext();
+  SphereIntoPlate s;
+  Deformer d({256, Path::Gpu});
+  const render::Image h = s.run(d, deformDepth(0.05, hard));
+  for (float v : h.pixels) REQUIRE(v == 0.5f);
+  CHECK(s.lastStats.texelsChanged == 0);
+}
+
+TEST_CASE("address maps larger than 256 address texels exactly") {
+  // With 8-bit addresses (the paper), a 1024 map could only reach every fourth texel.
+  test::glContext();
+  SphereIntoPlate s;
+  Deformer d({1024, Path::Gpu});
+  const render::Image h = s.run(d, 0.02);
+  // Count changed texels along a row through the dent: they must be contiguous.
+  int best = 0;
+  for (int y = 0; y < h.height; ++y) {
+    int run = 0, longest = 0, changed = 0;
+    for (int x = 0; x < h.width; ++x) {
+      if (h.at(x, y) < 0.5f) {
+        ++run;
+        ++changed;
+        longest = std::max(longest, run);
+      } else {
+        run = 0;
+      }
+    }
+    if (changed > best) {
+      best = changed;
+      CHECK(longest == changed);  // no gaps in the widest row
+    }
+  }
+  CHECK(best > 20);
+}
+
+TEST_CASE("repeated hits saturate at 0 and clamp") {
+  test::glContext();
+  SphereIntoPlate s;
+  Deformer d({256, Path::Gpu});
+  auto maps = d.createMaps(SphereIntoPlate::kRes, nullptr, 0.1f, static_cast<float>(s.plateGpu->metresPerUv / 512));
+  Surface plate(s.plateGpu, SphereIntoPlate::kRes, 0.1f, 0.02f, maps);
+  DeformRequest rq;
+  rq.a = {&plate, s.plateGpu.get(), s.plateModel};
+  rq.b = {nullptr, s.ballGpu.get(), s.ballModel};
+  rq.point = {0, 0.1, 0};
+  rq.normal = {0, 1, 0};
+  rq.deformA = 0.04;  // 0.4 of the map per hit: the third hit hits bottom
+  SideStats last;
+  for (int i = 0; i < 3; ++i) last = d.stats(d.deform(rq), 0);
+  const render::Image h = plate.downloadHeight();
+  float lowest = 1;
+  for (float v : h.pixels) {
+    lowest = std::min(lowest, v);
+    REQUIRE(v >= 0.0f);
+  }
+  CHECK(lowest == 0.0f);
+  CHECK(last.saturated);
+}

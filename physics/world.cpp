@@ -288,11 +288,13 @@ bool World::collide(double h) {
         const Pose pa = predict(A, h, true), pb = predict(B, h, true);
         findContacts(ia, ib, pa, pb, contacts);
         const Contact* hit = nullptr;
+        double approach = 0;
         for (const Contact& c : contacts) {
           const glm::dvec3 u = bodies_[static_cast<size_t>(c.b)].velocityAt(c.point) -
                                bodies_[static_cast<size_t>(c.a)].velocityAt(c.point);
           if (glm::dot(u, c.normal) < 0) {
             hit = &c;
+            approach = -glm::dot(u, c.normal);
             break;
           }
         }
@@ -304,7 +306,7 @@ bool World::collide(double h) {
         applyImpulse(hit->a, hit->b, hit->point, j);
         passAny = true;
         int& ev = eventOfPair[pi];
-        if (ev < 0) {
+        if (ev < 0 && approach >= settings_.eventMinApproachSpeed) {
           CollisionEvent e;
           e.time = time_;
           e.a = hit->a;
@@ -318,6 +320,7 @@ bool World::collide(double h) {
           ev = static_cast<int>(events_.size());
           events_.push_back(e);
         }
+        if (ev < 0) continue;
         CollisionEvent& e = events_[static_cast<size_t>(ev)];
         e.impulseVector += hit->a == e.a ? j : -j;
         e.impulse = glm::length(e.impulseVector);

@@ -41,6 +41,9 @@ struct WorldSettings {
   double penetrationCorrection = 0.4;   // fraction removed per step
   int maxSubsteps = 16;
   double substepFraction = 0.5;         // of the thinnest half thickness per substep
+  // Collisions approaching slower than this still get their impulse but emit no
+  // event: the micro-collisions of resting contact are not hits worth a dent or a log line.
+  double eventMinApproachSpeed = 0.05;  // m/s
   bool sleeping = true;
   double sleepLinear = 0.05;   // m/s
   double sleepAngular = 0.08;  // rad/s

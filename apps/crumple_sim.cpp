@@ -1,0 +1,139 @@
+// crumple-sim: batch runs of scene files. Writes the outputs of the contract in
+// shared/design/scene-format.md. Exit status: 0 success, 2 bad input, 1 failure.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "engine/simulation.h"
+#include "physics/log.h"
+#include "render/gl_context.h"
+#include "engine/scene_view.h"
+#include "render/renderer.h"
+
+using namespace crumple;
+namespace fs = std::filesystem;
+
+int main(int argc, char** argv) {
+  CLI::App app{"crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
+               "heightmaps/, normalmaps/, frames/)."};
+  std::string scenePath, outDir, deformPath, trace, size = "960x540";
+  double duration = -1, fps = 30;
+  long steps = -1;
+  bool renderFrames = false, quiet = false, verbose = false;
+  app.add_option("scene", scenePath, "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
+  app.add_option("--out,-o", outDir, "Output folder (default: out/<scene name>). Written atomically.");
+  app.add_option("--duration", duration, "Simulated seconds, overriding the scene's duration")->check(CLI::PositiveNumber);
+  app.add_option("--steps", steps, "Number of steps, overriding duration")->check(CLI::PositiveNumber);
+  app.add_option("--deform-path", deformPath, "gpu (default: the update stays on the GPU) or readback (the paper's path)")
+      ->check(CLI::IsMember({"gpu", "readback"}));
+  app.add_flag("--render", renderFrames, "Write frames/<camera>_<frame>.png for every camera of the scene");
+  app.add_option("--size", size, "Frame size WxH for --render")->default_val("960x540");
+  app.add_option("--fps", fps, "Frames per simulated second for --render")->check(CLI::PositiveNumber)->default_val(30);
+  app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
+  app.add_flag("--quiet,-q", quiet, "Only errors");
+  app.add_flag("--verbose,-v", verbose, "Debug messages (GL debug output included)");
+  CLI11_PARSE(app, argc, argv);
+
+  setLogLevel(quiet ? LogLevel::Error : verbose ? LogLevel::Debug : LogLevel::Info);
+  int width = 0, height = 0;
+  if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16 || width > 8192 || height > 8192) {
+    std::cerr << "crumple-sim: --size must be WxH with sides in [16, 8192], got '" << size << "'\n";
+    return 2;
+  }
+  try {
+    Scene scene = scenePath.empty() ? parseScene(builtinSceneText(), "<built-in default scene>", fs::current_path().string())
+                                    : loadScene(scenePath);
+    if (deformPath == "gpu") scene.deformation.path = DeformPath::Gpu;
+    if (deformPath == "readback") scene.deformation.path = DeformPath::Readback;
+    if (duration > 0) scene.duration = duration;
+    const long totalSteps = steps > 0 ? steps : std::max(1L, std::lround(scene.duration / scene.timestep));
+    if (outDir.empty()) outDir = "out/" + scene.name;
+    OutputWriter writer(outDir);
+
+    bool needGl = renderFrames;
+    for (const auto& b : scene.bodies) needGl = needGl || b.bumpMap.present;
+    std::unique_ptr<render::GlContext> gl;
+    if (needGl) {
+      try {
+        gl = render::createHeadlessContext({true, verbose});
+      } catch (const render::ContextError& e) {
+        std::cerr << "crumple-sim: " << e.what() << "\n";
+        return 1;
+      }
+      logInfo("GL: ", gl->description());
+    }
+    Simulation sim(scene, gl != nullptr);
+    std::unique_ptr<render::Renderer> renderer;
+    const fs::path framesDir = fs::path(writer.staging()) / "frames";
+    if (renderFrames) {
+      if (scene.cameras.empty()) logWarning("--render: the scene has no cameras; a default view is used");
+      renderer = std::make_unique<render::Renderer>(width, height);
+      fs::create_directories(framesDir);
+    }
+    std::ofstream traceFile;
+    if (!trace.empty()) {
+      traceFile.open(trace);
+      if (!traceFile) throw std::runtime_error("cannot write the trace file " + trace);
+      traceFile << "step,time,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n";
+      traceFile.precision(10);
+    }
+    const bool tty = !quiet && isatty(STDERR_FILENO);
+    const long frameEvery = std::max(1L, std::lround(1.0 / (fps * scene.timestep)));
+    long frame = 0;
+    auto renderFrame = [&]() {
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<CameraDesc> cams = scene.cameras;
+      if (cams.empty()) cams.push_back(CameraDesc{"default"});
+      for (const auto& cam : cams) {
+        char name[64];
+        std::snprintf(name, sizeof name, "_%05ld.png", frame);
+        renderer->draw(renderItems(sim), cameraView(cam));
+        renderer->savePng((framesDir / (cam.name + name)).string());
+      }
+      ++frame;
+      sim.timings().renderMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      ++sim.timings().frames;
+    };
+    if (renderer) renderFrame();
+    for (long s = 1; s <= totalSteps; ++s) {
+      sim.step();
+      if (renderer && s % frameEvery == 0) renderFrame();
+      if (traceFile.is_open()) {
+        for (const auto& b : sim.bodies()) {
+          const RigidBody& rb = sim.world().body(b.index);
+          const glm::dvec3 o = rb.origin();
+          traceFile << s << "," << sim.world().time() << "," << b.name << "," << o.x << "," << o.y << "," << o.z << ","
+                    << rb.q.w << "," << rb.q.x << "," << rb.q.y << "," << rb.q.z << "," << rb.v.x << "," << rb.v.y
+                    << "," << rb.v.z << "," << rb.w.x << "," << rb.w.y << "," << rb.w.z << "\n";
+        }
+      }
+      if (tty && (s % 16 == 0 || s == totalSteps)) {
+        const int width = 30, filled = static_cast<int>(width * s / totalSteps);
+        std::fprintf(stderr, "\r[%.*s%*s] %3ld%%  step %ld/%ld  collisions %zu", filled, "##############################",
+                     width - filled, "", 100 * s / totalSteps, s, totalSteps, sim.events().size());
+        if (s == totalSteps) std::fprintf(stderr, "\n");
+      }
+    }
+    writer.write(sim);
+    writer.commit();
+    if (!quiet) {
+      long sides = 0;
+      for (const auto& r : sim.events()) sides += r.side[0].deformed + r.side[1].deformed;
+      std::printf("crumple-sim: %s: %ld steps (%.3f s), %zu collisions, %ld deformations (%ld sides); wrote %s\n",
+                  scene.name.c_str(), sim.steps(), sim.world().time(), sim.events().size(), sim.timings().deformations,
+                  sides, outDir.c_str());
+    }
+    return 0;
+  } catch (const SceneError& e) {
+    std::cerr << "crumple-sim: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "crumple-sim: failed: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,39 @@
+#include "engine/scene_view.h"
+
+namespace crumple {
+
+std::vector<render::RenderItem> renderItems(const Simulation& sim) {
+  std::vector<render::RenderItem> items;
+  for (size_t i = 0; i < sim.bodies().size(); ++i) {
+    const BodyRuntime& b = sim.bodies()[i];
+    if (!b.gpuMesh) continue;
+    render::RenderItem it;
+    it.vao = b.gpuMesh->vao.id();
+    it.indexCount = b.gpuMesh->indexCount;
+    it.model = glm::mat4(sim.model(static_cast<int>(i)));
+    it.color = b.material->color;
+    it.boundsMin = b.gpuMesh->boundsMin;
+    it.boundsMax = b.gpuMesh->boundsMax;
+    if (b.surface) {
+      it.height = b.surface->height().id();
+      it.normal = b.surface->normal().id();
+      it.bumpDepth = b.surface->bumpDepth();
+    }
+    items.push_back(it);
+  }
+  return items;
+}
+
+render::View cameraView(const CameraDesc& c) {
+  render::View v;
+  v.eye = glm::vec3(c.position);
+  v.target = glm::vec3(c.target);
+  v.up = glm::vec3(c.up);
+  v.fovDegrees = static_cast<float>(c.fov);
+  const float dist = glm::length(v.target - v.eye);
+  v.zNear = std::max(0.01f, dist * 0.01f);
+  v.zFar = std::max(100.0f, dist * 50.0f);
+  return v;
+}
+
+}  // namespace crumple

@@ -1,0 +1,413 @@
+#include "engine/simulation.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+
+#include "engine/atlas.h"
+#include "engine/mesh_io.h"
+#include "engine/primitives.h"
+#include "physics/log.h"
+#include "physics/stress_strain.h"
+#include "render/image.h"
+
+namespace crumple {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+std::string shapeKey(const ShapeDesc& s) {
+  std::ostringstream os;
+  os.precision(17);
+  if (s.type == "box") os << "box:" << s.size.x << "," << s.size.y << "," << s.size.z;
+  else if (s.type == "sphere") os << "sphere:" << s.radius;
+  else if (s.type == "mesh") os << "mesh:" << s.file << "|" << s.scale.x << "," << s.scale.y << "," << s.scale.z;
+  else os << s.type << ":" << s.radius << "," << s.height;
+  return os.str();
+}
+}  // namespace
+
+Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl) {
+  world_.settings().gravity = scene.gravity;
+  if (gl_) {
+    deform::DeformOptions o;
+    o.addressMap = scene.deformation.addressMap;
+    o.path = scene.deformation.path == DeformPath::Gpu ? deform::Path::Gpu : deform::Path::Readback;
+    o.tangent = static_cast<deform::TangentMode>(scene.deformation.tangentCorrection);
+    o.tangentFloor = static_cast<float>(scene.deformation.tangentFloor);
+    deformer_ = std::make_unique<deform::Deformer>(o);
+  }
+  bodies_.reserve(scene.bodies.size());
+  for (size_t i = 0; i < scene.bodies.size(); ++i) buildBody(scene.bodies[i], i);
+}
+
+Simulation::~Simulation() = default;
+
+void Simulation::setDeformPath(DeformPath p) {
+  scene_.deformation.path = p;
+  if (deformer_) {
+    deform::DeformOptions o = deformer_->options();
+    o.path = p == DeformPath::Gpu ? deform::Path::Gpu : deform::Path::Readback;
+    deformer_->setOptions(o);
+  }
+}
+
+void Simulation::buildBody(const BodyDesc& d, size_t index) {
+  const std::string where = "bodies[" + std::to_string(index) + "]";
+  BodyRuntime b;
+  b.name = d.name;
+  b.material = &scene_.materials.at(d.material);
+  b.thickness = b.material->thickness;
+  const int res = d.bumpMap.present ? d.bumpMap.resolution : 256;
+  render::Image initial;
+  bool hasImage = false;
+  if (d.bumpMap.present && !d.bumpMap.image.empty()) {
+    try {
+      initial = render::readPng(d.bumpMap.image, 1);
+    } catch (const render::ImageError& e) {
+      throw SceneError(scene_.file, where + ".bump_map.image", e.what());
+    }
+    if (initial.width != initial.height)
+      throw SceneError(scene_.file, where + ".bump_map.image", "must be square, got " + std::to_string(initial.width) + "x" + std::to_string(initial.height));
+    if (initial.width < 8 || initial.width > 4096)
+      throw SceneError(scene_.file, where + ".bump_map.image", "size must be in [8, 4096]");
+    hasImage = true;
+  }
+  const int mapRes = hasImage ? initial.width : res;
+  const std::string key = shapeKey(d.shape);
+  const std::string meshKey = key + "|" + std::to_string(mapRes);
+
+  // Physics shape, shared between bodies of one shape.
+  std::shared_ptr<const Shape> shape;
+  std::shared_ptr<const TriangleMesh> mesh;
+  if (auto it = meshCache_.find(meshKey); it != meshCache_.end()) mesh = it->second;
+  try {
+    if (auto it = shapeCache_.find(key); it != shapeCache_.end()) shape = it->second;
+    const ShapeDesc& s = d.shape;
+    if (s.type == "box") {
+      if (!shape) shape = makeBox(s.size);
+      if (!mesh) mesh = std::make_shared<TriangleMesh>(boxMesh(s.size, mapRes));
+    } else if (s.type == "sphere") {
+      if (!shape) shape = makeSphere(s.radius);
+      if (!mesh) mesh = std::make_shared<TriangleMesh>(sphereMesh(s.radius, mapRes));
+    } else if (s.type == "capsule") {
+      if (!shape) shape = makeCapsule(s.radius, s.height);
+      if (!mesh) mesh = std::make_shared<TriangleMesh>(capsuleMesh(s.radius, s.height, mapRes));
+    } else if (s.type == "cylinder") {
+      if (!shape) shape = makeCylinder(s.radius, s.height);
+      if (!mesh) mesh = std::make_shared<TriangleMesh>(cylinderMesh(s.radius, s.height, mapRes));
+    } else {
+      TriangleMesh m;
+      try {
+        m = loadMeshFile(s.file);
+      } catch (const MeshError& e) {
+        throw SceneError(scene_.file, where + ".shape.file", e.what());
+      }
+      for (auto& p : m.positions) p *= glm::vec3(s.scale);
+      for (auto& n : m.normals) n = glm::normalize(n / glm::vec3(s.scale));
+      const double volume = polyhedralMassProperties(m).volume;
+      if (volume < 0) {
+        logWarning(where, " (", d.name, "): ", s.file, " is inside out: flipped its triangles");
+        for (auto& t : m.triangles) std::swap(t.y, t.z);
+        for (auto& n : m.normals) n = -n;
+      }
+      if (!mesh) {
+        const AtlasCheck check = checkAtlas(m, mapRes);
+        if (!check.oneToOne) {
+          std::string why = check.missing ? "has no texture coordinates"
+                            : check.overlappingTexels ? std::to_string(check.overlappingTexels) + " texels used twice"
+                            : check.outsideTriangles ? std::to_string(check.outsideTriangles) + " triangles outside [0,1]"
+                                                     : std::to_string(check.collapsedTriangles) + " triangles with no texture area";
+          m = generateAtlas(m, mapRes);
+          logInfo(where, " (", d.name, "): ", fs::path(s.file).filename().string(), " ", why,
+                  ": generated an automatic one-to-one atlas");
+        }
+        mesh = std::make_shared<TriangleMesh>(std::move(m));
+      }
+      if (!shape) shape = makeMeshShape(*mesh);
+    }
+  } catch (const std::invalid_argument& e) {
+    throw SceneError(scene_.file, where + ".shape", e.what());
+  }
+  shapeCache_[key] = shape;
+  meshCache_[meshKey] = mesh;
+  b.mesh = mesh;
+
+  BodyDef def;
+  def.shape = shape;
+  def.origin = d.position;
+  def.orientation = d.orientation;
+  def.linearVelocity = d.velocity;
+  def.angularVelocity = d.angularVelocity;
+  def.density = b.material->density;
+  def.mass = d.mass.value_or(0.0);
+  def.restitution = b.material->restitution;
+  def.friction = b.material->friction;
+  def.isStatic = d.isStatic;
+  try {
+    b.index = world_.addBody(def);
+  } catch (const std::invalid_argument& e) {
+    throw SceneError(scene_.file, where, e.what());
+  }
+
+  if (gl_) {
+    auto& g = gpuMeshCache_[meshKey];
+    if (!g) g = std::make_shared<deform::GpuMesh>(*mesh);
+    b.gpuMesh = g;
+    if (d.bumpMap.present) {
+      const float k = static_cast<float>(d.bumpMap.bumpDepth.value_or(scene_.deformation.bumpDepth));
+      const float kc = static_cast<float>(d.bumpMap.bumpDepthCollide.value_or(scene_.deformation.bumpDepthCollide));
+      const float texel = static_cast<float>(g->metresPerUv / mapRes);
+      std::shared_ptr<deform::SurfaceMaps> maps;
+      const std::string mapKey = meshKey + "|" + std::to_string(k);
+      if (hasImage) {
+        maps = deformer_->createMaps(mapRes, &initial, k, texel);
+      } else if (scene_.deformation.lazyMaps) {
+        auto& shared = mapCache_[mapKey];
+        if (!shared) shared = deformer_->createMaps(mapRes, nullptr, k, texel);
+        maps = shared;
+      } else {
+        maps = deformer_->createMaps(mapRes, nullptr, k, texel);
+      }
+      b.surface = std::make_unique<deform::Surface>(g, mapRes, k, kc, maps);
+    }
+  }
+  bodies_.push_back(std::move(b));
+}
+
+glm::dmat4 Simulation::model(int i) const {
+  const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(i)].index);
+  return glm::translate(glm::dmat4(1), rb.x) * glm::dmat4(glm::mat3_cast(rb.q)) * glm::translate(glm::dmat4(1), -rb.localCom);
+}
+
+void Simulation::step() {
+  const double h = scene_.timestep;
+  auto t0 = Clock::now();
+  if (beforeStep) beforeStep(*this, h);
+  world_.step(h);
+  timings_.physicsMs += msSince(t0);
+  ++steps_;
+  ++timings_.steps;
+
+  // The deformation decision (eq. 5, 6) for every collision of this step.
+  t0 = Clock::now();
+  bool deformed = false;
+  std::vector<int> bodyOf(world_.size(), -1);
+  for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[static_cast<size_t>(bodies_[i].index)] = static_cast<int>(i);
+  for (const CollisionEvent& e : world_.events()) {
+    if (e.elasticImpulse < scene_.deformation.impulseFloor) continue;  // the paper's floor: too weak to mark
+    EventRecord rec;
+    rec.event = e;
+    const int bi[2] = {bodyOf[static_cast<size_t>(e.a)], bodyOf[static_cast<size_t>(e.b)]};
+    for (int s = 0; s < 2; ++s) {
+      const BodyRuntime& body = bodies_[static_cast<size_t>(bi[s])];
+      SideDecision& d = rec.side[s];
+      d.threshold = yieldThreshold(body.material->restitution);
+      d.percentDeform = percentDeform(body.material->kappa, e.elasticImpulse, d.threshold);
+      d.deformDepth = deformDepth(body.thickness, d.percentDeform);
+      d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
+    }
+    if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
+      auto modelAt = [&](int b, const Pose& p) {
+        const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(b)].index);
+        return glm::translate(glm::dmat4(1), p.position) * glm::dmat4(glm::mat3_cast(p.orientation)) *
+               glm::translate(glm::dmat4(1), -rb.localCom);
+      };
+      deform::DeformRequest rq;
+      BodyRuntime& A = bodies_[static_cast<size_t>(bi[0])];
+      BodyRuntime& B = bodies_[static_cast<size_t>(bi[1])];
+      rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(bi[0], e.poseA)};
+      rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(bi[1], e.poseB)};
+      rq.point = e.point;
+      rq.normal = e.normal;
+      rq.penetration = e.penetration;
+      rq.deformA = rec.side[0].deformed ? rec.side[0].deformDepth : 0;
+      rq.deformB = rec.side[1].deformed ? rec.side[1].deformDepth : 0;
+      rec.statsHandle = deformer_->deform(rq);
+      ++timings_.deformations;
+      deformed = true;
+    }
+    events_.push_back(rec);
+  }
+  if (deformed) glFinish();  // honest timings: the GPU work is part of the deformation's cost
+  timings_.deformMs += msSince(t0);
+  if (onStep) onStep(world_.events());
+}
+
+void Simulation::resolveEventStats() {
+  if (!deformer_) return;
+  for (EventRecord& r : events_) {
+    if (r.statsHandle < 0) continue;
+    for (int s = 0; s < 2; ++s)
+      if (r.side[s].deformed) r.side[s].stats = deformer_->stats(r.statsHandle, s);
+  }
+}
+
+// ---- outputs ---------------------------------------------------------------
+
+OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexically_normal().string()) {
+  while (!dir_.empty() && dir_.back() == '/') dir_.pop_back();
+  std::error_code ec;
+  if (fs::exists(dir_, ec)) {
+    if (!fs::is_directory(dir_, ec)) throw SceneError(dir, "", "output path exists and is not a folder");
+    const bool empty = fs::is_empty(dir_, ec);
+    if (!empty && !fs::exists(fs::path(dir_) / "summary.json", ec))
+      throw SceneError(dir, "", "output folder exists, is not empty and holds no crumple output (summary.json): refusing to overwrite it");
+  }
+  const fs::path parent = fs::path(dir_).parent_path();
+  fs::create_directories(parent, ec);
+  if (ec) throw SceneError(dir, "", "cannot create the parent folder: " + ec.message());
+  std::random_device rd;
+  staging_ = dir_ + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
+  fs::create_directories(staging_, ec);
+  if (ec) throw SceneError(dir, "", "cannot create a folder next to it: " + ec.message());
+}
+
+OutputWriter::~OutputWriter() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+}
+
+namespace {
+nlohmann::ordered_json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
+double num(double x) { return std::isfinite(x) ? x : -1; }
+}  // namespace
+
+void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
+  using json = nlohmann::ordered_json;
+  sim.resolveEventStats();
+  const fs::path root(staging_);
+  fs::create_directories(root / "heightmaps");
+  fs::create_directories(root / "normalmaps");
+  // Events.
+  {
+    std::ofstream ev(root / "events.jsonl");
+    for (const EventRecord& r : sim.events()) {
+      const auto& e = r.event;
+      json line;
+      line["t"] = e.time;
+      const std::string* names[2] = {nullptr, nullptr};
+      for (const auto& b : sim.bodies()) {
+        if (b.index == e.a) names[0] = &b.name;
+        if (b.index == e.b) names[1] = &b.name;
+      }
+      line["a"] = *names[0];
+      line["b"] = *names[1];
+      line["point"] = vec(e.point);
+      line["normal"] = vec(e.normal);
+      line["penetration"] = e.penetration;
+      line["impulse_elastic"] = e.elasticImpulse;
+      line["impulse"] = e.impulse;
+      for (int s = 0; s < 2; ++s) {
+        const SideDecision& d = r.side[s];
+        json side;
+        side["threshold"] = std::isfinite(d.threshold) ? json(d.threshold) : json(nullptr);  // null: infinite (eps = 1)
+        side["percent_deform"] = d.percentDeform;
+        side["deform_depth"] = d.deformDepth;
+        side["deformed"] = d.deformed;
+        side["texels_changed"] = d.stats.texelsChanged;
+        side["max_dent"] = d.stats.maxDent;
+        side["saturated"] = d.stats.saturated;
+        line[s == 0 ? "a_side" : "b_side"] = side;
+      }
+      ev << line.dump() << "\n";
+    }
+    if (!ev) throw std::runtime_error("writing events.jsonl failed");
+  }
+  // Maps.
+  long deformedSides = 0;
+  for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
+  for (const auto& b : sim.bodies()) {
+    if (!b.surface) continue;
+    const render::Image h = b.surface->downloadHeight();
+    render::writePng((root / "heightmaps" / (b.name + ".png")).string(), h, 16);
+    const int n = b.surface->resolution();
+    std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
+    b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
+    render::Image nm(n, n, 3);
+    for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
+      for (int c = 0; c < 3; ++c) nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
+    render::writePng((root / "normalmaps" / (b.name + ".png")).string(), nm, 8);
+  }
+  // Summary.
+  json s;
+  s["scene"] = sim.scene().name;
+  s["scene_file"] = sim.scene().file;
+  s["steps"] = sim.steps();
+  s["time"] = sim.world().time();
+  json bodies = json::array();
+  for (const auto& b : sim.bodies()) {
+    const RigidBody& rb = sim.world().body(b.index);
+    json jb;
+    jb["name"] = b.name;
+    jb["position"] = vec(rb.origin());
+    jb["orientation"] = {rb.q.w, rb.q.x, rb.q.y, rb.q.z};
+    jb["linear_velocity"] = vec(rb.v);
+    jb["angular_velocity"] = vec(rb.w);
+    jb["center_of_mass"] = vec(rb.x);
+    jb["mass"] = rb.isStatic ? json(nullptr) : json(rb.mass);
+    jb["static"] = rb.isStatic;
+    jb["asleep"] = rb.asleep;
+    bodies.push_back(jb);
+  }
+  s["bodies"] = bodies;
+  s["collisions"] = sim.events().size();
+  s["deformations"] = sim.timings().deformations;
+  s["deformed_sides"] = deformedSides;
+  const Timings& t = sim.timings();
+  json tj;
+  tj["physics_ms"] = t.physicsMs;
+  tj["physics_ms_per_step"] = t.steps ? t.physicsMs / static_cast<double>(t.steps) : 0.0;
+  tj["deform_ms"] = t.deformMs;
+  tj["deform_ms_per_deformation"] = t.deformations ? t.deformMs / static_cast<double>(t.deformations) : 0.0;
+  tj["render_ms"] = t.renderMs;
+  tj["render_ms_per_frame"] = t.frames ? t.renderMs / static_cast<double>(t.frames) : 0.0;
+  tj["frames"] = t.frames;
+  s["timings"] = tj;
+  for (const auto& [k, v] : extra) s[k] = v;
+  (void)num;
+  std::ofstream f(root / "summary.json");
+  f << s.dump(2) << "\n";
+  if (!f) throw std::runtime_error("writing summary.json failed");
+}
+
+void OutputWriter::commit() {
+  std::error_code ec;
+  if (fs::exists(dir_, ec)) {
+    const std::string old = staging_ + ".old";
+    fs::rename(dir_, old, ec);
+    if (ec) throw std::runtime_error(dir_ + ": cannot replace the previous output: " + ec.message());
+    fs::rename(staging_, dir_, ec);
+    if (ec) {
+      fs::rename(old, dir_);
+      throw std::runtime_error(dir_ + ": cannot move the new output into place: " + ec.message());
+    }
+    fs::remove_all(old, ec);
+  } else {
+    fs::rename(staging_, dir_, ec);
+    if (ec) throw std::runtime_error(dir_ + ": cannot move the output into place: " + ec.message());
+  }
+  committed_ = true;
+}
+
+namespace engine::scenes {
+std::string_view shaderSource(std::string_view name);
+}
+
+std::string builtinSceneText(const std::string& name) {
+  if (name == "default" || name == "sphere-into-plate") return std::string(engine::scenes::shaderSource("sphere-into-plate.json"));
+  throw std::invalid_argument("no built-in scene named " + name);
+}
+
+}  // namespace crumple

@@ -1,0 +1,109 @@
+// The world of crumple: bodies (physics) with their surfaces (deform), and the
+// step loop of architecture.md: physics -> deformation decision -> deform.
+#pragma once
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "deform/deformer.h"
+#include "deform/surface.h"
+#include "engine/scene.h"
+#include "physics/world.h"
+
+namespace crumple {
+
+// One side of a collision at the deformation decision (eq. 5 and 6).
+struct SideDecision {
+  double threshold = 0;       // Y
+  double percentDeform = 0;
+  double deformDepth = 0;     // t * percentDeform (m)
+  bool deformed = false;
+  deform::SideStats stats;
+};
+
+struct EventRecord {
+  CollisionEvent event;
+  SideDecision side[2];
+  int statsHandle = -1;
+};
+
+struct BodyRuntime {
+  std::string name;
+  int index = -1;  // in the physics world
+  const Material* material = nullptr;
+  std::shared_ptr<const TriangleMesh> mesh;       // render mesh, shape frame, one-to-one uvs
+  std::shared_ptr<const deform::GpuMesh> gpuMesh;  // null without GL
+  std::unique_ptr<deform::Surface> surface;        // null without a bump map
+  double thickness = 0.05;
+};
+
+struct Timings {
+  double physicsMs = 0, deformMs = 0, renderMs = 0;
+  long steps = 0, deformations = 0, frames = 0;
+};
+
+class Simulation {
+ public:
+  // `gl` true: a current GL context exists (required for bump maps and deformation).
+  Simulation(const Scene& scene, bool gl);
+  ~Simulation();
+
+  void step();
+  const Scene& scene() const { return scene_; }
+  World& world() { return world_; }
+  const std::vector<BodyRuntime>& bodies() const { return bodies_; }
+  std::vector<BodyRuntime>& bodies() { return bodies_; }
+  const std::vector<EventRecord>& events() const { return events_; }
+  long steps() const { return steps_; }
+  Timings& timings() { return timings_; }
+  deform::Deformer* deformer() { return deformer_.get(); }
+  void setDeformPath(DeformPath p);
+  // Shape frame to world for body i (current pose).
+  glm::dmat4 model(int i) const;
+  // Fetches the per-event texel statistics (one small read of the GPU's counters).
+  void resolveEventStats();
+  // Called after each step with the events it produced (the sandbox's HUD, vehicles).
+  std::function<void(const std::vector<CollisionEvent>&)> onStep;
+  // External forces for the next step (vehicles).
+  std::function<void(Simulation&, double h)> beforeStep;
+
+ private:
+  void buildBody(const BodyDesc& desc, size_t index);
+  Scene scene_;
+  bool gl_;
+  World world_;
+  std::vector<BodyRuntime> bodies_;
+  std::vector<EventRecord> events_;
+  std::unique_ptr<deform::Deformer> deformer_;
+  std::map<std::string, std::shared_ptr<const Shape>> shapeCache_;
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshCache_;
+  std::map<std::string, std::shared_ptr<const deform::GpuMesh>> gpuMeshCache_;
+  std::map<std::string, std::shared_ptr<deform::SurfaceMaps>> mapCache_;
+  long steps_ = 0;
+  Timings timings_;
+};
+
+// Writes the outputs of the contract into `dir`: summary.json, events.jsonl,
+// heightmaps/ and normalmaps/ (and whatever is already in `staging`, e.g. frames/).
+// Everything goes to a temporary sibling folder first and is renamed into place
+// at the end, so a failed run never leaves a folder that looks complete.
+class OutputWriter {
+ public:
+  explicit OutputWriter(const std::string& dir);  // throws SceneError(dir) if dir is unusable
+  ~OutputWriter();                                // removes the staging folder if not committed
+  const std::string& staging() const { return staging_; }
+  void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
+  void commit();
+
+ private:
+  std::string dir_, staging_;
+  bool committed_ = false;
+};
+
+// The built-in default scene (sphere into plate), as scene-file text.
+std::string builtinSceneText(const std::string& name = "default");
+
+}  // namespace crumple

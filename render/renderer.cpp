@@ -1,0 +1,167 @@
+#include "render/renderer.h"
+
+#include <algorithm>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "render/capture.h"
+
+namespace crumple::render {
+
+namespace {
+Program program(const char* vs, const char* fs) {
+  return Program({{GL_VERTEX_SHADER, vs, std::string(renderShader(vs))}, {GL_FRAGMENT_SHADER, fs, std::string(renderShader(fs))}});
+}
+constexpr int kShadowSize = 2048;
+}  // namespace
+
+struct Renderer::Impl {
+  Program pom = program("pom.vert", "pom.frag");
+  Program shadow = program("shadow.vert", "shadow.frag");
+  Program addressView = program("fullscreen.vert", "address_view.frag");
+  VertexArray emptyVao;
+  Texture2D color, depth;
+  Framebuffer fbo;
+  Texture2D shadowMap{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
+  Framebuffer shadowFbo;
+  Texture2D flatHeight{1, 1, GL_R32F}, flatNormal{1, 1, GL_RGBA8};
+  Impl() {
+    glTextureParameteri(shadowMap.id(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTextureParameteri(shadowMap.id(), GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    shadowFbo.attachDepth(shadowMap);
+    glNamedFramebufferDrawBuffer(shadowFbo.id(), GL_NONE);
+    shadowFbo.checkComplete();
+    const float half = 0.5f;
+    flatHeight.upload(GL_RED, GL_FLOAT, &half);
+    const unsigned char up[4] = {128, 128, 255, 255};
+    flatNormal.upload(GL_RGBA, GL_UNSIGNED_BYTE, up);
+  }
+  void resize(int w, int h) {
+    color = Texture2D(w, h, GL_SRGB8_ALPHA8);
+    depth = Texture2D(w, h, GL_DEPTH_COMPONENT32F);
+    fbo = Framebuffer();
+    fbo.attachColor(color);
+    fbo.attachDepth(depth);
+    fbo.checkComplete();
+  }
+};
+
+Renderer::Renderer(int width, int height) : impl_(std::make_unique<Impl>()), width_(width), height_(height) {
+  impl_->resize(width, height);
+}
+Renderer::~Renderer() = default;
+
+void Renderer::resize(int width, int height) {
+  if (width == width_ && height == height_) return;
+  width_ = width;
+  height_ = height;
+  impl_->resize(width, height);
+}
+
+GLuint Renderer::framebuffer() const { return impl_->fbo.id(); }
+
+void Renderer::draw(const std::vector<RenderItem>& items, const View& view) { drawTo(impl_->fbo.id(), items, view); }
+
+void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const View& view) {
+  Impl& m = *impl_;
+  const RendererSettings& s = settings_;
+  // Fit the sun's orthographic frustum around everything.
+  glm::vec3 lo(1e30f), hi(-1e30f);
+  for (const auto& it : items) {
+    for (int c = 0; c < 8; ++c) {
+      const glm::vec3 p(c & 1 ? it.boundsMax.x : it.boundsMin.x, c & 2 ? it.boundsMax.y : it.boundsMin.y,
+                        c & 4 ? it.boundsMax.z : it.boundsMin.z);
+      const glm::vec3 w = glm::vec3(it.model * glm::vec4(p, 1));
+      lo = glm::min(lo, w);
+      hi = glm::max(hi, w);
+    }
+  }
+  if (items.empty()) lo = hi = glm::vec3(0);
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  const float radius = std::max(0.5f * glm::length(hi - lo), 0.5f);
+  const glm::vec3 sunDir = glm::normalize(s.sunDirection);
+  const glm::vec3 sunUp = std::abs(sunDir.y) > 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
+  const glm::mat4 lightView = glm::lookAt(centre - sunDir * radius * 2.0f, centre, sunUp);
+  const glm::mat4 lightProj = glm::ortho(-radius, radius, -radius, radius, 0.01f, radius * 4.0f);
+  const glm::mat4 lightVP = lightProj * lightView;
+
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_BLEND);
+  glDisable(GL_CULL_FACE);
+  if (s.shadows && s.debug == DebugView::Shaded) {
+    glBindFramebuffer(GL_FRAMEBUFFER, m.shadowFbo.id());
+    glViewport(0, 0, kShadowSize, kShadowSize);
+    glClear(GL_DEPTH_BUFFER_BIT);
+    m.shadow.use();
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(2.0f, 4.0f);
+    for (const auto& it : items) {
+      const glm::mat4 mvp = lightVP * it.model;
+      glUniformMatrix4fv(m.shadow.uniform("uLightModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+      glBindVertexArray(it.vao);
+      glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+    glDisable(GL_POLYGON_OFFSET_FILL);
+  }
+
+  glBindFramebuffer(GL_FRAMEBUFFER, target);
+  glViewport(0, 0, width_, height_);
+  glEnable(GL_FRAMEBUFFER_SRGB);
+  const glm::vec3 sky = glm::pow(glm::vec3(0.62f, 0.72f, 0.85f), glm::vec3(2.2f));
+  glClearColor(sky.r, sky.g, sky.b, 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  if (s.debug == DebugView::Address) {
+    m.addressView.use();
+    glBindTextureUnit(0, s.addressMap ? s.addressMap : m.flatHeight.id());
+    glDisable(GL_DEPTH_TEST);
+    glBindVertexArray(m.emptyVao.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glEnable(GL_DEPTH_TEST);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    return;
+  }
+  const float aspect = static_cast<float>(width_) / static_cast<float>(height_);
+  const glm::mat4 viewM = glm::lookAt(view.eye, view.target, view.up);
+  const glm::mat4 proj = glm::perspective(glm::radians(view.fovDegrees), aspect, view.zNear, view.zFar);
+  const glm::mat4 vp = proj * viewM;
+  m.pom.use();
+  auto u = [&](const char* n) { return m.pom.uniform(n); };
+  glUniformMatrix4fv(u("uViewProjection"), 1, GL_FALSE, glm::value_ptr(vp));
+  glUniformMatrix4fv(u("uLightViewProjection"), 1, GL_FALSE, glm::value_ptr(lightVP));
+  glUniform3fv(u("uEye"), 1, glm::value_ptr(view.eye));
+  const glm::vec3 toSun = -sunDir;
+  glUniform3fv(u("uToSun"), 1, glm::value_ptr(toSun));
+  glUniform3fv(u("uSunColor"), 1, glm::value_ptr(s.sunColor));
+  glUniform3fv(u("uSkyColor"), 1, glm::value_ptr(s.skyColor));
+  glUniform3fv(u("uGroundColor"), 1, glm::value_ptr(s.groundColor));
+  glUniform1i(u("uMode"), static_cast<int>(s.parallax));
+  glUniform1i(u("uDebug"), static_cast<int>(s.debug));
+  glUniform1i(u("uMinSteps"), s.minSteps);
+  glUniform1i(u("uMaxSteps"), s.maxSteps);
+  glUniform1i(u("uShadows"), s.shadows && s.debug == DebugView::Shaded);
+  glUniform1i(u("uSelfShadow"), s.selfShadow);
+  glUniform2f(u("uLodFade"), s.lodFadeStart, s.lodFadeEnd);
+  glBindTextureUnit(2, m.shadowMap.id());
+  if (s.debug == DebugView::Wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+  for (const auto& it : items) {
+    const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
+    glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));
+    glUniformMatrix3fv(u("uNormalMatrix"), 1, GL_FALSE, glm::value_ptr(nrm));
+    glUniform1i(u("uHasMaps"), it.height != 0);
+    glUniform1f(u("uBumpDepth"), it.bumpDepth);
+    glUniform3fv(u("uColor"), 1, glm::value_ptr(it.color));
+    glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
+    glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
+    glBindVertexArray(it.vao);
+    glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+  }
+  glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  glDisable(GL_FRAMEBUFFER_SRGB);
+}
+
+Image Renderer::readPixels() const { return readFramebuffer(impl_->fbo.id(), width_, height_, 3); }
+
+void Renderer::savePng(const std::string& path) const { writePng(path, readPixels(), 8); }
+
+}  // namespace crumple::render

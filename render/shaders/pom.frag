@@ -1,0 +1,123 @@
+#version 450 core
+// pom.frag: parallax occlusion mapping with soft self-shadowing, a shadow-mapped
+// sun and hemisphere ambient. Height convention: 0.5 flat, range k = uBumpDepth,
+// so the surface lies at (h - 0.5) k above the mesh.
+// in:  vWorld, vNormal, vUV, vShadow; maps uHeight (R32F), uNormalMap (RGBA8), uShadowMap
+// out: fragColor (linear; the sRGB target encodes it)
+in vec3 vWorld;
+in vec3 vNormal;
+in vec2 vUV;
+in vec4 vShadow;
+layout(binding = 0) uniform sampler2D uHeight;
+layout(binding = 1) uniform sampler2D uNormalMap;
+layout(binding = 2) uniform sampler2DShadow uShadowMap;
+uniform bool uHasMaps;
+uniform float uBumpDepth;
+uniform vec3 uColor;  // sRGB material colour
+uniform vec3 uEye;
+uniform vec3 uToSun;
+uniform vec3 uSunColor, uSkyColor, uGroundColor;
+uniform int uMode;   // 0 occlusion, 1 offset limited, 2 none
+uniform int uDebug;  // 0 shaded, 1 height, 2 normal, 4 wireframe
+uniform int uMinSteps, uMaxSteps;
+uniform bool uShadows, uSelfShadow;
+uniform vec2 uLodFade;
+out vec4 fragColor;
+
+float heightAt(vec2 uv, vec2 gx, vec2 gy) { return (textureGrad(uHeight, uv, gx, gy).r - 0.5) * uBumpDepth; }
+
+void main() {
+  if (uDebug == 4) { fragColor = vec4(0.05, 0.9, 0.3, 1.0); return; }
+  vec3 N = normalize(vNormal);
+  if (!gl_FrontFacing) N = -N;
+  vec3 V = normalize(vWorld - uEye);  // from the eye into the surface
+  // Cotangent frame (Schueler 2006): gradients of u and v along the surface.
+  vec3 dp1 = dFdx(vWorld), dp2 = dFdy(vWorld);
+  vec2 duv1 = dFdx(vUV), duv2 = dFdy(vUV);
+  vec3 dp2perp = cross(dp2, N), dp1perp = cross(N, dp1);
+  float det = dot(cross(dp1, dp2), N);
+  vec3 gradU = (dp2perp * duv1.x + dp1perp * duv2.x) / (abs(det) > 1e-20 ? det : 1e-20);
+  vec3 gradV = (dp2perp * duv1.y + dp1perp * duv2.y) / (abs(det) > 1e-20 ? det : 1e-20);
+  vec2 uv = vUV;
+  float surfaceHeight = 0.0;
+  float fade = 1.0;
+  if (uHasMaps) {
+    float lod = textureQueryLod(uHeight, vUV).x;
+    fade = 1.0 - smoothstep(uLodFade.x, uLodFade.y, lod);
+    float cosV = max(-dot(V, N), 0.05);
+    vec2 uvPerDepth = vec2(dot(gradU, V), dot(gradV, V)) / cosV;  // uv change per metre of descent
+    if (uMode == 0 && fade > 0.0) {
+      // Linear march from the top of the height field (+k/2) down to its bottom (-k/2).
+      int steps = int(mix(float(uMaxSteps), float(uMinSteps), cosV));
+      float stepDepth = uBumpDepth / float(steps);
+      vec2 top = vUV - uvPerDepth * (0.5 * uBumpDepth);
+      float prevDiff = 0.5 * uBumpDepth - heightAt(top, duv1, duv2);
+      float depth = 0.0;
+      vec2 hitUV = top + uvPerDepth * uBumpDepth;
+      for (int i = 1; i <= steps; ++i) {
+        float d = float(i) * stepDepth;
+        vec2 p = top + uvPerDepth * d;
+        float diff = (0.5 * uBumpDepth - d) - heightAt(p, duv1, duv2);
+        if (diff <= 0.0) {
+          // Secant refinement between the last point above and the first below.
+          float t = prevDiff / max(prevDiff - diff, 1e-9);
+          depth = d - stepDepth + t * stepDepth;
+          hitUV = top + uvPerDepth * depth;
+          break;
+        }
+        prevDiff = diff;
+      }
+      uv = mix(vUV, hitUV, fade);
+    } else if (uMode == 1) {
+      // Offset limiting (Welsh 2004), as the paper renders: no division by the view angle.
+      float h = heightAt(vUV, duv1, duv2);
+      uv = vUV - vec2(dot(gradU, V), dot(gradV, V)) * h * fade;
+    }
+    surfaceHeight = heightAt(uv, duv1, duv2);
+  }
+  if (uDebug == 1) { float h = uHasMaps ? textureGrad(uHeight, uv, duv1, duv2).r : 0.5; fragColor = vec4(vec3(h), 1.0); return; }
+  vec3 Nb = N;
+  if (uHasMaps) {
+    vec3 nt = textureGrad(uNormalMap, uv, duv1, duv2).xyz * 2.0 - 1.0;
+    vec3 T = normalize(gradU - N * dot(gradU, N));
+    vec3 B = normalize(gradV - N * dot(gradV, N));
+    Nb = normalize(T * nt.x + B * nt.y + N * nt.z);
+  }
+  if (uDebug == 2) { fragColor = vec4(uHasMaps ? textureGrad(uNormalMap, uv, duv1, duv2).xyz : vec3(0.5, 0.5, 1.0), 1.0); return; }
+
+  vec3 L = normalize(uToSun);
+  float lit = max(dot(Nb, L), 0.0);
+  float shadow = 1.0;
+  if (uShadows) {
+    vec3 s = vShadow.xyz / vShadow.w * 0.5 + 0.5;
+    if (all(greaterThan(s, vec3(0.0))) && all(lessThan(s, vec3(1.0)))) {
+      float bias = 0.0015 + 0.003 * (1.0 - max(dot(N, L), 0.0));
+      vec2 texel = 1.0 / vec2(textureSize(uShadowMap, 0));
+      float sum = 0.0;
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) sum += texture(uShadowMap, vec3(s.xy + vec2(x, y) * texel, s.z - bias));
+      shadow = sum / 9.0;
+    }
+  }
+  float selfShadow = 1.0;
+  if (uHasMaps && uSelfShadow && uMode == 0 && fade > 0.0 && dot(N, L) > 0.0) {
+    // March towards the sun; the deepest obstruction, weighted by nearness, darkens (soft shadow).
+    float cosL = max(dot(L, N), 0.05);
+    vec2 uvPerRise = vec2(dot(gradU, L), dot(gradV, L)) / cosL;
+    float rise = 0.5 * uBumpDepth - surfaceHeight;
+    const int n = 12;
+    float occlusion = 0.0;
+    for (int i = 1; i <= n; ++i) {
+      float r = rise * float(i) / float(n);
+      float above = heightAt(uv + uvPerRise * r, duv1, duv2) - (surfaceHeight + r);
+      occlusion = max(occlusion, above / uBumpDepth * 8.0 * (1.0 - float(i) / float(n + 1)));
+    }
+    selfShadow = 1.0 - clamp(occlusion, 0.0, 1.0) * fade;
+  }
+  vec3 albedo = pow(uColor, vec3(2.2));
+  vec3 ambient = mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
+  vec3 H = normalize(L - V);
+  float spec = pow(max(dot(Nb, H), 0.0), 48.0) * 0.15;
+  vec3 c = albedo * (ambient + uSunColor * lit * shadow * selfShadow) + uSunColor * spec * shadow * selfShadow * lit;
+  fragColor = vec4(c / (1.0 + c * 0.15), 1.0);
+}

@@ -1,0 +1,23 @@
+#version 450 core
+// pom.vert: world-space position, normal and uv for the parallax-occlusion pass.
+// in:  aPosition, aNormal, aUV (shape frame)
+// out: vWorld, vNormal, vUV, vShadow (sun clip space)
+layout(location = 0) in vec3 aPosition;
+layout(location = 1) in vec3 aNormal;
+layout(location = 2) in vec2 aUV;
+uniform mat4 uModel;
+uniform mat3 uNormalMatrix;
+uniform mat4 uViewProjection;
+uniform mat4 uLightViewProjection;
+out vec3 vWorld;
+out vec3 vNormal;
+out vec2 vUV;
+out vec4 vShadow;
+void main() {
+  vec4 world = uModel * vec4(aPosition, 1.0);
+  vWorld = world.xyz;
+  vNormal = uNormalMatrix * aNormal;
+  vUV = aUV;
+  vShadow = uLightViewProjection * world;
+  gl_Position = uViewProjection * world;
+}

@@ -1,0 +1,3 @@
+#version 450 core
+// shadow.frag: depth only.
+void main() {}

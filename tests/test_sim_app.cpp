@@ -1,0 +1,163 @@
+// crumple-sim end to end: outputs of the contract, exit codes, atomic output
+// folders, determinism, a user's glTF model as a mesh body.
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "render/image.h"
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+const fs::path kTmp = fs::temp_directory_path() / "crumple_sim_tests";
+
+int runSim(const std::string& args, std::string* output = nullptr) {
+  fs::create_directories(kTmp);
+  const fs::path log = kTmp / "log.txt";
+  const std::string cmd = std::string(CRUMPLE_SIM) + " " + args + " > " + log.string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  if (output) {
+    std::ifstream f(log);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    *output = ss.str();
+  }
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+fs::path writeScene(const std::string& name, const std::string& text) {
+  fs::create_directories(kTmp);
+  const fs::path p = kTmp / name;
+  std::ofstream(p) << text;
+  return p;
+}
+
+bool noPartialFolders() {
+  for (const auto& e : fs::directory_iterator(kTmp))
+    if (e.path().filename().string().find(".partial-") != std::string::npos) return false;
+  return true;
+}
+}  // namespace
+
+TEST_CASE("the default scene writes every output of the contract and dents the plate") {
+  const fs::path out = kTmp / "default";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim("--out " + out.string() + " --quiet", &log) == 0);
+  CAPTURE(log);
+  const json summary = json::parse(slurp(out / "summary.json"));
+  CHECK(summary["steps"].get<int>() > 0);
+  CHECK(summary["bodies"].size() == 2);
+  for (const char* key : {"scene", "steps", "time", "bodies", "collisions", "deformations", "timings"}) CHECK(summary.contains(key));
+  for (const auto& b : summary["bodies"])
+    for (const char* key : {"name", "position", "orientation", "linear_velocity", "angular_velocity"}) CHECK(b.contains(key));
+  CHECK(summary["deformations"].get<int>() >= 1);
+  std::ifstream ev(out / "events.jsonl");
+  std::string line;
+  int lines = 0, dented = 0;
+  while (std::getline(ev, line)) {
+    const json e = json::parse(line);
+    for (const char* key : {"t", "a", "b", "point", "normal", "penetration", "impulse_elastic", "impulse", "a_side", "b_side"})
+      CHECK(e.contains(key));
+    for (const char* key : {"threshold", "percent_deform", "deform_depth", "deformed", "texels_changed", "max_dent"})
+      CHECK(e["a_side"].contains(key));
+    if (e["a_side"]["texels_changed"].get<int>() > 0) ++dented;
+    ++lines;
+  }
+  CHECK(lines == summary["collisions"].get<int>());
+  CHECK(dented >= 1);
+  const crumple::render::Image plate = crumple::render::readPng((out / "heightmaps" / "plate.png").string());
+  float lowest = 1;
+  for (float v : plate.pixels) lowest = std::min(lowest, v);
+  CHECK(lowest < 0.45f);  // dented below flat (0.5)
+  CHECK(crumple::render::isPng16((out / "heightmaps" / "plate.png").string()));
+  CHECK(fs::exists(out / "normalmaps" / "ball.png"));
+}
+
+TEST_CASE("bad input ends with exit 2, a message naming the key path, and no output folder") {
+  const fs::path out = kTmp / "bad";
+  fs::remove_all(out);
+  const fs::path scene = writeScene("bad.json", R"({"bodies": [{"name": "x", "shape": {"type": "sphere", "radius": -1}, "material": "m"}],
+      "materials": {"m": {}}})");
+  std::string log;
+  CHECK(runSim(scene.string() + " --out " + out.string(), &log) == 2);
+  CHECK(log.find("bad.json") != std::string::npos);
+  CHECK(log.find("bodies[0].shape.radius") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));
+  CHECK(noPartialFolders());
+  CHECK(runSim((kTmp / "missing.json").string() + " --out " + out.string(), &log) == 2);
+  CHECK(log.find("no such file") != std::string::npos);
+}
+
+TEST_CASE("a broken glTF mesh body is bad input (exit 2)") {
+  const fs::path gltf = kTmp / "broken.gltf";
+  std::ofstream(gltf) << R"({"asset": {"version": "2.0"}, "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}], "buffers": [{"byteLength": 36, "uri": "nowhere.bin"}]})";
+  const fs::path scene = writeScene("gltf.json", R"({"materials": {"m": {}}, "bodies": [
+      {"name": "thing", "shape": {"type": "mesh", "file": "broken.gltf"}, "material": "m"}]})");
+  std::string log;
+  CHECK(runSim(scene.string() + " --out " + (kTmp / "gltfout").string(), &log) == 2);
+  CAPTURE(log);
+  CHECK(log.find("bodies[0].shape.file") != std::string::npos);
+  CHECK_FALSE(fs::exists(kTmp / "gltfout"));
+}
+
+TEST_CASE("the same scene twice gives bit-identical outputs") {
+  const fs::path a = kTmp / "det_a", b = kTmp / "det_b";
+  fs::remove_all(a);
+  fs::remove_all(b);
+  REQUIRE(runSim("--out " + a.string() + " --quiet --steps 200") == 0);
+  REQUIRE(runSim("--out " + b.string() + " --quiet --steps 200") == 0);
+  json sa = json::parse(slurp(a / "summary.json")), sb = json::parse(slurp(b / "summary.json"));
+  sa.erase("timings");
+  sb.erase("timings");
+  CHECK(sa.dump() == sb.dump());
+  CHECK(slurp(a / "events.jsonl") == slurp(b / "events.jsonl"));
+  CHECK(slurp(a / "heightmaps" / "plate.png") == slurp(b / "heightmaps" / "plate.png"));
+  CHECK(slurp(a / "heightmaps" / "ball.png") == slurp(b / "heightmaps" / "ball.png"));
+}
+
+TEST_CASE("the read-back path gives the same height maps as the GPU path") {
+  const fs::path a = kTmp / "path_gpu", b = kTmp / "path_readback";
+  fs::remove_all(a);
+  fs::remove_all(b);
+  REQUIRE(runSim("--out " + a.string() + " --quiet --steps 120 --deform-path gpu") == 0);
+  REQUIRE(runSim("--out " + b.string() + " --quiet --steps 120 --deform-path readback") == 0);
+  CHECK(slurp(a / "heightmaps" / "plate.png") == slurp(b / "heightmaps" / "plate.png"));
+}
+
+TEST_CASE("a user's OBJ model without texture coordinates dropped into a scene is dented") {
+  // An octahedron-ish closed mesh with no uvs: the loader must build an atlas.
+  std::ofstream(kTmp / "gem.obj") << "v 0 0.3 0\nv 0.3 0 0\nv 0 0 0.3\nv -0.3 0 0\nv 0 0 -0.3\nv 0 -0.3 0\n"
+                                     "f 1 3 2\nf 1 4 3\nf 1 5 4\nf 1 2 5\nf 6 2 3\nf 6 3 4\nf 6 4 5\nf 6 5 2\n";
+  const fs::path scene = writeScene("gem.json", R"({"duration": 0.6,
+    "materials": {"soft": {"restitution": 0.1, "kappa": 0.001, "thickness": 0.2}, "hard": {"density": 8000, "restitution": 0.9, "kappa": 0.0}},
+    "bodies": [
+      {"name": "ground", "shape": {"type": "mesh", "file": "gem.obj", "scale": [6, 1, 6]}, "material": "soft", "static": true,
+       "position": [0, -0.3, 0], "bump_map": {"resolution": 256}},
+      {"name": "weight", "shape": {"type": "box", "size": [0.3, 0.3, 0.3]}, "material": "hard", "position": [0.2, 0.6, 0.1],
+       "velocity": [0, -5, 0]}]})");
+  const fs::path out = kTmp / "gem_out";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(scene.string() + " --out " + out.string(), &log) == 0);
+  CAPTURE(log);
+  CHECK(log.find("automatic one-to-one atlas") != std::string::npos);
+  const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / "ground.png").string());
+  int dented = 0;
+  for (float v : h.pixels) dented += v < 0.49f;
+  CHECK(dented > 10);
+}

@@ -1,0 +1,192 @@
+// The parallax-occlusion renderer on llvmpipe: golden images, dents that show
+// while the silhouette stays, self-shadowing inside a deep dent.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "deform/deformer.h"
+#include "engine/primitives.h"
+#include "gl_fixture.h"
+#include "render/renderer.h"
+
+using namespace crumple;
+using namespace crumple::render;
+
+namespace {
+
+struct Stage {
+  TriangleMesh plateMesh = boxMesh({2, 0.2, 2}, 256);
+  TriangleMesh ballMesh = sphereMesh(0.25, 128);
+  std::shared_ptr<deform::GpuMesh> plateGpu = std::make_shared<deform::GpuMesh>(plateMesh);
+  std::shared_ptr<deform::GpuMesh> ballGpu = std::make_shared<deform::GpuMesh>(ballMesh);
+  deform::Deformer deformer{{256, deform::Path::Gpu}};
+  std::unique_ptr<deform::Surface> plate;
+  Stage(const Image* initial = nullptr) {
+    const float texel = static_cast<float>(plateGpu->metresPerUv / 256);
+    plate = std::make_unique<deform::Surface>(plateGpu, 256, 0.1f, 0.02f, deformer.createMaps(256, initial, 0.1f, texel));
+  }
+  void dent(double depth, glm::dvec3 at = {0, 0, 0}) {
+    deform::DeformRequest rq;
+    rq.a = {plate.get(), plateGpu.get(), glm::dmat4(1)};
+    rq.b = {nullptr, ballGpu.get(), glm::translate(glm::dmat4(1), at + glm::dvec3(0, 0.1 + 0.25, 0))};
+    rq.point = at + glm::dvec3(0, 0.1, 0);
+    rq.normal = {0, 1, 0};
+    rq.deformA = depth;
+    deformer.deform(rq);
+  }
+  std::vector<RenderItem> items(bool withBall, glm::vec3 ballAt = {0.6f, 0.35f, -0.5f}) const {
+    std::vector<RenderItem> v;
+    RenderItem p;
+    p.vao = plateGpu->vao.id();
+    p.indexCount = plateGpu->indexCount;
+    p.height = plate->height().id();
+    p.normal = plate->normal().id();
+    p.color = {0.72f, 0.55f, 0.42f};
+    p.boundsMin = plateGpu->boundsMin;
+    p.boundsMax = plateGpu->boundsMax;
+    v.push_back(p);
+    if (withBall) {
+      RenderItem b;
+      b.vao = ballGpu->vao.id();
+      b.indexCount = ballGpu->indexCount;
+      b.model = glm::translate(glm::mat4(1), ballAt);
+      b.color = {0.8f, 0.8f, 0.85f};
+      b.boundsMin = ballGpu->boundsMin;
+      b.boundsMax = ballGpu->boundsMax;
+      v.push_back(b);
+    }
+    return v;
+  }
+};
+
+View topView() {
+  View v;
+  v.eye = {0.0f, 1.6f, 1.4f};
+  v.target = {0, 0, 0};
+  v.fovDegrees = 40;
+  return v;
+}
+
+// Fraction of pixels whose channels differ by more than 5/255.
+double fractionOff(const Image& a, const Image& b) {
+  long off = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 0; x < a.width; ++x) {
+      bool bad = false;
+      for (int c = 0; c < 3; ++c) bad = bad || std::abs(a.at(x, y, c) - b.at(x, y, c)) > 5.0f / 255.0f;
+      off += bad;
+    }
+  return static_cast<double>(off) / (a.width * a.height);
+}
+
+void compareGolden(const Image& img, const std::string& name) {
+  const std::string path = std::string(CRUMPLE_GOLDEN_DIR) + "/" + name;
+  if (std::getenv("CRUMPLE_UPDATE_GOLDEN")) {
+    writePng(path, img, 8);
+    MESSAGE("golden image rewritten: " << path);
+    return;
+  }
+  REQUIRE_MESSAGE(std::filesystem::exists(path), "missing golden image " << path << " (tools/update-golden.sh makes it)");
+  const Image ref = readPng(path, 3);
+  REQUIRE(ref.width == img.width);
+  REQUIRE(ref.height == img.height);
+  const double off = fractionOff(img, ref);
+  MESSAGE(name << ": " << off * 100 << "% of pixels off by more than 5/255");
+  CHECK(off <= 0.001);
+}
+
+Image bumpPattern(int n) {
+  Image img(n, n, 1, 0.5f);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const float u = (x + 0.5f) / n, v = (y + 0.5f) / n;
+      img.at(x, y) = 0.5f + 0.35f * std::sin(u * 60.0f) * std::sin(v * 60.0f);
+    }
+  return img;
+}
+
+}  // namespace
+
+TEST_CASE("golden images: shaded, height and normal views") {
+  test::glContext();
+  const Image pattern = bumpPattern(256);
+  Stage s(&pattern);
+  s.dent(0.03, {0.3, 0, 0.2});
+  Renderer r(192, 128);
+  r.draw(s.items(true), topView());
+  compareGolden(r.readPixels(), "pom_shaded.png");
+  r.settings().debug = DebugView::Height;
+  r.draw(s.items(true), topView());
+  compareGolden(r.readPixels(), "pom_height.png");
+  r.settings().debug = DebugView::Normal;
+  r.draw(s.items(true), topView());
+  compareGolden(r.readPixels(), "pom_normal.png");
+  r.settings().debug = DebugView::Shaded;
+  r.settings().parallax = ParallaxMode::OffsetLimited;
+  r.draw(s.items(true), topView());
+  compareGolden(r.readPixels(), "pom_offset_limited.png");
+}
+
+TEST_CASE("a dent shows in the pixels while the silhouette stays the same") {
+  test::glContext();
+  Stage s;
+  Renderer r(160, 120);
+  r.draw(s.items(false), topView());
+  const Image before = r.readPixels();
+  r.settings().debug = DebugView::Wireframe;
+  r.draw(s.items(false), topView());
+  const Image wireBefore = r.readPixels();
+  r.settings().debug = DebugView::Shaded;
+
+  s.dent(0.03);
+  r.draw(s.items(false), topView());
+  const Image after = r.readPixels();
+  r.settings().debug = DebugView::Wireframe;
+  r.draw(s.items(false), topView());
+  const Image wireAfter = r.readPixels();
+
+  // The plate's centre (0, 0.1, 0) projects near the middle of the image.
+  int changedCentre = 0, changedFar = 0;
+  for (int y = 0; y < after.height; ++y)
+    for (int x = 0; x < after.width; ++x) {
+      bool diff = false;
+      for (int c = 0; c < 3; ++c) diff = diff || std::abs(after.at(x, y, c) - before.at(x, y, c)) > 2.0f / 255.0f;
+      const bool centre = std::abs(x - after.width / 2) < 20 && std::abs(y - after.height / 2) < 16;
+      (centre ? changedCentre : changedFar) += diff;
+    }
+  MESSAGE("changed pixels near the dent: " << changedCentre << ", elsewhere: " << changedFar);
+  CHECK(changedCentre > 40);
+  CHECK(changedFar < changedCentre);
+  CHECK(fractionOff(wireBefore, wireAfter) == 0.0);  // the mesh did not change
+}
+
+TEST_CASE("self-shadowing: a deep dent lit at a grazing angle has shadowed texels inside it") {
+  test::glContext();
+  Stage s;
+  s.dent(0.045);
+  Renderer r(160, 120);
+  r.settings().sunDirection = glm::normalize(glm::vec3(-1.0f, -0.25f, 0.0f));  // low sun from +x
+  r.settings().shadows = false;
+  r.draw(s.items(false), topView());
+  const Image lit = [&] {
+    r.settings().selfShadow = false;
+    r.draw(s.items(false), topView());
+    return r.readPixels();
+  }();
+  r.settings().selfShadow = true;
+  r.draw(s.items(false), topView());
+  const Image shadowed = r.readPixels();
+  int darker = 0, brighter = 0;
+  for (size_t i = 0; i < lit.pixels.size(); i += 3) {
+    const float a = lit.pixels[i] + lit.pixels[i + 1] + lit.pixels[i + 2];
+    const float b = shadowed.pixels[i] + shadowed.pixels[i + 1] + shadowed.pixels[i + 2];
+    darker += b < a - 0.05f;
+    brighter += b > a + 0.01f;
+  }
+  MESSAGE("pixels darkened by self-shadowing: " << darker);
+  CHECK(darker > 20);
+  CHECK(brighter == 0);
+}

@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Rewrites the renderer's golden images (tests/golden/*.png) on purpose, after a
+# deliberate change to the renderer. Look at them before committing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cmake --build build -j"$(nproc)" --target test_render_pom
+CRUMPLE_UPDATE_GOLDEN=1 build/tests/test_render_pom --test-case="golden*"
+git status --short tests/golden

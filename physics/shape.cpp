@@ -243,9 +243,23 @@ std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolutio
   if (!(s->unitMass.volume > 0)) {
     throw std::invalid_argument("mesh encloses no volume (open, inside-out or flat): cannot compute mass properties");
   }
+  // Vertices, and the midpoints of edges: vertex samples alone let two tubes
+  // that cross edge to edge slide through each other between vertices.
   std::map<std::tuple<float, float, float>, bool> seen;
-  for (const auto& p : mesh.positions) {
+  auto add = [&](const glm::vec3& p) {
     if (seen.try_emplace({p.x, p.y, p.z}, true).second) s->samples.push_back(glm::dvec3(p));
+  };
+  for (const auto& p : mesh.positions) add(p);
+  for (const auto& t : mesh.triangles) {
+    const glm::vec3 a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
+    // The same edge from both sides rounds identically only if the endpoints are ordered.
+    auto mid = [&](const glm::vec3& p, const glm::vec3& q) {
+      const bool less = std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z);
+      add(less ? (p + q) * 0.5f : (q + p) * 0.5f);
+    };
+    mid(a, b);
+    mid(b, c);
+    mid(c, a);
   }
   s->boundsMin = glm::dvec3(mesh.boundsMin());
   s->boundsMax = glm::dvec3(mesh.boundsMax());

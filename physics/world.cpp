@@ -136,12 +136,10 @@ Pose World::predict(const RigidBody& b, double h, bool withForces) const {
   return {b.x + h * v, integrateOrientation(b.q, w, h)};
 }
 
-void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const {
-  out.clear();
-  const RigidBody& A = bodies_[static_cast<size_t>(ia)];
-  const RigidBody& B = bodies_[static_cast<size_t>(ib)];
-  auto oneWay = [&](int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
-                    const Pose& pother) {
+namespace {
+// Tests samples of `other` (all, or the listed ones) against the field of `owner`.
+void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
+                    const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out) {
     const Shape& so = *owner.shape;
     const Shape& st = *other.shape;
     const double r = st.sampleRadius;
@@ -152,7 +150,9 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
     glm::dvec3 hint = rot * (pother.position - po.position);
     const double hintLen = glm::length(hint);
     hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
-    for (const glm::dvec3& s : st.samples) {
+    const size_t n = list ? list->size() : st.samples.size();
+    for (size_t k = 0; k < n; ++k) {
+      const glm::dvec3& s = st.samples[list ? (*list)[k] : k];
       const glm::dvec3 world = pother.position + rt * (s - other.localCom);
       const glm::dvec3 local = rot * (world - po.position) + owner.localCom;
       if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
@@ -168,32 +168,95 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
       c.phi = phi;
       out.push_back(c);
     }
-  };
-  oneWay(ia, A, pa, ib, B, pb);
-  oneWay(ib, B, pb, ia, A, pa);
+}
+void sortContacts(std::vector<Contact>& out) {
   std::stable_sort(out.begin(), out.end(), [](const Contact& x, const Contact& y) { return x.phi < y.phi; });
 }
+}  // namespace
 
-// Resting contact treats a pair's penetrating points together: one impulse at
-// their centre of pressure (points weighted by depth) along their mean normal.
-// Processing the points one by one (Guendelman's deepest point) makes a box
-// resting on a face rock from corner to corner and walk; the averaged contact
-// is the face's resultant and leaves no spurious torque.
-Contact World::centreOfPressure(const std::vector<Contact>& contacts) {
-  const Contact& deepest = contacts.front();
-  glm::dvec3 point(0), normal(0);
-  double weight = 0;
-  for (const Contact& c : contacts) {
-    const double w = -c.phi + 1e-6;
-    point += w * c.point;
-    normal += w * (c.a == deepest.a ? c.normal : -c.normal);
-    weight += w;
+void World::pairContacts(const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const {
+  out.clear();
+  const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
+  const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
+  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out);
+  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out);
+  sortContacts(out);
+}
+
+void World::findCandidates(double h) {
+  const double g = glm::length(settings_.gravity);
+  for (Pair& pair : pairs_) {
+    const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
+    const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
+    auto reach = [&](const RigidBody& b) {
+      return b.movable() ? glm::length(b.v) + glm::length(b.w) * b.shape->boundingRadius + 2 * g * h : 0.0;
+    };
+    // Twice the bound on the relative motion this step, plus a little.
+    const double margin = 2 * h * (reach(A) + reach(B)) + 0.005;
+    auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list) {
+      list.clear();
+      const Shape& so = *owner.shape;
+      const Shape& st = *other.shape;
+      const double r = st.sampleRadius;
+      const glm::dvec3 lo = so.boundsMin - r - margin, hi = so.boundsMax + r + margin;
+      const glm::dmat3 rot = glm::transpose(owner.rotation());
+      const glm::dmat3 rt = other.rotation();
+      for (size_t k = 0; k < st.samples.size(); ++k) {
+        const glm::dvec3 world = other.x + rt * (st.samples[k] - other.localCom);
+        const glm::dvec3 local = rot * (world - owner.x) + owner.localCom;
+        if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
+          continue;
+        if (so.distance(local) - r > margin) continue;
+        list.push_back(static_cast<uint32_t>(k));
+      }
+    };
+    collect(A, B, pair.bInA);
+    collect(B, A, pair.aInB);
   }
-  Contact m = deepest;
-  m.point = point / weight;
-  const double len = glm::length(normal);
-  m.normal = len > 1e-12 ? normal / len : deepest.normal;
-  return m;
+}
+
+void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const {
+  out.clear();
+  const RigidBody& A = bodies_[static_cast<size_t>(ia)];
+  const RigidBody& B = bodies_[static_cast<size_t>(ib)];
+  contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out);
+  contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out);
+  sortContacts(out);
+}
+
+
+// Resting contact treats a pair's penetrating points in groups: points whose
+// normals agree (within about 35 degrees of the group's deepest) make one
+// impulse at their centre of pressure (weighted by depth) along their mean
+// normal. Processing points one by one (Guendelman's deepest point) makes a box
+// resting on a face rock from corner to corner and walk; one averaged contact
+// per face is the face's resultant and leaves no spurious torque. Grouping by
+// normal keeps the separate touching places of nonconvex bodies apart.
+void World::manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out) {
+  out.clear();
+  std::vector<char> used(contacts.size(), 0);
+  for (size_t seed = 0; seed < contacts.size(); ++seed) {
+    if (used[seed]) continue;
+    const Contact& deepest = contacts[seed];  // sorted deepest first
+    glm::dvec3 point(0), normal(0);
+    double weight = 0;
+    for (size_t i = seed; i < contacts.size(); ++i) {
+      if (used[i]) continue;
+      const Contact& c = contacts[i];
+      const glm::dvec3 n = c.a == deepest.a ? c.normal : -c.normal;
+      if (glm::dot(n, deepest.normal) < 0.82) continue;
+      used[i] = 1;
+      const double w = -c.phi + 1e-6;
+      point += w * c.point;
+      normal += w * n;
+      weight += w;
+    }
+    Contact m = deepest;
+    m.point = point / weight;
+    const double len = glm::length(normal);
+    m.normal = len > 1e-12 ? normal / len : deepest.normal;
+    out.push_back(m);
+  }
 }
 
 void World::applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j) {
@@ -267,7 +330,7 @@ void World::findPairs(double h) {
       if (!A.movable() && !B.movable()) continue;
       if (A.asleep) wakeList.push_back(i);
       if (B.asleep) wakeList.push_back(j);
-      pairs_.push_back({std::min(i, j), std::max(i, j)});
+      pairs_.push_back({std::min(i, j), std::max(i, j), {}, {}});
     }
   }
   for (int i : wakeList) wake(i);
@@ -276,6 +339,7 @@ void World::findPairs(double h) {
 
 bool World::collide(double h) {
   std::vector<Contact> contacts;
+  const double restingSpeed = glm::length(settings_.gravity) * h;
   std::vector<int> eventOfPair(pairs_.size(), -1);
   bool any = false;
   for (int pass = 0; pass < settings_.collisionPasses; ++pass) {
@@ -286,13 +350,15 @@ bool World::collide(double h) {
         const RigidBody& A = bodies_[static_cast<size_t>(ia)];
         const RigidBody& B = bodies_[static_cast<size_t>(ib)];
         const Pose pa = predict(A, h, true), pb = predict(B, h, true);
-        findContacts(ia, ib, pa, pb, contacts);
+        pairContacts(pairs_[pi], pa, pb, contacts);
         const Contact* hit = nullptr;
         double approach = 0;
         for (const Contact& c : contacts) {
           const glm::dvec3 u = bodies_[static_cast<size_t>(c.b)].velocityAt(c.point) -
                                bodies_[static_cast<size_t>(c.a)].velocityAt(c.point);
-          if (glm::dot(u, c.normal) < 0) {
+          // Approaches slower than gravity adds in one step are resting contact:
+          // the contact step handles them (no restitution, no event).
+          if (glm::dot(u, c.normal) < -restingSpeed) {
             hit = &c;
             approach = -glm::dot(u, c.normal);
             break;
@@ -334,19 +400,21 @@ bool World::collide(double h) {
 }
 
 void World::contact(double h) {
-  std::vector<Contact> contacts;
+  std::vector<Contact> contacts, grouped;
   const int n = std::max(1, settings_.contactPasses);
   for (int pass = 1; pass <= n; ++pass) {
     const double eps = -1.0 + static_cast<double>(pass) / n;
     for (const Pair& pair : pairs_) {
       const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
       const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
-      findContacts(pair.a, pair.b, pa, pb, contacts);
+      pairContacts(pair, pa, pb, contacts);
       if (contacts.empty()) continue;
       if (pass == n) stats_.contacts += static_cast<int>(contacts.size());
-      const Contact c = centreOfPressure(contacts);
-      const glm::dvec3 j = contactImpulse(c.a, c.b, c, eps, false, false);
-      if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+      manifolds(contacts, grouped);
+      for (const Contact& c : grouped) {
+        const glm::dvec3 j = contactImpulse(c.a, c.b, c, eps, false, false);
+        if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+      }
     }
   }
 }
@@ -354,7 +422,7 @@ void World::contact(double h) {
 void World::shockPropagation(double h) {
   if (settings_.shockPasses <= 0) return;
   const size_t n = bodies_.size();
-  std::vector<Contact> contacts;
+  std::vector<Contact> contacts, grouped;
   // Contact graph on positions moved with the new velocities; levels from the
   // static (and sleeping) bodies up by breadth-first search, which collapses
   // cycles into one level and never loops.
@@ -362,7 +430,7 @@ void World::shockPropagation(double h) {
   std::vector<size_t> touching;
   for (size_t pi = 0; pi < pairs_.size(); ++pi) {
     const Pair& pair = pairs_[pi];
-    findContacts(pair.a, pair.b, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
+    pairContacts(pair, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
                  predict(bodies_[static_cast<size_t>(pair.b)], h, false), contacts);
     if (contacts.empty()) continue;
     adjacency[static_cast<size_t>(pair.a)].push_back(pair.b);
@@ -395,13 +463,14 @@ void World::shockPropagation(double h) {
         const Pair& pair = pairs_[pi];
         const int la = level_[static_cast<size_t>(pair.a)], lb = level_[static_cast<size_t>(pair.b)];
         if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
-        findContacts(pair.a, pair.b, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
+        pairContacts(pair, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
                      predict(bodies_[static_cast<size_t>(pair.b)], h, false), contacts);
-        if (contacts.empty()) continue;
-        const Contact c = centreOfPressure(contacts);
-        const glm::dvec3 j = contactImpulse(c.a, c.b, c, 0.0, frozen_[static_cast<size_t>(c.a)] != 0,
-                                            frozen_[static_cast<size_t>(c.b)] != 0);
-        if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+        manifolds(contacts, grouped);
+        for (const Contact& c : grouped) {
+          const glm::dvec3 j = contactImpulse(c.a, c.b, c, 0.0, frozen_[static_cast<size_t>(c.a)] != 0,
+                                              frozen_[static_cast<size_t>(c.b)] != 0);
+          if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+        }
       }
     }
   }
@@ -417,23 +486,25 @@ void World::integratePositions(double h) {
 }
 
 void World::projectPositions() {
-  std::vector<Contact> contacts;
-  for (int it = 0; it < 2; ++it) {
+  std::vector<Contact> contacts, grouped;
+  for (int it = 0; it < settings_.projectionIterations; ++it) {
     for (const Pair& pair : pairs_) {
       const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
       const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
-      findContacts(pair.a, pair.b, {A.x, A.q}, {B.x, B.q}, contacts);
+      pairContacts(pair, {A.x, A.q}, {B.x, B.q}, contacts);
       if (contacts.empty()) continue;
-      const Contact& c = contacts.front();
-      const double depth = -c.phi - settings_.penetrationSlop;
-      if (depth <= 0) continue;
-      RigidBody& ca = bodies_[static_cast<size_t>(c.a)];
-      RigidBody& cb = bodies_[static_cast<size_t>(c.b)];
-      const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
-      if (wa + wb <= 0) continue;
-      const double corr = settings_.penetrationCorrection * depth / (wa + wb);
-      ca.x -= c.normal * corr * wa;
-      cb.x += c.normal * corr * wb;
+      manifolds(contacts, grouped);
+      for (const Contact& c : grouped) {
+        const double depth = -c.phi - settings_.penetrationSlop;
+        if (depth <= 0) continue;
+        RigidBody& ca = bodies_[static_cast<size_t>(c.a)];
+        RigidBody& cb = bodies_[static_cast<size_t>(c.b)];
+        const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
+        if (wa + wb <= 0) continue;
+        const double corr = settings_.penetrationCorrection * depth / (wa + wb);
+        ca.x -= c.normal * corr * wa;
+        cb.x += c.normal * corr * wb;
+      }
     }
   }
 }
@@ -474,6 +545,7 @@ void World::updateSleep(double h) {
 
 void World::substep(double h) {
   findPairs(h);
+  findCandidates(h);
   stats_.pairs += static_cast<int>(pairs_.size());
   // 1. collision with restitution on predicted positions (emits events)
   collide(h);

@@ -38,7 +38,8 @@ struct WorldSettings {
   // piles and for study.
   int shockPasses = 0;
   double penetrationSlop = 0.0005;      // m left alone by the positional projection
-  double penetrationCorrection = 0.4;   // fraction removed per step
+  double penetrationCorrection = 0.4;   // fraction removed per projection iteration
+  int projectionIterations = 3;
   int maxSubsteps = 16;
   double substepFraction = 0.5;         // of the thinnest half thickness per substep
   // Collisions approaching slower than this still get their impulse but emit no
@@ -106,7 +107,13 @@ class World {
  private:
   struct Pair {
     int a, b;
+    // Samples that can reach the other body during this step (found once per
+    // step from the current poses and a bound on the relative motion); every
+    // pass of the step tests only these.
+    std::vector<uint32_t> bInA, aInB;
   };
+  void findCandidates(double h);
+  void pairContacts(const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const;
   void substep(double h);
   void findPairs(double h);
   Pose predict(const RigidBody& b, double h, bool withForces) const;
@@ -119,7 +126,7 @@ class World {
   void projectPositions();
   void updateSleep(double h);
   // Applies impulse j to b (and -j to a) at world point p.
-  static Contact centreOfPressure(const std::vector<Contact>& contacts);
+  static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out);
   void applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j);
   glm::dvec3 contactImpulse(int a, int b, const Contact& c, double eps, bool frozenA, bool frozenB,
                             double* elastic = nullptr, bool withFriction = true) const;

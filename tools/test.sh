@@ -7,7 +7,10 @@ build=build
 extra=()
 if [ "${1:-}" = "--sanitize" ]; then
   build=build-asan
-  extra=(-DCRUMPLE_SANITIZE=ON -DCMAKE_BUILD_TYPE=Debug)
+  extra=(-DCRUMPLE_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo)
+  export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:abort_on_error=0"
+  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+  export LSAN_OPTIONS="suppressions=$(pwd)/tools/lsan.supp"
 fi
 tools/setup-deps.sh
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo "${extra[@]}" >/dev/null

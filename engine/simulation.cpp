@@ -181,7 +181,32 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
       b.surface = std::make_unique<deform::Surface>(g, mapRes, k, kc, maps);
     }
   }
+  if (d.vehicle.present) {
+    VehicleParams vp;
+    vp.wheels = d.vehicle.wheels;
+    vp.wheelRadius = d.vehicle.wheelRadius;
+    vp.suspensionRest = d.vehicle.suspensionRest;
+    vp.stiffness = d.vehicle.suspensionStiffness;
+    vp.damping = d.vehicle.suspensionDamping;
+    vp.engineForce = d.vehicle.engineForce;
+    vp.brakeForce = d.vehicle.brakeForce;
+    vp.maxSteer = d.vehicle.maxSteer;
+    vp.grip = d.vehicle.tyreGrip;
+    vehicles_.push_back({static_cast<int>(bodies_.size()), Vehicle(b.index, vp), d.vehicle.script, false, {}});
+  }
   bodies_.push_back(std::move(b));
+}
+
+VehicleControls Simulation::scriptAt(const std::vector<VehicleInput>& script, double t) {
+  VehicleControls c;
+  for (const VehicleInput& in : script) {
+    if (in.time > t) break;
+    c.throttle = in.throttle;
+    c.steer = in.steer;
+    c.brake = in.brake;
+    c.handbrake = in.handbrake;
+  }
+  return c;
 }
 
 glm::dmat4 Simulation::model(int i) const {
@@ -193,6 +218,11 @@ void Simulation::step() {
   const double h = scene_.timestep;
   auto t0 = Clock::now();
   if (beforeStep) beforeStep(*this, h);
+  for (VehicleRuntime& v : vehicles_) {
+    const VehicleControls c = v.manual ? v.controls : scriptAt(v.script, world_.time());
+    world_.wake(v.vehicle.body());
+    v.vehicle.apply(world_, c, h);
+  }
   world_.step(h);
   timings_.physicsMs += msSince(t0);
   ++steps_;

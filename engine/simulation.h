@@ -11,6 +11,7 @@
 #include "deform/deformer.h"
 #include "deform/surface.h"
 #include "engine/scene.h"
+#include "physics/vehicle.h"
 #include "physics/world.h"
 
 namespace crumple {
@@ -40,6 +41,14 @@ struct BodyRuntime {
   double thickness = 0.05;
 };
 
+struct VehicleRuntime {
+  int body = -1;  // index in Simulation::bodies()
+  Vehicle vehicle;
+  std::vector<VehicleInput> script;
+  bool manual = false;  // the sandbox drives: `controls` instead of the script
+  VehicleControls controls;
+};
+
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
   long steps = 0, deformations = 0, frames = 0;
@@ -60,6 +69,9 @@ class Simulation {
   long steps() const { return steps_; }
   Timings& timings() { return timings_; }
   deform::Deformer* deformer() { return deformer_.get(); }
+  std::vector<VehicleRuntime>& vehicles() { return vehicles_; }
+  // The scripted input at time t (the last entry at or before t; zero before the first).
+  static VehicleControls scriptAt(const std::vector<VehicleInput>& script, double t);
   void setDeformPath(DeformPath p);
   // Shape frame to world for body i (current pose).
   glm::dmat4 model(int i) const;
@@ -77,6 +89,7 @@ class Simulation {
   World world_;
   std::vector<BodyRuntime> bodies_;
   std::vector<EventRecord> events_;
+  std::vector<VehicleRuntime> vehicles_;
   std::unique_ptr<deform::Deformer> deformer_;
   std::map<std::string, std::shared_ptr<const Shape>> shapeCache_;
   std::map<std::string, std::shared_ptr<const TriangleMesh>> meshCache_;

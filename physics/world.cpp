@@ -183,6 +183,41 @@ void World::pairContacts(const Pair& pair, const Pose& pa, const Pose& pb, std::
   sortContacts(out);
 }
 
+bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxDistance, int ignore, RayHit& hit) const {
+  bool found = false;
+  hit.distance = maxDistance;
+  const glm::dvec3 end = origin + dir * maxDistance;
+  const glm::dvec3 rlo = glm::min(origin, end), rhi = glm::max(origin, end);
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    if (static_cast<int>(i) == ignore) continue;
+    const RigidBody& b = bodies_[i];
+    const Pose pose{b.x, b.q};
+    const Aabb box = worldBounds(*b.shape, b.localCom, pose);
+    if (box.lo.x > rhi.x || box.lo.y > rhi.y || box.lo.z > rhi.z || box.hi.x < rlo.x || box.hi.y < rlo.y || box.hi.z < rlo.z)
+      continue;
+    const glm::dmat3 rt = glm::transpose(b.rotation());
+    const glm::dvec3 o = rt * (origin - b.x) + b.localCom, d = rt * dir;
+    double t = 0;
+    for (int it = 0; it < 128 && t <= hit.distance; ++it) {
+      const double phi = b.shape->distance(o + d * t);
+      if (phi < 1e-4) {
+        if (t < hit.distance || !found) {
+          glm::dvec3 g;
+          b.shape->distance(o + d * t, &g);
+          hit.body = static_cast<int>(i);
+          hit.distance = t;
+          hit.point = origin + dir * t;
+          hit.normal = glm::normalize(b.rotation() * g);
+          found = true;
+        }
+        break;
+      }
+      t += std::max(phi, 1e-4);
+    }
+  }
+  return found;
+}
+
 void World::findCandidates(double h) {
   const double g = glm::length(settings_.gravity);
   for (Pair& pair : pairs_) {

@@ -69,6 +69,12 @@ struct Contact {
   double phi = 0;                  // < 0: penetrating
 };
 
+struct RayHit {
+  int body = -1;
+  double distance = 0;
+  glm::dvec3 point{0}, normal{0};
+};
+
 struct StepStats {
   int substeps = 0;
   int pairs = 0;
@@ -99,6 +105,10 @@ class World {
   void addForceAtPoint(int i, const glm::dvec3& force, const glm::dvec3& point);
   void addForce(int i, const glm::dvec3& force);
   void addTorque(int i, const glm::dvec3& torque);
+
+  // First surface along a ray (unit direction) within maxDistance, skipping body
+  // `ignore`; sphere tracing through the bodies' distance fields.
+  bool raycast(const glm::dvec3& origin, const glm::dvec3& direction, double maxDistance, int ignore, RayHit& hit) const;
 
   // Finds the contacts between a and b at the given poses, all penetrating
   // sample points (both directions), deepest first.

@@ -2,6 +2,7 @@
 // folders, determinism, a user's glTF model as a mesh body.
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -160,4 +161,51 @@ TEST_CASE("a user's OBJ model without texture coordinates dropped into a scene i
   int dented = 0;
   for (float v : h.pixels) dented += v < 0.49f;
   CHECK(dented > 10);
+}
+
+TEST_CASE("every shipped scene runs headless and writes its outputs") {
+  for (const auto& entry : fs::directory_iterator(CRUMPLE_SCENES)) {
+    if (entry.path().extension() != ".json") continue;
+    const std::string name = entry.path().stem().string();
+    CAPTURE(name);
+    const fs::path out = kTmp / ("scene_" + name);
+    fs::remove_all(out);
+    std::string log;
+    REQUIRE(runSim(entry.path().string() + " --out " + out.string() + " --duration 0.5 --quiet", &log) == 0);
+    CAPTURE(log);
+    CHECK(fs::exists(out / "summary.json"));
+    CHECK(fs::exists(out / "events.jsonl"));
+    const json s = json::parse(slurp(out / "summary.json"));
+    for (const auto& b : s["bodies"])
+      for (int i = 0; i < 3; ++i) CHECK(std::isfinite(b["position"][i].get<double>()));
+  }
+}
+
+TEST_CASE("highway: the scripted car hits the guard rail and dents both car and rail") {
+  const fs::path out = kTmp / "highway_full";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/highway.json --out " + out.string() + " --duration 4.5 --quiet", &log) == 0);
+  CAPTURE(log);
+  bool railDented = false, carDented = false;
+  std::ifstream ev(out / "events.jsonl");
+  std::string line;
+  while (std::getline(ev, line)) {
+    const json e = json::parse(line);
+    for (const char* side : {"a_side", "b_side"}) {
+      const std::string body = e[side == std::string("a_side") ? "a" : "b"].get<std::string>();
+      const bool changed = e[side]["texels_changed"].get<int>() > 0;
+      if (changed && body.rfind("rail", 0) == 0) railDented = true;
+      if (changed && body == "car") carDented = true;
+    }
+  }
+  CHECK(railDented);
+  CHECK(carDented);
+  for (const char* map : {"car.png", "rail_left.png"}) {
+    const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / map).string());
+    float lowest = 1;
+    for (float v : h.pixels) lowest = std::min(lowest, v);
+    CAPTURE(map);
+    CHECK(lowest < 0.49f);
+  }
 }

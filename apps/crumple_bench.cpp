@@ -1,0 +1,314 @@
+// crumple-bench: speed, measured side by side in one run.
+//   physics: crumple vs Bullet 3 on a 20-level box pyramid (210 boxes), a pile
+//            of 1000 boxes and 200 nonconvex mesh bodies (tori); ms per step
+//   deform:  the GPU path vs the paper's read-back path, ms per deformation
+//            (both sides of one event) at address maps of 256..2048
+//   render:  ms per 1280x720 frame with parallax occlusion on and off
+// Prints Google Benchmark's table, then the ratios.
+#include <benchmark/benchmark.h>
+#include <btBulletDynamicsCommon.h>
+#include <BulletCollision/Gimpact/btGImpactCollisionAlgorithm.h>
+#include <BulletCollision/Gimpact/btGImpactShape.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <glm/gtc/constants.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <map>
+#include <memory>
+
+#include "deform/deformer.h"
+#include "engine/primitives.h"
+#include "physics/world.h"
+#include "render/gl_context.h"
+#include "render/renderer.h"
+
+using namespace crumple;
+
+namespace {
+
+constexpr double kStep = 1.0 / 240;
+
+// ---- scenes, described once and built in both engines ----------------------
+struct BoxSpec {
+  glm::dvec3 size, position;
+};
+struct SceneSpec {
+  std::vector<BoxSpec> boxes;
+  int tori = 0;
+};
+
+SceneSpec pyramid(int levels) {
+  SceneSpec s;
+  for (int row = 0; row < levels; ++row)
+    for (int k = 0; k < levels - row; ++k)
+      s.boxes.push_back({{0.5, 0.5, 0.5}, {(k - (levels - row - 1) / 2.0) * 0.51, 0.25 + row * 0.5, 0}});
+  return s;
+}
+SceneSpec pile(int n) {
+  SceneSpec s;
+  for (int k = 0; k < n; ++k)
+    s.boxes.push_back({{0.4, 0.4, 0.4}, {(k % 10) * 0.5 - 2.25 + 0.05 * ((k / 100) % 2), 0.3 + 0.5 * (k / 100), ((k / 10) % 10) * 0.5 - 2.25}});
+  return s;
+}
+SceneSpec toriScene(int n) {
+  SceneSpec s;
+  s.tori = n;
+  return s;
+}
+glm::dvec3 torusPosition(int k) { return {-2.0 + 0.85 * (k % 6), 0.5 + 0.85 * (k / 36), -2.0 + 0.85 * ((k / 6) % 6)}; }
+glm::dquat torusOrientation(int k) { return glm::angleAxis(0.7 * k, glm::normalize(glm::dvec3(1, 0.3 * (k % 3), 0.5))); }
+
+TriangleMesh torusMesh() {
+  TriangleMesh m;
+  const float tau = glm::two_pi<float>(), R = 0.3f, r = 0.1f;
+  const int nu = 16, nv = 8;
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nv; ++j) {
+      const float u = tau * i / nu, v = tau * j / nv;
+      m.positions.push_back(glm::vec3(std::cos(u) * (R + r * std::cos(v)), r * std::sin(v), std::sin(u) * (R + r * std::cos(v))));
+    }
+  auto id = [&](int i, int j) { return static_cast<unsigned>((i % nu) * nv + (j % nv)); };
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nv; ++j) {
+      m.triangles.push_back({id(i, j), id(i, j + 1), id(i + 1, j + 1)});
+      m.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i + 1, j)});
+    }
+  if (polyhedralMassProperties(m).volume < 0)
+    for (auto& t : m.triangles) std::swap(t.y, t.z);
+  m.computeNormals();
+  return m;
+}
+
+std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
+  auto w = std::make_unique<World>();
+  BodyDef g;
+  g.shape = makeBox({60, 1, 60});
+  g.origin = {0, -0.5, 0};
+  g.isStatic = true;
+  g.friction = 0.6;
+  g.restitution = 0.1;
+  w->addBody(g);
+  for (const auto& b : spec.boxes) {
+    BodyDef d;
+    d.shape = makeBox(b.size);
+    d.origin = b.position;
+    d.friction = 0.6;
+    d.restitution = 0.1;
+    w->addBody(d);
+  }
+  if (spec.tori) {
+    const auto torus = makeMeshShape(torusMesh(), 32);
+    for (int k = 0; k < spec.tori; ++k) {
+      BodyDef d;
+      d.shape = torus;
+      d.origin = torusPosition(k);
+      d.orientation = torusOrientation(k);
+      d.friction = 0.5;
+      d.restitution = 0.2;
+      d.density = 800;
+      w->addBody(d);
+    }
+  }
+  return w;
+}
+
+struct BulletWorld {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  btSequentialImpulseConstraintSolver solver;
+  btDiscreteDynamicsWorld world{&dispatcher, &broadphase, &solver, &config};
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btDefaultMotionState>> motions;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  TriangleMesh torus;
+  std::unique_ptr<btTriangleIndexVertexArray> torusArray;
+  std::vector<int> torusIndices;
+  std::vector<btScalar> torusVertices;
+  explicit BulletWorld(const SceneSpec& spec) {
+    btGImpactCollisionAlgorithm::registerAlgorithm(&dispatcher);
+    world.setGravity(btVector3(0, -9.81f, 0));
+    add(new btBoxShape(btVector3(30, 0.5f, 30)), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity());
+    for (const auto& b : spec.boxes) {
+      const glm::dvec3 h = b.size * 0.5;
+      add(new btBoxShape(btVector3(btScalar(h.x), btScalar(h.y), btScalar(h.z))), btScalar(b.size.x * b.size.y * b.size.z * 1000),
+          btVector3(btScalar(b.position.x), btScalar(b.position.y), btScalar(b.position.z)), btQuaternion::getIdentity());
+    }
+    if (spec.tori) {
+      torus = torusMesh();
+      for (const auto& p : torus.positions) torusVertices.insert(torusVertices.end(), {p.x, p.y, p.z});
+      for (const auto& t : torus.triangles) torusIndices.insert(torusIndices.end(), {int(t.x), int(t.y), int(t.z)});
+      torusArray = std::make_unique<btTriangleIndexVertexArray>(int(torus.triangles.size()), torusIndices.data(), 3 * sizeof(int),
+                                                                int(torus.positions.size()), torusVertices.data(), 3 * sizeof(btScalar));
+      const double mass = polyhedralMassProperties(torus).volume * 800;
+      for (int k = 0; k < spec.tori; ++k) {
+        auto* shape = new btGImpactMeshShape(torusArray.get());
+        shape->updateBound();
+        const glm::dvec3 p = torusPosition(k);
+        const glm::dquat q = torusOrientation(k);
+        add(shape, btScalar(mass), btVector3(btScalar(p.x), btScalar(p.y), btScalar(p.z)),
+            btQuaternion(btScalar(q.x), btScalar(q.y), btScalar(q.z), btScalar(q.w)));
+      }
+    }
+  }
+  void add(btCollisionShape* shape, btScalar mass, const btVector3& pos, const btQuaternion& q) {
+    shapes.emplace_back(shape);
+    btVector3 inertia(0, 0, 0);
+    if (mass > 0) shape->calculateLocalInertia(mass, inertia);
+    motions.push_back(std::make_unique<btDefaultMotionState>(btTransform(q, pos)));
+    btRigidBody::btRigidBodyConstructionInfo info(mass, motions.back().get(), shape, inertia);
+    info.m_friction = 0.6f;
+    info.m_restitution = 0.1f;
+    bodies.push_back(std::make_unique<btRigidBody>(info));
+    world.addRigidBody(bodies.back().get());
+  }
+  ~BulletWorld() {
+    for (auto& b : bodies) world.removeRigidBody(b.get());
+  }
+};
+
+int gSteps = 240;
+
+void crumplePhysics(benchmark::State& state, SceneSpec spec) {
+  auto w = crumpleWorld(spec);
+  for (auto _ : state) w->step(kStep);
+  state.counters["bodies"] = static_cast<double>(w->size());
+}
+void bulletPhysics(benchmark::State& state, SceneSpec spec) {
+  BulletWorld w(spec);
+  for (auto _ : state) w.world.stepSimulation(btScalar(kStep), 0);
+  state.counters["bodies"] = static_cast<double>(w.bodies.size());
+}
+
+// ---- deformation ----------------------------------------------------------
+struct DeformStage {
+  std::shared_ptr<deform::GpuMesh> plate = std::make_shared<deform::GpuMesh>(boxMesh({2, 0.2, 2}, 1024));
+  std::shared_ptr<deform::GpuMesh> ball = std::make_shared<deform::GpuMesh>(sphereMesh(0.25, 512));
+};
+DeformStage* gDeformStage = nullptr;
+
+void deformBench(benchmark::State& state, deform::Path path) {
+  const int size = static_cast<int>(state.range(0));
+  deform::Deformer d({size, path});
+  DeformStage& s = *gDeformStage;
+  deform::Surface plate(s.plate, 1024, 0.1f, 0.02f, d.createMaps(1024, nullptr, 0.1f, float(s.plate->metresPerUv / 1024)));
+  deform::Surface ball(s.ball, 512, 0.1f, 0.02f, d.createMaps(512, nullptr, 0.1f, float(s.ball->metresPerUv / 512)));
+  deform::DeformRequest rq;
+  rq.a = {&plate, s.plate.get(), glm::dmat4(1)};
+  rq.b = {&ball, s.ball.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.35, 0))};
+  rq.point = {0, 0.1, 0};
+  rq.normal = {0, 1, 0};
+  rq.deformA = 0.002;
+  rq.deformB = 0.001;
+  d.deform(rq);
+  glFinish();
+  for (auto _ : state) {
+    d.deform(rq);
+    glFinish();
+  }
+}
+
+// ---- rendering --------------------------------------------------------------
+void renderBench(benchmark::State& state, bool pom) {
+  DeformStage& s = *gDeformStage;
+  deform::Deformer d({256, deform::Path::Gpu});
+  auto maps = d.createMaps(1024, nullptr, 0.1f, float(s.plate->metresPerUv / 1024));
+  render::Renderer r(1280, 720);
+  r.settings().parallax = pom ? render::ParallaxMode::Occlusion : render::ParallaxMode::None;
+  std::vector<render::RenderItem> items;
+  for (int k = 0; k < 9; ++k) {
+    render::RenderItem it;
+    it.vao = s.plate->vao.id();
+    it.indexCount = s.plate->indexCount;
+    it.model = glm::translate(glm::mat4(1), glm::vec3((k % 3) * 2.1f - 2.1f, 0, (k / 3) * 2.1f - 2.1f));
+    it.height = maps->height.id();
+    it.normal = maps->normal.id();
+    it.boundsMin = s.plate->boundsMin;
+    it.boundsMax = s.plate->boundsMax;
+    items.push_back(it);
+  }
+  render::View v;
+  v.eye = {4, 3, 5};
+  for (auto _ : state) {
+    r.draw(items, v);
+    glFinish();
+  }
+}
+
+class Collector : public benchmark::ConsoleReporter {
+ public:
+  std::map<std::string, double> ms;  // per iteration
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const auto& r : runs) {
+      std::string name = r.benchmark_name();
+      name = name.substr(0, name.find("/iterations:"));
+      ms[name] = r.GetAdjustedRealTime() * 1e3 / benchmark::GetTimeUnitMultiplier(r.time_unit);
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"crumple-bench: crumple vs Bullet (physics), GPU vs read-back (deformation), POM on/off (render); "
+               "prints ms per step/deformation/frame and the ratios."};
+  bool quick = false, noGl = false;
+  std::string filter;
+  app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
+  app.add_flag("--no-gl", noGl, "Physics only");
+  app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
+  CLI11_PARSE(app, argc, argv);
+  gSteps = quick ? 24 : 240;
+
+  struct PhysicsCase {
+    std::string name;
+    SceneSpec spec;
+  };
+  std::vector<PhysicsCase> cases = {{"pyramid20_210boxes", pyramid(quick ? 6 : 20)},
+                                    {"pile_1000boxes", pile(quick ? 100 : 1000)},
+                                    {"tori_200meshes", toriScene(quick ? 20 : 200)}};
+  for (const auto& c : cases) {
+    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
+  }
+  std::unique_ptr<render::GlContext> gl;
+  std::unique_ptr<DeformStage> stage;
+  if (!noGl) {
+    gl = render::createHeadlessContext({true, false});
+    std::printf("GL: %s\n", gl->description().c_str());
+    stage = std::make_unique<DeformStage>();
+    gDeformStage = stage.get();
+    for (int size : {256, 512, 1024, 2048}) {
+      benchmark::RegisterBenchmark("deform/gpu", deformBench, deform::Path::Gpu)->Arg(size)->Iterations(quick ? 3 : 20)->Unit(benchmark::kMillisecond);
+      benchmark::RegisterBenchmark("deform/readback", deformBench, deform::Path::Readback)->Arg(size)->Iterations(quick ? 3 : 20)->Unit(benchmark::kMillisecond);
+    }
+    benchmark::RegisterBenchmark("render/1280x720/pom", renderBench, true)->Iterations(quick ? 2 : 10)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("render/1280x720/no_parallax", renderBench, false)->Iterations(quick ? 2 : 10)->Unit(benchmark::kMillisecond);
+  }
+  std::vector<char*> args = {argv[0]};
+  std::string filterArg = "--benchmark_filter=" + filter;
+  if (!filter.empty()) args.push_back(filterArg.data());
+  int n = static_cast<int>(args.size());
+  benchmark::Initialize(&n, args.data());
+  Collector collector;
+  benchmark::RunSpecifiedBenchmarks(&collector);
+
+  auto ms = [&](const std::string& k) { return collector.ms.count(k) ? collector.ms[k] : NAN; };
+  std::printf("\n== ratios ==\n");
+  for (const auto& c : cases) {
+    const double a = ms("physics/crumple/" + c.name), b = ms("physics/bullet/" + c.name);
+    std::printf("physics %-22s crumple %8.3f ms/step  bullet %8.3f ms/step  crumple/bullet %6.2fx\n", c.name.c_str(), a, b, a / b);
+  }
+  for (int size : {256, 512, 1024, 2048}) {
+    const std::string s = "/" + std::to_string(size);
+    const double g = ms("deform/gpu" + s), r = ms("deform/readback" + s);
+    if (!std::isnan(g)) std::printf("deform  address map %4d       gpu %8.3f ms  readback %8.3f ms  readback/gpu %6.2fx\n", size, g, r, r / g);
+  }
+  const std::string it;
+  const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);
+  if (!std::isnan(p)) std::printf("render  1280x720   pom %8.3f ms/frame  no parallax %8.3f ms/frame  pom/none %6.2fx\n", p, f, p / f);
+  return 0;
+}

@@ -1,0 +1,77 @@
+#include "physics/vehicle.h"
+
+#include <algorithm>
+#include <glm/gtc/matrix_transform.hpp>
+#include <cmath>
+
+namespace crumple {
+
+double Vehicle::speed(const World& world) const {
+  const RigidBody& b = world.body(body_);
+  return glm::dot(b.v, b.rotation() * glm::dvec3(1, 0, 0));
+}
+
+void Vehicle::apply(World& world, const VehicleControls& c, double h) {
+  const RigidBody& b = world.body(body_);
+  const glm::dmat3 r = b.rotation();
+  const glm::dvec3 up = r * glm::dvec3(0, 1, 0), forward = r * glm::dvec3(1, 0, 0);
+  const double reach = params_.suspensionRest + params_.wheelRadius;
+  const double wheelMass = b.mass / std::max<size_t>(1, params_.wheels.size());
+  const double steer = std::clamp(c.steer, -1.0, 1.0) * params_.maxSteer;
+  int grounded = 0;
+  for (size_t i = 0; i < params_.wheels.size(); ++i) {
+    WheelState& w = wheels_[i];
+    const glm::dvec3 origin = b.x + r * (params_.wheels[i] - b.localCom);
+    RayHit hit;
+    w.onGround = world.raycast(origin, -up, reach, body_, hit);
+    grounded += w.onGround;
+  }
+  for (size_t i = 0; i < params_.wheels.size(); ++i) {
+    WheelState& w = wheels_[i];
+    if (!w.onGround) {
+      w.compression = 0;
+      w.load = 0;
+      continue;
+    }
+    const glm::dvec3 origin = b.x + r * (params_.wheels[i] - b.localCom);
+    RayHit hit;
+    world.raycast(origin, -up, reach, body_, hit);
+    w.contact = hit.point;
+    const double compression = reach - hit.distance;
+    const double rate = (compression - w.compression) / h;
+    w.compression = compression;
+    const glm::dvec3 pointVelocity = b.velocityAt(hit.point);
+    // Suspension: spring and damper along the chassis' up axis, never pulling down.
+    w.load = std::max(0.0, params_.stiffness * compression + params_.damping * rate);
+    glm::dvec3 force = up * w.load;
+    // Tyre frame on the ground.
+    const bool front = params_.wheels[i].x > b.localCom.x;
+    glm::dvec3 dir = forward;
+    if (front && steer != 0) dir = glm::dvec3(glm::dmat4(glm::rotate(glm::dmat4(1), steer, up)) * glm::dvec4(forward, 0));
+    dir = glm::normalize(dir - hit.normal * glm::dot(dir, hit.normal));
+    const glm::dvec3 side = glm::normalize(glm::cross(hit.normal, dir));
+    const double friction = params_.grip * w.load;
+    const bool rear = !front;
+    // Lateral: remove the sideways slip at the contact within a couple of steps.
+    const double vSide = glm::dot(pointVelocity, side);
+    double lateral = -vSide * wheelMass / (2 * h);
+    const double lateralLimit = (c.handbrake && rear) ? 0.3 * friction : friction;
+    lateral = std::clamp(lateral, -lateralLimit, lateralLimit);
+    // Longitudinal: engine drive, brakes (never reversing the wheel), friction-limited together.
+    const double vLong = glm::dot(pointVelocity, dir);
+    double longitudinal = std::clamp(c.throttle, -1.0, 1.0) * params_.engineForce / std::max(grounded, 1);
+    double brake = std::clamp(c.brake, 0.0, 1.0) * params_.brakeForce / std::max(grounded, 1);
+    if (c.handbrake && rear) brake = std::max(brake, params_.brakeForce / std::max(grounded, 1));
+    const double stop = -vLong * wheelMass / h;  // the force that would stop this wheel in one step
+    longitudinal += std::clamp(stop, -brake, brake);
+    const double total = std::hypot(lateral, longitudinal);
+    if (total > friction && total > 0) {
+      lateral *= friction / total;
+      longitudinal *= friction / total;
+    }
+    force += side * lateral + dir * longitudinal;
+    world.addForceAtPoint(body_, force, hit.point);
+  }
+}
+
+}  // namespace crumple

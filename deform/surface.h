@@ -40,6 +40,10 @@ class Surface {
   int resolution() const { return resolution_; }
   float bumpDepth() const { return k_; }
   float bumpDepthCollide() const { return kCollide_; }
+  void setBumpDepths(float k, float kCollide) {
+    k_ = k;
+    kCollide_ = kCollide;
+  }
   const render::Texture2D& height() const { return maps_->height; }
   const render::Texture2D& normal() const { return maps_->normal; }
   // Gives this surface its own maps (copies of the shared ones) before it is changed.

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -57,6 +58,29 @@ void Simulation::setDeformPath(DeformPath p) {
   if (deformer_) {
     deform::DeformOptions o = deformer_->options();
     o.path = p == DeformPath::Gpu ? deform::Path::Gpu : deform::Path::Readback;
+    deformer_->setOptions(o);
+  }
+}
+
+void Simulation::setRestitution(const std::string& material, double eps) {
+  Material& m = scene_.materials.at(material);
+  m.restitution = std::clamp(eps, 0.0, 1.0);
+  for (const BodyRuntime& b : bodies_)
+    if (b.material == &m) world_.body(b.index).restitution = m.restitution;
+}
+
+void Simulation::setBumpDepths(double k, double kCollide) {
+  scene_.deformation.bumpDepth = k;
+  scene_.deformation.bumpDepthCollide = kCollide;
+  for (BodyRuntime& b : bodies_)
+    if (b.surface) b.surface->setBumpDepths(static_cast<float>(k), static_cast<float>(kCollide));
+}
+
+void Simulation::setAddressMap(int size) {
+  scene_.deformation.addressMap = size;
+  if (deformer_) {
+    deform::DeformOptions o = deformer_->options();
+    o.addressMap = size;
     deformer_->setOptions(o);
   }
 }
@@ -437,7 +461,16 @@ std::string_view shaderSource(std::string_view name);
 
 std::string builtinSceneText(const std::string& name) {
   if (name == "default" || name == "sphere-into-plate") return std::string(engine::scenes::shaderSource("sphere-into-plate.json"));
+  if (name == "highway") return std::string(engine::scenes::shaderSource("highway.json"));
+  if (name == "car.obj") return std::string(engine::scenes::shaderSource("car.obj"));
   throw std::invalid_argument("no built-in scene named " + name);
+}
+
+Scene builtinHighway() {
+  const fs::path dir = fs::temp_directory_path() / ("crumple-highway-" + std::to_string(::getpid()));
+  fs::create_directories(dir / "assets");
+  std::ofstream(dir / "assets" / "car.obj") << builtinSceneText("car.obj");
+  return parseScene(builtinSceneText("highway"), "<built-in highway scene>", dir.string());
 }
 
 }  // namespace crumple

@@ -73,6 +73,12 @@ class Simulation {
   // The scripted input at time t (the last entry at or before t; zero before the first).
   static VehicleControls scriptAt(const std::vector<VehicleInput>& script, double t);
   void setDeformPath(DeformPath p);
+  // Live changes (the sandbox's panel).
+  std::map<std::string, Material>& sceneMaterials() { return scene_.materials; }
+  DeformationSettings& deformationSettings() { return scene_.deformation; }
+  void setRestitution(const std::string& material, double eps);
+  void setBumpDepths(double k, double kCollide);
+  void setAddressMap(int size);
   // Shape frame to world for body i (current pose).
   glm::dmat4 model(int i) const;
   // Fetches the per-event texel statistics (one small read of the GPU's counters).
@@ -116,7 +122,9 @@ class OutputWriter {
   bool committed_ = false;
 };
 
-// The built-in default scene (sphere into plate), as scene-file text.
+// Built-in files as text: "default" (sphere into plate), "highway" and its "car.obj".
 std::string builtinSceneText(const std::string& name = "default");
+// The built-in highway scene, its car mesh written to a temporary folder.
+Scene builtinHighway();
 
 }  // namespace crumple

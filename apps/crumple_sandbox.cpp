@@ -1,0 +1,299 @@
+// crumple-sandbox: drive a car into guard rails and watch the dents form.
+// A GLFW window with the parallax-occlusion renderer and an imgui panel.
+// Keys: W/S or Up/Down throttle and brake/reverse, A/D or Left/Right steer,
+// Space hand-brake, C follow/orbit camera, P pause, N step, R reset, F12 screenshot,
+// 1-5 debug views (shaded, height, normal, address map, wireframe), M parallax mode.
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+
+#include <epoxy/gl.h>
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <imgui_impl_glfw.h>
+#include <imgui_impl_opengl3.h>
+
+#include "engine/scene_view.h"
+#include "engine/simulation.h"
+#include "physics/log.h"
+#include "render/capture.h"
+#include "render/gl_context.h"
+#include "render/renderer.h"
+
+using namespace crumple;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct App {
+  Scene scene;
+  std::unique_ptr<Simulation> sim;
+  std::unique_ptr<render::Renderer> renderer;
+  bool paused = false, stepOnce = false, follow = true, autopilot = false;
+  float orbitYaw = 0.6f, orbitPitch = 0.35f, orbitDistance = 12.0f;
+  glm::vec3 orbitTarget{0};
+  double physicsMs = 0, deformMs = 0, renderMs = 0;
+  long shots = 0;
+
+  void reset() {
+    sim = std::make_unique<Simulation>(scene, true);
+    for (auto& v : sim->vehicles()) v.manual = !autopilot;
+  }
+
+  int carBody() {
+    return sim->vehicles().empty() ? -1 : sim->vehicles().front().body;
+  }
+
+  render::View view() {
+    render::View v;
+    const int car = carBody();
+    if (follow && car >= 0) {
+      const glm::dmat4 m = sim->model(car);
+      const glm::vec3 pos = glm::vec3(m[3]);
+      const glm::vec3 fwd = glm::normalize(glm::vec3(m * glm::dvec4(1, 0, 0, 0)) * glm::vec3(1, 0, 1) + glm::vec3(1e-4f, 0, 0));
+      v.eye = pos - fwd * 8.0f + glm::vec3(0, 3.5f, 0);
+      v.target = pos + fwd * 2.0f;
+    } else {
+      if (car >= 0) orbitTarget = glm::vec3(sim->model(car)[3]);
+      v.target = orbitTarget;
+      v.eye = orbitTarget + orbitDistance * glm::vec3(std::cos(orbitPitch) * std::cos(orbitYaw), std::sin(orbitPitch),
+                                                     std::cos(orbitPitch) * std::sin(orbitYaw));
+    }
+    if (!follow && !scene.cameras.empty() && car < 0) {
+      v = cameraView(scene.cameras.front());
+    }
+    v.fovDegrees = 50;
+    return v;
+  }
+};
+
+void drive(App& app, GLFWwindow* w) {
+  if (app.autopilot) return;
+  for (auto& v : app.sim->vehicles()) {
+    auto key = [&](int a, int b) { return glfwGetKey(w, a) == GLFW_PRESS || glfwGetKey(w, b) == GLFW_PRESS; };
+    VehicleControls c;
+    const double speed = v.vehicle.speed(app.sim->world());
+    if (key(GLFW_KEY_W, GLFW_KEY_UP)) c.throttle = 1;
+    if (key(GLFW_KEY_S, GLFW_KEY_DOWN)) {
+      if (speed > 0.5) c.brake = 1;
+      else c.throttle = -0.5;
+    }
+    if (key(GLFW_KEY_A, GLFW_KEY_LEFT)) c.steer += 1;
+    if (key(GLFW_KEY_D, GLFW_KEY_RIGHT)) c.steer -= 1;
+    c.handbrake = glfwGetKey(w, GLFW_KEY_SPACE) == GLFW_PRESS;
+    v.manual = true;
+    v.controls = c;
+  }
+}
+
+void panel(App& app) {
+  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(330, 0), ImGuiCond_FirstUseEver);
+  // Small windows (automated runs) start with the panel folded, out of the picture.
+  ImGui::SetNextWindowCollapsed(app.renderer->width() < 800, ImGuiCond_FirstUseEver);
+  ImGui::Begin("crumple");
+  ImGui::Text("t = %.2f s   step %ld", app.sim->world().time(), app.sim->steps());
+  ImGui::Text("physics %.2f ms  deform %.2f ms  render %.2f ms", app.physicsMs, app.deformMs, app.renderMs);
+  ImGui::Text("collisions %zu  deformations %ld", app.sim->events().size(), app.sim->timings().deformations);
+  if (!app.sim->vehicles().empty()) ImGui::Text("speed %.1f km/h", app.sim->vehicles().front().vehicle.speed(app.sim->world()) * 3.6);
+  if (ImGui::Button(app.paused ? "Run" : "Pause")) app.paused = !app.paused;
+  ImGui::SameLine();
+  if (ImGui::Button("Step")) app.stepOnce = true;
+  ImGui::SameLine();
+  if (ImGui::Button("Reset")) app.reset();
+  ImGui::SameLine();
+  ImGui::Checkbox("Autopilot", &app.autopilot);
+  ImGui::Checkbox("Follow camera (C)", &app.follow);
+  if (ImGui::CollapsingHeader("Materials", ImGuiTreeNodeFlags_DefaultOpen)) {
+    for (auto& [name, m] : app.sim->sceneMaterials()) {
+      ImGui::PushID(name.c_str());
+      ImGui::Text("%s", name.c_str());
+      float kappa = static_cast<float>(m.kappa), eps = static_cast<float>(m.restitution), t = static_cast<float>(m.thickness);
+      if (ImGui::SliderFloat("kappa", &kappa, 0.0f, 0.001f, "%.6f", ImGuiSliderFlags_Logarithmic)) m.kappa = kappa;
+      if (ImGui::SliderFloat("eps", &eps, 0.0f, 1.0f)) app.sim->setRestitution(name, eps);
+      if (ImGui::SliderFloat("thickness", &t, 0.001f, 1.0f)) m.thickness = t;
+      ImGui::PopID();
+    }
+  }
+  if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) {
+    auto& d = app.sim->deformationSettings();
+    float k = static_cast<float>(d.bumpDepth), kc = static_cast<float>(d.bumpDepthCollide);
+    bool changed = ImGui::SliderFloat("k (bump depth)", &k, 0.01f, 0.3f);
+    changed |= ImGui::SliderFloat("k' (collide)", &kc, 0.0f, 0.1f);
+    if (changed) app.sim->setBumpDepths(k, kc);
+    static const int sizes[] = {256, 512, 1024, 2048};
+    int current = 0;
+    for (int i = 0; i < 4; ++i) if (sizes[i] == d.addressMap) current = i;
+    if (ImGui::Combo("address map", &current, "256\0" "512\0" "1024\0" "2048\0")) app.sim->setAddressMap(sizes[current]);
+    int path = d.path == DeformPath::Gpu ? 0 : 1;
+    if (ImGui::Combo("path", &path, "gpu\0readback\0")) app.sim->setDeformPath(path == 0 ? DeformPath::Gpu : DeformPath::Readback);
+    float floor = static_cast<float>(d.impulseFloor);
+    if (ImGui::SliderFloat("impulse floor", &floor, 0.0f, 5000.0f)) d.impulseFloor = floor;
+  }
+  if (ImGui::CollapsingHeader("Renderer", ImGuiTreeNodeFlags_DefaultOpen)) {
+    auto& s = app.renderer->settings();
+    int mode = static_cast<int>(s.parallax), debug = static_cast<int>(s.debug);
+    if (ImGui::Combo("parallax", &mode, "occlusion\0offset limited (paper)\0none\0")) s.parallax = static_cast<render::ParallaxMode>(mode);
+    if (ImGui::Combo("view", &debug, "shaded\0height map\0normal map\0address map\0wireframe\0")) s.debug = static_cast<render::DebugView>(debug);
+    ImGui::Checkbox("shadows", &s.shadows);
+    ImGui::SameLine();
+    ImGui::Checkbox("self-shadowing", &s.selfShadow);
+    ImGui::SliderInt("max steps", &s.maxSteps, 8, 128);
+  }
+  ImGui::End();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App cli{"crumple-sandbox: drive a car into guard rails and watch the dents form (GLFW window, imgui panel)."};
+  std::string scenePath, screenshot, outDir;
+  long frames = 0;
+  int width = 1280, height = 720;
+  bool autopilot = false, quiet = false;
+  cli.add_option("scene", scenePath, "Scene file; without one, the built-in highway scene");
+  cli.add_option("--frames", frames, "Run this many frames (1/60 s of simulation each), then exit");
+  cli.add_flag("--autopilot", autopilot, "Drive by the scene's vehicle script (a drive into the rails)");
+  cli.add_option("--screenshot", screenshot, "Write the last frame to this PNG on exit");
+  cli.add_option("--out", outDir, "Write crumple-sim's outputs (summary, events, maps) here on exit");
+  cli.add_option("--width", width, "Window width")->check(CLI::Range(64, 8192));
+  cli.add_option("--height", height, "Window height")->check(CLI::Range(64, 8192));
+  cli.add_flag("--quiet,-q", quiet, "Only errors");
+  CLI11_PARSE(cli, argc, argv);
+  setLogLevel(quiet ? LogLevel::Error : LogLevel::Info);
+
+  App app;
+  try {
+    app.scene = scenePath.empty() ? builtinHighway() : loadScene(scenePath);
+  } catch (const SceneError& e) {
+    std::cerr << "crumple-sandbox: error: " << e.what() << "\n";
+    return 2;
+  }
+  app.autopilot = autopilot;
+  try {
+    std::unique_ptr<OutputWriter> writer;
+    if (!outDir.empty()) writer = std::make_unique<OutputWriter>(outDir);
+    render::WindowOptions wo;
+    wo.width = width;
+    wo.height = height;
+    wo.title = "crumple sandbox: " + app.scene.name;
+    wo.vsync = frames == 0;
+    wo.debug = false;
+    render::WindowContext window(wo);
+    logInfo("GL: ", window.description());
+    app.reset();
+    app.renderer = std::make_unique<render::Renderer>(width, height);
+
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;
+    ImGui_ImplGlfw_InitForOpenGL(window.window(), true);
+    ImGui_ImplOpenGL3_Init("#version 450");
+
+    const double frameTime = 1.0 / 60.0;
+    const int stepsPerFrame = std::max(1, static_cast<int>(std::lround(frameTime / app.scene.timestep)));
+    double accumulator = 0;
+    auto last = Clock::now();
+    long frame = 0;
+    bool prevKeys[512] = {};
+    auto pressed = [&](int key) {
+      const bool down = glfwGetKey(window.window(), key) == GLFW_PRESS;
+      const bool edge = down && !prevKeys[key];
+      prevKeys[key] = down;
+      return edge;
+    };
+    while (!window.shouldClose() && (frames == 0 || frame < frames)) {
+      window.pollEvents();
+      const bool uiKeys = ImGui::GetIO().WantCaptureKeyboard;
+      if (!uiKeys) {
+        if (pressed(GLFW_KEY_C)) app.follow = !app.follow;
+        if (pressed(GLFW_KEY_P)) app.paused = !app.paused;
+        if (pressed(GLFW_KEY_N)) app.stepOnce = true;
+        if (pressed(GLFW_KEY_R)) app.reset();
+        if (pressed(GLFW_KEY_M)) {
+          auto& p = app.renderer->settings().parallax;
+          p = static_cast<render::ParallaxMode>((static_cast<int>(p) + 1) % 3);
+        }
+        for (int k = 0; k < 5; ++k)
+          if (pressed(GLFW_KEY_1 + k)) app.renderer->settings().debug = static_cast<render::DebugView>(k);
+        drive(app, window.window());
+      }
+      if (!app.follow && ImGui::IsMouseDragging(ImGuiMouseButton_Left) && !ImGui::GetIO().WantCaptureMouse) {
+        const ImVec2 d = ImGui::GetIO().MouseDelta;
+        app.orbitYaw += d.x * 0.005f;
+        app.orbitPitch = std::clamp(app.orbitPitch + d.y * 0.005f, -0.1f, 1.5f);
+      }
+      if (!ImGui::GetIO().WantCaptureMouse) app.orbitDistance = std::clamp(app.orbitDistance - ImGui::GetIO().MouseWheel, 2.0f, 80.0f);
+      for (auto& v : app.sim->vehicles()) v.manual = !app.autopilot;
+
+      // Fixed steps: in --frames runs exactly one frame's worth; interactively, real time.
+      const auto now = Clock::now();
+      accumulator += frames ? frameTime : std::min(0.1, std::chrono::duration<double>(now - last).count());
+      last = now;
+      int steps = 0;
+      if (app.paused) {
+        accumulator = 0;
+        if (app.stepOnce) steps = 1;
+      } else {
+        steps = static_cast<int>(accumulator / app.scene.timestep);
+        if (frames) steps = stepsPerFrame;
+        accumulator -= steps * app.scene.timestep;
+      }
+      app.stepOnce = false;
+      const double p0 = app.sim->timings().physicsMs, d0 = app.sim->timings().deformMs;
+      for (int s = 0; s < steps; ++s) app.sim->step();
+      if (steps) {
+        app.physicsMs = (app.sim->timings().physicsMs - p0) / steps;
+        app.deformMs = app.sim->timings().deformMs - d0;
+      }
+
+      int fw = 0, fh = 0;
+      window.framebufferSize(fw, fh);
+      if (fw > 0 && fh > 0) app.renderer->resize(fw, fh);
+      const auto r0 = Clock::now();
+      if (app.sim->deformer()) app.renderer->settings().addressMap = app.sim->deformer()->lastAddressMap().id();
+      app.renderer->draw(renderItems(*app.sim), app.view());
+      glBlitNamedFramebuffer(app.renderer->framebuffer(), 0, 0, 0, fw, fh, 0, 0, fw, fh, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+      app.renderMs = std::chrono::duration<double, std::milli>(Clock::now() - r0).count();
+
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      panel(app);
+      ImGui::Render();
+      glBindFramebuffer(GL_FRAMEBUFFER, 0);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      const bool last = frames && frame + 1 == frames;
+      if (pressed(GLFW_KEY_F12) || (last && !screenshot.empty())) {
+        const std::string path = last && !screenshot.empty() ? screenshot : "crumple-shot-" + std::to_string(app.shots++) + ".png";
+        render::captureToPng(0, fw, fh, path);
+        logInfo("screenshot: ", path);
+      }
+      window.swapBuffers();
+      ++frame;
+    }
+    if (writer) {
+      writer->write(*app.sim);
+      writer->commit();
+    }
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+    if (!quiet) std::printf("crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations\n", frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations);
+    app.sim.reset();
+    app.renderer.reset();
+    return 0;
+  } catch (const SceneError& e) {
+    std::cerr << "crumple-sandbox: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "crumple-sandbox: failed: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,45 @@
+// crumple-sandbox under Xvfb: the autopilot drives into the rails; the window's
+// last frame is a real picture and both the car and a rail are dented.
+#include <doctest/doctest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "render/image.h"
+
+namespace fs = std::filesystem;
+
+TEST_CASE("sandbox: --frames 600 --autopilot --screenshot ends with a picture and dented car and rail") {
+  const fs::path dir = fs::temp_directory_path() / "crumple_sandbox_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path shot = dir / "shot.png", out = dir / "out", log = dir / "log.txt";
+  const std::string cmd = std::string(CRUMPLE_SANDBOX) + " --frames 600 --autopilot --width 480 --height 270 --screenshot " +
+                          shot.string() + " --out " + out.string() + " > " + log.string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  std::ifstream lf(log);
+  std::stringstream ls;
+  ls << lf.rdbuf();
+  CAPTURE(ls.str());
+  REQUIRE(WIFEXITED(rc));
+  REQUIRE(WEXITSTATUS(rc) == 0);
+  const crumple::render::Image img = crumple::render::readPng(shot.string(), 3);
+  CHECK(img.width == 480);
+  CHECK(img.height == 270);
+  // Not blank: many distinct grey levels and real contrast.
+  double mean = 0, var = 0;
+  for (float v : img.pixels) mean += v;
+  mean /= img.pixels.size();
+  for (float v : img.pixels) var += (v - mean) * (v - mean);
+  var /= img.pixels.size();
+  CHECK(var > 0.002);
+  for (const char* map : {"car.png", "rail_left.png"}) {
+    CAPTURE(map);
+    const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / map).string());
+    float lowest = 1;
+    for (float v : h.pixels) lowest = std::min(lowest, v);
+    CHECK(lowest < 0.49f);
+  }
+}

@@ -196,3 +196,135 @@ TEST_CASE("repeated hits saturate at 0 and clamp") {
   CHECK(lowest == 0.0f);
   CHECK(last.saturated);
 }
+
+namespace {
+// A box B with a bump pattern on its map pressed face-first into a flat plate A.
+render::Image pressPatternedBox(Deformer& d, const render::Image* pattern, double depthA, double depthB,
+                                render::Image* boxAfter = nullptr) {
+  const int res = 256;
+  const TriangleMesh plateMesh = boxMesh({2, 0.2, 2}, res), boxMesh_ = boxMesh({0.6, 0.6, 0.6}, res);
+  auto plateGpu = std::make_shared<GpuMesh>(plateMesh), boxGpu = std::make_shared<GpuMesh>(boxMesh_);
+  Surface plate(plateGpu, res, 0.1f, 0.04f, d.createMaps(res, nullptr, 0.1f, float(plateGpu->metresPerUv / res)));
+  Surface box(boxGpu, res, 0.1f, 0.04f, d.createMaps(res, pattern, 0.1f, float(boxGpu->metresPerUv / res)));
+  DeformRequest rq;
+  rq.a = {&plate, plateGpu.get(), glm::dmat4(1)};
+  rq.b = {&box, boxGpu.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.1 + 0.3, 0))};
+  rq.point = {0, 0.1, 0};
+  rq.normal = {0, 1, 0};
+  rq.deformA = depthA;
+  rq.deformB = depthB;
+  d.deform(rq);
+  if (boxAfter) *boxAfter = box.downloadHeight();
+  return plate.downloadHeight();
+}
+}  // namespace
+
+TEST_CASE("a bump pattern on the striking face is printed into the other body (figure 7)") {
+  test::glContext();
+  Deformer d({512, Path::Gpu});
+  // Raised stripes on the box's map (everywhere, so whichever face strikes carries them).
+  render::Image stripes(256, 256, 1, 0.5f);
+  for (int y = 0; y < 256; ++y)
+    for (int x = 0; x < 256; ++x) stripes.at(x, y) = ((x / 8) % 2) ? 0.95f : 0.5f;
+  const render::Image flatPrint = pressPatternedBox(d, nullptr, 0.002, 0);
+  const render::Image stripedPrint = pressPatternedBox(d, &stripes, 0.002, 0);
+  // With a flat striker the dent is uniform; with stripes it has two depth levels (stripes press deeper).
+  auto levels = [](const render::Image& h) {
+    std::vector<float> dents;
+    for (float v : h.pixels)
+      if (v < 0.4999f) dents.push_back(0.5f - v);
+    std::sort(dents.begin(), dents.end());
+    return dents;
+  };
+  const auto flat = levels(flatPrint), striped = levels(stripedPrint);
+  REQUIRE(flat.size() > 100);
+  REQUIRE(striped.size() > 100);
+  const float flatSpread = flat[flat.size() * 9 / 10] - flat[flat.size() / 10];
+  const float stripedSpread = striped[striped.size() * 9 / 10] - striped[striped.size() / 10];
+  MESSAGE("dent depth spread (10th-90th percentile, in map units): flat " << flatSpread << ", striped " << stripedSpread);
+  CHECK(flatSpread < 0.005f);
+  // The stripes stand (0.95 - 0.5) k' = 0.018 m proud: in the plate's map (k = 0.1) that is 0.18.
+  CHECK(stripedSpread > 0.1f);
+}
+
+TEST_CASE("material asymmetry: a hard sphere dents a soft plate, the plate does not dent the sphere") {
+  test::glContext();
+  // Clay plate (eps 0.2) and steel ball (eps 0.95) in one collision with |j_eps=1| = 40.
+  const double j = 25, kappa = 0.02;
+  const double depthPlate = deformDepth(0.05, percentDeform(kappa, j, yieldThreshold(0.2)));
+  const double depthBall = deformDepth(0.005, percentDeform(kappa, j, yieldThreshold(0.95)));
+  REQUIRE(depthPlate > 0.01);
+  REQUIRE(depthBall > 0);
+  REQUIRE(depthBall < depthPlate / 10);
+  SphereIntoPlate s;
+  Deformer d({256, Path::Gpu});
+  const TriangleMesh ballMesh = sphereMesh(SphereIntoPlate::R, 256);
+  auto ballGpu = std::make_shared<GpuMesh>(ballMesh);
+  auto plateMaps = d.createMaps(512, nullptr, 0.1f, float(s.plateGpu->metresPerUv / 512));
+  Surface plate(s.plateGpu, 512, 0.1f, 0.02f, plateMaps);
+  Surface ball(ballGpu, 256, 0.1f, 0.02f, d.createMaps(256, nullptr, 0.1f, float(ballGpu->metresPerUv / 256)));
+  DeformRequest rq;
+  rq.a = {&plate, s.plateGpu.get(), s.plateModel};
+  rq.b = {&ball, ballGpu.get(), s.ballModel};
+  rq.point = {0, 0.1, 0};
+  rq.normal = {0, 1, 0};
+  rq.deformA = depthPlate;
+  rq.deformB = depthBall;
+  const int h = d.deform(rq);
+  const SideStats a = d.stats(h, 0), b = d.stats(h, 1);
+  MESSAGE("plate: " << a.texelsChanged << " texels, " << a.maxDent << " m; ball: " << b.texelsChanged << " texels, " << b.maxDent << " m");
+  CHECK(a.maxDent == Approx(depthPlate).epsilon(0.05));
+  CHECK(b.maxDent < a.maxDent / 10);
+  CHECK(a.texelsChanged > 5 * std::max(b.texelsChanged, 1));
+}
+
+TEST_CASE("tangent-space correction: multiply shallows and divide deepens a dent on a curved surface") {
+  test::glContext();
+  // A ball pressed into the side of a cylinder: away from the contact point the
+  // cylinder's normal turns away from N_C, so N . N_C < 1 there.
+  const TriangleMesh cylMesh = cylinderMesh(0.3, 1.0, 512);
+  auto cylGpu = std::make_shared<GpuMesh>(cylMesh);
+  SphereIntoPlate s;
+  auto run = [&](TangentMode mode) {
+    Deformer d({256, Path::Gpu, mode, 0.2f});
+    Surface cyl(cylGpu, 512, 0.1f, 0.02f, d.createMaps(512, nullptr, 0.1f, float(cylGpu->metresPerUv / 512)));
+    DeformRequest rq;
+    rq.a = {&cyl, cylGpu.get(), glm::dmat4(1)};
+    rq.b = {nullptr, s.ballGpu.get(), glm::translate(glm::dmat4(1), glm::dvec3(0.3 + SphereIntoPlate::R, 0, 0))};
+    rq.point = {0.3, 0, 0};
+    rq.normal = {1, 0, 0};
+    rq.deformA = 0.03;
+    d.deform(rq);
+    double volume = 0;
+    for (float v : cyl.downloadHeight().pixels) volume += 0.5 - v;
+    return volume;
+  };
+  const double none = run(TangentMode::None), mul = run(TangentMode::Multiply), div = run(TangentMode::Divide);
+  MESSAGE("summed dent (map units): none " << none << ", multiply " << mul << ", divide " << div);
+  REQUIRE(none > 0);
+  CHECK(mul < none * 0.997);
+  CHECK(div > none * 1.003);
+}
+
+TEST_CASE("lazy maps: bodies share the undeformed map until their first dent") {
+  test::glContext();
+  SphereIntoPlate s;
+  Deformer d({256, Path::Gpu});
+  auto shared = d.createMaps(512, nullptr, 0.1f, float(s.plateGpu->metresPerUv / 512));
+  Surface p1(s.plateGpu, 512, 0.1f, 0.02f, shared), p2(s.plateGpu, 512, 0.1f, 0.02f, shared);
+  CHECK(p1.isShared());
+  CHECK(p1.height().id() == p2.height().id());
+  DeformRequest rq;
+  rq.a = {&p1, s.plateGpu.get(), s.plateModel};
+  rq.b = {nullptr, s.ballGpu.get(), s.ballModel};
+  rq.point = {0, 0.1, 0};
+  rq.normal = {0, 1, 0};
+  rq.deformA = 0.01;
+  d.deform(rq);
+  CHECK(p1.height().id() != p2.height().id());  // p1 got its own map at its first dent
+  float low1 = 1, low2 = 1;
+  for (float v : p1.downloadHeight().pixels) low1 = std::min(low1, v);
+  for (float v : p2.downloadHeight().pixels) low2 = std::min(low2, v);
+  CHECK(low1 < 0.45f);
+  CHECK(low2 == 0.5f);  // the other body's (shared) map is untouched
+}

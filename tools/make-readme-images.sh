@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Renders the pictures of the README (docs/images/) from the shipped scenes.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cmake --build build -j"$(nproc)" --target crumple-sim >/dev/null
+tmp=$(mktemp -d)
+mkdir -p docs/images
+shoot() {  # scene camera frame-seconds
+  local scene=$1 camera=$2 at=$3
+  build/apps/crumple-sim "scenes/$scene.json" --out "$tmp/$scene" --render --fps 2 --size 640x360 --duration "$at" -q
+  local last
+  last=$(ls "$tmp/$scene/frames/${camera}"_*.png | tail -1)
+  cp "$last" "docs/images/$scene.png"
+}
+shoot highway rail 6
+shoot sphere-into-plate main 0.5
+shoot pattern-box wall 3
+shoot pyramid front 2
+shoot mixed-pile main 3
+rm -rf "$tmp"
+ls -la docs/images

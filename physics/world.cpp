@@ -299,11 +299,11 @@ void World::applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j)
   RigidBody& B = bodies_[static_cast<size_t>(b)];
   if (A.movable() && !frozen_[static_cast<size_t>(a)]) {
     A.v -= j * A.invMass;
-    A.w -= A.invInertiaWorld() * glm::cross(p - A.x, j);
+    A.w -= invInertia_[static_cast<size_t>(a)] * glm::cross(p - A.x, j);
   }
   if (B.movable() && !frozen_[static_cast<size_t>(b)]) {
     B.v += j * B.invMass;
-    B.w += B.invInertiaWorld() * glm::cross(p - B.x, j);
+    B.w += invInertia_[static_cast<size_t>(b)] * glm::cross(p - B.x, j);
   }
 }
 
@@ -314,11 +314,11 @@ glm::dvec3 World::contactImpulse(int a, int b, const Contact& c, double eps, boo
   ImpulseSide sa, sb;
   if (A.movable() && !frozenA) {
     sa.invMass = A.invMass;
-    sa.invInertia = A.invInertiaWorld();
+    sa.invInertia = invInertia_[static_cast<size_t>(a)];
   }
   if (B.movable() && !frozenB) {
     sb.invMass = B.invMass;
-    sb.invInertia = B.invInertiaWorld();
+    sb.invInertia = invInertia_[static_cast<size_t>(b)];
   }
   sa.r = c.point - A.x;
   sb.r = c.point - B.x;
@@ -435,18 +435,27 @@ bool World::collide(double h) {
 }
 
 void World::contact(double h) {
-  std::vector<Contact> contacts, grouped;
+  std::vector<Contact> contacts;
+  // Contact geometry on the positions predicted with the current velocities.
+  // Re-finding it costs most of the step; it changes little from one pass to
+  // the next, so it is refreshed every `contactRefresh` passes (impulses always
+  // use the current velocities).
+  std::vector<std::vector<Contact>> grouped(pairs_.size());
   const int n = std::max(1, settings_.contactPasses);
+  const int refresh = std::max(1, settings_.contactRefresh);
   for (int pass = 1; pass <= n; ++pass) {
     const double eps = -1.0 + static_cast<double>(pass) / n;
-    for (const Pair& pair : pairs_) {
-      const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
-      const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
-      pairContacts(pair, pa, pb, contacts);
-      if (contacts.empty()) continue;
-      if (pass == n) stats_.contacts += static_cast<int>(contacts.size());
-      manifolds(contacts, grouped);
-      for (const Contact& c : grouped) {
+    const bool find = (pass - 1) % refresh == 0 || pass == n;
+    for (size_t pi = 0; pi < pairs_.size(); ++pi) {
+      const Pair& pair = pairs_[pi];
+      if (find) {
+        const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
+        const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
+        pairContacts(pair, pa, pb, contacts);
+        if (pass == n) stats_.contacts += static_cast<int>(contacts.size());
+        manifolds(contacts, grouped[pi]);
+      }
+      for (const Contact& c : grouped[pi]) {
         const glm::dvec3 j = contactImpulse(c.a, c.b, c, eps, false, false);
         if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
       }
@@ -579,6 +588,9 @@ void World::updateSleep(double h) {
 }
 
 void World::substep(double h) {
+  // World inverse inertias: orientations stay fixed until the position update.
+  invInertia_.resize(bodies_.size());
+  for (size_t i = 0; i < bodies_.size(); ++i) invInertia_[i] = bodies_[i].invInertiaWorld();
   findPairs(h);
   findCandidates(h);
   stats_.pairs += static_cast<int>(pairs_.size());

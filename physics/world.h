@@ -30,6 +30,7 @@ struct WorldSettings {
   int collisionPasses = 5;
   int collisionIterations = 20;  // per pair and pass
   int contactPasses = 30;
+  int contactRefresh = 6;  // passes between re-finding contact geometry
   // Shock propagation passes per contact-graph level. Off by default: measured
   // on the 10-level pyramid (tests/test_physics.cpp), freezing the lower levels
   // carries their residual spin up the stack and the top walks off (15 cm in
@@ -148,6 +149,7 @@ class World {
   std::vector<CollisionEvent> events_;
   std::vector<int> level_;
   std::vector<char> frozen_;
+  std::vector<glm::dmat3> invInertia_;  // per body, this substep
   StepStats stats_;
   double time_ = 0;
   double minHalfThickness_ = 1e30;

@@ -44,6 +44,7 @@ struct DeformationSettings {
   double tangentFloor = 0.2;       // for Divide: |N . N_C| never below this
   bool craterRims = false;
   bool lazyMaps = true;
+  double contactInterval = 0.05;  // s between contact deformations (bodies with contact_deformation)
 };
 
 struct ShapeDesc {

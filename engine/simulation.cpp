@@ -182,6 +182,8 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   } catch (const std::invalid_argument& e) {
     throw SceneError(scene_.file, where, e.what());
   }
+  b.contactDeformation = d.contactDeformation;
+  if (d.contactDeformation) world_.setReportContacts(b.index, true);
 
   if (gl_) {
     auto& g = gpuMeshCache_[meshKey];
@@ -291,6 +293,49 @@ void Simulation::step() {
       deformed = true;
     }
     events_.push_back(rec);
+  }
+  // Contact deformation (figure 8): resting contacts of flagged bodies press
+  // their maps too, at most every contact_interval seconds.
+  const long every = std::max(1L, std::lround(scene_.deformation.contactInterval / h));
+  // Resting contact pushes intermittently (a step of push, a step of none), so
+  // the strongest report of each pair over the interval is kept.
+  for (const CollisionEvent& e : world_.contactReports()) {
+    auto [it, inserted] = pendingContacts_.try_emplace({e.a, e.b}, e);
+    if (!inserted && e.elasticImpulse >= it->second.elasticImpulse) it->second = e;
+  }
+  if (deformer_ && scene_.deformation.enabled && steps_ % every == 0) {
+    std::vector<CollisionEvent> due;
+    for (const auto& [key, e] : pendingContacts_) due.push_back(e);
+    pendingContacts_.clear();
+    for (const CollisionEvent& e : due) {
+      const int bi[2] = {bodyOf[static_cast<size_t>(e.a)], bodyOf[static_cast<size_t>(e.b)]};
+      double depth[2] = {0, 0};
+      for (int s = 0; s < 2; ++s) {
+        const BodyRuntime& body = bodies_[static_cast<size_t>(bi[s])];
+        if (!body.contactDeformation || !body.surface) continue;
+        depth[s] = deformDepth(body.thickness, percentDeform(body.material->kappa, e.elasticImpulse,
+                                                             yieldThreshold(body.material->restitution)));
+      }
+      if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
+      auto modelAt = [&](int b, const Pose& p) {
+        const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(b)].index);
+        return glm::translate(glm::dmat4(1), p.position) * glm::dmat4(glm::mat3_cast(p.orientation)) *
+               glm::translate(glm::dmat4(1), -rb.localCom);
+      };
+      BodyRuntime& A = bodies_[static_cast<size_t>(bi[0])];
+      BodyRuntime& B = bodies_[static_cast<size_t>(bi[1])];
+      deform::DeformRequest rq;
+      rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(bi[0], e.poseA)};
+      rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(bi[1], e.poseB)};
+      rq.point = e.point;
+      rq.normal = e.normal;
+      rq.penetration = e.penetration;
+      rq.deformA = depth[0];
+      rq.deformB = depth[1];
+      deformer_->deform(rq);
+      ++timings_.contactDeformations;
+      deformed = true;
+    }
   }
   if (deformed) glFinish();  // honest timings: the GPU work is part of the deformation's cost
   timings_.deformMs += msSince(t0);
@@ -419,6 +464,7 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   s["collisions"] = sim.events().size();
   s["deformations"] = sim.timings().deformations;
   s["deformed_sides"] = deformedSides;
+  s["contact_deformations"] = sim.timings().contactDeformations;
   const Timings& t = sim.timings();
   json tj;
   tj["physics_ms"] = t.physicsMs;

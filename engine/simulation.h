@@ -39,6 +39,7 @@ struct BodyRuntime {
   std::shared_ptr<const deform::GpuMesh> gpuMesh;  // null without GL
   std::unique_ptr<deform::Surface> surface;        // null without a bump map
   double thickness = 0.05;
+  bool contactDeformation = false;
 };
 
 struct VehicleRuntime {
@@ -51,7 +52,7 @@ struct VehicleRuntime {
 
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
-  long steps = 0, deformations = 0, frames = 0;
+  long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;
 };
 
 class Simulation {
@@ -96,6 +97,7 @@ class Simulation {
   std::vector<BodyRuntime> bodies_;
   std::vector<EventRecord> events_;
   std::vector<VehicleRuntime> vehicles_;
+  std::map<std::pair<int, int>, CollisionEvent> pendingContacts_;
   std::unique_ptr<deform::Deformer> deformer_;
   std::map<std::string, std::shared_ptr<const Shape>> shapeCache_;
   std::map<std::string, std::shared_ptr<const TriangleMesh>> meshCache_;

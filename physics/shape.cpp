@@ -164,6 +164,12 @@ std::shared_ptr<Shape> makeBox(const glm::dvec3& size) {
       }
     }
   }
+  for (const glm::dvec3& p : s->samples) {
+    glm::dvec3 n(0);
+    for (int i = 0; i < 3; ++i)
+      if (std::abs(std::abs(p[i]) - h[i]) < 1e-12 * (1 + h[i])) n[i] = p[i] > 0 ? 1 : -1;
+    s->sampleNormals.push_back(glm::normalize(n));
+  }
   s->boundsMin = -h;
   s->boundsMax = h;
   const double v = size.x * size.y * size.z;
@@ -223,7 +229,10 @@ std::shared_ptr<Shape> makeCylinder(double radius, double height) {
   const int rim = 24;
   for (int i = 0; i < rim; ++i) {
     const double a = 2 * glm::pi<double>() * i / rim;
-    for (double y : {-s->halfHeight, s->halfHeight}) s->samples.push_back({radius * std::cos(a), y, radius * std::sin(a)});
+    for (double y : {-s->halfHeight, s->halfHeight}) {
+      s->samples.push_back({radius * std::cos(a), y, radius * std::sin(a)});
+      s->sampleNormals.push_back(glm::normalize(glm::dvec3(std::cos(a), y > 0 ? 1 : -1, std::sin(a))));
+    }
   }
   s->boundsMin = glm::dvec3(-radius, -s->halfHeight, -radius);
   s->boundsMax = -s->boundsMin;
@@ -264,6 +273,11 @@ std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolutio
   s->boundsMin = glm::dvec3(mesh.boundsMin());
   s->boundsMax = glm::dvec3(mesh.boundsMax());
   s->grid = std::make_shared<SdfGrid>(mesh, gridResolution);
+  for (const glm::dvec3& p : s->samples) {
+    glm::dvec3 g;
+    s->grid->distance(p, &g);
+    s->sampleNormals.push_back(g);
+  }
   finishBounds(*s);
   return s;
 }

@@ -26,6 +26,10 @@ struct Shape {
   // Points tested against other shapes' fields. A rounded shape (sphere,
   // capsule) tests its core points: the surface point is p - sampleRadius * n.
   std::vector<glm::dvec3> samples;
+  // Outward surface normal at each sample (zero where it has none, as at the
+  // core points of rounded shapes). Inside another body, the sample's contact
+  // normal should oppose it: that breaks the ties of the other body's field.
+  std::vector<glm::dvec3> sampleNormals;
   double sampleRadius = 0.0;
 
   glm::dvec3 boundsMin{0}, boundsMax{0};  // shape frame

@@ -78,6 +78,11 @@ int World::addBody(const BodyDef& def) {
   return static_cast<int>(bodies_.size() - 1);
 }
 
+void World::setReportContacts(int body, bool on) {
+  reportContacts_.resize(bodies_.size(), 0);
+  reportContacts_.at(static_cast<size_t>(body)) = on;
+}
+
 void World::wake(int i) {
   RigidBody& b = body(i);
   if (b.isStatic) return;
@@ -151,14 +156,20 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     const double hintLen = glm::length(hint);
     hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
     const size_t n = list ? list->size() : st.samples.size();
+    const bool normals = !st.sampleNormals.empty();
+    const glm::dmat3 otherToOwner = rot * rt;
     for (size_t k = 0; k < n; ++k) {
-      const glm::dvec3& s = st.samples[list ? (*list)[k] : k];
+      const size_t index = list ? (*list)[k] : k;
+      const glm::dvec3& s = st.samples[index];
       const glm::dvec3 world = pother.position + rt * (s - other.localCom);
       const glm::dvec3 local = rot * (world - po.position) + owner.localCom;
       if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
         continue;
       glm::dvec3 g;
-      const double phi = so.distance(local, &g, &hint) - r;
+      glm::dvec3 sampleHint = hint;
+      if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
+        sampleHint = -(otherToOwner * st.sampleNormals[index]);
+      const double phi = so.distance(local, &g, &sampleHint) - r;
       if (phi >= 0) continue;
       Contact c;
       c.a = iOwner;
@@ -441,6 +452,7 @@ void World::contact(double h) {
   // the next, so it is refreshed every `contactRefresh` passes (impulses always
   // use the current velocities).
   std::vector<std::vector<Contact>> grouped(pairs_.size());
+  std::vector<double> pushed(reportContacts_.empty() ? 0 : pairs_.size(), 0.0);
   const int n = std::max(1, settings_.contactPasses);
   const int refresh = std::max(1, settings_.contactRefresh);
   for (int pass = 1; pass <= n; ++pass) {
@@ -455,11 +467,34 @@ void World::contact(double h) {
         if (pass == n) stats_.contacts += static_cast<int>(contacts.size());
         manifolds(contacts, grouped[pi]);
       }
+      const bool report = !reportContacts_.empty() &&
+                          (reportContacts_[static_cast<size_t>(pair.a)] || reportContacts_[static_cast<size_t>(pair.b)]);
       for (const Contact& c : grouped[pi]) {
         const glm::dvec3 j = contactImpulse(c.a, c.b, c, eps, false, false);
         if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
+        if (report && &c == &grouped[pi].front()) pushed[pi] += glm::dot(j, c.normal);
       }
     }
+  }
+  if (reportContacts_.empty()) return;
+  for (size_t pi = 0; pi < pairs_.size(); ++pi) {
+    if (grouped[pi].empty() || !(pushed[pi] > 0)) continue;
+    const Contact& c = grouped[pi].front();
+    CollisionEvent e;
+    e.time = time_;
+    e.a = c.a;
+    e.b = c.b;
+    e.point = c.point;
+    e.normal = c.normal;
+    e.penetration = -c.phi;
+    e.impulse = pushed[pi];
+    e.impulseVector = c.normal * pushed[pi];
+    e.elasticImpulse = 2 * pushed[pi];
+    const RigidBody& A = bodies_[static_cast<size_t>(c.a)];
+    const RigidBody& B = bodies_[static_cast<size_t>(c.b)];
+    e.poseA = {A.x, A.q};
+    e.poseB = {B.x, B.q};
+    contactReports_.push_back(e);
   }
 }
 
@@ -619,6 +654,8 @@ void World::substep(double h) {
 void World::step(double h) {
   if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
   events_.clear();
+  contactReports_.clear();
+  reportContacts_.resize(bodies_.size(), 0);
   stats_ = {};
   frozen_.assign(bodies_.size(), 0);
   // Substeps: no body may move more than a fraction of the thinnest half thickness.

@@ -98,6 +98,13 @@ class World {
   double time() const { return time_; }
   // Events of the last step (all substeps).
   const std::vector<CollisionEvent>& events() const { return events_; }
+  // Resting contacts of the last step that involve a body flagged with
+  // setReportContacts (contact deformation, the paper's figure 8): one per
+  // touching pair, the deepest contact group, with the normal impulse the
+  // contact step applied there (elasticImpulse holds twice that: the impulse
+  // the same push would have had as an elastic collision).
+  const std::vector<CollisionEvent>& contactReports() const { return contactReports_; }
+  void setReportContacts(int body, bool on);
   const StepStats& lastStats() const { return stats_; }
   void wake(int i);
   // A hash of every body's state, for determinism checks.
@@ -146,7 +153,8 @@ class World {
   std::vector<RigidBody> bodies_;
   std::vector<glm::dvec3> force_, torque_;
   std::vector<Pair> pairs_;
-  std::vector<CollisionEvent> events_;
+  std::vector<CollisionEvent> events_, contactReports_;
+  std::vector<char> reportContacts_;
   std::vector<int> level_;
   std::vector<char> frozen_;
   std::vector<glm::dmat3> invInertia_;  // per body, this substep

@@ -209,3 +209,31 @@ TEST_CASE("highway: the scripted car hits the guard rail and dents both car and 
     CHECK(lowest < 0.49f);
   }
 }
+
+TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) and the hit dents the bunker") {
+  const fs::path out = kTmp / "tank_full";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/tank-tracks.json --out " + out.string() + " --quiet", &log) == 0);
+  const json s = json::parse(slurp(out / "summary.json"));
+  CHECK(s["contact_deformations"].get<int>() >= 5);
+  // The track: dented texels spread along the slide much farther than across it.
+  const crumple::render::Image g = crumple::render::readPng((out / "heightmaps" / "ground.png").string());
+  int x0 = g.width, x1 = -1, y0 = g.height, y1 = -1;
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x)
+      if (g.at(x, y) < 0.49f) {
+        x0 = std::min(x0, x);
+        x1 = std::max(x1, x);
+        y0 = std::min(y0, y);
+        y1 = std::max(y1, y);
+      }
+  REQUIRE(x1 >= 0);
+  const int along = std::max(x1 - x0, y1 - y0), across = std::min(x1 - x0, y1 - y0);
+  MESSAGE("track extent in texels: " << along << " x " << across);
+  CHECK(along > 2 * across);
+  const crumple::render::Image b = crumple::render::readPng((out / "heightmaps" / "bunker.png").string());
+  float lowest = 1;
+  for (float v : b.pixels) lowest = std::min(lowest, v);
+  CHECK(lowest < 0.49f);
+}

@@ -17,5 +17,6 @@ shoot sphere-into-plate main 0.5
 shoot pattern-box wall 3
 shoot pyramid front 2
 shoot mixed-pile main 3
+shoot tank-tracks side 4
 rm -rf "$tmp"
 ls -la docs/images

@@ -76,6 +76,55 @@ AddressCamera addressCamera(const glm::dvec3& point, const glm::dvec3& n, const 
   return cam;
 }
 
+int craterRing(int w, int h) { return std::clamp(std::max(w, h) / 4, 2, 16); }
+
+namespace {
+// The CPU twin of crater_rim.comp (the read-back path must give the same maps).
+void craterRimsCpu(std::vector<float>& out, const std::vector<float>& old, int res, GLint box[4]) {
+  if (box[2] < box[0]) return;
+  const int ring = craterRing(box[2] - box[0] + 1, box[3] - box[1] + 1);
+  const float kFixed = 1048576.0f;
+  auto dented = [&](int x, int y) { return out[size_t(y) * res + x] < old[size_t(y) * res + x]; };
+  const int x0 = std::max(box[0] - ring, 0), y0 = std::max(box[1] - ring, 0);
+  const int x1 = std::min(box[2] + ring, res - 1), y1 = std::min(box[3] + ring, res - 1);
+  uint32_t volumeSum = 0, weightSum = 0;
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const size_t i = size_t(y) * res + x;
+      if (out[i] < old[i]) volumeSum += static_cast<uint32_t>((old[i] - out[i]) * kFixed + 0.5f);
+    }
+  std::vector<float> weight(size_t(x1 - x0 + 1) * (y1 - y0 + 1), -1.0f);
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      if (dented(x, y)) continue;
+      float best = float(ring) + 1.0f;
+      for (int dy = -ring; dy <= ring; ++dy)
+        for (int dx = -ring; dx <= ring; ++dx) {
+          const int qx = x + dx, qy = y + dy;
+          if (qx < box[0] || qy < box[1] || qx > box[2] || qy > box[3]) continue;
+          const float d = std::sqrt(float(dx * dx + dy * dy));
+          if (d < best && dented(qx, qy)) best = d;
+        }
+      if (best > float(ring)) continue;
+      const float w = 1.0f - best / float(ring + 1);
+      weight[size_t(y - y0) * (x1 - x0 + 1) + (x - x0)] = w;
+      weightSum += static_cast<uint32_t>(w * kFixed + 0.5f);
+    }
+  const float volume = float(volumeSum) / kFixed, weights = std::max(float(weightSum) / kFixed, 1e-6f);
+  for (int y = y0; y <= y1; ++y)
+    for (int x = x0; x <= x1; ++x) {
+      const float w = weight[size_t(y - y0) * (x1 - x0 + 1) + (x - x0)];
+      if (w < 0) continue;
+      const size_t i = size_t(y) * res + x;
+      out[i] = std::min(old[i] + volume * w / weights, 1.0f);
+    }
+  box[0] = x0;
+  box[1] = y0;
+  box[2] = x1;
+  box[3] = y1;
+}
+}  // namespace
+
 struct Deformer::Impl {
   render::Program address{{{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
                            {GL_FRAGMENT_SHADER, "address.frag", std::string(deformShader("address.frag"))}}};
@@ -83,6 +132,8 @@ struct Deformer::Impl {
   render::Program regionDispatch = compute("region_dispatch.comp");
   render::Program commit = compute("dent_commit.comp");
   render::Program normals = compute("normal_map.comp");
+  render::Program rims = compute("crater_rim.comp");
+  render::Buffer sums{4 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
   int size = 0;
   // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.
   render::Texture2D addressX[2], depthX[2], normalX[2], addressO[2], depthO[2], depthBuffer[2];
@@ -204,6 +255,7 @@ int Deformer::deform(const DeformRequest& rq) {
   const GLint emptyRegion[8] = {INT_MAX, INT_MAX, -1, -1, INT_MAX, INT_MAX, -1, -1};
   m.region.upload(0, sizeof emptyRegion, emptyRegion);
   bool active[2] = {false, false};
+  int rings[2] = {0, 0};  // crater ring width per side: the commit region grows by it
   GLint savedViewport[4];
   glGetIntegerv(GL_VIEWPORT, savedViewport);
 
@@ -288,6 +340,32 @@ int Deformer::deform(const DeformRequest& rq) {
       glUniform1f(m.update.uniform("uTangentFloor"), options_.tangentFloor);
       glUniform3f(m.update.uniform("uViewNormal"), static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z));
       glDispatchCompute(groups(m.size), groups(m.size), 1);
+      if (options_.craterRims) {
+        // The ring width depends on the dent's size: read the region (4 ints) once.
+        glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+        GLint box[4];
+        glGetNamedBufferSubData(m.region.id(), static_cast<GLintptr>(side) * 4 * sizeof(GLint), sizeof box, box);
+        if (box[2] >= box[0]) {
+          const int ring = craterRing(box[2] - box[0] + 1, box[3] - box[1] + 1);
+          rings[side] = ring;
+          const GLuint zero[2] = {0, 0};
+          m.sums.upload(static_cast<size_t>(side) * 2 * sizeof(GLuint), sizeof zero, zero);
+          m.rims.use();
+          glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+          glBindTextureUnit(1, X.surface->height().id());
+          glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.region.id());
+          glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, m.sums.id());
+          glUniform1i(m.rims.uniform("uSide"), side);
+          glUniform1i(m.rims.uniform("uRing"), ring);
+          glUniform1i(m.rims.uniform("uResolution"), res);
+          const int w = std::min(res, box[2] - box[0] + 1 + 2 * ring), hgt = std::min(res, box[3] - box[1] + 1 + 2 * ring);
+          for (int mode = 0; mode < 3; ++mode) {
+            glUniform1i(m.rims.uniform("uMode"), mode);
+            glDispatchCompute(groups(w), groups(hgt), 1);
+            glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+          }
+        }
+      }
     } else {
       // The paper's path: read the address maps back and scatter on the CPU.
       const size_t px = static_cast<size_t>(m.size) * m.size;
@@ -330,6 +408,10 @@ int Deformer::deform(const DeformRequest& rq) {
         box[2] = std::max(box[2], tx);
         box[3] = std::max(box[3], ty);
       }
+      if (options_.craterRims && box[2] >= box[0]) {
+        rings[side] = 0;  // the CPU twin grows the box itself
+        craterRimsCpu(out, h, res, box);
+      }
       std::vector<GLuint> bits(out.size());
       std::memcpy(bits.data(), out.data(), out.size() * sizeof(float));
       scratch.upload(GL_RED_INTEGER, GL_UNSIGNED_INT, bits.data());
@@ -350,6 +432,7 @@ int Deformer::deform(const DeformRequest& rq) {
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, m.normalRegion.id());
     glUniform1i(m.regionDispatch.uniform("uSide"), side);
     glUniform1i(m.regionDispatch.uniform("uResolution"), res);
+    glUniform1i(m.regionDispatch.uniform("uGrow"), rings[side]);
     glDispatchCompute(1, 1, 1);
     glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
 

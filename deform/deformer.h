@@ -32,7 +32,10 @@ struct DeformOptions {
   Path path = Path::Gpu;
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
+  bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
 };
+// Ring width (texels) of the crater rim for a dent whose touched region is w x h texels.
+int craterRing(int w, int h);
 
 // One body as the deformation sees it: its surface (null when it has no bump
 // map: it still shapes the dent, as flat geometry) and its shape-frame-to-world

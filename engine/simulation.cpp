@@ -45,6 +45,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl) {
     o.path = scene.deformation.path == DeformPath::Gpu ? deform::Path::Gpu : deform::Path::Readback;
     o.tangent = static_cast<deform::TangentMode>(scene.deformation.tangentCorrection);
     o.tangentFloor = static_cast<float>(scene.deformation.tangentFloor);
+    o.craterRims = scene.deformation.craterRims;
     deformer_ = std::make_unique<deform::Deformer>(o);
   }
   bodies_.reserve(scene.bodies.size());

@@ -328,3 +328,33 @@ TEST_CASE("lazy maps: bodies share the undeformed map until their first dent") {
   CHECK(low1 < 0.45f);
   CHECK(low2 == 0.5f);  // the other body's (shared) map is untouched
 }
+
+TEST_CASE("crater rims: the volume pushed down rises in a ring around the dent, on both paths") {
+  test::glContext();
+  SphereIntoPlate s;
+  auto run = [&](Path path, bool rims) {
+    DeformOptions o;
+    o.addressMap = 256;
+    o.path = path;
+    o.craterRims = rims;
+    Deformer d(o);
+    return s.run(d, 0.02);
+  };
+  const render::Image plain = run(Path::Gpu, false), gpu = run(Path::Gpu, true), readback = run(Path::Readback, true);
+  double down = 0, up = 0, plainDown = 0, diff = 0;
+  int raised = 0;
+  for (size_t i = 0; i < gpu.pixels.size(); ++i) {
+    if (gpu.pixels[i] < 0.5f) down += 0.5 - gpu.pixels[i];
+    if (gpu.pixels[i] > 0.5f) {
+      up += gpu.pixels[i] - 0.5;
+      ++raised;
+    }
+    if (plain.pixels[i] < 0.5f) plainDown += 0.5 - plain.pixels[i];
+    diff = std::max(diff, double(std::abs(gpu.pixels[i] - readback.pixels[i])));
+  }
+  MESSAGE("dent volume " << down << ", rim volume " << up << " over " << raised << " texels");
+  CHECK(down == Approx(plainDown).epsilon(1e-6));  // the dent itself is unchanged
+  CHECK(raised > 20);
+  CHECK(up == Approx(down).epsilon(0.01));        // volume conserved
+  CHECK(diff <= 1e-5);                            // GPU and read-back agree
+}

@@ -17,10 +17,10 @@ void main() {
   if (any(greaterThan(p, r.zw))) return;
   float nh = uintBitsToFloat(imageLoad(uNewHeight, p).r);
   float oh = imageLoad(uHeight, p).r;
-  if (!(nh < oh)) return;
+  if (nh == oh) return;
   imageStore(uHeight, p, vec4(nh));
   uint base = uint(uStatsIndex) * 4u;
   atomicAdd(uStats[base + 0u], 1u);
-  atomicMax(uStats[base + 1u], floatBitsToUint((oh - nh) * uBumpDepth));
+  if (nh < oh) atomicMax(uStats[base + 1u], floatBitsToUint((oh - nh) * uBumpDepth));
   if (nh <= 0.0) atomicAdd(uStats[base + 2u], 1u);
 }

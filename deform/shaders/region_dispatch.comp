@@ -9,8 +9,13 @@ layout(std430, binding = 2) buffer Indirect { uint uIndirect[]; };
 layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };
 uniform int uSide;
 uniform int uResolution;
+uniform int uGrow;  // crater rims widen the region by their ring
 void main() {
   ivec4 r = uRegion[uSide];
+  if (uGrow > 0 && r.z >= r.x) {
+    r = ivec4(max(r.xy - uGrow, ivec2(0)), min(r.zw + uGrow, ivec2(uResolution - 1)));
+    uRegion[uSide] = r;
+  }
   uint base = uint(uSide) * 6u;
   if (r.z < r.x || r.w < r.y) {
     for (uint i = 0u; i < 6u; ++i) uIndirect[base + i] = 0u;

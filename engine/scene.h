@@ -44,7 +44,8 @@ struct DeformationSettings {
   double tangentFloor = 0.2;       // for Divide: |N . N_C| never below this
   bool craterRims = false;
   bool lazyMaps = true;
-  double contactInterval = 0.05;  // s between contact deformations (bodies with contact_deformation)
+  double contactInterval = 0.05;
+  bool normalMappedNormals = false;  // contact normals from the normal maps (figure 10)  // s between contact deformations (bodies with contact_deformation)
 };
 
 struct ShapeDesc {

@@ -377,7 +377,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   if (n.has("deformation")) {
     Node d = n.child("deformation");
     d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
-                 "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval"});
+                 "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval", "normal_mapped_normals"});
     auto& ds = s.deformation;
     ds.enabled = d.boolean("enabled", ds.enabled);
     ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
@@ -397,6 +397,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     ds.craterRims = d.boolean("crater_rims", ds.craterRims);
     ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);
     ds.contactInterval = d.number("contact_interval", ds.contactInterval, 0, 10);
+    ds.normalMappedNormals = d.boolean("normal_mapped_normals", ds.normalMappedNormals);
   }
   if (!n.has("bodies")) n.fail("bodies", "is required");
   const json& bodies = n.raw("bodies");

@@ -50,6 +50,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl) {
   }
   bodies_.reserve(scene.bodies.size());
   for (size_t i = 0; i < scene.bodies.size(); ++i) buildBody(scene.bodies[i], i);
+  if (gl_ && scene.deformation.normalMappedNormals) setNormalMappedNormals(true);
 }
 
 Simulation::~Simulation() = default;
@@ -84,6 +85,52 @@ void Simulation::setAddressMap(int size) {
     o.addressMap = size;
     deformer_->setOptions(o);
   }
+}
+
+void Simulation::setNormalMappedNormals(bool on) {
+  scene_.deformation.normalMappedNormals = on;
+  for (const BodyRuntime& b : bodies_)
+    if (b.surface) world_.setBumpNormals(b.index, on);
+  if (!on) return;
+  std::map<int, int> bodyOf;
+  for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[bodies_[i].index] = static_cast<int>(i);
+  world_.setNormalModifier([this, bodyOf](int index, const glm::dvec3& p, const glm::dvec3& n) {
+    return bumpNormal(bodyOf.at(index), p, n);
+  });
+}
+
+glm::dvec3 Simulation::bumpNormal(int i, const glm::dvec3& p, const glm::dvec3& n) {
+  BodyRuntime& b = bodies_[static_cast<size_t>(i)];
+  if (!b.surface || b.mesh->uvs.empty()) return n;
+  NormalLookup& look = normalLookups_[i];
+  if (!look.bvh) look.bvh = std::make_unique<TriangleBvh>(*b.mesh);
+  if (look.version != timings_.deformations) {
+    const int r = b.surface->resolution();
+    look.normals.resize(static_cast<size_t>(r) * r * 4);
+    b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, look.normals.data(), look.normals.size());
+    look.version = timings_.deformations;
+  }
+  const TriangleBvh::Hit hit = look.bvh->closest(p);
+  if (hit.triangle < 0) return n;
+  const glm::uvec3 t = b.mesh->triangles[static_cast<size_t>(hit.triangle)];
+  const glm::dvec2 uv0(b.mesh->uvs[t.x]), uv1(b.mesh->uvs[t.y]), uv2(b.mesh->uvs[t.z]);
+  const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;
+  // Tangent frame of the triangle: dP/du and dP/dv.
+  const glm::dvec3 e1 = glm::dvec3(b.mesh->positions[t.y] - b.mesh->positions[t.x]);
+  const glm::dvec3 e2 = glm::dvec3(b.mesh->positions[t.z] - b.mesh->positions[t.x]);
+  const glm::dvec2 d1 = uv1 - uv0, d2 = uv2 - uv0;
+  const double det = d1.x * d2.y - d1.y * d2.x;
+  if (std::abs(det) < 1e-20) return n;
+  glm::dvec3 T = (e1 * d2.y - e2 * d1.y) / det, B = (e2 * d1.x - e1 * d2.x) / det;
+  T = glm::normalize(T - n * glm::dot(T, n));
+  B = glm::normalize(B - n * glm::dot(B, n));
+  const int r = b.surface->resolution();
+  const int x = std::clamp(static_cast<int>(uv.x * r), 0, r - 1), y = std::clamp(static_cast<int>(uv.y * r), 0, r - 1);
+  const unsigned char* px = &look.normals[(static_cast<size_t>(y) * r + x) * 4];
+  const glm::dvec3 nt(px[0] / 127.5 - 1.0, px[1] / 127.5 - 1.0, px[2] / 127.5 - 1.0);
+  const glm::dvec3 out = T * nt.x + B * nt.y + n * nt.z;
+  const double len = glm::length(out);
+  return len > 1e-9 ? out / len : n;
 }
 
 void Simulation::buildBody(const BodyDesc& d, size_t index) {

@@ -11,6 +11,7 @@
 #include "deform/deformer.h"
 #include "deform/surface.h"
 #include "engine/scene.h"
+#include "physics/sdf_grid.h"
 #include "physics/vehicle.h"
 #include "physics/world.h"
 
@@ -80,6 +81,10 @@ class Simulation {
   void setRestitution(const std::string& material, double eps);
   void setBumpDepths(double k, double kCollide);
   void setAddressMap(int size);
+  void setNormalMappedNormals(bool on);
+  // The normal map's normal at a point of body i's surface (shape frame), around
+  // the geometric normal n: what contacts use with normal-mapped normals on.
+  glm::dvec3 bumpNormal(int body, const glm::dvec3& point, const glm::dvec3& n);
   // Shape frame to world for body i (current pose).
   glm::dmat4 model(int i) const;
   // Fetches the per-event texel statistics (one small read of the GPU's counters).
@@ -98,6 +103,12 @@ class Simulation {
   std::vector<EventRecord> events_;
   std::vector<VehicleRuntime> vehicles_;
   std::map<std::pair<int, int>, CollisionEvent> pendingContacts_;
+  struct NormalLookup {
+    std::unique_ptr<TriangleBvh> bvh;
+    std::vector<unsigned char> normals;  // RGBA8 copy of the normal map
+    long version = -1;                   // deformation count when copied
+  };
+  std::map<int, NormalLookup> normalLookups_;  // by body index in bodies_
   std::unique_ptr<deform::Deformer> deformer_;
   std::map<std::string, std::shared_ptr<const Shape>> shapeCache_;
   std::map<std::string, std::shared_ptr<const TriangleMesh>> meshCache_;

@@ -83,6 +83,11 @@ void World::setReportContacts(int body, bool on) {
   reportContacts_.at(static_cast<size_t>(body)) = on;
 }
 
+void World::setBumpNormals(int body, bool on) {
+  bumpNormals_.resize(bodies_.size(), 0);
+  bumpNormals_.at(static_cast<size_t>(body)) = on;
+}
+
 void World::wake(int i) {
   RigidBody& b = body(i);
   if (b.isStatic) return;
@@ -144,7 +149,8 @@ Pose World::predict(const RigidBody& b, double h, bool withForces) const {
 namespace {
 // Tests samples of `other` (all, or the listed ones) against the field of `owner`.
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
-                    const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out) {
+                    const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
+                    const World::NormalModifier* modifier = nullptr) {
     const Shape& so = *owner.shape;
     const Shape& st = *other.shape;
     const double r = st.sampleRadius;
@@ -171,6 +177,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
         sampleHint = -(otherToOwner * st.sampleNormals[index]);
       const double phi = so.distance(local, &g, &sampleHint) - r;
       if (phi >= 0) continue;
+      if (modifier) g = glm::normalize((*modifier)(iOwner, local - (phi + r) * g, g));
       Contact c;
       c.a = iOwner;
       c.b = iOther;
@@ -189,8 +196,11 @@ void World::pairContacts(const Pair& pair, const Pose& pa, const Pose& pb, std::
   out.clear();
   const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
   const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
-  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out);
-  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out);
+  const bool bump = normalModifier_ && !bumpNormals_.empty();
+  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
+                 bump && bumpNormals_[static_cast<size_t>(pair.a)] ? &normalModifier_ : nullptr);
+  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out,
+                 bump && bumpNormals_[static_cast<size_t>(pair.b)] ? &normalModifier_ : nullptr);
   sortContacts(out);
 }
 
@@ -656,6 +666,7 @@ void World::step(double h) {
   events_.clear();
   contactReports_.clear();
   reportContacts_.resize(bodies_.size(), 0);
+  if (!bumpNormals_.empty()) bumpNormals_.resize(bodies_.size(), 0);
   stats_ = {};
   frozen_.assign(bodies_.size(), 0);
   // Substeps: no body may move more than a fraction of the thinnest half thickness.

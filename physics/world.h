@@ -19,6 +19,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "physics/body.h"
@@ -105,6 +106,13 @@ class World {
   // the same push would have had as an elastic collision).
   const std::vector<CollisionEvent>& contactReports() const { return contactReports_; }
   void setReportContacts(int body, bool on);
+  // Normal-mapped collision normals (Wrotek et al. section 5): contacts on a
+  // flagged body take their normal from this function of (body, point on its
+  // surface, geometric normal), both in its shape frame. Off by default: it
+  // makes bodies roll down slopes that exist only in the bump map (figure 10).
+  using NormalModifier = std::function<glm::dvec3(int body, const glm::dvec3& point, const glm::dvec3& normal)>;
+  void setNormalModifier(NormalModifier modifier) { normalModifier_ = std::move(modifier); }
+  void setBumpNormals(int body, bool on);
   const StepStats& lastStats() const { return stats_; }
   void wake(int i);
   // A hash of every body's state, for determinism checks.
@@ -154,7 +162,8 @@ class World {
   std::vector<glm::dvec3> force_, torque_;
   std::vector<Pair> pairs_;
   std::vector<CollisionEvent> events_, contactReports_;
-  std::vector<char> reportContacts_;
+  std::vector<char> reportContacts_, bumpNormals_;
+  NormalModifier normalModifier_;
   std::vector<int> level_;
   std::vector<char> frozen_;
   std::vector<glm::dmat3> invInertia_;  // per body, this substep

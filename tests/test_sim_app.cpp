@@ -237,3 +237,29 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   for (float v : b.pixels) lowest = std::min(lowest, v);
   CHECK(lowest < 0.49f);
 }
+
+TEST_CASE("bump-ramp: with normal-mapped collision normals a ball rolls down a slope that exists only in the bump map (figure 10)") {
+  auto horizontalTravel = [&](bool on) {
+    std::ifstream in(std::string(CRUMPLE_SCENES) + "/bump-ramp.json");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string text = ss.str();
+    if (!on) text.replace(text.find("\"normal_mapped_normals\": true"), 29, "\"normal_mapped_normals\": false");
+    fs::create_directories(kTmp / "assets");
+    fs::copy_file(fs::path(CRUMPLE_SCENES) / "assets" / "ramp.png", kTmp / "assets" / "ramp.png", fs::copy_options::overwrite_existing);
+    const fs::path scene = kTmp / ("bump_ramp_" + std::to_string(on) + ".json");
+    std::ofstream(scene) << text;
+    const fs::path out = kTmp / ("ramp_" + std::to_string(on));
+    fs::remove_all(out);
+    const int rc = runSim(scene.string() + " --out " + out.string() + " --duration 1.5 --quiet");
+    REQUIRE(rc == 0);
+    const json s = json::parse(slurp(out / "summary.json"));
+    for (const auto& b : s["bodies"])
+      if (b["name"] == "ball") return std::hypot(b["position"][0].get<double>(), b["position"][2].get<double>());
+    return -1.0;
+  };
+  const double on = horizontalTravel(true), off = horizontalTravel(false);
+  MESSAGE("ball travel: " << on << " m with normal-mapped normals, " << off << " m without");
+  CHECK(on > 0.3);
+  CHECK(off < 0.01);
+}

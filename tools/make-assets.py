@@ -3,6 +3,8 @@
   car.obj          a low-poly car body (side profile extruded, closed, outward
                    winding, no uvs: crumple builds its one-to-one atlas on load).
                    Body frame: +x forward, +y up, origin at the chassis centre.
+  ramp.png         a 16-bit grey ramp (0 to 1 along the image's x), a slope that
+                   exists only in the bump map (the figure-10 scene)
   cow-bumps.png    a 16-bit grey bump pattern (0.5 flat) of raised spots, for the
                    figure-7 scene (a patterned box printing itself into a wall).
 Licence: generated here, public domain (CC0)."""
@@ -65,4 +67,5 @@ if __name__ == "__main__":
     os.makedirs(HERE, exist_ok=True)
     car_obj(os.path.join(HERE, "car.obj"))
     png16(os.path.join(HERE, "cow-bumps.png"), 256, 256, spots)
+    png16(os.path.join(HERE, "ramp.png"), 256, 256, lambda x, y: (x + 0.5) / 256)
     print("wrote", HERE)

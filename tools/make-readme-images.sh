@@ -18,5 +18,6 @@ shoot pattern-box wall 3
 shoot pyramid front 2
 shoot mixed-pile main 3
 shoot tank-tracks side 4
+shoot bump-ramp main 1.5
 rm -rf "$tmp"
 ls -la docs/images

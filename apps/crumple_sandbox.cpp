@@ -133,6 +133,10 @@ void panel(App& app) {
     if (ImGui::Combo("address map", &current, "256\0" "512\0" "1024\0" "2048\0")) app.sim->setAddressMap(sizes[current]);
     int path = d.path == DeformPath::Gpu ? 0 : 1;
     if (ImGui::Combo("path", &path, "gpu\0readback\0")) app.sim->setDeformPath(path == 0 ? DeformPath::Gpu : DeformPath::Readback);
+    bool bumpNormals = d.normalMappedNormals;
+    if (ImGui::Checkbox("normal-mapped collision normals", &bumpNormals)) app.sim->setNormalMappedNormals(bumpNormals);
+    bool rims = d.craterRims;
+    if (ImGui::Checkbox("crater rims", &rims)) app.sim->setCraterRims(rims);
     float floor = static_cast<float>(d.impulseFloor);
     if (ImGui::SliderFloat("impulse floor", &floor, 0.0f, 5000.0f)) d.impulseFloor = floor;
   }

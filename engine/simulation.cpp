@@ -87,6 +87,15 @@ void Simulation::setAddressMap(int size) {
   }
 }
 
+void Simulation::setCraterRims(bool on) {
+  scene_.deformation.craterRims = on;
+  if (deformer_) {
+    deform::DeformOptions o = deformer_->options();
+    o.craterRims = on;
+    deformer_->setOptions(o);
+  }
+}
+
 void Simulation::setNormalMappedNormals(bool on) {
   scene_.deformation.normalMappedNormals = on;
   for (const BodyRuntime& b : bodies_)

@@ -82,6 +82,7 @@ class Simulation {
   void setBumpDepths(double k, double kCollide);
   void setAddressMap(int size);
   void setNormalMappedNormals(bool on);
+  void setCraterRims(bool on);
   // The normal map's normal at a point of body i's surface (shape frame), around
   // the geometric normal n: what contacts use with normal-mapped normals on.
   glm::dvec3 bumpNormal(int body, const glm::dvec3& point, const glm::dvec3& n);

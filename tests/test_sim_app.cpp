@@ -263,3 +263,44 @@ TEST_CASE("bump-ramp: with normal-mapped collision normals a ball rolls down a s
   CHECK(on > 0.3);
   CHECK(off < 0.01);
 }
+
+TEST_CASE("a user's glTF model (binary buffer, node transform, no uvs) works end to end as a mesh body") {
+  // A closed cube as glTF with an external .bin, translated by its node.
+  const float p[24] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
+  const uint16_t idx[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+  {
+    std::ofstream bin(kTmp / "cube.bin", std::ios::binary);
+    bin.write(reinterpret_cast<const char*>(p), sizeof p);
+    bin.write(reinterpret_cast<const char*>(idx), sizeof idx);
+  }
+  std::ofstream(kTmp / "cube.gltf") << R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+    "nodes": [{"children": [1], "scale": [0.3, 0.3, 0.3]}, {"mesh": 0, "translation": [0, 1, 0]}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+    "buffers": [{"byteLength": 168, "uri": "cube.bin"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 96}, {"buffer": 0, "byteOffset": 96, "byteLength": 72}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [-1,-1,-1], "max": [1,1,1]},
+                  {"bufferView": 1, "componentType": 5123, "count": 36, "type": "SCALAR"}]})";
+  const fs::path scene = writeScene("cube_scene.json", R"({"duration": 1.0,
+    "materials": {"soft": {"restitution": 0.1, "kappa": 0.0005, "thickness": 0.1}, "heavy": {"density": 7000, "restitution": 0.8, "kappa": 0}},
+    "bodies": [
+      {"name": "floor", "shape": {"type": "box", "size": [4, 0.2, 4]}, "material": "soft", "static": true, "position": [0, -0.1, 0],
+       "bump_map": {"resolution": 256}},
+      {"name": "cube", "shape": {"type": "mesh", "file": "cube.gltf"}, "material": "heavy", "position": [0, 0.5, 0],
+       "velocity": [0, -4, 0], "bump_map": {"resolution": 128}}]})");
+  const fs::path out = kTmp / "cube_out";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(scene.string() + " --out " + out.string(), &log) == 0);
+  CAPTURE(log);
+  CHECK(log.find("automatic one-to-one atlas") != std::string::npos);
+  const json s = json::parse(slurp(out / "summary.json"));
+  for (const auto& b : s["bodies"])
+    if (b["name"] == "cube") {
+      // The node transform put the cube's mesh 0.3 m above its file origin: resting, the origin sits 0 m above the floor.
+      CHECK(b["center_of_mass"][1].get<double>() == doctest::Approx(0.3).epsilon(0.05));
+    }
+  const crumple::render::Image floor = crumple::render::readPng((out / "heightmaps" / "floor.png").string());
+  int dented = 0;
+  for (float v : floor.pixels) dented += v < 0.49f;
+  CHECK(dented > 50);
+}

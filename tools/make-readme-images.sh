@@ -19,5 +19,6 @@ shoot pyramid front 2
 shoot mixed-pile main 3
 shoot tank-tracks side 4
 shoot bump-ramp main 1.5
+shoot cow-drop main 2
 rm -rf "$tmp"
 ls -la docs/images

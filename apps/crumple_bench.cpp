@@ -60,26 +60,7 @@ SceneSpec toriScene(int n) {
 glm::dvec3 torusPosition(int k) { return {-2.0 + 0.85 * (k % 6), 0.5 + 0.85 * (k / 36), -2.0 + 0.85 * ((k / 6) % 6)}; }
 glm::dquat torusOrientation(int k) { return glm::angleAxis(0.7 * k, glm::normalize(glm::dvec3(1, 0.3 * (k % 3), 0.5))); }
 
-TriangleMesh torusMesh() {
-  TriangleMesh m;
-  const float tau = glm::two_pi<float>(), R = 0.3f, r = 0.1f;
-  const int nu = 16, nv = 8;
-  for (int i = 0; i < nu; ++i)
-    for (int j = 0; j < nv; ++j) {
-      const float u = tau * i / nu, v = tau * j / nv;
-      m.positions.push_back(glm::vec3(std::cos(u) * (R + r * std::cos(v)), r * std::sin(v), std::sin(u) * (R + r * std::cos(v))));
-    }
-  auto id = [&](int i, int j) { return static_cast<unsigned>((i % nu) * nv + (j % nv)); };
-  for (int i = 0; i < nu; ++i)
-    for (int j = 0; j < nv; ++j) {
-      m.triangles.push_back({id(i, j), id(i, j + 1), id(i + 1, j + 1)});
-      m.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i + 1, j)});
-    }
-  if (polyhedralMassProperties(m).volume < 0)
-    for (auto& t : m.triangles) std::swap(t.y, t.z);
-  m.computeNormals();
-  return m;
-}
+TriangleMesh benchTorus() { return torusMesh(0.3f, 0.1f, 16, 8); }
 
 std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
   auto w = std::make_unique<World>();
@@ -99,7 +80,7 @@ std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
     w->addBody(d);
   }
   if (spec.tori) {
-    const auto torus = makeMeshShape(torusMesh(), 32);
+    const auto torus = makeMeshShape(benchTorus(), 32);
     for (int k = 0; k < spec.tori; ++k) {
       BodyDef d;
       d.shape = torus;
@@ -137,7 +118,7 @@ struct BulletWorld {
           btVector3(btScalar(b.position.x), btScalar(b.position.y), btScalar(b.position.z)), btQuaternion::getIdentity());
     }
     if (spec.tori) {
-      torus = torusMesh();
+      torus = benchTorus();
       for (const auto& p : torus.positions) torusVertices.insert(torusVertices.end(), {p.x, p.y, p.z});
       for (const auto& t : torus.triangles) torusIndices.insert(torusIndices.end(), {int(t.x), int(t.y), int(t.z)});
       torusArray = std::make_unique<btTriangleIndexVertexArray>(int(torus.triangles.size()), torusIndices.data(), 3 * sizeof(int),

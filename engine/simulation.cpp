@@ -294,7 +294,13 @@ VehicleControls Simulation::scriptAt(const std::vector<VehicleInput>& script, do
 
 glm::dmat4 Simulation::model(int i) const {
   const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(i)].index);
-  return glm::translate(glm::dmat4(1), rb.x) * glm::dmat4(glm::mat3_cast(rb.q)) * glm::translate(glm::dmat4(1), -rb.localCom);
+  return modelAt(i, {rb.x, rb.q});
+}
+
+glm::dmat4 Simulation::modelAt(int i, const Pose& pose) const {
+  const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(i)].index);
+  return glm::translate(glm::dmat4(1), pose.position) * glm::dmat4(glm::mat3_cast(pose.orientation)) *
+         glm::translate(glm::dmat4(1), -rb.localCom);
 }
 
 void Simulation::step() {
@@ -330,11 +336,6 @@ void Simulation::step() {
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
-      auto modelAt = [&](int b, const Pose& p) {
-        const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(b)].index);
-        return glm::translate(glm::dmat4(1), p.position) * glm::dmat4(glm::mat3_cast(p.orientation)) *
-               glm::translate(glm::dmat4(1), -rb.localCom);
-      };
       deform::DeformRequest rq;
       BodyRuntime& A = bodies_[static_cast<size_t>(bi[0])];
       BodyRuntime& B = bodies_[static_cast<size_t>(bi[1])];
@@ -374,11 +375,6 @@ void Simulation::step() {
                                                              yieldThreshold(body.material->restitution)));
       }
       if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
-      auto modelAt = [&](int b, const Pose& p) {
-        const RigidBody& rb = world_.body(bodies_[static_cast<size_t>(b)].index);
-        return glm::translate(glm::dmat4(1), p.position) * glm::dmat4(glm::mat3_cast(p.orientation)) *
-               glm::translate(glm::dmat4(1), -rb.localCom);
-      };
       BodyRuntime& A = bodies_[static_cast<size_t>(bi[0])];
       BodyRuntime& B = bodies_[static_cast<size_t>(bi[1])];
       deform::DeformRequest rq;

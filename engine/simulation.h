@@ -88,6 +88,8 @@ class Simulation {
   glm::dvec3 bumpNormal(int body, const glm::dvec3& point, const glm::dvec3& n);
   // Shape frame to world for body i (current pose).
   glm::dmat4 model(int i) const;
+  // Shape frame to world for body i at a given pose (a collision's).
+  glm::dmat4 modelAt(int i, const Pose& pose) const;
   // Fetches the per-event texel statistics (one small read of the GPU's counters).
   void resolveEventStats();
   // Called after each step with the events it produced (the sandbox's HUD, vehicles).

@@ -241,7 +241,12 @@ int main(int argc, char** argv) {
   app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
   app.add_flag("--no-gl", noGl, "Physics only");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;  // bad command-line input is bad input: exit 2
+  }
   gSteps = quick ? 24 : 240;
 
   struct PhysicsCase {

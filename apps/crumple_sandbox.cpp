@@ -162,14 +162,19 @@ int main(int argc, char** argv) {
   int width = 1280, height = 720;
   bool autopilot = false, quiet = false;
   cli.add_option("scene", scenePath, "Scene file; without one, the built-in highway scene");
-  cli.add_option("--frames", frames, "Run this many frames (1/60 s of simulation each), then exit");
+  cli.add_option("--frames", frames, "Run this many frames (1/60 s of simulation each), then exit")->check(CLI::Range(0L, 10000000L));
   cli.add_flag("--autopilot", autopilot, "Drive by the scene's vehicle script (a drive into the rails)");
   cli.add_option("--screenshot", screenshot, "Write the last frame to this PNG on exit");
   cli.add_option("--out", outDir, "Write crumple-sim's outputs (summary, events, maps) here on exit");
   cli.add_option("--width", width, "Window width")->check(CLI::Range(64, 8192));
   cli.add_option("--height", height, "Window height")->check(CLI::Range(64, 8192));
   cli.add_flag("--quiet,-q", quiet, "Only errors");
-  CLI11_PARSE(cli, argc, argv);
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = cli.exit(e);
+    return rc == 0 ? 0 : 2;  // bad command-line input is bad input: exit 2
+  }
   setLogLevel(quiet ? LogLevel::Error : LogLevel::Info);
 
   App app;

@@ -27,17 +27,22 @@ int main(int argc, char** argv) {
   bool renderFrames = false, quiet = false, verbose = false;
   app.add_option("scene", scenePath, "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
   app.add_option("--out,-o", outDir, "Output folder (default: out/<scene name>). Written atomically.");
-  app.add_option("--duration", duration, "Simulated seconds, overriding the scene's duration")->check(CLI::PositiveNumber);
-  app.add_option("--steps", steps, "Number of steps, overriding duration")->check(CLI::PositiveNumber);
+  app.add_option("--duration", duration, "Simulated seconds, overriding the scene's duration")->check(CLI::Range(1e-6, 1e6));
+  app.add_option("--steps", steps, "Number of steps, overriding duration")->check(CLI::Range(1L, 100000000L));
   app.add_option("--deform-path", deformPath, "gpu (default: the update stays on the GPU) or readback (the paper's path)")
       ->check(CLI::IsMember({"gpu", "readback"}));
   app.add_flag("--render", renderFrames, "Write frames/<camera>_<frame>.png for every camera of the scene");
   app.add_option("--size", size, "Frame size WxH for --render")->default_val("960x540");
-  app.add_option("--fps", fps, "Frames per simulated second for --render")->check(CLI::PositiveNumber)->default_val(30);
+  app.add_option("--fps", fps, "Frames per simulated second for --render")->check(CLI::Range(0.01, 1000.0))->default_val(30);
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
   app.add_flag("--quiet,-q", quiet, "Only errors");
   app.add_flag("--verbose,-v", verbose, "Debug messages (GL debug output included)");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;  // bad command-line input is bad input: exit 2
+  }
 
   setLogLevel(quiet ? LogLevel::Error : verbose ? LogLevel::Debug : LogLevel::Info);
   int width = 0, height = 0;

@@ -304,3 +304,20 @@ TEST_CASE("a user's glTF model (binary buffer, node transform, no uvs) works end
   for (float v : floor.pixels) dented += v < 0.49f;
   CHECK(dented > 50);
 }
+
+TEST_CASE("bad command lines and unusable output folders are bad input (exit 2), --help is not") {
+  std::string log;
+  CHECK(runSim("--steps -5 --out " + (kTmp / "x").string(), &log) == 2);
+  CHECK(log.find("--steps") != std::string::npos);
+  CHECK(runSim("--no-such-flag", &log) == 2);
+  CHECK(runSim("--help", &log) == 0);
+  CHECK(log.find("--deform-path") != std::string::npos);
+  // An output path that is a file, or a folder of someone else's files, is refused untouched.
+  std::ofstream(kTmp / "a_file") << "keep me";
+  CHECK(runSim("--out " + (kTmp / "a_file").string(), &log) == 2);
+  CHECK(slurp(kTmp / "a_file") == "keep me");
+  fs::create_directories(kTmp / "someone_elses");
+  std::ofstream(kTmp / "someone_elses" / "thesis.tex") << "precious";
+  CHECK(runSim("--out " + (kTmp / "someone_elses").string(), &log) == 2);
+  CHECK(slurp(kTmp / "someone_elses" / "thesis.tex") == "precious");
+}

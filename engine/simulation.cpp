@@ -433,7 +433,6 @@ OutputWriter::~OutputWriter() {
 
 namespace {
 nlohmann::ordered_json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
-double num(double x) { return std::isfinite(x) ? x : -1; }
 }  // namespace
 
 void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
@@ -529,7 +528,6 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   tj["frames"] = t.frames;
   s["timings"] = tj;
   for (const auto& [k, v] : extra) s[k] = v;
-  (void)num;
   std::ofstream f(root / "summary.json");
   f << s.dump(2) << "\n";
   if (!f) throw std::runtime_error("writing summary.json failed");

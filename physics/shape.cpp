@@ -62,7 +62,7 @@ double capsuleDistance(const glm::dvec3& p, double r, double hh, glm::dvec3* gra
   const glm::dvec3 c(0, std::clamp(p.y, -hh, hh), 0);
   const glm::dvec3 d = p - c;
   const double len = glm::length(d);
-  if (grad) *grad = len > 1e-12 ? d / len : glm::dvec3(p.y >= 0 ? 0 : 0, 1, 0);
+  if (grad) *grad = len > 1e-12 ? d / len : glm::dvec3(1, 0, 0);  // on the axis: any radial direction
   return len - r;
 }
 
@@ -83,16 +83,8 @@ double cylinderDistance(const glm::dvec3& p, double r, double hh, glm::dvec3* gr
   return outLen + inside;
 }
 
-void finishBounds(Shape& s) {
-  double r = 0;
-  for (const glm::dvec3& c : {s.boundsMin, s.boundsMax,
-                              glm::dvec3(s.boundsMin.x, s.boundsMax.y, s.boundsMin.z),
-                              glm::dvec3(s.boundsMax.x, s.boundsMin.y, s.boundsMax.z)}) {
-    r = std::max(r, glm::length(c));
-  }
-  s.boundingRadius = glm::length(glm::max(glm::abs(s.boundsMin), glm::abs(s.boundsMax)));
-  (void)r;
-}
+// The radius about the shape origin of a sphere holding the bounding box.
+void finishBounds(Shape& s) { s.boundingRadius = glm::length(glm::max(glm::abs(s.boundsMin), glm::abs(s.boundsMax))); }
 
 }  // namespace
 

@@ -175,11 +175,19 @@ struct Deformer::Impl {
     }
   }
 
+  // New heights as float bits, +infinity where nothing was written. The update
+  // takes the minimum into it; the commit consumes the touched region and puts
+  // +infinity back, so no deformation ever copies or clears a whole map.
   render::Texture2D& scratchFor(int side, int resolution) {
     auto it = scratch[side].find(resolution);
-    if (it == scratch[side].end()) it = scratch[side].emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
+    if (it == scratch[side].end()) {
+      it = scratch[side].emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
+      const GLuint inf = kUntouched;
+      glClearTexImage(it->second.id(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT, &inf);
+    }
     return it->second;
   }
+  static constexpr GLuint kUntouched = 0x7f800000u;  // +infinity
 
   int allocateStats() {
     if (statsUsed + 2 > statsCapacity) {
@@ -315,10 +323,8 @@ int Deformer::deform(const DeformRequest& rq) {
     glCullFace(GL_BACK);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
 
-    // The new map starts as a copy of X's map.
     const int res = X.surface->resolution();
     render::Texture2D& scratch = m.scratchFor(side, res);
-    glCopyImageSubData(X.surface->height().id(), GL_TEXTURE_2D, 0, 0, 0, 0, scratch.id(), GL_TEXTURE_2D, 0, 0, 0, 0, res, res, 1);
     const float depthToHeight = static_cast<float>(range / X.surface->bumpDepth());
 
     if (options_.path == Path::Gpu) {
@@ -414,6 +420,8 @@ int Deformer::deform(const DeformRequest& rq) {
       }
       std::vector<GLuint> bits(out.size());
       std::memcpy(bits.data(), out.data(), out.size() * sizeof(float));
+      for (size_t i = 0; i < out.size(); ++i)
+        if (out[i] == h[i]) bits[i] = Impl::kUntouched;
       scratch.upload(GL_RED_INTEGER, GL_UNSIGNED_INT, bits.data());
       m.region.upload(static_cast<size_t>(side) * 4 * sizeof(GLint), sizeof box, box);
     }
@@ -438,7 +446,7 @@ int Deformer::deform(const DeformRequest& rq) {
 
     glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, m.indirect.id());
     m.commit.use();
-    glBindImageTexture(0, m.scratchFor(side, res).id(), 0, GL_FALSE, 0, GL_READ_ONLY, GL_R32UI);
+    glBindImageTexture(0, m.scratchFor(side, res).id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
     glBindImageTexture(1, X.height().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.region.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, m.stats.id());

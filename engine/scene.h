@@ -74,6 +74,7 @@ struct VehicleDesc {
   bool present = false;
   std::vector<glm::dvec3> wheels;  // attachment points, body frame
   double wheelRadius = 0.35;
+  double wheelWidth = 0.25;  // for wheel prints in contact-deformable ground
   double suspensionRest = 0.3;
   double suspensionStiffness = 40000;
   double suspensionDamping = 4000;

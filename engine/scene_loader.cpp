@@ -228,7 +228,7 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
 
 VehicleDesc parseVehicle(const Node& n) {
   n.requireObject();
-  n.checkKeys({"wheels", "wheel_radius", "suspension_rest", "suspension_stiffness", "suspension_damping",
+  n.checkKeys({"wheels", "wheel_radius", "wheel_width", "suspension_rest", "suspension_stiffness", "suspension_damping",
                "engine_force", "brake_force", "max_steer", "tyre_grip", "script"});
   VehicleDesc v;
   v.present = true;
@@ -237,6 +237,7 @@ VehicleDesc parseVehicle(const Node& n) {
   if (!w.is_array() || w.size() < 3 || w.size() > 16) n.fail("wheels", "must be an array of 3 to 16 points");
   for (size_t i = 0; i < w.size(); ++i) v.wheels.push_back(n.vec3Value(w[i], "wheels[" + std::to_string(i) + "]", 1e3));
   v.wheelRadius = n.number("wheel_radius", v.wheelRadius, 0, 10, true);
+  v.wheelWidth = n.number("wheel_width", v.wheelWidth, 0, 10, true);
   v.suspensionRest = n.number("suspension_rest", v.suspensionRest, 0, 10, true);
   v.suspensionStiffness = n.number("suspension_stiffness", v.suspensionStiffness, 0, 1e9, true);
   v.suspensionDamping = n.number("suspension_damping", v.suspensionDamping, 0, 1e9);

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -275,7 +276,9 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
     vp.brakeForce = d.vehicle.brakeForce;
     vp.maxSteer = d.vehicle.maxSteer;
     vp.grip = d.vehicle.tyreGrip;
-    vehicles_.push_back({static_cast<int>(bodies_.size()), Vehicle(b.index, vp), d.vehicle.script, false, {}});
+    VehicleRuntime v{static_cast<int>(bodies_.size()), Vehicle(b.index, vp), nullptr, d.vehicle.script, false, {}};
+    if (gl_) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(d.vehicle.wheelRadius, d.vehicle.wheelWidth, 64));
+    vehicles_.push_back(std::move(v));
   }
   bodies_.push_back(std::move(b));
 }
@@ -388,6 +391,38 @@ void Simulation::step() {
       deformer_->deform(rq);
       ++timings_.contactDeformations;
       deformed = true;
+    }
+    // Wheels press contact-deformable ground too: a wheel-shaped print under
+    // each loaded wheel, its push over one step taken as the impulse (like the
+    // resting contacts above).
+    for (const VehicleRuntime& v : vehicles_) {
+      if (!v.wheelMesh) continue;
+      const RigidBody& car = world_.body(v.vehicle.body());
+      for (const WheelState& w : v.vehicle.wheels()) {
+        if (!w.onGround || w.ground < 0 || bodyOf[static_cast<size_t>(w.ground)] < 0) continue;
+        const int gi = bodyOf[static_cast<size_t>(w.ground)];
+        BodyRuntime& ground = bodies_[static_cast<size_t>(gi)];
+        if (!ground.contactDeformation || !ground.surface) continue;
+        const double depth = deformDepth(ground.thickness, percentDeform(ground.material->kappa, 2 * w.load * h,
+                                                                          yieldThreshold(ground.material->restitution)));
+        if (!(depth > 0)) continue;
+        // The wheel: a cylinder (axis y in its frame) turned to the car's axle (z), standing on the contact.
+        const glm::dmat3 r = car.rotation();
+        const glm::dvec3 centre = w.contact + w.normal * v.vehicle.params().wheelRadius;
+        glm::dmat4 wheel = glm::translate(glm::dmat4(1), centre) * glm::dmat4(r) *
+                           glm::rotate(glm::dmat4(1), glm::half_pi<double>(), glm::dvec3(1, 0, 0));
+        const RigidBody& g = world_.body(ground.index);
+        deform::DeformRequest rq;
+        rq.a = {ground.surface.get(), ground.gpuMesh.get(), modelAt(gi, {g.x, g.q})};
+        rq.b = {nullptr, v.wheelMesh.get(), wheel};
+        rq.point = w.contact;
+        rq.normal = w.normal;
+        rq.penetration = 0;
+        rq.deformA = depth;
+        deformer_->deform(rq);
+        ++timings_.contactDeformations;
+        deformed = true;
+      }
     }
   }
   if (deformed) glFinish();  // honest timings: the GPU work is part of the deformation's cost

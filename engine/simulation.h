@@ -46,6 +46,7 @@ struct BodyRuntime {
 struct VehicleRuntime {
   int body = -1;  // index in Simulation::bodies()
   Vehicle vehicle;
+  std::shared_ptr<const deform::GpuMesh> wheelMesh;  // prints wheels into contact-deformable ground
   std::vector<VehicleInput> script;
   bool manual = false;  // the sandbox drives: `controls` instead of the script
   VehicleControls controls;

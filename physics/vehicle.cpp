@@ -37,6 +37,8 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     RayHit hit;
     world.raycast(origin, -up, reach, body_, hit);
     w.contact = hit.point;
+    w.normal = hit.normal;
+    w.ground = hit.body;
     const double compression = reach - hit.distance;
     const double rate = (compression - w.compression) / h;
     w.compression = compression;

@@ -36,7 +36,9 @@ struct WheelState {
   bool onGround = false;
   double compression = 0;  // m
   glm::dvec3 contact{0};
-  double load = 0;         // N
+  glm::dvec3 normal{0, 1, 0};  // of the ground at the contact
+  int ground = -1;             // the body under the wheel
+  double load = 0;             // N
 };
 
 class Vehicle {
@@ -45,6 +47,7 @@ class Vehicle {
   // Computes and applies this step's forces.
   void apply(World& world, const VehicleControls& controls, double h);
   const std::vector<WheelState>& wheels() const { return wheels_; }
+  const VehicleParams& params() const { return params_; }
   int body() const { return body_; }
   double speed(const World& world) const;  // forward speed, m/s
 

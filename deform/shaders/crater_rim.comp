@@ -27,7 +27,7 @@ void main() {
   if (any(greaterThan(p, hi))) return;
   float old = texelFetch(uHeight, p, 0).r;
   if (uMode == 0) {
-    float nh = uintBitsToFloat(imageLoad(uNewHeight, p).r);
+    float nh = uintBitsToFloat(imageLoad(uNewHeight, p).r);  // +infinity where untouched
     if (nh < old) atomicAdd(uSums[uSide * 2], uint((old - nh) * kFixed + 0.5));
     return;
   }

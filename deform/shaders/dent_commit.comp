@@ -1,10 +1,11 @@
 #version 450 core
 // dent_commit.comp: writes the new heights of one side into its height map,
-// over the touched region only, and counts what changed.
+// over the touched region only, counts what changed, and puts the scratch
+// back to +infinity (untouched) there, ready for the next deformation.
 // in:  uNewHeight (float bits), uRegion[uSide]; out: uHeight, uStats[uStatsIndex * 4 ..]
 //   stats: texels changed, max dent (float bits, m), texels saturated at 0
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(r32ui, binding = 0) uniform readonly uimage2D uNewHeight;
+layout(r32ui, binding = 0) uniform uimage2D uNewHeight;
 layout(r32f, binding = 1) uniform image2D uHeight;
 layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
 layout(std430, binding = 1) buffer Stats { uint uStats[]; };
@@ -15,7 +16,10 @@ void main() {
   ivec4 r = uRegion[uSide];
   ivec2 p = r.xy + ivec2(gl_GlobalInvocationID.xy);
   if (any(greaterThan(p, r.zw))) return;
-  float nh = uintBitsToFloat(imageLoad(uNewHeight, p).r);
+  uint bits = imageLoad(uNewHeight, p).r;
+  if (bits == 0x7f800000u) return;  // untouched
+  imageStore(uNewHeight, p, uvec4(0x7f800000u));
+  float nh = uintBitsToFloat(bits);
   float oh = imageLoad(uHeight, p).r;
   if (nh == oh) return;
   imageStore(uHeight, p, vec4(nh));

@@ -5,7 +5,7 @@
 // several pixels addressing one texel: the deepest wins (imageAtomicMin on the
 // float bits, which order like the values since heights are >= 0).
 // in:  address/depth/normal maps of both passes, X's height map
-// out: uNewHeight (r32ui float bits, pre-filled with h), uRegion[uSide] grows to the touched texels
+// out: uNewHeight (r32ui float bits, +infinity where untouched), uRegion[uSide] grows to the touched texels
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(binding = 0) uniform sampler2D uAddressX;
 layout(binding = 1) uniform sampler2D uDepthX;

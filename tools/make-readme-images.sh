@@ -13,7 +13,7 @@ shoot() {  # scene camera frame-seconds
   cp "$last" "docs/images/$scene.png"
 }
 shoot highway rail 6
-shoot sphere-into-plate main 0.5
+shoot sphere-into-plate main 1.5
 shoot pattern-box wall 3
 shoot pyramid front 2
 shoot mixed-pile main 3

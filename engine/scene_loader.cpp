@@ -184,6 +184,9 @@ Material parseMaterial(const Node& n, const std::string& name) {
   return m;
 }
 
+// Shapes thinner than this are rejected: their mass properties and atlases degenerate.
+constexpr double kMinSize = 1e-4;  // m
+
 ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
   n.requireObject();
   ShapeDesc s;
@@ -195,13 +198,14 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
     for (int i = 0; i < 3; ++i)
       if (!(s.size[i] > 0)) n.fail("size", "must be positive in every component");
     if (std::max({s.size.x, s.size.y, s.size.z}) > 1e4) n.fail("size", "larger than 10 km");
+    if (std::min({s.size.x, s.size.y, s.size.z}) < kMinSize) n.fail("size", "smaller than 0.1 mm in some component");
   } else if (s.type == "sphere") {
     n.checkKeys({"type", "radius"});
-    s.radius = n.requiredNumber("radius", 0, 1e4, true);
+    s.radius = n.requiredNumber("radius", kMinSize, 1e4);
   } else if (s.type == "capsule" || s.type == "cylinder") {
     n.checkKeys({"type", "radius", "height"});
-    s.radius = n.requiredNumber("radius", 0, 1e4, true);
-    s.height = n.requiredNumber("height", 0, 1e4, s.type == "cylinder");
+    s.radius = n.requiredNumber("radius", kMinSize, 1e4);
+    s.height = n.requiredNumber("height", s.type == "cylinder" ? kMinSize : 0.0, 1e4);
   } else if (s.type == "mesh") {
     n.checkKeys({"type", "file", "scale"});
     const std::string f = n.requiredString("file");
@@ -212,12 +216,12 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
     if (n.has("scale")) {
       const json& v = n.raw("scale");
       if (v.is_number()) {
-        const double k = n.number("scale", 1, 0, 1e6, true);
+        const double k = n.number("scale", 1, 1e-4, 1e4);
         s.scale = glm::dvec3(k);
       } else {
         s.scale = n.vec3("scale", s.scale);
         for (int i = 0; i < 3; ++i)
-          if (!(s.scale[i] > 0)) n.fail("scale", "must be positive in every component");
+          if (!(s.scale[i] >= 1e-4 && s.scale[i] <= 1e4)) n.fail("scale", "must be in [0.0001, 10000] in every component");
       }
     }
   } else {

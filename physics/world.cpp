@@ -69,6 +69,9 @@ int World::addBody(const BodyDef& def) {
     b.invMass = 1.0 / b.mass;
     b.inertiaBody = mp.inertia * (b.mass / mp.volume);
     b.invInertiaBody = glm::inverse(b.inertiaBody);
+    for (int c = 0; c < 3; ++c)
+      if (!finite(b.invInertiaBody[c]) || !finite(b.inertiaBody[c]) || !(b.inertiaBody[c][c] > 0))
+        throw std::invalid_argument("inertia is degenerate (a body too thin or too light)");
     b.v = def.linearVelocity;
     b.w = def.angularVelocity;
   }

@@ -5,7 +5,10 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <cerrno>
+#include <fstream>
 #include <set>
+#include <sstream>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -228,6 +231,87 @@ TriangleMesh loadGltf(const std::string& path) {
   return out;
 }
 
+// OBJ is read here rather than through OpenMesh, whose reader skips what it
+// cannot parse (bad indices, unparsable numbers) with a message on stderr and
+// goes on: a broken file must be an error naming the line.
+TriangleMesh loadObj(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw MeshError(path + ": cannot be opened");
+  std::vector<glm::vec3> v;
+  std::vector<glm::vec2> vt;
+  TriangleMesh out;
+  bool anyUv = false, allUv = true;
+  std::string line;
+  int lineNo = 0;
+  auto fail = [&](const std::string& why) { throw MeshError(path + ": line " + std::to_string(lineNo) + ": " + why); };
+  auto number = [&](std::istringstream& ls) {
+    std::string tok;
+    if (!(ls >> tok)) fail("missing coordinate");
+    char* end = nullptr;
+    errno = 0;
+    const double x = std::strtod(tok.c_str(), &end);
+    if (end == tok.c_str() || *end != '\0') fail("'" + tok + "' is not a number");
+    if (!std::isfinite(x) || errno == ERANGE || std::abs(x) > 1e30) fail("coordinate '" + tok + "' is not finite");
+    return static_cast<float>(x);
+  };
+  auto index = [&](const std::string& tok, size_t count, const char* what) -> long {
+    char* end = nullptr;
+    const long i = std::strtol(tok.c_str(), &end, 10);
+    if (end == tok.c_str() || *end != '\0') fail(std::string("bad ") + what + " index '" + tok + "'");
+    const long resolved = i < 0 ? static_cast<long>(count) + i : i - 1;
+    if (i == 0 || resolved < 0 || resolved >= static_cast<long>(count))
+      fail(std::string(what) + " index " + tok + " out of range (" + std::to_string(count) + " defined so far)");
+    return resolved;
+  };
+  while (std::getline(in, line)) {
+    ++lineNo;
+    if (line.size() > 100000) fail("line too long");
+    const auto hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    std::istringstream ls(line);
+    std::string tag;
+    if (!(ls >> tag)) continue;
+    if (tag == "v") {
+      const float x = number(ls), y = number(ls), z = number(ls);
+      v.emplace_back(x, y, z);
+    } else if (tag == "vt") {
+      const float a = number(ls);
+      std::string rest;
+      float b = 0;
+      if (ls >> rest) {
+        std::istringstream again(rest);
+        b = number(again);
+      }
+      vt.emplace_back(a, 1.0f - b);  // OBJ's v points up the image; ours runs with the rows
+    } else if (tag == "f") {
+      std::vector<unsigned> corners;
+      std::string tok;
+      while (ls >> tok) {
+        const auto s1 = tok.find('/');
+        const long vi = index(tok.substr(0, s1), v.size(), "vertex");
+        long ti = -1;
+        if (s1 != std::string::npos) {
+          const auto s2 = tok.find('/', s1 + 1);
+          const std::string t = tok.substr(s1 + 1, s2 == std::string::npos ? std::string::npos : s2 - s1 - 1);
+          if (!t.empty()) ti = index(t, vt.size(), "texture coordinate");
+        }
+        out.positions.push_back(v[static_cast<size_t>(vi)]);
+        out.uvs.push_back(ti >= 0 ? vt[static_cast<size_t>(ti)] : glm::vec2(-1));
+        anyUv = anyUv || ti >= 0;
+        allUv = allUv && ti >= 0;
+        corners.push_back(static_cast<unsigned>(out.positions.size() - 1));
+      }
+      if (corners.size() < 3) fail("a face needs at least 3 vertices");
+      for (size_t i = 1; i + 1 < corners.size(); ++i) out.triangles.push_back({corners[0], corners[i], corners[i + 1]});
+    }
+    // Other statements (vn, o, g, s, usemtl, mtllib, l, p) do not shape the solid.
+  }
+  if (out.triangles.empty()) throw MeshError(path + ": no faces");
+  if (!anyUv || !allUv) out.uvs.clear();
+  out.computeNormals();
+  return out;
+}
+
 TriangleMesh loadWithOpenMesh(const std::string& path) {
   using Mesh = OpenMesh::PolyMesh_ArrayKernelT<>;
   Mesh mesh;
@@ -238,7 +322,15 @@ TriangleMesh loadWithOpenMesh(const std::string& path) {
   opt += OpenMesh::IO::Options::VertexTexCoord;
   opt += OpenMesh::IO::Options::FaceTexCoord;
   opt += OpenMesh::IO::Options::VertexNormal;
-  if (!OpenMesh::IO::read_mesh(mesh, path, opt)) throw MeshError(path + ": OpenMesh could not read the file (malformed or unsupported)");
+  bool ok = false;
+  try {
+    ok = OpenMesh::IO::read_mesh(mesh, path, opt);
+  } catch (const std::bad_alloc&) {
+    throw MeshError(path + ": the file's element counts are too large to hold");
+  } catch (const std::exception& e) {
+    throw MeshError(path + ": " + e.what());
+  }
+  if (!ok) throw MeshError(path + ": OpenMesh could not read the file (malformed or unsupported)");
   const bool faceUv = opt.check(OpenMesh::IO::Options::FaceTexCoord);
   const bool vertexUv = opt.check(OpenMesh::IO::Options::VertexTexCoord);
   TriangleMesh out;
@@ -276,7 +368,8 @@ TriangleMesh loadMeshFile(const std::string& path) {
   const std::string ext = lower(fs::path(path).extension().string());
   TriangleMesh m;
   if (ext == ".gltf" || ext == ".glb") m = loadGltf(path);
-  else if (ext == ".obj" || ext == ".off" || ext == ".ply") m = loadWithOpenMesh(path);
+  else if (ext == ".obj") m = loadObj(path);
+  else if (ext == ".off" || ext == ".ply") m = loadWithOpenMesh(path);
   else throw MeshError(path + ": unknown mesh format '" + ext + "' (expected .gltf, .glb, .obj, .off or .ply)");
   if (m.normals.size() != m.positions.size()) m.computeNormals();
   return m;

@@ -203,4 +203,15 @@ TEST_CASE("OBJ, OFF and broken OBJ through OpenMesh") {
   CHECK_THROWS_AS(loadMeshFile(tempFile("empty.obj", "this is not a mesh\n").string()), MeshError);
   CHECK_THROWS_AS(loadMeshFile(tempFile("tet.xyz", off).string()), MeshError);
   CHECK_THROWS_AS(loadMeshFile(tempFile("inf.off", "OFF\n3 1 0\n0 0 0\ninf 0 0\n0 1 0\n3 0 1 2\n").string()), MeshError);
+  CHECK_THROWS_AS(loadMeshFile(tempFile("huge.off", "OFF\n999999999 1 0\n").string()), MeshError);
+  // OBJ errors name the line.
+  CHECK_THROWS_WITH_AS(loadMeshFile(tempFile("oor.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n").string()),
+                       doctest::Contains("line 4: vertex index 99 out of range"), MeshError);
+  CHECK_THROWS_WITH_AS(loadMeshFile(tempFile("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").string()),
+                       doctest::Contains("line 1"), MeshError);
+  CHECK_THROWS_WITH_AS(loadMeshFile(tempFile("vt.obj", "vt 0 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/4 2/1 3/1\n").string()),
+                       doctest::Contains("texture coordinate index 4"), MeshError);
+  // Negative (relative) indices are valid OBJ.
+  const TriangleMesh rel = loadMeshFile(tempFile("rel.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf -4 -2 -3\nf -4 -3 -1\nf -4 -1 -2\nf -3 -2 -1\n").string());
+  CHECK(polyhedralMassProperties(rel).volume == doctest::Approx(1.0 / 6));
 }

@@ -312,7 +312,47 @@ TriangleMesh loadObj(const std::string& path) {
   return out;
 }
 
+namespace {
+// OFF and PLY headers announce element counts that OpenMesh allocates before
+// reading: check them against the file's size first (each vertex takes at
+// least 6 bytes as text, 12 as binary; each face at least 4).
+void checkDeclaredCounts(const std::string& path, const std::string& ext) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const double bytes = static_cast<double>(fs::file_size(path, ec));
+  std::string word;
+  double vertices = 0, faces = 0;
+  if (ext == ".off") {
+    in >> word;
+    if (word.size() >= 3 && word.substr(word.size() - 3) == "OFF") {
+      std::string line;
+      while (in >> word && word[0] == '#') std::getline(in, line);
+      try {
+        vertices = std::stod(word);
+        in >> faces;
+      } catch (const std::exception&) {
+        return;  // OpenMesh will refuse it
+      }
+    }
+  } else {
+    std::string line;
+    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
+      std::istringstream ls(line);
+      std::string tag, kind;
+      double count = 0;
+      if (ls >> tag >> kind >> count && tag == "element") (kind == "vertex" ? vertices : faces) += count;
+      if (line.rfind("end_header", 0) == 0) break;
+    }
+  }
+  if (vertices < 0 || faces < 0 || vertices * 6 + faces * 4 > bytes * 2 + 64)
+    throw MeshError(path + ": the header announces " + std::to_string(static_cast<long long>(vertices)) + " vertices and " +
+                    std::to_string(static_cast<long long>(faces)) + " faces, more than the file's " +
+                    std::to_string(static_cast<long long>(bytes)) + " bytes can hold");
+}
+}  // namespace
+
 TriangleMesh loadWithOpenMesh(const std::string& path) {
+  checkDeclaredCounts(path, lower(fs::path(path).extension().string()));
   using Mesh = OpenMesh::PolyMesh_ArrayKernelT<>;
   Mesh mesh;
   mesh.request_vertex_texcoords2D();

@@ -31,6 +31,25 @@ void addQuad(ChartMesh& cm, int chart, Corner corner, int i, int j, bool flip = 
   cm.addTriangle(chart, pb, nb, ub);
 }
 
+// Rings of quads from an outer edge (j = 0) inwards, the last ring a fan of
+// triangles to the centre (discs and hemispherical caps).
+template <typename Corner>
+void addRings(ChartMesh& cm, int chart, Corner corner, int segments, int rings) {
+  for (int j = 0; j < rings; ++j)
+    for (int i = 0; i < segments; ++i) {
+      if (j < rings - 1) {
+        addQuad(cm, chart, corner, i, j);
+        continue;
+      }
+      glm::vec3 p[3], nn[3];
+      glm::vec2 uv[3];
+      corner(i, j, p[0], nn[0], uv[0]);
+      corner(i + 1, j, p[1], nn[1], uv[1]);
+      corner(i, j + 1, p[2], nn[2], uv[2]);
+      cm.addTriangle(chart, p, nn, uv);
+    }
+}
+
 // Face basis of the cube: normal, u axis, v axis (u x v = normal).
 void cubeFace(int f, glm::vec3& n, glm::vec3& u, glm::vec3& v) {
   const int axis = f / 2;
@@ -110,20 +129,7 @@ void addDisc(ChartMesh& cm, int chart, float r, float y, bool up, int segments) 
     nn = n;
     uv = glm::vec2(p.x, up ? -p.z : p.z);
   };
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < segments; ++i) {
-      if (j == rings - 1) {
-        // Inner ring: triangles to the centre.
-        glm::vec3 p[3], nn[3];
-        glm::vec2 uv[3];
-        corner(i, j, p[0], nn[0], uv[0]);
-        corner(i + 1, j, p[1], nn[1], uv[1]);
-        corner(i, j + 1, p[2], nn[2], uv[2]);
-        cm.addTriangle(chart, p, nn, uv);
-      } else {
-        addQuad(cm, chart, corner, i, j);
-      }
-    }
+  addRings(cm, chart, corner, segments, rings);
 }
 // A hemisphere cap at height yc, pointing up or down, by azimuthal equidistant projection.
 void addCap(ChartMesh& cm, int chart, float r, float yc, bool up, int segments, int rings) {
@@ -137,19 +143,7 @@ void addCap(ChartMesh& cm, int chart, float r, float yc, bool up, int segments, 
     uv = glm::vec2(std::cos(a), std::sin(a)) * (polar * r);
     if (!up) uv.y = -uv.y;
   };
-  for (int j = 0; j < rings; ++j)
-    for (int i = 0; i < segments; ++i) {
-      if (j == rings - 1) {
-        glm::vec3 p[3], nn[3];
-        glm::vec2 uv[3];
-        corner(i, j, p[0], nn[0], uv[0]);
-        corner(i + 1, j, p[1], nn[1], uv[1]);
-        corner(i, j + 1, p[2], nn[2], uv[2]);
-        cm.addTriangle(chart, p, nn, uv);
-      } else {
-        addQuad(cm, chart, corner, i, j);  // the mirrored angle keeps the lower cap outward too
-      }
-    }
+  addRings(cm, chart, corner, segments, rings);  // the mirrored angle keeps the lower cap outward too
 }
 }  // namespace
 

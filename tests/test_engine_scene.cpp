@@ -2,6 +2,8 @@
 // every error names the file, the key path and the reason.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 
@@ -109,7 +111,7 @@ TEST_CASE("numbers too large for a double are rejected, not turned into infinity
 
 namespace {
 fs::path tempFile(const std::string& name, const std::string& content) {
-  const fs::path p = fs::temp_directory_path() / "crumple_tests" / name;
+  const fs::path p = fs::temp_directory_path() / ("crumple_tests_" + std::to_string(::getpid())) / name;
   fs::create_directories(p.parent_path());
   std::ofstream(p, std::ios::binary) << content;
   return p;

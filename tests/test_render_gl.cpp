@@ -1,6 +1,8 @@
 // GL foundation on the headless context: a triangle drawn offscreen and read back.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 
 #include "gl_fixture.h"
@@ -69,7 +71,7 @@ TEST_CASE("a rendered triangle reads back with the expected pixels") {
   CHECK(img.at(0, H - 1, 0) == doctest::Approx(1.0));
   CHECK(img.at(W - 1, 0, 2) == doctest::Approx(1.0));
 
-  const auto path = std::filesystem::temp_directory_path() / "crumple_triangle.png";
+  const auto path = std::filesystem::temp_directory_path() / ("crumple_triangle_" + std::to_string(::getpid()) + ".png");
   captureToPng(fb.id(), W, H, path.string());
   Image back = readPng(path.string(), 3);
   CHECK(back.width == W);

@@ -2,6 +2,8 @@
 // last frame is a real picture and both the car and a rail are dented.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -12,7 +14,7 @@
 namespace fs = std::filesystem;
 
 TEST_CASE("sandbox: --frames 600 --autopilot --screenshot ends with a picture and dented car and rail") {
-  const fs::path dir = fs::temp_directory_path() / "crumple_sandbox_test";
+  const fs::path dir = fs::temp_directory_path() / ("crumple_sandbox_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path shot = dir / "shot.png", out = dir / "out", log = dir / "log.txt";

@@ -2,6 +2,8 @@
 // folders, determinism, a user's glTF model as a mesh body.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -15,7 +17,8 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 namespace {
-const fs::path kTmp = fs::temp_directory_path() / "crumple_sim_tests";
+// One folder per test process: two suites running at once must not share files.
+const fs::path kTmp = fs::temp_directory_path() / ("crumple_sim_tests_" + std::to_string(::getpid()));
 
 int runSim(const std::string& args, std::string* output = nullptr) {
   fs::create_directories(kTmp);

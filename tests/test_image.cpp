@@ -27,5 +27,5 @@ TEST_CASE("reading a file that is not a PNG is an ImageError naming the file") {
   FILE* f = std::fopen(path.c_str(), "wb");
   std::fputs("hello", f);
   std::fclose(f);
-  CHECK_THROWS_WITH_AS(readPng(path), doctest::Contains("crumple_not_png.png"), ImageError);
+  CHECK_THROWS_WITH_AS(readPng(path), doctest::Contains(path.c_str()), ImageError);
 }

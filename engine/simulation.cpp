@@ -306,6 +306,20 @@ glm::dmat4 Simulation::modelAt(int i, const Pose& pose) const {
          glm::translate(glm::dmat4(1), -rb.localCom);
 }
 
+deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, int b, double depthA, double depthB) const {
+  const BodyRuntime& A = bodies_[static_cast<size_t>(a)];
+  const BodyRuntime& B = bodies_[static_cast<size_t>(b)];
+  deform::DeformRequest rq;
+  rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(a, e.poseA)};
+  rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(b, e.poseB)};
+  rq.point = e.point;
+  rq.normal = e.normal;
+  rq.penetration = e.penetration;
+  rq.deformA = depthA;
+  rq.deformB = depthB;
+  return rq;
+}
+
 void Simulation::step() {
   const double h = scene_.timestep;
   auto t0 = Clock::now();
@@ -339,17 +353,8 @@ void Simulation::step() {
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
-      deform::DeformRequest rq;
-      BodyRuntime& A = bodies_[static_cast<size_t>(bi[0])];
-      BodyRuntime& B = bodies_[static_cast<size_t>(bi[1])];
-      rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(bi[0], e.poseA)};
-      rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(bi[1], e.poseB)};
-      rq.point = e.point;
-      rq.normal = e.normal;
-      rq.penetration = e.penetration;
-      rq.deformA = rec.side[0].deformed ? rec.side[0].deformDepth : 0;
-      rq.deformB = rec.side[1].deformed ? rec.side[1].deformDepth : 0;
-      rec.statsHandle = deformer_->deform(rq);
+      rec.statsHandle = deformer_->deform(eventRequest(e, bi[0], bi[1], rec.side[0].deformed ? rec.side[0].deformDepth : 0,
+                                                       rec.side[1].deformed ? rec.side[1].deformDepth : 0));
       ++timings_.deformations;
       deformed = true;
     }
@@ -378,17 +383,7 @@ void Simulation::step() {
                                                              yieldThreshold(body.material->restitution)));
       }
       if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
-      BodyRuntime& A = bodies_[static_cast<size_t>(bi[0])];
-      BodyRuntime& B = bodies_[static_cast<size_t>(bi[1])];
-      deform::DeformRequest rq;
-      rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(bi[0], e.poseA)};
-      rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(bi[1], e.poseB)};
-      rq.point = e.point;
-      rq.normal = e.normal;
-      rq.penetration = e.penetration;
-      rq.deformA = depth[0];
-      rq.deformB = depth[1];
-      deformer_->deform(rq);
+      deformer_->deform(eventRequest(e, bi[0], bi[1], depth[0], depth[1]));
       ++timings_.contactDeformations;
       deformed = true;
     }

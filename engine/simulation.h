@@ -100,6 +100,8 @@ class Simulation {
 
  private:
   void buildBody(const BodyDesc& desc, size_t index);
+  // The deformation of one event (a collision or a resting contact) between bodies a and b.
+  deform::DeformRequest eventRequest(const CollisionEvent& e, int a, int b, double depthA, double depthB) const;
   Scene scene_;
   bool gl_;
   World world_;

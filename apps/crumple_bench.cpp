@@ -11,6 +11,7 @@
 #include <BulletCollision/Gimpact/btGImpactShape.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <glm/gtc/constants.hpp>
@@ -193,6 +194,45 @@ void deformBench(benchmark::State& state, deform::Path path) {
   }
 }
 
+// Per-phase wall times (glFinish at each boundary) of both paths at each size.
+void deformProfile(int iterations) {
+  std::printf("\n== deformation phases: wall ms (GPU ms), mean of %d, glFinish between phases ==\n", iterations);
+  DeformStage& s = *gDeformStage;
+  for (int size : {256, 512, 1024, 2048})
+    for (deform::Path path : {deform::Path::Gpu, deform::Path::Readback}) {
+      deform::DeformOptions o{size, path};
+      o.profile = true;
+      deform::Deformer d(o);
+      deform::Surface plate(s.plate, 1024, 0.1f, 0.02f, d.createMaps(1024, nullptr, 0.1f, float(s.plate->metresPerUv / 1024)));
+      deform::Surface ball(s.ball, 512, 0.1f, 0.02f, d.createMaps(512, nullptr, 0.1f, float(s.ball->metresPerUv / 512)));
+      deform::DeformRequest rq;
+      rq.a = {&plate, s.plate.get(), glm::dmat4(1)};
+      rq.b = {&ball, s.ball.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.35, 0))};
+      rq.point = {0, 0.1, 0};
+      rq.normal = {0, 1, 0};
+      rq.deformA = 0.002;
+      rq.deformB = 0.001;
+      d.deform(rq);
+      std::vector<deform::PhaseTime> sum;
+      for (int i = 0; i < iterations; ++i) {
+        d.deform(rq);
+        for (const auto& p : d.profile()) {
+          auto it = std::find_if(sum.begin(), sum.end(), [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
+          if (it == sum.end()) sum.push_back(p);
+          else {
+            it->ms += p.ms;
+            it->gpuMs += p.gpuMs;
+          }
+        }
+      }
+      double total = 0, gpuTotal = 0;
+      for (const auto& p : sum) total += p.ms / iterations, gpuTotal += p.gpuMs / iterations;
+      std::printf("%-8s %4d  wall %8.3f (gpu %7.3f) :", path == deform::Path::Gpu ? "gpu" : "readback", size, total, gpuTotal);
+      for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
+      std::printf("\n");
+    }
+}
+
 // ---- rendering --------------------------------------------------------------
 // The sandbox's scene (the built-in highway) after its car has hit the rail,
 // seen from its chase camera.
@@ -228,10 +268,11 @@ class Collector : public benchmark::ConsoleReporter {
 int main(int argc, char** argv) {
   CLI::App app{"crumple-bench: crumple vs Bullet (physics), GPU vs read-back (deformation), POM on/off (render); "
                "prints ms per step/deformation/frame and the ratios."};
-  bool quick = false, noGl = false;
+  bool quick = false, noGl = false, deformPhases = false;
   std::string filter;
   app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
   app.add_flag("--no-gl", noGl, "Physics only");
+  app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, both paths");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
   try {
     app.parse(argc, argv);
@@ -288,5 +329,6 @@ int main(int argc, char** argv) {
   const std::string it;
   const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);
   if (!std::isnan(p)) std::printf("render  1280x720   pom %8.3f ms/frame  no parallax %8.3f ms/frame  pom/none %6.2fx\n", p, f, p / f);
+  if (deformPhases && gDeformStage) deformProfile(quick ? 3 : 20);
   return 0;
 }

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <chrono>
 #include <map>
 
 namespace crumple::deform {
@@ -126,6 +127,43 @@ void craterRimsCpu(std::vector<float>& out, const std::vector<float>& old, int r
 }  // namespace
 
 struct Deformer::Impl {
+  // Profile mode: wall time per phase, glFinish at each boundary.
+  std::vector<PhaseTime> phases;
+  std::chrono::steady_clock::time_point mark;
+  bool profiling = false;
+  GLuint queries[2] = {0, 0};
+  ~Impl() {
+    if (queries[0]) glDeleteQueries(2, queries);
+  }
+  void beginProfile(bool on) {
+    phases.clear();
+    profiling = on;
+    if (!on) return;
+    if (!queries[0]) glCreateQueries(GL_TIMESTAMP, 2, queries);
+    glFinish();
+    glQueryCounter(queries[0], GL_TIMESTAMP);
+    mark = std::chrono::steady_clock::now();
+  }
+  void phase(const char* name) {
+    if (!profiling) return;
+    glQueryCounter(queries[1], GL_TIMESTAMP);
+    glFinish();
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - mark).count();
+    GLuint64 t0 = 0, t1 = 0;
+    glGetQueryObjectui64v(queries[0], GL_QUERY_RESULT, &t0);
+    glGetQueryObjectui64v(queries[1], GL_QUERY_RESULT, &t1);
+    const double gpuMs = static_cast<double>(t1 - t0) * 1e-6;
+    glQueryCounter(queries[0], GL_TIMESTAMP);
+    mark = std::chrono::steady_clock::now();
+    for (auto& p : phases)
+      if (p.name == name) {  // the same phase on the other side adds up
+        p.ms += ms;
+        p.gpuMs += gpuMs;
+        return;
+      }
+    phases.push_back({name, ms, gpuMs});
+  }
   render::Program address{{{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
                            {GL_FRAGMENT_SHADER, "address.frag", std::string(deformShader("address.frag"))}}};
   render::Program update = compute("dent_update.comp");
@@ -218,6 +256,7 @@ void Deformer::setOptions(const DeformOptions& options) {
 }
 
 const render::Texture2D& Deformer::lastAddressMap() const { return impl_->addressX[0]; }
+const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 
 std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::Image* initial, float bumpDepth,
                                                   float texelSize) {
@@ -259,6 +298,7 @@ void Deformer::regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi) {
 
 int Deformer::deform(const DeformRequest& rq) {
   Impl& m = *impl_;
+  m.beginProfile(options_.profile);
   const int handle = m.allocateStats();
   const GLint emptyRegion[8] = {INT_MAX, INT_MAX, -1, -1, INT_MAX, INT_MAX, -1, -1};
   m.region.upload(0, sizeof emptyRegion, emptyRegion);
@@ -297,7 +337,12 @@ int Deformer::deform(const DeformRequest& rq) {
     m.fboX[side].bind();
     glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 0, noAddress);
     glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 1, &one);
-    glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 2, zero4);
+    // The normal attachment only serves the tangent-space correction: without
+    // it the pass writes (and clears) 8 bytes a pixel fewer.
+    const bool normals = options_.tangent != TangentMode::None;
+    const GLenum bufsX[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, normals ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE)};
+    glNamedFramebufferDrawBuffers(m.fboX[side].id(), 3, bufsX);
+    if (normals) glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 2, zero4);
     glClearNamedFramebufferfv(m.fboX[side].id(), GL_DEPTH, 0, &one);
     glDepthFunc(GL_LESS);
     glCullFace(GL_BACK);
@@ -311,7 +356,9 @@ int Deformer::deform(const DeformRequest& rq) {
       glBindTextureUnit(0, body.surface ? body.surface->height().id() : m.flat.id());
       body.mesh->draw();
     };
+    m.phase("setup");
     draw(X, modelX, -1.0f, X.surface->bumpDepthCollide());
+    m.phase("address pass X");
     // Pass B: back faces of the other, depth GREATER against X's depth.
     m.fboO[side].bind();
     glClearNamedFramebufferfv(m.fboO[side].id(), GL_COLOR, 0, noAddress);
@@ -322,6 +369,7 @@ int Deformer::deform(const DeformRequest& rq) {
     glDepthFunc(GL_LESS);
     glCullFace(GL_BACK);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    m.phase("address pass other");
 
     const int res = X.surface->resolution();
     render::Texture2D& scratch = m.scratchFor(side, res);
@@ -346,6 +394,7 @@ int Deformer::deform(const DeformRequest& rq) {
       glUniform1f(m.update.uniform("uTangentFloor"), options_.tangentFloor);
       glUniform3f(m.update.uniform("uViewNormal"), static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z));
       glDispatchCompute(groups(m.size), groups(m.size), 1);
+      m.phase("update (compute)");
       if (options_.craterRims) {
         // The ring width depends on the dent's size: read the region (4 ints) once.
         glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
@@ -376,22 +425,20 @@ int Deformer::deform(const DeformRequest& rq) {
       // The paper's path: read the address maps back and scatter on the CPU.
       const size_t px = static_cast<size_t>(m.size) * m.size;
       std::vector<float> ca(px * 2), da(px), cb(px * 2), db(px), na(px * 4);
+      // The address maps come back with glGetTextureImage on the attached
+      // textures: on NVIDIA's driver glReadPixels of float targets took
+      // 1 s at 512 (0.8 us a pixel) where this takes a few ms.
       glPixelStorei(GL_PACK_ALIGNMENT, 1);
-      glBindFramebuffer(GL_READ_FRAMEBUFFER, m.fboX[side].id());
-      glReadBuffer(GL_COLOR_ATTACHMENT0);
-      glReadPixels(0, 0, m.size, m.size, GL_RG, GL_FLOAT, ca.data());
-      glReadBuffer(GL_COLOR_ATTACHMENT1);
-      glReadPixels(0, 0, m.size, m.size, GL_RED, GL_FLOAT, da.data());
-      glReadBuffer(GL_COLOR_ATTACHMENT2);
-      glReadPixels(0, 0, m.size, m.size, GL_RGBA, GL_FLOAT, na.data());
-      glBindFramebuffer(GL_READ_FRAMEBUFFER, m.fboO[side].id());
-      glReadBuffer(GL_COLOR_ATTACHMENT0);
-      glReadPixels(0, 0, m.size, m.size, GL_RG, GL_FLOAT, cb.data());
-      glReadBuffer(GL_COLOR_ATTACHMENT1);
-      glReadPixels(0, 0, m.size, m.size, GL_RED, GL_FLOAT, db.data());
-      glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+      m.addressX[side].download(GL_RG, GL_FLOAT, ca.data(), ca.size() * sizeof(float));
+      m.depthX[side].download(GL_RED, GL_FLOAT, da.data(), da.size() * sizeof(float));
+      if (options_.tangent != TangentMode::None)
+        m.normalX[side].download(GL_RGBA, GL_FLOAT, na.data(), na.size() * sizeof(float));
+      m.addressO[side].download(GL_RG, GL_FLOAT, cb.data(), cb.size() * sizeof(float));
+      m.depthO[side].download(GL_RED, GL_FLOAT, db.data(), db.size() * sizeof(float));
+      m.phase("read address maps");
       std::vector<float> h(static_cast<size_t>(res) * res);
       X.surface->height().download(GL_RED, GL_FLOAT, h.data(), h.size() * sizeof(float));
+      m.phase("height map download");
       std::vector<float> out = h;
       GLint box[4] = {INT_MAX, INT_MAX, -1, -1};
       const glm::vec3 vn(n);
@@ -418,12 +465,14 @@ int Deformer::deform(const DeformRequest& rq) {
         rings[side] = 0;  // the CPU twin grows the box itself
         craterRimsCpu(out, h, res, box);
       }
+      m.phase("cpu scatter");
       std::vector<GLuint> bits(out.size());
       std::memcpy(bits.data(), out.data(), out.size() * sizeof(float));
       for (size_t i = 0; i < out.size(); ++i)
         if (out[i] == h[i]) bits[i] = Impl::kUntouched;
       scratch.upload(GL_RED_INTEGER, GL_UNSIGNED_INT, bits.data());
       m.region.upload(static_cast<size_t>(side) * 4 * sizeof(GLint), sizeof box, box);
+      m.phase("upload");
     }
   }
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
@@ -455,6 +504,7 @@ int Deformer::deform(const DeformRequest& rq) {
     glUniform1f(m.commit.uniform("uBumpDepth"), X.bumpDepth());
     glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint));
     glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+    m.phase("commit");
 
     m.normals.use();
     glBindTextureUnit(0, X.height().id());
@@ -466,6 +516,7 @@ int Deformer::deform(const DeformRequest& rq) {
     glUniform1f(m.normals.uniform("uSlopeScale"), X.bumpDepth() / (2 * X.texelSize()));
     glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint) + 3 * sizeof(GLuint));
     glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
+    m.phase("normal map");
   }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
   glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);

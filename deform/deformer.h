@@ -33,6 +33,16 @@ struct DeformOptions {
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
   bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
+  // Measure: glFinish at each phase boundary and record the wall time of each
+  // phase (profile()). Slows the stage down; for crumple-bench --deform-profile.
+  bool profile = false;
+};
+
+// Wall time of one phase of the last deformation (profile mode).
+struct PhaseTime {
+  const char* name;
+  double ms;     // wall, with glFinish at both ends
+  double gpuMs;  // GPU time between the phase's timestamps (GL_TIMESTAMP queries)
 };
 // Ring width (texels) of the crater rim for a dent whose touched region is w x h texels.
 int craterRing(int w, int h);
@@ -94,6 +104,8 @@ class Deformer {
   void regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi);
   // The last address maps of side 0 (uv of X), for the renderer's debug view.
   const render::Texture2D& lastAddressMap() const;
+  // Phases of the last deform() when options().profile is set (empty otherwise).
+  const std::vector<PhaseTime>& profile() const;
 
  private:
   struct Impl;

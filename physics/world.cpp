@@ -167,12 +167,13 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
     const size_t n = list ? list->size() : st.samples.size();
     const bool normals = !st.sampleNormals.empty();
+    // One rigid map from the other's shape frame to the owner's: local = M s + t.
     const glm::dmat3 otherToOwner = rot * rt;
+    const glm::dvec3 offset = rot * (pother.position - po.position - rt * other.localCom) + owner.localCom;
     for (size_t k = 0; k < n; ++k) {
       const size_t index = list ? (*list)[k] : k;
       const glm::dvec3& s = st.samples[index];
-      const glm::dvec3 world = pother.position + rt * (s - other.localCom);
-      const glm::dvec3 local = rot * (world - po.position) + owner.localCom;
+      const glm::dvec3 local = otherToOwner * s + offset;
       if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
         continue;
       glm::dvec3 g;
@@ -186,13 +187,25 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
       c.a = iOwner;
       c.b = iOther;
       c.normal = glm::normalize(ro * g);
-      c.point = world - r * c.normal;
+      c.point = pother.position + rt * (s - other.localCom) - r * c.normal;
       c.phi = phi;
       out.push_back(c);
     }
 }
+// Deepest first; equal depths keep the order they were found in (a stable
+// insertion sort: the lists are short, and it allocates nothing).
 void sortContacts(std::vector<Contact>& out) {
-  std::stable_sort(out.begin(), out.end(), [](const Contact& x, const Contact& y) { return x.phi < y.phi; });
+  if (out.size() > 64) {
+    std::stable_sort(out.begin(), out.end(), [](const Contact& x, const Contact& y) { return x.phi < y.phi; });
+    return;
+  }
+  for (size_t i = 1; i < out.size(); ++i) {
+    if (!(out[i].phi < out[i - 1].phi)) continue;
+    const Contact c = out[i];
+    size_t j = i;
+    for (; j > 0 && c.phi < out[j - 1].phi; --j) out[j] = out[j - 1];
+    out[j] = c;
+  }
 }
 }  // namespace
 
@@ -243,6 +256,16 @@ bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxD
   return found;
 }
 
+namespace {
+// How far any point of a body within `reach` of its centre of mass can have
+// moved between two poses: the translation plus the rotation angle times the reach.
+double displacementBound(const Pose& from, const Pose& to, double reach) {
+  const double c = std::min(1.0, std::abs(glm::dot(from.orientation, to.orientation)));
+  const double angle = 2 * std::acos(c);
+  return glm::length(to.position - from.position) + angle * reach;
+}
+}  // namespace
+
 void World::findCandidates(double h) {
   const double g = glm::length(settings_.gravity);
   for (Pair& pair : pairs_) {
@@ -253,25 +276,38 @@ void World::findCandidates(double h) {
     };
     // Twice the bound on the relative motion this step, plus a little.
     const double margin = 2 * h * (reach(A) + reach(B)) + 0.005;
+    // The skin: a tenth of the smaller body's thinnest half thickness.
+    const double skin = 0.1 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
+    if (pair.builtMargin >= 0) {
+      const double ra = A.shape->boundingRadius + glm::length(A.localCom) + pair.builtMargin;
+      const double rb = B.shape->boundingRadius + glm::length(B.localCom) + pair.builtMargin;
+      const double moved = displacementBound(pair.builtA, {A.x, A.q}, ra) + displacementBound(pair.builtB, {B.x, B.q}, rb);
+      if (moved + margin <= pair.builtMargin) continue;  // the lists still hold every sample that can touch
+    }
+    const double built = margin + skin;
     auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list) {
       list.clear();
       const Shape& so = *owner.shape;
       const Shape& st = *other.shape;
       const double r = st.sampleRadius;
-      const glm::dvec3 lo = so.boundsMin - r - margin, hi = so.boundsMax + r + margin;
+      const glm::dvec3 lo = so.boundsMin - r - built, hi = so.boundsMax + r + built;
       const glm::dmat3 rot = glm::transpose(owner.rotation());
       const glm::dmat3 rt = other.rotation();
+      const glm::dmat3 m = rot * rt;
+      const glm::dvec3 offset = rot * (other.x - owner.x - rt * other.localCom) + owner.localCom;
       for (size_t k = 0; k < st.samples.size(); ++k) {
-        const glm::dvec3 world = other.x + rt * (st.samples[k] - other.localCom);
-        const glm::dvec3 local = rot * (world - owner.x) + owner.localCom;
+        const glm::dvec3 local = m * st.samples[k] + offset;
         if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
           continue;
-        if (so.distance(local) - r > margin) continue;
+        if (so.distance(local) - r > built) continue;
         list.push_back(static_cast<uint32_t>(k));
       }
     };
     collect(A, B, pair.bInA);
     collect(B, A, pair.aInB);
+    pair.builtA = {A.x, A.q};
+    pair.builtB = {B.x, B.q};
+    pair.builtMargin = built;
   }
 }
 
@@ -294,7 +330,8 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
 // normal keeps the separate touching places of nonconvex bodies apart.
 void World::manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out) {
   out.clear();
-  std::vector<char> used(contacts.size(), 0);
+  thread_local std::vector<char> used;
+  used.assign(contacts.size(), 0);
   for (size_t seed = 0; seed < contacts.size(); ++seed) {
     if (used[seed]) continue;
     const Contact& deepest = contacts[seed];  // sorted deepest first
@@ -355,6 +392,7 @@ glm::dvec3 World::contactImpulse(int a, int b, const Contact& c, double eps, boo
 }
 
 void World::findPairs(double h) {
+  std::vector<Pair> previous = std::move(pairs_);
   pairs_.clear();
   const size_t n = bodies_.size();
   std::vector<Aabb> box(n);
@@ -390,22 +428,39 @@ void World::findPairs(double h) {
       if (!A.movable() && !B.movable()) continue;
       if (A.asleep) wakeList.push_back(i);
       if (B.asleep) wakeList.push_back(j);
-      pairs_.push_back({std::min(i, j), std::max(i, j), {}, {}});
+      Pair p;
+      p.a = std::min(i, j);
+      p.b = std::max(i, j);
+      pairs_.push_back(std::move(p));
     }
   }
   for (int i : wakeList) wake(i);
   std::sort(pairs_.begin(), pairs_.end(), [](const Pair& x, const Pair& y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+  // Pairs that already existed keep their candidate lists (both sorted by a, b).
+  size_t k = 0;
+  for (Pair& p : pairs_) {
+    while (k < previous.size() && (previous[k].a < p.a || (previous[k].a == p.a && previous[k].b < p.b))) ++k;
+    if (k < previous.size() && previous[k].a == p.a && previous[k].b == p.b) {
+      p.bInA = std::move(previous[k].bInA);
+      p.aInB = std::move(previous[k].aInB);
+      p.builtA = previous[k].builtA;
+      p.builtB = previous[k].builtB;
+      p.builtMargin = previous[k].builtMargin;
+    }
+  }
 }
 
 bool World::collide(double h) {
-  std::vector<Contact> contacts;
   const double restingSpeed = glm::length(settings_.gravity) * h;
   std::vector<int> eventOfPair(pairs_.size(), -1);
   // A pair whose two bodies kept their velocities since it was last checked
   // would find the same (no) collision again: skip it. Exact, so runs stay
   // bit-identical; it saves the repeated passes most of their work.
-  std::vector<uint32_t> version(bodies_.size(), 0);
-  std::vector<std::pair<uint32_t, uint32_t>> seen(pairs_.size(), {UINT32_MAX, UINT32_MAX});
+  std::vector<uint32_t>& version = version_;
+  version.assign(bodies_.size(), 0);
+  std::vector<std::pair<uint32_t, uint32_t>>& seen = foundVersion_;
+  seen.assign(pairs_.size(), {UINT32_MAX, UINT32_MAX});
+  found_.resize(pairs_.size());
   bool any = false;
   for (int pass = 0; pass < settings_.collisionPasses; ++pass) {
     bool passAny = false;
@@ -417,7 +472,9 @@ bool World::collide(double h) {
         const RigidBody& A = bodies_[static_cast<size_t>(ia)];
         const RigidBody& B = bodies_[static_cast<size_t>(ib)];
         const Pose pa = predict(A, h, true), pb = predict(B, h, true);
+        std::vector<Contact>& contacts = found_[pi];
         pairContacts(pairs_[pi], pa, pb, contacts);
+        seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
         const Contact* hit = nullptr;
         double approach = 0;
         for (const Contact& c : contacts) {
@@ -436,6 +493,8 @@ bool World::collide(double h) {
         double elastic = 0;
         const glm::dvec3 j = contactImpulse(hit->a, hit->b, *hit, eps, false, false, &elastic);
         if (glm::dot(j, j) == 0) break;
+        const Contact hitContact = *hit;  // contacts stay as found; hit lives in them
+        hit = &hitContact;
         applyImpulse(hit->a, hit->b, hit->point, j);
         ++version[static_cast<size_t>(ia)];
         ++version[static_cast<size_t>(ib)];
@@ -460,7 +519,6 @@ bool World::collide(double h) {
         e.impulseVector += hit->a == e.a ? j : -j;
         e.impulse = glm::length(e.impulseVector);
       }
-      seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
     }
     any = any || passAny;
     if (!passAny) break;
@@ -470,7 +528,7 @@ bool World::collide(double h) {
 }
 
 void World::contact(double h) {
-  std::vector<Contact> contacts;
+  std::vector<Contact> fresh;
   // Contact geometry on the positions predicted with the current velocities.
   // Re-finding it costs most of the step; it changes little from one pass to
   // the next, so it is refreshed every `contactRefresh` passes (impulses always
@@ -485,11 +543,20 @@ void World::contact(double h) {
     for (size_t pi = 0; pi < pairs_.size(); ++pi) {
       const Pair& pair = pairs_[pi];
       if (find) {
-        const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
-        const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
-        pairContacts(pair, pa, pb, contacts);
-        if (pass == n) stats_.contacts += static_cast<int>(contacts.size());
-        manifolds(contacts, grouped[pi]);
+        // The collision step's last look at this pair was at the poses the
+        // first pass predicts now (x + h (v + h a) either way) if no impulse
+        // has touched either body since: its contacts are reused as they are.
+        const std::vector<Contact>* contacts = &fresh;
+        const std::pair<uint32_t, uint32_t> now{version_[static_cast<size_t>(pair.a)], version_[static_cast<size_t>(pair.b)]};
+        if (pass == 1 && pi < foundVersion_.size() && foundVersion_[pi] == now) {
+          contacts = &found_[pi];
+        } else {
+          const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
+          const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
+          pairContacts(pair, pa, pb, fresh);
+        }
+        if (pass == n) stats_.contacts += static_cast<int>(contacts->size());
+        manifolds(*contacts, grouped[pi]);
       }
       const bool report = !reportContacts_.empty() &&
                           (reportContacts_[static_cast<size_t>(pair.a)] || reportContacts_[static_cast<size_t>(pair.b)]);
@@ -588,25 +655,38 @@ void World::integratePositions(double h) {
   }
 }
 
+// Positional projection. The contact geometry is found once, at the new
+// positions; the projection only translates bodies, so in later iterations
+// each group's depth is updated by the two bodies' translations along its
+// normal since (exact for flat contact, where the depth is that distance).
 void World::projectPositions() {
-  std::vector<Contact> contacts, grouped;
+  if (settings_.projectionIterations <= 0) return;
+  std::vector<Contact> contacts;
+  std::vector<std::vector<Contact>> grouped(pairs_.size());
+  std::vector<glm::dvec3> moved(bodies_.size(), glm::dvec3(0));
   for (int it = 0; it < settings_.projectionIterations; ++it) {
-    for (const Pair& pair : pairs_) {
-      const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
-      const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
-      pairContacts(pair, {A.x, A.q}, {B.x, B.q}, contacts);
-      if (contacts.empty()) continue;
-      manifolds(contacts, grouped);
-      for (const Contact& c : grouped) {
-        const double depth = -c.phi - settings_.penetrationSlop;
+    for (size_t pi = 0; pi < pairs_.size(); ++pi) {
+      const Pair& pair = pairs_[pi];
+      if (it == 0) {
+        const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
+        const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
+        pairContacts(pair, {A.x, A.q}, {B.x, B.q}, contacts);
+        if (contacts.empty()) continue;
+        manifolds(contacts, grouped[pi]);
+      }
+      for (const Contact& c : grouped[pi]) {
+        const size_t ia = static_cast<size_t>(c.a), ib = static_cast<size_t>(c.b);
+        const double depth = -(c.phi + glm::dot(moved[ib] - moved[ia], c.normal)) - settings_.penetrationSlop;
         if (depth <= 0) continue;
-        RigidBody& ca = bodies_[static_cast<size_t>(c.a)];
-        RigidBody& cb = bodies_[static_cast<size_t>(c.b)];
+        RigidBody& ca = bodies_[ia];
+        RigidBody& cb = bodies_[ib];
         const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
         if (wa + wb <= 0) continue;
         const double corr = settings_.penetrationCorrection * depth / (wa + wb);
         ca.x -= c.normal * corr * wa;
         cb.x += c.normal * corr * wb;
+        moved[ia] -= c.normal * corr * wa;
+        moved[ib] += c.normal * corr * wb;
       }
     }
   }

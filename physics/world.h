@@ -132,11 +132,15 @@ class World {
 
  private:
   struct Pair {
-    int a, b;
-    // Samples that can reach the other body during this step (found once per
-    // step from the current poses and a bound on the relative motion); every
-    // pass of the step tests only these.
+    int a = -1, b = -1;
+    // Samples that can reach the other body during this substep; every pass of
+    // the substep tests only these. The lists are built with a skin beyond the
+    // margin the substep needs, at the poses builtA/builtB, and kept from one
+    // substep to the next while the bodies have moved less than the skin (a
+    // Verlet list): the lists then still hold every sample that can touch.
     std::vector<uint32_t> bInA, aInB;
+    Pose builtA, builtB;
+    double builtMargin = -1;  // < 0: no lists yet
   };
   void findCandidates(double h);
   void pairContacts(const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const;
@@ -167,6 +171,12 @@ class World {
   std::vector<int> level_;
   std::vector<char> frozen_;
   std::vector<glm::dmat3> invInertia_;  // per body, this substep
+  // The collision step's last contacts per pair, found when the two bodies'
+  // impulse counts (version_) were foundVersion_; the contact step's first
+  // pass reuses them while those counts have not moved.
+  std::vector<std::vector<Contact>> found_;
+  std::vector<std::pair<uint32_t, uint32_t>> foundVersion_;
+  std::vector<uint32_t> version_;
   StepStats stats_;
   double time_ = 0;
   double minHalfThickness_ = 1e30;

@@ -35,14 +35,25 @@ glm::dvec3 frictionlessImpulse(const glm::dmat3& K, const glm::dvec3& u, const g
   return -(1 + eps) * un / nkn * n;
 }
 
+ImpulseMatrix::ImpulseMatrix(const glm::dmat3& k) : K(k) {
+  invertible = std::abs(glm::determinant(K)) > 1e-300;
+  if (invertible) inverse = glm::inverse(K);
+}
+
 glm::dvec3 frictionImpulse(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu) {
+  if (glm::dot(u, n) >= 0) return glm::dvec3(0);
+  if (!(mu > 0)) return frictionlessImpulse(K, u, n, eps);
+  return frictionImpulse(ImpulseMatrix(K), u, n, eps, mu);
+}
+
+glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu) {
+  const glm::dmat3& K = m.K;
   const double un = glm::dot(u, n);
   if (un >= 0) return glm::dvec3(0);
   if (!(mu > 0)) return frictionlessImpulse(K, u, n, eps);
-  const double det = glm::determinant(K);
-  if (std::abs(det) > 1e-300) {
+  if (m.invertible) {
     // Sticking: the relative velocity becomes -eps (u.n) n.
-    const glm::dvec3 j = glm::inverse(K) * (-eps * un * n - u);
+    const glm::dvec3 j = m.inverse * (-eps * un * n - u);
     const double jn = glm::dot(j, n);
     const glm::dvec3 jt = j - jn * n;
     if (jn >= 0 && glm::length(jt) <= mu * jn && energyChange(K, u, j) <= 1e-12 * std::abs(glm::dot(j, u)) + 1e-15) {

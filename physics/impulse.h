@@ -32,4 +32,15 @@ glm::dvec3 frictionlessImpulse(const glm::dmat3& K, const glm::dvec3& u, const g
 // energy. Zero when u.n >= 0.
 glm::dvec3 frictionImpulse(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu);
 
+// K with its inverse, for a contact whose matrix stays the same over many
+// impulses (the passes of the contact step between two looks at the geometry).
+struct ImpulseMatrix {
+  glm::dmat3 K{0}, inverse{0};
+  bool invertible = false;
+  ImpulseMatrix() = default;
+  explicit ImpulseMatrix(const glm::dmat3& k);
+};
+// The same impulse as frictionImpulse(m.K, ...), without inverting K again.
+glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu);
+
 }  // namespace crumple

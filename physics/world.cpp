@@ -369,6 +369,23 @@ void World::applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j)
   }
 }
 
+glm::dmat3 World::collisionMatrixAt(int a, int b, const glm::dvec3& point) const {
+  const RigidBody& A = bodies_[static_cast<size_t>(a)];
+  const RigidBody& B = bodies_[static_cast<size_t>(b)];
+  ImpulseSide sa, sb;
+  if (A.movable()) {
+    sa.invMass = A.invMass;
+    sa.invInertia = invInertia_[static_cast<size_t>(a)];
+  }
+  if (B.movable()) {
+    sb.invMass = B.invMass;
+    sb.invInertia = invInertia_[static_cast<size_t>(b)];
+  }
+  sa.r = point - A.x;
+  sb.r = point - B.x;
+  return collisionMatrix(sa, sb);
+}
+
 glm::dvec3 World::contactImpulse(int a, int b, const Contact& c, double eps, bool frozenA, bool frozenB,
                                  double* elastic, bool withFriction) const {
   const RigidBody& A = bodies_[static_cast<size_t>(a)];
@@ -534,6 +551,9 @@ void World::contact(double h) {
   // the next, so it is refreshed every `contactRefresh` passes (impulses always
   // use the current velocities).
   std::vector<std::vector<Contact>> grouped(pairs_.size());
+  // K (and its inverse) per group: the points and inertias stay put until the
+  // geometry is found again, so only the relative velocity changes between passes.
+  std::vector<std::vector<ImpulseMatrix>> matrices(pairs_.size());
   std::vector<double> pushed(reportContacts_.empty() ? 0 : pairs_.size(), 0.0);
   const int n = std::max(1, settings_.contactPasses);
   const int refresh = std::max(1, settings_.contactRefresh);
@@ -557,11 +577,18 @@ void World::contact(double h) {
         }
         if (pass == n) stats_.contacts += static_cast<int>(contacts->size());
         manifolds(*contacts, grouped[pi]);
+        matrices[pi].clear();
+        for (const Contact& c : grouped[pi]) matrices[pi].push_back(ImpulseMatrix(collisionMatrixAt(c.a, c.b, c.point)));
       }
       const bool report = !reportContacts_.empty() &&
                           (reportContacts_[static_cast<size_t>(pair.a)] || reportContacts_[static_cast<size_t>(pair.b)]);
-      for (const Contact& c : grouped[pi]) {
-        const glm::dvec3 j = contactImpulse(c.a, c.b, c, eps, false, false);
+      const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
+      const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
+      const double mu = std::sqrt(A.friction * B.friction);
+      for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
+        const Contact& c = grouped[pi][gi];
+        const glm::dvec3 u = bodies_[static_cast<size_t>(c.b)].velocityAt(c.point) - bodies_[static_cast<size_t>(c.a)].velocityAt(c.point);
+        const glm::dvec3 j = frictionImpulse(matrices[pi][gi], u, c.normal, eps, mu);
         if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, c.point, j);
         if (report && &c == &grouped[pi].front()) pushed[pi] += glm::dot(j, c.normal);
       }

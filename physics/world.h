@@ -31,7 +31,7 @@ struct WorldSettings {
   int collisionPasses = 5;
   int collisionIterations = 20;  // per pair and pass
   int contactPasses = 30;
-  int contactRefresh = 6;  // passes between re-finding contact geometry
+  int contactRefresh = 10;  // passes between re-finding contact geometry
   // Shock propagation passes per contact-graph level. Off by default: measured
   // on the 10-level pyramid (tests/test_physics.cpp), freezing the lower levels
   // carries their residual spin up the stack and the top walks off (15 cm in
@@ -158,6 +158,7 @@ class World {
   // Applies impulse j to b (and -j to a) at world point p.
   static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out);
   void applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j);
+  glm::dmat3 collisionMatrixAt(int a, int b, const glm::dvec3& point) const;  // K of the contact step (no body frozen)
   glm::dvec3 contactImpulse(int a, int b, const Contact& c, double eps, bool frozenA, bool frozenB,
                             double* elastic = nullptr, bool withFriction = true) const;
 

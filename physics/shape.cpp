@@ -28,9 +28,10 @@ namespace {
 // are candidates; the hint (direction towards the other body) picks among them.
 double boxDistance(const glm::dvec3& p, const glm::dvec3& h, glm::dvec3* grad, const glm::dvec3* hint) {
   const glm::dvec3 q = glm::abs(p) - h;
+  const double qMax = std::max({q.x, q.y, q.z});
   const glm::dvec3 outside = glm::max(q, glm::dvec3(0));
-  const double outLen = glm::length(outside);
-  const double inside = std::min(std::max({q.x, q.y, q.z}), 0.0);
+  const double outLen = qMax > 0 ? glm::length(outside) : 0.0;  // inside: no square root
+  const double inside = std::min(qMax, 0.0);
   if (grad) {
     const glm::dvec3 s(p.x < 0 ? -1 : 1, p.y < 0 ? -1 : 1, p.z < 0 ? -1 : 1);
     if (outLen > 0) {

@@ -186,7 +186,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
       Contact c;
       c.a = iOwner;
       c.b = iOther;
-      c.normal = glm::normalize(ro * g);
+      c.normal = ro * g;  // unit: every shape's distance gradient is normalised
       c.point = pother.position + rt * (s - other.localCom) - r * c.normal;
       c.phi = phi;
       out.push_back(c);
@@ -559,7 +559,7 @@ void World::contact(double h) {
   const int refresh = std::max(1, settings_.contactRefresh);
   for (int pass = 1; pass <= n; ++pass) {
     const double eps = -1.0 + static_cast<double>(pass) / n;
-    const bool find = (pass - 1) % refresh == 0 || pass == n;
+    const bool find = (pass - 1) % refresh == 0;
     for (size_t pi = 0; pi < pairs_.size(); ++pi) {
       const Pair& pair = pairs_[pi];
       if (find) {
@@ -575,7 +575,7 @@ void World::contact(double h) {
           const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
           pairContacts(pair, pa, pb, fresh);
         }
-        if (pass == n) stats_.contacts += static_cast<int>(contacts->size());
+        if (pass + refresh > n) stats_.contacts += static_cast<int>(contacts->size());  // the last look
         manifolds(*contacts, grouped[pi]);
         matrices[pi].clear();
         for (const Contact& c : grouped[pi]) matrices[pi].push_back(ImpulseMatrix(collisionMatrixAt(c.a, c.b, c.point)));

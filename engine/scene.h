@@ -83,6 +83,13 @@ struct VehicleDesc {
   double maxSteer = 0.6;  // rad
   double tyreGrip = 1.2;
   std::vector<VehicleInput> script;
+  // Tracks instead of tyres (a tank): on each side of the body (z < 0, z > 0) a
+  // belt around that side's wheels, carrying grousers (cross bars) every `pitch`
+  // metres, `grouserHeight` deep. The belt is what contact-deformable ground feels:
+  // it prints the grouser pattern (figure 8 of the paper) instead of wheel prints.
+  bool treads = false;
+  double treadPitch = 0.3;
+  double grouserHeight = 0.05;
 };
 
 struct BodyDesc {

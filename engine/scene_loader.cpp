@@ -233,7 +233,7 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
 VehicleDesc parseVehicle(const Node& n) {
   n.requireObject();
   n.checkKeys({"wheels", "wheel_radius", "wheel_width", "suspension_rest", "suspension_stiffness", "suspension_damping",
-               "engine_force", "brake_force", "max_steer", "tyre_grip", "script"});
+               "engine_force", "brake_force", "max_steer", "tyre_grip", "script", "treads"});
   VehicleDesc v;
   v.present = true;
   if (!n.has("wheels")) n.fail("wheels", "is required (wheel attachment points in the body frame)");
@@ -249,6 +249,17 @@ VehicleDesc parseVehicle(const Node& n) {
   v.brakeForce = n.number("brake_force", v.brakeForce, 0, 1e9);
   v.maxSteer = glm::radians(n.number("max_steer", glm::degrees(v.maxSteer), 0, 89));
   v.tyreGrip = n.number("tyre_grip", v.tyreGrip, 0, 100);
+  if (n.has("treads")) {
+    Node t(n.raw("treads"), n.join("treads"), n.file());
+    t.requireObject();
+    t.checkKeys({"pitch", "grouser_height"});
+    v.treads = true;
+    v.treadPitch = t.number("pitch", v.treadPitch, 0.02, 10, true);
+    v.grouserHeight = t.number("grouser_height", v.grouserHeight, 0.001, 1, true);
+    bool left = false, right = false;
+    for (const glm::dvec3& p : v.wheels) (p.z < 0 ? right : left) = true;
+    if (!left || !right) n.fail("treads", "need wheels on both sides of the body (z < 0 and z > 0)");
+  }
   if (n.has("script")) {
     const json& s = n.raw("script");
     if (!s.is_array()) n.fail("script", "must be an array of timed inputs");

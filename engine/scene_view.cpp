@@ -21,6 +21,16 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     }
     items.push_back(it);
   }
+  for (const VehiclePart& part : sim.vehicleParts()) {
+    render::RenderItem it;
+    it.vao = part.mesh->vao.id();
+    it.indexCount = part.mesh->indexCount;
+    it.model = glm::mat4(part.model);
+    it.color = part.color;
+    it.boundsMin = part.mesh->boundsMin;
+    it.boundsMax = part.mesh->boundsMax;
+    items.push_back(it);
+  }
   return items;
 }
 

@@ -276,11 +276,95 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
     vp.brakeForce = d.vehicle.brakeForce;
     vp.maxSteer = d.vehicle.maxSteer;
     vp.grip = d.vehicle.tyreGrip;
-    VehicleRuntime v{static_cast<int>(bodies_.size()), Vehicle(b.index, vp), nullptr, d.vehicle.script, false, {}};
+    VehicleRuntime v{static_cast<int>(bodies_.size()), Vehicle(b.index, vp), nullptr, d.vehicle.script, false, {}, {}, nullptr, nullptr, 0, 0, 0};
     if (gl_) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(d.vehicle.wheelRadius, d.vehicle.wheelWidth, 64));
+    if (d.vehicle.treads) {
+      v.pitch = d.vehicle.treadPitch;
+      v.grouserHeight = d.vehicle.grouserHeight;
+      const double r = d.vehicle.wheelRadius;
+      double length = 0;
+      for (double side : {1.0, -1.0}) {
+        TreadRuntime t;
+        double lo = 1e300, hi = -1e300, z = 0;
+        for (size_t i = 0; i < vp.wheels.size(); ++i) {
+          if ((vp.wheels[i].z < 0) != (side < 0)) continue;
+          t.wheels.push_back(static_cast<int>(i));
+          lo = std::min(lo, vp.wheels[i].x);
+          hi = std::max(hi, vp.wheels[i].x);
+          z += vp.wheels[i].z;
+        }
+        t.centreX = 0.5 * (lo + hi);
+        t.z = z / static_cast<double>(t.wheels.size());
+        t.length = hi - lo + 2 * r;
+        length = std::max(length, t.length);
+        v.treads.push_back(t);
+      }
+      if (gl_) {
+        const double w = d.vehicle.wheelWidth, gh = v.grouserHeight, p = v.pitch;
+        // The belt wraps the wheels: from the grousers' roots up to the wheel tops.
+        TriangleMesh belt = boxMesh({length, 2 * r, w}, 128);
+        for (auto& q : belt.positions) q.y += static_cast<float>(gh + r);
+        v.beltMesh = std::make_shared<deform::GpuMesh>(belt);
+        // Grousers every pitch along the belt's underside, as many as fit
+        // whatever their shift in [0, pitch).
+        TriangleMesh bars;
+        const int count = std::max(1, static_cast<int>(std::floor(length / p)) - 1);
+        const TriangleMesh bar = boxMesh({0.4 * p, gh, w}, 16);
+        for (int k = 0; k < count; ++k) {
+          const float x = static_cast<float>(-0.5 * length + p * (k + 1));
+          const auto base = static_cast<unsigned>(bars.positions.size());
+          for (const auto& q : bar.positions) bars.positions.push_back(q + glm::vec3(x, static_cast<float>(0.5 * gh), 0));
+          bars.normals.insert(bars.normals.end(), bar.normals.begin(), bar.normals.end());
+          bars.uvs.insert(bars.uvs.end(), bar.uvs.begin(), bar.uvs.end());
+          for (const auto& tri : bar.triangles) bars.triangles.push_back(tri + glm::uvec3(base));
+        }
+        v.grouserMesh = std::make_shared<deform::GpuMesh>(bars);
+      }
+    }
     vehicles_.push_back(std::move(v));
   }
   bodies_.push_back(std::move(b));
+}
+
+glm::dmat4 Simulation::treadModel(const VehicleRuntime& v, size_t t, bool grousers) const {
+  const TreadRuntime& tr = v.treads[t];
+  const VehicleParams& p = v.vehicle.params();
+  // The grousers' bottom: where that side's wheels meet the ground (their
+  // suspension as it is now), in the body's shape frame.
+  double bottom = 0;
+  for (int wi : tr.wheels) {
+    const WheelState& w = v.vehicle.wheels()[static_cast<size_t>(wi)];
+    bottom += p.wheels[static_cast<size_t>(wi)].y - p.suspensionRest + w.compression - p.wheelRadius;
+  }
+  bottom /= static_cast<double>(tr.wheels.size());
+  double x = tr.centreX;
+  if (grousers) x -= std::fmod(std::fmod(v.travel, v.pitch) + v.pitch, v.pitch);
+  return model(v.body) * glm::translate(glm::dmat4(1), glm::dvec3(x, bottom, tr.z));
+}
+
+std::vector<VehiclePart> Simulation::vehicleParts() const {
+  std::vector<VehiclePart> parts;
+  for (const VehicleRuntime& v : vehicles_) {
+    const VehicleParams& p = v.vehicle.params();
+    const glm::dmat4 body = model(v.body);
+    if (v.wheelMesh) {
+      for (size_t i = 0; i < p.wheels.size(); ++i) {
+        const WheelState& w = v.vehicle.wheels()[i];
+        // The wheel's centre hangs below its attachment by the spring's length;
+        // the cylinder (axis y) is turned onto the axle (z).
+        const glm::dvec3 centre = p.wheels[i] - glm::dvec3(0, p.suspensionRest - (w.onGround ? w.compression : 0.0), 0);
+        parts.push_back({v.wheelMesh.get(),
+                         body * glm::translate(glm::dmat4(1), centre) *
+                             glm::rotate(glm::dmat4(1), glm::half_pi<double>(), glm::dvec3(1, 0, 0)),
+                         glm::vec3(0.06f)});
+      }
+    }
+    for (size_t t = 0; t < v.treads.size(); ++t) {
+      if (v.beltMesh) parts.push_back({v.beltMesh.get(), treadModel(v, t, false), glm::vec3(0.12f, 0.12f, 0.11f)});
+      if (v.grouserMesh) parts.push_back({v.grouserMesh.get(), treadModel(v, t, true), glm::vec3(0.2f, 0.19f, 0.17f)});
+    }
+  }
+  return parts;
 }
 
 VehicleControls Simulation::scriptAt(const std::vector<VehicleInput>& script, double t) {
@@ -330,6 +414,10 @@ void Simulation::step() {
     v.vehicle.apply(world_, c, h);
   }
   world_.step(h);
+  for (VehicleRuntime& v : vehicles_) {
+    const RigidBody& car = world_.body(v.vehicle.body());
+    v.travel += glm::dot(car.v, car.rotation() * glm::dvec3(1, 0, 0)) * h;
+  }
   timings_.physicsMs += msSince(t0);
   ++steps_;
   ++timings_.steps;
@@ -391,6 +479,43 @@ void Simulation::step() {
     // each loaded wheel, its push over one step taken as the impulse (like the
     // resting contacts above).
     for (const VehicleRuntime& v : vehicles_) {
+      if (!v.treads.empty()) {
+        // Tracks: each belt presses with its wheels' load; the grousers print
+        // first, the belt between them once the grousers have sunk in.
+        for (size_t t = 0; t < v.treads.size(); ++t) {
+          double load = 0;
+          int groundBody = -1;
+          glm::dvec3 contact(0), normal(0);
+          for (int wi : v.treads[t].wheels) {
+            const WheelState& w = v.vehicle.wheels()[static_cast<size_t>(wi)];
+            if (!w.onGround || w.ground < 0 || bodyOf[static_cast<size_t>(w.ground)] < 0) continue;
+            load += w.load;
+            groundBody = bodyOf[static_cast<size_t>(w.ground)];
+            contact += w.contact * w.load;
+            normal += w.normal * w.load;
+          }
+          if (groundBody < 0 || !(load > 0)) continue;
+          BodyRuntime& ground = bodies_[static_cast<size_t>(groundBody)];
+          if (!ground.contactDeformation || !ground.surface) continue;
+          const double depth = deformDepth(ground.thickness, percentDeform(ground.material->kappa, 2 * load * h,
+                                                                            yieldThreshold(ground.material->restitution)));
+          if (!(depth > 0)) continue;
+          const RigidBody& g = world_.body(ground.index);
+          for (bool grousers : {true, false}) {
+            deform::DeformRequest rq;
+            rq.a = {ground.surface.get(), ground.gpuMesh.get(), modelAt(groundBody, {g.x, g.q})};
+            rq.b = {nullptr, grousers ? v.grouserMesh.get() : v.beltMesh.get(), treadModel(v, t, grousers)};
+            rq.point = contact / load;
+            rq.normal = glm::normalize(normal);
+            rq.penetration = 0;
+            rq.deformA = depth;
+            deformer_->deform(rq);
+            ++timings_.contactDeformations;
+          }
+          deformed = true;
+        }
+        continue;
+      }
       if (!v.wheelMesh) continue;
       const RigidBody& car = world_.body(v.vehicle.body());
       for (const WheelState& w : v.vehicle.wheels()) {

@@ -43,6 +43,14 @@ struct BodyRuntime {
   bool contactDeformation = false;
 };
 
+// One track of a tracked vehicle: the belt around the wheels of one side.
+// Tread frame: x forward along the body's x, origin at the belt's centre in x,
+// on that side's wheel plane (z), at the grousers' bottom (the ground).
+struct TreadRuntime {
+  double centreX = 0, z = 0, length = 0;
+  std::vector<int> wheels;  // indices into the vehicle's wheels
+};
+
 struct VehicleRuntime {
   int body = -1;  // index in Simulation::bodies()
   Vehicle vehicle;
@@ -50,6 +58,21 @@ struct VehicleRuntime {
   std::vector<VehicleInput> script;
   bool manual = false;  // the sandbox drives: `controls` instead of the script
   VehicleControls controls;
+  // Tracked vehicles: two treads, the belt and the grousers as meshes in the
+  // tread frame. The grousers move back along the belt as the body moves on
+  // (`travel`), so that under the body they stay put on the ground, as a
+  // track's links do, and print a clean ladder.
+  std::vector<TreadRuntime> treads;
+  std::shared_ptr<const deform::GpuMesh> beltMesh, grouserMesh;
+  double pitch = 0, grouserHeight = 0;
+  double travel = 0;  // m along the body's x since the start
+};
+
+// A vehicle's wheel or track, placed in the world, for drawing.
+struct VehiclePart {
+  const deform::GpuMesh* mesh = nullptr;
+  glm::dmat4 model{1};
+  glm::vec3 color{0.08f};
 };
 
 struct Timings {
@@ -91,6 +114,10 @@ class Simulation {
   glm::dmat4 model(int i) const;
   // Shape frame to world for body i at a given pose (a collision's).
   glm::dmat4 modelAt(int i, const Pose& pose) const;
+  // Wheels, belts and grousers of the vehicles at their current poses.
+  std::vector<VehiclePart> vehicleParts() const;
+  // Tread frame to world for tread t of vehicle v; `grousers` adds their shift along the belt.
+  glm::dmat4 treadModel(const VehicleRuntime& v, size_t t, bool grousers) const;
   // Fetches the per-event texel statistics (one small read of the GPU's counters).
   void resolveEventStats();
   // Called after each step with the events it produced (the sandbox's HUD, vehicles).

@@ -92,6 +92,14 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("{\"type\": \"sphere\", \"radius\": 0.25}", "{\"type\": \"mesh\", \"file\": \"nope.glb\"}"),
        "bodies[1].shape.file", "no such file"},
       {mutate("\"bodies\": [", "\"bodies\": 3, \"x\": ["), "bodies", "must be an array"},
+      {mutate("\"velocity\": [0, -6, 0]", "\"vehicle\": {\"wheels\": [[1, 0, 1], [1, 0, -1]]}"), "bodies[1].vehicle.wheels",
+       "3 to 16 points"},
+      {mutate("\"velocity\": [0, -6, 0]",
+              "\"vehicle\": {\"wheels\": [[1, 0, 1], [1, 0, -1], [-1, 0, 1]], \"treads\": {\"pitch\": 0}}"),
+       "bodies[1].vehicle.treads.pitch", "must be in (0.02"},
+      {mutate("\"velocity\": [0, -6, 0]",
+              "\"vehicle\": {\"wheels\": [[1, 0, 1], [0, 0, 1], [-1, 0, 1]], \"treads\": {}}"),
+       "bodies[1].vehicle.treads", "both sides"},
   };
   for (const Case& c : corpus) {
     if (c.path == "bb") continue;

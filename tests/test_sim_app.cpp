@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -235,6 +236,37 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   const int along = std::max(x1 - x0, y1 - y0), across = std::min(x1 - x0, y1 - y0);
   MESSAGE("track extent in texels: " << along << " x " << across);
   CHECK(along > 2 * across);
+  // The treads' grousers print a ladder: along the row through a track the
+  // dents come and go with the grouser pitch, neither one solid groove nor noise.
+  int bestRow = -1, bestCount = 0;
+  for (int y = y0; y <= y1; ++y) {
+    int count = 0;
+    for (int x = x0; x <= x1; ++x) count += g.at(x, y) < 0.49f;
+    if (count > bestCount) bestCount = count, bestRow = y;
+  }
+  std::vector<int> starts;
+  for (int x = x0 + 1; x <= x1; ++x)
+    if (g.at(x, bestRow) < 0.49f && !(g.at(x - 1, bestRow) < 0.49f)) starts.push_back(x);
+  REQUIRE(starts.size() >= 10);
+  std::vector<int> gaps;
+  for (size_t i = 1; i < starts.size(); ++i) gaps.push_back(starts[i] - starts[i - 1]);
+  std::sort(gaps.begin(), gaps.end());
+  const int median = gaps[gaps.size() / 2];
+  int regular = 0;
+  for (int gap : gaps) regular += std::abs(gap - median) <= 2;
+  MESSAGE("grouser prints: " << starts.size() << ", median spacing " << median << " texels, " << regular << " of "
+                             << gaps.size() << " within 2 texels of it, row fill " << bestCount << " of " << x1 - x0 + 1);
+  CHECK(regular >= 0.8 * static_cast<double>(gaps.size()));
+  CHECK(bestCount < 0.8 * (x1 - x0 + 1));
+  // One spacing is one pitch (0.3 m): the track is the tank's path (start at
+  // x = -2 to where it ends) plus its belts' length (5.1 m) long.
+  double tankX = 0;
+  for (const auto& body : s["bodies"])
+    if (body["name"] == "tank") tankX = body["position"][0].get<double>();
+  const double texelsPerMetre = along / (tankX + 2 + 5.1);
+  MESSAGE("tank ended at x = " << tankX << ": " << texelsPerMetre << " texels per metre, pitch "
+                               << 0.3 * texelsPerMetre << " texels");
+  CHECK(std::abs(median - 0.3 * texelsPerMetre) < 0.15 * 0.3 * texelsPerMetre);
   const crumple::render::Image b = crumple::render::readPng((out / "heightmaps" / "bunker.png").string());
   float lowest = 1;
   for (float v : b.pixels) lowest = std::min(lowest, v);

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -271,6 +272,60 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   float lowest = 1;
   for (float v : b.pixels) lowest = std::min(lowest, v);
   CHECK(lowest < 0.49f);
+}
+
+TEST_CASE("cow-drop: the cow lands on its four hooves and leaves four prints in the hooves' rectangle (figure 9)") {
+  const fs::path out = kTmp / "cow";
+  fs::remove_all(out);
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/cow-drop.json --out " + out.string() + " --duration 1 --quiet") == 0);
+  const crumple::render::Image g = crumple::render::readPng((out / "heightmaps" / "ground.png").string());
+  // Connected dents (8-neighbours) of at least a few texels.
+  std::vector<int> label(g.pixels.size(), -1);
+  std::vector<glm::dvec2> centres;
+  std::vector<int> sizes;
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x) {
+      if (!(g.at(x, y) < 0.49f) || label[static_cast<size_t>(y * g.width + x)] >= 0) continue;
+      const int id = static_cast<int>(centres.size());
+      std::vector<std::pair<int, int>> stack{{x, y}};
+      label[static_cast<size_t>(y * g.width + x)] = id;
+      glm::dvec2 sum(0);
+      int n = 0;
+      while (!stack.empty()) {
+        auto [cx, cy] = stack.back();
+        stack.pop_back();
+        sum += glm::dvec2(cx, cy);
+        ++n;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int nx = cx + dx, ny = cy + dy;
+            if (nx < 0 || ny < 0 || nx >= g.width || ny >= g.height) continue;
+            const size_t k = static_cast<size_t>(ny * g.width + nx);
+            if (label[k] >= 0 || !(g.at(nx, ny) < 0.49f)) continue;
+            label[k] = id;
+            stack.push_back({nx, ny});
+          }
+      }
+      centres.push_back(sum / double(n));
+      sizes.push_back(n);
+    }
+  std::vector<glm::dvec2> prints;
+  for (size_t i = 0; i < centres.size(); ++i)
+    if (sizes[i] >= 5) prints.push_back(centres[i]);
+  MESSAGE(centres.size() << " dents, " << prints.size() << " of 5 texels or more");
+  REQUIRE(prints.size() == 4);
+  // The hooves stand on a 0.98 m x 0.34 m rectangle (tools/make-assets.py):
+  // sides and diagonals of the four prints in that proportion.
+  std::vector<double> d;
+  for (size_t i = 0; i < 4; ++i)
+    for (size_t j = i + 1; j < 4; ++j) d.push_back(glm::length(prints[i] - prints[j]));
+  std::sort(d.begin(), d.end());
+  MESSAGE("print distances (texels): " << d[0] << " " << d[1] << " " << d[2] << " " << d[3] << " " << d[4] << " " << d[5]);
+  CHECK(std::abs(d[0] - d[1]) < 0.1 * d[0]);  // the two short sides
+  CHECK(std::abs(d[2] - d[3]) < 0.05 * d[2]); // the two long sides
+  CHECK(std::abs(d[4] - d[5]) < 0.05 * d[4]); // the diagonals
+  CHECK(d[2] / d[0] == doctest::Approx(0.98 / 0.34).epsilon(0.15));
+  CHECK(d[4] == doctest::Approx(std::hypot(d[0], d[2])).epsilon(0.03));  // a rectangle
 }
 
 TEST_CASE("bump-ramp: with normal-mapped collision normals a ball rolls down a slope that exists only in the bump map (figure 10)") {

@@ -3,9 +3,9 @@
   car.obj          a low-poly car body (side profile extruded, closed, outward
                    winding, no uvs: crumple builds its one-to-one atlas on load).
                    Body frame: +x forward, +y up, origin at the chassis centre.
-  cow.obj          a cartoon cow (body, head, legs, horns), star-shaped about its
-                   centre: a cube-sphere whose vertices move out along their
-                   rays to the far side of a union of ellipsoids. Closed, no uvs.
+  cow.obj          a cow (barrel, neck, head, horns, ears, udder, four legs with
+                   hooves, tail): a smooth union of ellipsoids and capsules as a
+                   distance field, polygonised by surface nets. Closed, no uvs.
   ramp.png         a 16-bit grey ramp (0 to 1 along the image's x), a slope that
                    exists only in the bump map (the figure-10 scene)
   cow-bumps.png    a 16-bit grey bump pattern (0.5 flat) of raised spots, for the
@@ -43,58 +43,113 @@ def car_obj(path):
         for t in f:
             out.write("f %d %d %d\n" % t)
 
-def cow_obj(path, n=40):
-    # (centre, radii) of the ellipsoids; x forward (head), y up.
-    parts = [((0.0, 0.0, 0.0), (0.75, 0.38, 0.33)),                       # body
-             ((0.85, 0.22, 0.0), (0.25, 0.2, 0.18)),                      # head
-             ((1.05, 0.16, 0.0), (0.12, 0.12, 0.14)),                     # muzzle
-             ((0.8, 0.4, 0.12), (0.07, 0.12, 0.07)), ((0.8, 0.4, -0.12), (0.07, 0.12, 0.07)),  # horns
-             ((0.5, -0.42, 0.19), (0.13, 0.38, 0.13)), ((0.5, -0.42, -0.19), (0.13, 0.38, 0.13)),  # legs
-             ((-0.5, -0.42, 0.19), (0.13, 0.38, 0.13)), ((-0.5, -0.42, -0.19), (0.13, 0.38, 0.13)),
-             ((-0.8, 0.05, 0.0), (0.12, 0.08, 0.06))]                     # tail stub
-    def reach(d):
-        best = 0.2
-        for (c, r) in parts:
-            # Ray t*d against the ellipsoid: |(t d - c) / r| = 1.
-            a = sum((d[i] / r[i]) ** 2 for i in range(3))
-            b = -2 * sum(d[i] * c[i] / r[i] ** 2 for i in range(3))
-            cc = sum((c[i] / r[i]) ** 2 for i in range(3)) - 1
-            disc = b * b - 4 * a * cc
-            if disc < 0:
+def cow_sdf():
+    """The cow as a signed distance (negative inside): a smooth union of
+    ellipsoids and capsules. x forward (head), y up, z left; hooves at y = -0.87."""
+    def ellipsoid(c, r):
+        def f(p):
+            # Scaled-sphere bound: exact on the surface, close near it.
+            q = [(p[i] - c[i]) / r[i] for i in range(3)]
+            k = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
+            return (k - 1) * min(r)
+        return f
+    def capsule(a, b, r0, r1=None):
+        r1 = r0 if r1 is None else r1
+        ab = [b[i] - a[i] for i in range(3)]
+        ab2 = sum(x * x for x in ab)
+        def f(p):
+            ap = [p[i] - a[i] for i in range(3)]
+            t = max(0.0, min(1.0, sum(ap[i] * ab[i] for i in range(3)) / ab2))
+            d = [ap[i] - ab[i] * t for i in range(3)]
+            return math.sqrt(sum(x * x for x in d)) - (r0 + (r1 - r0) * t)
+        return f
+    parts = [(ellipsoid((0.0, 0.02, 0.0), (0.72, 0.34, 0.31)), 0.10),       # barrel
+             (ellipsoid((-0.45, 0.06, 0.0), (0.32, 0.33, 0.29)), 0.10),      # hindquarters
+             (ellipsoid((0.42, 0.04, 0.0), (0.3, 0.33, 0.27)), 0.10),        # shoulders
+             (capsule((0.55, 0.12, 0.0), (0.86, 0.25, 0.0), 0.17, 0.13), 0.08),  # neck
+             (ellipsoid((0.95, 0.2, 0.0), (0.2, 0.15, 0.13)), 0.05),         # head
+             (ellipsoid((1.1, 0.1, 0.0), (0.1, 0.1, 0.11)), 0.04),           # muzzle
+             (ellipsoid((-0.32, -0.3, 0.0), (0.13, 0.08, 0.11)), 0.05)]      # udder
+    for z in (0.09, -0.09):
+        parts.append((capsule((0.9, 0.33, z), (0.93, 0.44, z * 1.9), 0.035, 0.022), 0.02))  # horns
+    for z in (0.15, -0.15):
+        parts.append((ellipsoid((0.88, 0.27, z * 1.25), (0.05, 0.035, 0.08)), 0.03))       # ears
+    for x in (0.48, -0.5):
+        for z in (0.17, -0.17):
+            parts.append((capsule((x, -0.15, z), (x + 0.02, -0.62, z), 0.1, 0.075), 0.06))   # legs
+            parts.append((capsule((x + 0.02, -0.62, z), (x + 0.03, -0.8, z), 0.072, 0.07), 0.02))  # shins, hooves
+    parts.append((capsule((-0.72, 0.24, 0.0), (-0.8, -0.3, 0.0), 0.04, 0.032), 0.04))  # tail
+    parts.append((ellipsoid((-0.8, -0.36, 0.0), (0.05, 0.08, 0.05)), 0.02))            # tuft
+    def smin(a, b, k):
+        # Polynomial smooth minimum: blends shapes within k of each other.
+        h = max(k - abs(a - b), 0.0) / k
+        return min(a, b) - h * h * k * 0.25
+    def f(p):
+        d = 1e9
+        for g, k in parts:
+            d = smin(d, g(p), k)
+        return d
+    return f
+
+def cow_obj(path, cell=0.02):
+    """Naive surface nets on a grid of `cell` metres: a vertex per cell that the
+    surface crosses (the mean of its edges' crossings), a quad per grid edge that
+    crosses it. Closed and two-manifold for this smooth shape; outward winding."""
+    f = cow_sdf()
+    lo, hi = (-1.0, -0.95, -0.45), (1.3, 0.6, 0.45)
+    n = [int(math.ceil((hi[i] - lo[i]) / cell)) + 1 for i in range(3)]
+    val = {}
+    for k in range(n[2]):
+        z = lo[2] + k * cell
+        for j in range(n[1]):
+            y = lo[1] + j * cell
+            for i in range(n[0]):
+                val[(i, j, k)] = f((lo[0] + i * cell, y, z))
+    corners = [(a, b, c) for c in (0, 1) for b in (0, 1) for a in (0, 1)]
+    edges = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
+    verts, vindex = [], {}
+    for k in range(n[2] - 1):
+        for j in range(n[1] - 1):
+            for i in range(n[0] - 1):
+                v = [val[(i + a, j + b, k + c)] for (a, b, c) in corners]
+                if min(v) >= 0 or max(v) < 0:
+                    continue
+                acc, m = [0.0, 0.0, 0.0], 0
+                for (e0, e1) in edges:
+                    if (v[e0] < 0) == (v[e1] < 0):
+                        continue
+                    t = v[e0] / (v[e0] - v[e1])
+                    for ax in range(3):
+                        acc[ax] += corners[e0][ax] + t * (corners[e1][ax] - corners[e0][ax])
+                    m += 1
+                vindex[(i, j, k)] = len(verts) + 1
+                verts.append(tuple(lo[ax] + cell * ((i, j, k)[ax] + acc[ax] / m) for ax in range(3)))
+    faces = []
+    for (i, j, k), v0 in val.items():
+        for ax in range(3):
+            q = [i, j, k]
+            q[ax] += 1
+            if q[ax] >= n[ax]:
                 continue
-            t = (-b + math.sqrt(disc)) / (2 * a)
-            if t > 0:
-                best = max(best, t)
-        return best
-    verts, index, faces = [], {}, []
-    def vid(face, i, j):
-        key = (face, i, j)
-        axis, sign = face // 2, 1 - 2 * (face % 2)
-        u, v = -1 + 2 * i / n, -1 + 2 * j / n
-        p = [0, 0, 0]
-        p[axis] = sign
-        p[(axis + 1) % 3] = u
-        p[(axis + 2) % 3] = v
-        # Shared cube edges give the same point: weld by rounded position.
-        k = tuple(round(x, 9) for x in p)
-        if k not in index:
-            l = math.sqrt(sum(x * x for x in p))
-            d = [x / l for x in p]
-            t = reach(d)
-            index[k] = len(verts) + 1
-            verts.append(tuple(t * x for x in d))
-        return index[k]
-    for face in range(6):
-        sign = 1 - 2 * (face % 2)
-        for j in range(n):
-            for i in range(n):
-                a, b, c, d = vid(face, i, j), vid(face, i + 1, j), vid(face, i + 1, j + 1), vid(face, i, j + 1)
-                if sign > 0:
-                    faces += [(a, b, c), (a, c, d)]
-                else:
-                    faces += [(a, c, b), (a, d, c)]
+            v1 = val[tuple(q)]
+            if (v0 < 0) == (v1 < 0):
+                continue
+            a1, a2 = (ax + 1) % 3, (ax + 2) % 3
+            ring = []
+            for (da, db) in ((0, 0), (-1, 0), (-1, -1), (0, -1)):
+                c = [i, j, k]
+                c[a1] += da
+                c[a2] += db
+                ring.append(vindex[tuple(c)])
+            # Inside at the edge's low end: the surface faces +ax, and the ring
+            # (a1, a2 turning) is counter-clockwise seen from +ax.
+            if v0 >= 0:
+                ring.reverse()
+            faces.append((ring[0], ring[1], ring[2]))
+            faces.append((ring[0], ring[2], ring[3]))
     with open(path, "w") as out:
-        out.write("# crumple cartoon cow, generated by tools/make-assets.py (CC0)\n")
+        out.write("# crumple cow, generated by tools/make-assets.py (CC0): smooth union of ellipsoids and\n")
+        out.write("# capsules, polygonised by surface nets on a %.3f m grid\n" % cell)
         for p in verts:
             out.write("v %.5f %.5f %.5f\n" % p)
         for t in faces:

@@ -40,6 +40,26 @@ struct App {
   glm::vec3 orbitTarget{0};
   double physicsMs = 0, deformMs = 0, renderMs = 0;
   long shots = 0;
+  // The 3D view renders at renderScale times the window's size and is scaled
+  // up to it. Automatic: the scale follows the render time, so that a software
+  // renderer (llvmpipe) still gives a fluid picture; a GPU keeps 1.
+  float renderScale = 1.0f;
+  bool autoScale = true;
+  double renderAverage = 0;
+  long lastScaleChange = 0;
+
+  // Called once per frame with that frame's render time (ms).
+  void adaptScale(long frame) {
+    renderAverage = renderAverage == 0 ? renderMs : 0.85 * renderAverage + 0.15 * renderMs;
+    if (!autoScale || frame - lastScaleChange < 10) return;
+    float next = renderScale;
+    if (renderAverage > 25.0) next = std::max(0.35f, renderScale * 0.85f);
+    else if (renderAverage < 10.0) next = std::min(1.0f, renderScale * 1.1f);
+    if (next != renderScale) {
+      renderScale = next;
+      lastScaleChange = frame;
+    }
+  }
 
   void reset() {
     sim = std::make_unique<Simulation>(scene, true);
@@ -100,6 +120,8 @@ void panel(App& app) {
   ImGui::Begin("crumple");
   ImGui::Text("t = %.2f s   step %ld", app.sim->world().time(), app.sim->steps());
   ImGui::Text("physics %.2f ms  deform %.2f ms  render %.2f ms", app.physicsMs, app.deformMs, app.renderMs);
+  ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.renderScale,
+              app.autoScale ? ", auto" : "");
   ImGui::Text("collisions %zu  deformations %ld", app.sim->events().size(), app.sim->timings().deformations);
   if (!app.sim->vehicles().empty()) ImGui::Text("speed %.1f km/h", app.sim->vehicles().front().vehicle.speed(app.sim->world()) * 3.6);
   if (ImGui::Button(app.paused ? "Run" : "Pause")) app.paused = !app.paused;
@@ -149,6 +171,9 @@ void panel(App& app) {
     ImGui::SameLine();
     ImGui::Checkbox("self-shadowing", &s.selfShadow);
     ImGui::SliderInt("max steps", &s.maxSteps, 8, 128);
+    if (ImGui::SliderFloat("render scale", &app.renderScale, 0.25f, 1.0f)) app.autoScale = false;
+    ImGui::SameLine();
+    ImGui::Checkbox("auto", &app.autoScale);
   }
   ImGui::End();
 }
@@ -169,6 +194,11 @@ int main(int argc, char** argv) {
   cli.add_option("--width", width, "Window width")->check(CLI::Range(64, 8192));
   cli.add_option("--height", height, "Window height")->check(CLI::Range(64, 8192));
   cli.add_flag("--quiet,-q", quiet, "Only errors");
+  std::string renderScale = "auto";
+  cli.add_option("--render-scale", renderScale,
+                 "The 3D view's resolution as a fraction of the window's (0.25 to 1), or 'auto': lowered while "
+                 "rendering takes over 25 ms a frame (software GL), raised again below 10 ms")
+      ->capture_default_str();
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -178,6 +208,17 @@ int main(int argc, char** argv) {
   setLogLevel(quiet ? LogLevel::Error : LogLevel::Info);
 
   App app;
+  if (renderScale != "auto") {
+    char* end = nullptr;
+    const double value = std::strtod(renderScale.c_str(), &end);
+    if (end == renderScale.c_str() || *end != '\0' || !(value >= 0.25 && value <= 1.0)) {
+      std::cerr << "crumple-sandbox: error: --render-scale: expected a number in [0.25, 1] or 'auto', got '" << renderScale
+                << "'\n";
+      return 2;
+    }
+    app.renderScale = static_cast<float>(value);
+    app.autoScale = false;
+  }
   try {
     app.scene = scenePath.empty() ? builtinHighway() : loadScene(scenePath);
   } catch (const SceneError& e) {
@@ -210,6 +251,7 @@ int main(int argc, char** argv) {
     double accumulator = 0;
     auto last = Clock::now();
     long frame = 0;
+    double renderTotal = 0;
     bool prevKeys[512] = {};
     auto pressed = [&](int key) {
       const bool down = glfwGetKey(window.window(), key) == GLFW_PRESS;
@@ -264,12 +306,18 @@ int main(int argc, char** argv) {
 
       int fw = 0, fh = 0;
       window.framebufferSize(fw, fh);
-      if (fw > 0 && fh > 0) app.renderer->resize(fw, fh);
+      const int sw = std::max(1, static_cast<int>(std::lround(fw * app.renderScale)));
+      const int sh = std::max(1, static_cast<int>(std::lround(fh * app.renderScale)));
+      if (fw > 0 && fh > 0) app.renderer->resize(sw, sh);
       const auto r0 = Clock::now();
       if (app.sim->deformer()) app.renderer->settings().addressMap = app.sim->deformer()->lastAddressMap().id();
       app.renderer->draw(renderItems(*app.sim), app.view());
-      glBlitNamedFramebuffer(app.renderer->framebuffer(), 0, 0, 0, fw, fh, 0, 0, fw, fh, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+      glBlitNamedFramebuffer(app.renderer->framebuffer(), 0, 0, 0, sw, sh, 0, 0, fw, fh, GL_COLOR_BUFFER_BIT,
+                             sw == fw && sh == fh ? GL_NEAREST : GL_LINEAR);
+      glFinish();  // honest render time: the frame's GPU work included
       app.renderMs = std::chrono::duration<double, std::milli>(Clock::now() - r0).count();
+      app.adaptScale(frame);
+      renderTotal += app.renderMs;
 
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
@@ -294,7 +342,11 @@ int main(int argc, char** argv) {
     ImGui_ImplOpenGL3_Shutdown();
     ImGui_ImplGlfw_Shutdown();
     ImGui::DestroyContext();
-    if (!quiet) std::printf("crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations\n", frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations);
+    if (!quiet)
+      std::printf("crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; render %.1f ms a frame "
+                  "(view scale %.2f at the end)\n",
+                  frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations,
+                  frame ? renderTotal / double(frame) : 0.0, app.renderScale);
     app.sim.reset();
     app.renderer.reset();
     return 0;

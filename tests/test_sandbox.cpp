@@ -50,3 +50,35 @@ TEST_CASE("sandbox: --frames 600 --autopilot --screenshot ends with a picture an
     CHECK(lowest < 0.49f);
   }
 }
+
+TEST_CASE("sandbox: a fixed render scale renders the view smaller and scales it to the window; bad scales are bad input") {
+  const fs::path dir = fs::temp_directory_path() / ("crumple_sandbox_scale_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const char* asan = std::getenv("ASAN_OPTIONS");
+  const std::string options = std::string(asan ? asan : "") + (asan ? ":" : "") + "detect_leaks=0";
+  setenv("ASAN_OPTIONS", options.c_str(), 1);
+  auto run = [&](const std::string& args, std::string& out) {
+    const fs::path log = dir / "log.txt";
+    const int rc = std::system((std::string(CRUMPLE_SANDBOX) + " " + args + " > " + log.string() + " 2>&1").c_str());
+    std::ifstream lf(log);
+    std::stringstream ls;
+    ls << lf.rdbuf();
+    out = ls.str();
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  };
+  std::string log;
+  const fs::path shot = dir / "half.png";
+  REQUIRE(run("--frames 5 --width 320 --height 180 --render-scale 0.5 --screenshot " + shot.string(), log) == 0);
+  CAPTURE(log);
+  CHECK(log.find("view scale 0.50") != std::string::npos);
+  const crumple::render::Image img = crumple::render::readPng(shot.string(), 3);
+  CHECK(img.width == 320);  // the window's size: the view was scaled up to it
+  CHECK(img.height == 180);
+  for (const char* bad : {"0.1", "2", "fast", "0.5x"}) {
+    CAPTURE(bad);
+    CHECK(run(std::string("--frames 1 --render-scale ") + bad, log) == 2);
+    CHECK(log.find("--render-scale") != std::string::npos);
+  }
+  fs::remove_all(dir);
+}

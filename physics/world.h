@@ -157,9 +157,15 @@ class World {
   void updateSleep(double h);
   // Applies impulse j to b (and -j to a) at world point p.
   static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out);
-  void applyImpulse(int a, int b, const glm::dvec3& p, const glm::dvec3& j);
-  glm::dmat3 collisionMatrixAt(int a, int b, const glm::dvec3& point) const;  // K of the contact step (no body frozen)
-  glm::dvec3 contactImpulse(int a, int b, const Contact& c, double eps, bool frozenA, bool frozenB,
+  // A contact point's offsets from the two centres of mass, at the poses it was found at.
+  struct Levers {
+    glm::dvec3 ra, rb;
+  };
+  static Levers levers(const Contact& c, const Pose& poseA, const Pose& poseB);
+  glm::dvec3 relativeVelocity(int a, int b, const Levers& l) const;  // v_B - v_A at the point
+  void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j);
+  glm::dmat3 collisionMatrixAt(int a, int b, const Levers& l, bool frozenA, bool frozenB) const;
+  glm::dvec3 contactImpulse(int a, int b, const Contact& c, const Levers& l, double eps, bool frozenA, bool frozenB,
                             double* elastic = nullptr, bool withFriction = true) const;
 
   WorldSettings settings_;

@@ -222,6 +222,38 @@ TEST_CASE("a block on an incline slides with a = g (sin theta - mu cos theta)") 
   CHECK(r.travel > 0.5 * expected * 0.8 * 0.8);
 }
 
+TEST_CASE("a ball rolls down an incline without slipping: a = 5/7 g sin(theta), v = omega r") {
+  World w;
+  w.settings().sleeping = false;
+  const double th = glm::radians(20.0), r = 0.2;
+  const glm::dquat rot = glm::angleAxis(th, glm::dvec3(0, 0, 1));
+  BodyDef plane;
+  plane.shape = makeBox({20, 1, 4});
+  plane.orientation = rot;
+  plane.origin = rot * glm::dvec3(0, -0.5, 0);
+  plane.isStatic = true;
+  plane.friction = 0.8;
+  plane.restitution = 0;
+  w.addBody(plane);
+  BodyDef ball;
+  ball.shape = makeSphere(r);
+  ball.origin = rot * glm::dvec3(0, r, 0);
+  ball.friction = 0.8;
+  ball.restitution = 0;
+  const int i = w.addBody(ball);
+  const glm::dvec3 down = rot * glm::dvec3(-1, 0, 0);
+  const double h = 1.0 / 240;
+  for (int s = 0; s < 240; ++s) w.step(h);
+  const double t = w.time();
+  const double v = glm::dot(w.body(i).v, down);
+  const double expected = 5.0 / 7.0 * 9.81 * std::sin(th) * t;
+  MESSAGE("after " << t << " s: v " << v << " m/s (rolling predicts " << expected << "), omega r "
+                   << glm::length(w.body(i).w) * r);
+  CHECK(v == Approx(expected).epsilon(0.01));
+  CHECK(glm::length(w.body(i).w) * r == Approx(v).epsilon(0.01));
+  CHECK(std::abs(glm::dot(w.body(i).v, rot * glm::dvec3(0, 1, 0))) < 0.01);  // it stays on the slope
+}
+
 TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm") {
   World w;
   addGround(w, 0.6, 0.0);

@@ -453,7 +453,7 @@ int Deformer::deform(const DeformRequest& rq) {
         const int tx = std::clamp(static_cast<int>(std::floor(ca[i * 2] * static_cast<float>(res))), 0, res - 1);
         const int ty = std::clamp(static_cast<int>(std::floor(ca[i * 2 + 1] * static_cast<float>(res))), 0, res - 1);
         const size_t t = static_cast<size_t>(ty) * res + tx;
-        const float h2 = std::clamp(h[t] - dD * depthToHeight, 0.0f, 1.0f);
+        const float h2 = std::clamp(std::fma(-dD, depthToHeight, h[t]), 0.0f, 1.0f);  // as the GPU's dent_update.comp
         if (!(h2 < h[t])) continue;
         out[t] = std::min(out[t], h2);
         box[0] = std::min(box[0], tx);

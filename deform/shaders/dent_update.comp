@@ -36,7 +36,10 @@ void main() {
   }
   ivec2 t = clamp(ivec2(floor(a * float(uResolution))), ivec2(0), ivec2(uResolution - 1));
   float h = texelFetch(uHeightX, t, 0).r;
-  float h2 = clamp(h - dD * uDepthToHeight, 0.0, 1.0);
+  // One fused multiply-add, written out: GPUs contract h - dD * k into one
+  // anyway, and the read-back path computes the same fma on the CPU, so the
+  // two paths give bit-identical maps on every driver.
+  float h2 = clamp(fma(-dD, uDepthToHeight, h), 0.0, 1.0);
   if (!(h2 < h)) return;
   imageAtomicMin(uNewHeight, t, floatBitsToUint(h2));
   atomicMin(uRegion[uSide].x, t.x);

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Packs the built programs and test binaries with the shared libraries they need
+# (not glibc's) into .devlib/, for a machine that has a GPU but none of the
+# project's Debian packages (the tool library's `device` machines: Ubuntu with
+# NVIDIA's EGL driver). There, from the repository root:
+#   . .devlib/env.sh && .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile
+# Tests that run crumple-sim find it at build/apps/crumple-sim: .devlib/env.sh puts it there.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+cmake --build build -j"$(nproc)" >/dev/null
+rm -rf .devlib
+mkdir -p .devlib/bin .devlib/lib .devlib/compat
+cp build/apps/crumple-bench build/apps/crumple-sim build/tests/test_* .devlib/bin/
+rm -f .devlib/bin/test_sandbox  # needs a display
+strip .devlib/bin/*
+for b in .devlib/bin/*; do ldd "$b" | awk '/=>/ {print $3}'; done | sort -u |
+  grep -v -E '/(libc|libm|libdl|libpthread|librt|libgcc_s|ld-linux[^/]*)\.so' | xargs -I{} cp -L {} .devlib/lib/
+# glvnd front ends, so that libepoxy finds desktop GL through the vendor's EGL
+for l in libOpenGL.so.0 libGL.so.1 libGLX.so.0; do cp -L "/lib/x86_64-linux-gnu/$l" .devlib/lib/ 2>/dev/null || true; done
+# Our libstdc++ only if the machine's is older
+mv .devlib/lib/libstdc++.so.6 .devlib/compat/ 2>/dev/null || true
+cat > .devlib/env.sh <<'ENV'
+# sourced on the device machine, in the repository root
+export LD_LIBRARY_PATH=$PWD/.devlib/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+for f in /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json /usr/share/glvnd/egl_vendor.d/10_nvidia.json; do
+  if [ -f "$f" ]; then export __EGL_VENDOR_LIBRARY_FILENAMES=$f; break; fi
+done
+if ! .devlib/bin/crumple-sim --help >/dev/null 2>&1; then export LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$PWD/.devlib/compat; fi
+mkdir -p build/apps && cp .devlib/bin/crumple-sim build/apps/crumple-sim
+ENV
+du -sh .devlib

@@ -760,15 +760,25 @@ void World::updateSleep(double h) {
     const int ra = find(p.a), rb = find(p.b);
     if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
   }
-  std::vector<char> islandStill(n, 1);
+  std::vector<char> islandStill(n, 1), supported(n, 0);
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = bodies_[i];
     if (b.isStatic) continue;
     if (b.movable() && b.stillTime < settings_.sleepTime) islandStill[static_cast<size_t>(find(static_cast<int>(i)))] = 0;
   }
+  // Only an island that rests on something (a static or sleeping body near
+  // one of its bodies) sleeps: a slow body in free flight (zero gravity, say)
+  // keeps its momentum.
+  for (const Pair& p : pairs_) {
+    const RigidBody& A = bodies_[static_cast<size_t>(p.a)];
+    const RigidBody& B = bodies_[static_cast<size_t>(p.b)];
+    if (!A.movable()) supported[static_cast<size_t>(find(p.b))] = 1;
+    if (!B.movable()) supported[static_cast<size_t>(find(p.a))] = 1;
+  }
   for (size_t i = 0; i < n; ++i) {
     RigidBody& b = bodies_[i];
-    if (!b.movable() || !islandStill[static_cast<size_t>(find(static_cast<int>(i)))]) continue;
+    const size_t root = static_cast<size_t>(find(static_cast<int>(i)));
+    if (!b.movable() || !islandStill[root] || !supported[root]) continue;
     b.asleep = true;
     b.v = glm::dvec3(0);
     b.w = glm::dvec3(0);

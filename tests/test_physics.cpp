@@ -222,6 +222,21 @@ TEST_CASE("a block on an incline slides with a = g (sin theta - mu cos theta)") 
   CHECK(r.travel > 0.5 * expected * 0.8 * 0.8);
 }
 
+TEST_CASE("a slow body in zero gravity never falls asleep: it keeps its momentum") {
+  World w;
+  w.settings().gravity = glm::dvec3(0);
+  BodyDef d;
+  d.shape = makeBox({0.3, 0.3, 0.3});
+  d.linearVelocity = {0.02, 0, -0.01};  // below the sleep thresholds
+  d.angularVelocity = {0, 0.03, 0};
+  const int i = w.addBody(d);
+  for (int s = 0; s < 480; ++s) w.step(1.0 / 240);  // 2 s, four times the sleep time
+  CHECK(!w.body(i).asleep);
+  CHECK(w.body(i).v.x == Approx(0.02));
+  CHECK(w.body(i).v.z == Approx(-0.01));
+  CHECK(w.body(i).x.x == Approx(0.04).epsilon(0.01));
+}
+
 TEST_CASE("a ball rolls down an incline without slipping: a = 5/7 g sin(theta), v = omega r") {
   World w;
   w.settings().sleeping = false;

@@ -173,23 +173,33 @@ struct DeformStage {
 };
 DeformStage* gDeformStage = nullptr;
 
+// One deformer with its two surfaces and the event they meet in: a ball
+// (map 512) pressed into a plate (map 1024), both sides dented.
+struct DeformCase {
+  deform::Deformer deformer;
+  deform::Surface plate, ball;
+  deform::DeformRequest request;
+  explicit DeformCase(const deform::DeformOptions& o)
+      : deformer(o),
+        plate(gDeformStage->plate, 1024, 0.1f, 0.02f,
+              deformer.createMaps(1024, nullptr, 0.1f, float(gDeformStage->plate->metresPerUv / 1024))),
+        ball(gDeformStage->ball, 512, 0.1f, 0.02f,
+             deformer.createMaps(512, nullptr, 0.1f, float(gDeformStage->ball->metresPerUv / 512))) {
+    request.a = {&plate, gDeformStage->plate.get(), glm::dmat4(1)};
+    request.b = {&ball, gDeformStage->ball.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.35, 0))};
+    request.point = {0, 0.1, 0};
+    request.normal = {0, 1, 0};
+    request.deformA = 0.002;
+    request.deformB = 0.001;
+    deformer.deform(request);  // warm-up: shaders, lazy allocations
+    glFinish();
+  }
+};
+
 void deformBench(benchmark::State& state, deform::Path path) {
-  const int size = static_cast<int>(state.range(0));
-  deform::Deformer d({size, path});
-  DeformStage& s = *gDeformStage;
-  deform::Surface plate(s.plate, 1024, 0.1f, 0.02f, d.createMaps(1024, nullptr, 0.1f, float(s.plate->metresPerUv / 1024)));
-  deform::Surface ball(s.ball, 512, 0.1f, 0.02f, d.createMaps(512, nullptr, 0.1f, float(s.ball->metresPerUv / 512)));
-  deform::DeformRequest rq;
-  rq.a = {&plate, s.plate.get(), glm::dmat4(1)};
-  rq.b = {&ball, s.ball.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.35, 0))};
-  rq.point = {0, 0.1, 0};
-  rq.normal = {0, 1, 0};
-  rq.deformA = 0.002;
-  rq.deformB = 0.001;
-  d.deform(rq);
-  glFinish();
+  DeformCase c({static_cast<int>(state.range(0)), path});
   for (auto _ : state) {
-    d.deform(rq);
+    c.deformer.deform(c.request);
     glFinish();
   }
 }
@@ -197,26 +207,15 @@ void deformBench(benchmark::State& state, deform::Path path) {
 // Per-phase wall times (glFinish at each boundary) of both paths at each size.
 void deformProfile(int iterations) {
   std::printf("\n== deformation phases: wall ms (GPU ms), mean of %d, glFinish between phases ==\n", iterations);
-  DeformStage& s = *gDeformStage;
   for (int size : {256, 512, 1024, 2048})
     for (deform::Path path : {deform::Path::Gpu, deform::Path::Readback}) {
       deform::DeformOptions o{size, path};
       o.profile = true;
-      deform::Deformer d(o);
-      deform::Surface plate(s.plate, 1024, 0.1f, 0.02f, d.createMaps(1024, nullptr, 0.1f, float(s.plate->metresPerUv / 1024)));
-      deform::Surface ball(s.ball, 512, 0.1f, 0.02f, d.createMaps(512, nullptr, 0.1f, float(s.ball->metresPerUv / 512)));
-      deform::DeformRequest rq;
-      rq.a = {&plate, s.plate.get(), glm::dmat4(1)};
-      rq.b = {&ball, s.ball.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.35, 0))};
-      rq.point = {0, 0.1, 0};
-      rq.normal = {0, 1, 0};
-      rq.deformA = 0.002;
-      rq.deformB = 0.001;
-      d.deform(rq);
+      DeformCase c(o);
       std::vector<deform::PhaseTime> sum;
       for (int i = 0; i < iterations; ++i) {
-        d.deform(rq);
-        for (const auto& p : d.profile()) {
+        c.deformer.deform(c.request);
+        for (const auto& p : c.deformer.profile()) {
           auto it = std::find_if(sum.begin(), sum.end(), [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
           if (it == sum.end()) sum.push_back(p);
           else {

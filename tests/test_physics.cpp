@@ -174,10 +174,8 @@ namespace {
 struct InclineResult {
   double travel, accel;
 };
-InclineResult inclineRun(double thetaDeg, double mu, double seconds) {
-  World w;
-  const double th = glm::radians(thetaDeg);
-  const glm::dquat rot = glm::angleAxis(th, glm::dvec3(0, 0, 1));
+// A static slab whose top face is a plane through the origin tilted by `rot` about z.
+void addIncline(World& w, const glm::dquat& rot, double mu) {
   BodyDef plane;
   plane.shape = makeBox({20, 1, 4});
   plane.orientation = rot;
@@ -186,6 +184,13 @@ InclineResult inclineRun(double thetaDeg, double mu, double seconds) {
   plane.friction = mu;
   plane.restitution = 0;
   w.addBody(plane);
+}
+
+InclineResult inclineRun(double thetaDeg, double mu, double seconds) {
+  World w;
+  const double th = glm::radians(thetaDeg);
+  const glm::dquat rot = glm::angleAxis(th, glm::dvec3(0, 0, 1));
+  addIncline(w, rot, mu);
   BodyDef box;
   box.shape = makeBox({0.4, 0.4, 0.4});
   box.orientation = rot;
@@ -242,14 +247,7 @@ TEST_CASE("a ball rolls down an incline without slipping: a = 5/7 g sin(theta), 
   w.settings().sleeping = false;
   const double th = glm::radians(20.0), r = 0.2;
   const glm::dquat rot = glm::angleAxis(th, glm::dvec3(0, 0, 1));
-  BodyDef plane;
-  plane.shape = makeBox({20, 1, 4});
-  plane.orientation = rot;
-  plane.origin = rot * glm::dvec3(0, -0.5, 0);
-  plane.isStatic = true;
-  plane.friction = 0.8;
-  plane.restitution = 0;
-  w.addBody(plane);
+  addIncline(w, rot, 0.8);
   BodyDef ball;
   ball.shape = makeSphere(r);
   ball.origin = rot * glm::dvec3(0, r, 0);

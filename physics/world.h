@@ -184,6 +184,7 @@ class World {
   std::vector<std::vector<Contact>> found_;
   std::vector<std::pair<uint32_t, uint32_t>> foundVersion_;
   std::vector<uint32_t> version_;
+  std::vector<Pose> stepStart_;  // poses before this substep's position update (sleep test)
   StepStats stats_;
   double time_ = 0;
   double minHalfThickness_ = 1e30;

@@ -112,6 +112,9 @@ struct BulletWorld {
   std::vector<int> torusIndices;
   std::vector<btScalar> torusVertices;
   explicit BulletWorld(const SceneSpec& spec) {
+    // Both engines put resting bodies to sleep after the same 0.5 s still
+    // (Bullet's default is 2 s, crumple's WorldSettings::sleepTime 0.5 s).
+    gDeactivationTime = btScalar(0.5);
     btGImpactCollisionAlgorithm::registerAlgorithm(&dispatcher);
     world.setGravity(btVector3(0, -9.81f, 0));
     add(new btBoxShape(btVector3(30, 0.5f, 30)), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity());

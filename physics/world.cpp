@@ -551,11 +551,16 @@ void World::contact(double h) {
   // Re-finding it costs most of the step; it changes little from one pass to
   // the next, so it is refreshed every `contactRefresh` passes (impulses always
   // use the current velocities).
-  std::vector<std::vector<Contact>> grouped(pairs_.size());
+  // The groups and levers of each pair's last look stay for shock propagation.
+  std::vector<std::vector<Contact>>& grouped = groups_;
+  grouped.resize(pairs_.size());
+  for (auto& g : grouped) g.clear();
   // K (and its inverse) per group: the points and inertias stay put until the
   // geometry is found again, so only the relative velocity changes between passes.
   std::vector<std::vector<ImpulseMatrix>> matrices(pairs_.size());
-  std::vector<std::vector<Levers>> leverArms(pairs_.size());
+  std::vector<std::vector<Levers>>& leverArms = groupLevers_;
+  leverArms.resize(pairs_.size());
+  for (auto& l : leverArms) l.clear();
   std::vector<double> pushed(reportContacts_.empty() ? 0 : pairs_.size(), 0.0);
   const int n = std::max(1, settings_.contactPasses);
   const int refresh = std::max(1, settings_.contactRefresh);
@@ -629,19 +634,17 @@ void World::contact(double h) {
 }
 
 void World::shockPropagation(double h) {
+  (void)h;
   if (settings_.shockPasses <= 0) return;
   const size_t n = bodies_.size();
-  std::vector<Contact> contacts, grouped;
-  // Contact graph on positions moved with the new velocities; levels from the
-  // static (and sleeping) bodies up by breadth-first search, which collapses
-  // cycles into one level and never loops.
+  // The contact graph of the contact step's last look (positions moved with the
+  // velocities of then); levels from the static (and sleeping) bodies up by
+  // breadth-first search, which collapses cycles into one level and never loops.
   std::vector<std::vector<int>> adjacency(n);
   std::vector<size_t> touching;
-  for (size_t pi = 0; pi < pairs_.size(); ++pi) {
+  for (size_t pi = 0; pi < pairs_.size() && pi < groups_.size(); ++pi) {
+    if (groups_[pi].empty()) continue;
     const Pair& pair = pairs_[pi];
-    pairContacts(pair, predict(bodies_[static_cast<size_t>(pair.a)], h, false),
-                 predict(bodies_[static_cast<size_t>(pair.b)], h, false), contacts);
-    if (contacts.empty()) continue;
     adjacency[static_cast<size_t>(pair.a)].push_back(pair.b);
     adjacency[static_cast<size_t>(pair.b)].push_back(pair.a);
     touching.push_back(pi);
@@ -667,21 +670,36 @@ void World::shockPropagation(double h) {
   }
   for (int level = 1; level <= maxLevel; ++level) {
     for (size_t i = 0; i < n; ++i) frozen_[i] = level_[i] >= 0 && level_[i] < level;
+    // This level's contact groups (a pair whose upper body is on this level).
+    struct LevelContact {
+      Contact c;
+      Levers l;
+    };
+    std::vector<LevelContact> lc;
+    std::vector<int> share(n, 0);
+    for (size_t pi : touching) {
+      const Pair& pair = pairs_[pi];
+      const int la = level_[static_cast<size_t>(pair.a)], lb = level_[static_cast<size_t>(pair.b)];
+      if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
+      for (size_t gi = 0; gi < groups_[pi].size(); ++gi) {
+        const Contact& c = groups_[pi][gi];
+        lc.push_back({c, groupLevers_[pi][gi]});
+        if (!frozen_[static_cast<size_t>(c.a)]) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
+        if (!frozen_[static_cast<size_t>(c.b)]) ++share[static_cast<size_t>(c.b)];
+      }
+    }
+    // Jacobi passes: every group's impulse from the same velocities, each
+    // body taking the mean of its groups' (a body on two supports follows
+    // neither alone: in order, the last one processed would win).
+    std::vector<glm::dvec3> dj(lc.size());
     for (int pass = 0; pass < settings_.shockPasses; ++pass) {
-      for (size_t pi : touching) {
-        const Pair& pair = pairs_[pi];
-        const int la = level_[static_cast<size_t>(pair.a)], lb = level_[static_cast<size_t>(pair.b)];
-        if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
-        const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
-        const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
-        pairContacts(pair, pa, pb, contacts);
-        manifolds(contacts, grouped);
-        for (const Contact& c : grouped) {
-          const Levers l = levers(c, c.a == pair.a ? pa : pb, c.b == pair.b ? pb : pa);
-          const glm::dvec3 j = contactImpulse(c.a, c.b, c, l, 0.0, frozen_[static_cast<size_t>(c.a)] != 0,
-                                              frozen_[static_cast<size_t>(c.b)] != 0);
-          if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, l, j);
-        }
+      for (size_t k = 0; k < lc.size(); ++k)
+        dj[k] = contactImpulse(lc[k].c.a, lc[k].c.b, lc[k].c, lc[k].l, 0.0, frozen_[static_cast<size_t>(lc[k].c.a)] != 0,
+                               frozen_[static_cast<size_t>(lc[k].c.b)] != 0);
+      for (size_t k = 0; k < lc.size(); ++k) {
+        const Contact& c = lc[k].c;
+        const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});
+        if (glm::dot(dj[k], dj[k]) > 0) applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
       }
     }
   }

@@ -30,15 +30,13 @@ struct WorldSettings {
   glm::dvec3 gravity{0, -9.81, 0};
   int collisionPasses = 5;
   int collisionIterations = 20;  // per pair and pass
-  int contactPasses = 30;
+  int contactPasses = 20;
   int contactRefresh = 10;  // passes between re-finding contact geometry
-  // Shock propagation passes per contact-graph level. Off by default: measured
-  // on the 10-level pyramid (tests/test_physics.cpp), freezing the lower levels
-  // carries their residual spin up the stack and the top walks off (15 cm in
-  // 10 s with 2 passes, against 8 mm without); with the centre-of-pressure
-  // contact and 30 passes the stack stands without it. Kept for tall uneven
-  // piles and for study.
-  int shockPasses = 0;
+  // Shock propagation passes per contact-graph level (Jacobi: each body takes
+  // the mean of its groups' impulses against the frozen level below, on the
+  // contact step's last geometry). With it the 10-level pyramid stands with
+  // 20 contact passes, sleeping or not (tests/test_physics.cpp); 0 turns it off.
+  int shockPasses = 3;
   double penetrationSlop = 0.0005;      // m left alone by the positional projection
   double penetrationCorrection = 0.4;   // fraction removed per projection iteration
   int projectionIterations = 3;
@@ -184,7 +182,10 @@ class World {
   std::vector<std::vector<Contact>> found_;
   std::vector<std::pair<uint32_t, uint32_t>> foundVersion_;
   std::vector<uint32_t> version_;
-  std::vector<Pose> stepStart_;  // poses before this substep's position update (sleep test)
+  std::vector<Pose> stepStart_;
+  // The contact step's groups per pair as last found, with their levers (shock propagation works on them).
+  std::vector<std::vector<Contact>> groups_;
+  std::vector<std::vector<Levers>> groupLevers_;  // poses before this substep's position update (sleep test)
   StepStats stats_;
   double time_ = 0;
   double minHalfThickness_ = 1e30;

@@ -293,8 +293,11 @@ TEST_CASE("a ball rolls down an incline without slipping: a = 5/7 g sin(theta), 
   CHECK(std::abs(glm::dot(w.body(i).v, rot * glm::dvec3(0, 1, 0))) < 0.01);  // it stays on the slope
 }
 
-TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm") {
+TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm, sleeping or not") {
+  for (bool sleeping : {true, false}) {
+  CAPTURE(sleeping);
   World w;
+  w.settings().sleeping = sleeping;
   addGround(w, 0.6, 0.0);
   const int levels = 10;
   const double size = 0.5;
@@ -316,8 +319,9 @@ TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm") {
   for (int s = 0; s < 2400; ++s) w.step(h);
   double drift = 0;
   for (size_t k = 0; k < ids.size(); ++k) drift = std::max(drift, glm::length(w.body(ids[k]).x - start[k]));
-  MESSAGE("pyramid max drift after 10 s: " << drift << " m");
+  MESSAGE("pyramid max drift after 10 s" << std::string(sleeping ? "" : " (no sleeping)") << ": " << drift << " m");
   CHECK(drift < 0.01);
+  }
 }
 
 TEST_CASE("a fast box does not tunnel through a thin static rail at 40 m/s (and 150 m/s)") {

@@ -185,7 +185,9 @@ class World {
   std::vector<Pose> stepStart_;
   // The contact step's groups per pair as last found, with their levers (shock propagation works on them).
   std::vector<std::vector<Contact>> groups_;
-  std::vector<std::vector<Levers>> groupLevers_;  // poses before this substep's position update (sleep test)
+  std::vector<std::vector<Levers>> groupLevers_;
+  std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
+  void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
   StepStats stats_;
   double time_ = 0;
   double minHalfThickness_ = 1e30;

@@ -477,6 +477,17 @@ bool World::collide(double h) {
   std::vector<std::pair<uint32_t, uint32_t>>& seen = foundVersion_;
   seen.assign(pairs_.size(), {UINT32_MAX, UINT32_MAX});
   found_.resize(pairs_.size());
+  // Each body's predicted pose, kept while no impulse has changed its velocity.
+  predicted_.resize(bodies_.size());
+  predictedVersion_.assign(bodies_.size(), UINT32_MAX);
+  auto predicted = [&](int i) -> const Pose& {
+    const size_t k = static_cast<size_t>(i);
+    if (predictedVersion_[k] != version[k]) {
+      predicted_[k] = predict(bodies_[k], h, true);
+      predictedVersion_[k] = version[k];
+    }
+    return predicted_[k];
+  };
   bool any = false;
   for (int pass = 0; pass < settings_.collisionPasses; ++pass) {
     bool passAny = false;
@@ -487,7 +498,7 @@ bool World::collide(double h) {
       for (int it = 0; it < settings_.collisionIterations; ++it) {
         const RigidBody& A = bodies_[static_cast<size_t>(ia)];
         const RigidBody& B = bodies_[static_cast<size_t>(ib)];
-        const Pose pa = predict(A, h, true), pb = predict(B, h, true);
+        const Pose pa = predicted(ia), pb = predicted(ib);
         std::vector<Contact>& contacts = found_[pi];
         pairContacts(pairs_[pi], pa, pb, contacts);
         seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
@@ -580,9 +591,13 @@ void World::contact(double h) {
         // has touched either body since: its contacts are reused as they are.
         const std::vector<Contact>* contacts = &fresh;
         const std::pair<uint32_t, uint32_t> now{version_[static_cast<size_t>(pair.a)], version_[static_cast<size_t>(pair.b)]};
-        const Pose pa = predict(bodies_[static_cast<size_t>(pair.a)], h, false);
-        const Pose pb = predict(bodies_[static_cast<size_t>(pair.b)], h, false);
-        if (pass == 1 && pi < foundVersion_.size() && foundVersion_[pi] == now) {
+        // Reused contacts come with the poses the collision step predicted
+        // them at (levers must match the geometry); fresh ones are found at
+        // the poses the current velocities predict.
+        const bool reuse = pass == 1 && pi < foundVersion_.size() && foundVersion_[pi] == now;
+        const Pose pa = reuse ? predicted_[static_cast<size_t>(pair.a)] : predict(bodies_[static_cast<size_t>(pair.a)], h, false);
+        const Pose pb = reuse ? predicted_[static_cast<size_t>(pair.b)] : predict(bodies_[static_cast<size_t>(pair.b)], h, false);
+        if (reuse) {
           contacts = &found_[pi];
         } else {
           pairContacts(pair, pa, pb, fresh);

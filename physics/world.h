@@ -182,6 +182,8 @@ class World {
   std::vector<std::vector<Contact>> found_;
   std::vector<std::pair<uint32_t, uint32_t>> foundVersion_;
   std::vector<uint32_t> version_;
+  std::vector<Pose> predicted_;  // the collision step's predicted poses, valid while predictedVersion_ == version_
+  std::vector<uint32_t> predictedVersion_;
   std::vector<Pose> stepStart_;
   // The contact step's groups per pair as last found, with their levers (shock propagation works on them).
   std::vector<std::vector<Contact>> groups_;

@@ -18,6 +18,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <map>
 #include <memory>
+#include <string>
 
 #include "deform/deformer.h"
 #include "engine/primitives.h"
@@ -288,9 +289,11 @@ int main(int argc, char** argv) {
     std::string name;
     SceneSpec spec;
   };
-  std::vector<PhysicsCase> cases = {{"pyramid20_210boxes", pyramid(quick ? 6 : 20)},
-                                    {"pile_1000boxes", pile(quick ? 100 : 1000)},
-                                    {"tori_200meshes", toriScene(quick ? 20 : 200)}};
+  const int levels = quick ? 6 : 20, boxes = quick ? 100 : 1000, tori = quick ? 20 : 200;
+  std::vector<PhysicsCase> cases = {
+      {"pyramid" + std::to_string(levels) + "_" + std::to_string(levels * (levels + 1) / 2) + "boxes", pyramid(levels)},
+      {"pile_" + std::to_string(boxes) + "boxes", pile(boxes)},
+      {"tori_" + std::to_string(tori) + "meshes", toriScene(tori)}};
   for (const auto& c : cases) {
     benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);

@@ -424,15 +424,15 @@ int Deformer::deform(const DeformRequest& rq) {
     } else {
       // The paper's path: read the address maps back and scatter on the CPU.
       const size_t px = static_cast<size_t>(m.size) * m.size;
-      std::vector<float> ca(px * 2), da(px), cb(px * 2), db(px), na(px * 4);
+      const bool tangent = options_.tangent != TangentMode::None;
+      std::vector<float> ca(px * 2), da(px), cb(px * 2), db(px), na(tangent ? px * 4 : 0);
       // The address maps come back with glGetTextureImage on the attached
       // textures: on NVIDIA's driver glReadPixels of float targets took
       // 1 s at 512 (0.8 us a pixel) where this takes a few ms.
       glPixelStorei(GL_PACK_ALIGNMENT, 1);
       m.addressX[side].download(GL_RG, GL_FLOAT, ca.data(), ca.size() * sizeof(float));
       m.depthX[side].download(GL_RED, GL_FLOAT, da.data(), da.size() * sizeof(float));
-      if (options_.tangent != TangentMode::None)
-        m.normalX[side].download(GL_RGBA, GL_FLOAT, na.data(), na.size() * sizeof(float));
+      if (tangent) m.normalX[side].download(GL_RGBA, GL_FLOAT, na.data(), na.size() * sizeof(float));
       m.addressO[side].download(GL_RG, GL_FLOAT, cb.data(), cb.size() * sizeof(float));
       m.depthO[side].download(GL_RED, GL_FLOAT, db.data(), db.size() * sizeof(float));
       m.phase("read address maps");
@@ -446,7 +446,7 @@ int Deformer::deform(const DeformRequest& rq) {
         if (ca[i * 2] < 0.0f || cb[i * 2] < 0.0f) continue;
         float dD = db[i] - da[i];
         if (!(dD > 0.0f)) continue;
-        if (options_.tangent != TangentMode::None) {
+        if (tangent) {
           const float c = std::abs(glm::dot(glm::normalize(glm::vec3(na[i * 4], na[i * 4 + 1], na[i * 4 + 2])), vn));
           dD = options_.tangent == TangentMode::Multiply ? dD * c : dD / std::max(c, options_.tangentFloor);
         }

@@ -25,6 +25,8 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 namespace {
+// The wheel mesh is a cylinder along y; wheels turn about the body's z axis.
+const glm::dmat4 kWheelToAxle = glm::rotate(glm::dmat4(1), glm::half_pi<double>(), glm::dvec3(1, 0, 0));
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 std::string shapeKey(const ShapeDesc& s) {
@@ -276,7 +278,8 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
     vp.brakeForce = d.vehicle.brakeForce;
     vp.maxSteer = d.vehicle.maxSteer;
     vp.grip = d.vehicle.tyreGrip;
-    VehicleRuntime v{static_cast<int>(bodies_.size()), Vehicle(b.index, vp), nullptr, d.vehicle.script, false, {}, {}, nullptr, nullptr, 0, 0, 0};
+    VehicleRuntime v(static_cast<int>(bodies_.size()), Vehicle(b.index, vp));
+    v.script = d.vehicle.script;
     if (gl_) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(d.vehicle.wheelRadius, d.vehicle.wheelWidth, 64));
     if (d.vehicle.treads) {
       v.pitch = d.vehicle.treadPitch;
@@ -295,8 +298,7 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
         }
         t.centreX = 0.5 * (lo + hi);
         t.z = z / static_cast<double>(t.wheels.size());
-        t.length = hi - lo + 2 * r;
-        length = std::max(length, t.length);
+        length = std::max(length, hi - lo + 2 * r);
         v.treads.push_back(t);
       }
       if (gl_) {
@@ -326,6 +328,26 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   bodies_.push_back(std::move(b));
 }
 
+bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const glm::dmat4& model, const glm::dvec3& point,
+                             const glm::dvec3& normal, double push) {
+  BodyRuntime& ground = bodies_[static_cast<size_t>(groundBody)];
+  if (!ground.contactDeformation || !ground.surface) return false;
+  const double depth = deformDepth(ground.thickness, percentDeform(ground.material->kappa, push,
+                                                                    yieldThreshold(ground.material->restitution)));
+  if (!(depth > 0)) return false;
+  const RigidBody& g = world_.body(ground.index);
+  deform::DeformRequest rq;
+  rq.a = {ground.surface.get(), ground.gpuMesh.get(), modelAt(groundBody, {g.x, g.q})};
+  rq.b = {nullptr, mesh, model};
+  rq.point = point;
+  rq.normal = normal;
+  rq.penetration = 0;
+  rq.deformA = depth;
+  deformer_->deform(rq);
+  ++timings_.contactDeformations;
+  return true;
+}
+
 glm::dmat4 Simulation::treadModel(const VehicleRuntime& v, size_t t, bool grousers) const {
   const TreadRuntime& tr = v.treads[t];
   const VehicleParams& p = v.vehicle.params();
@@ -350,13 +372,9 @@ std::vector<VehiclePart> Simulation::vehicleParts() const {
     if (v.wheelMesh) {
       for (size_t i = 0; i < p.wheels.size(); ++i) {
         const WheelState& w = v.vehicle.wheels()[i];
-        // The wheel's centre hangs below its attachment by the spring's length;
-        // the cylinder (axis y) is turned onto the axle (z).
+        // The wheel's centre hangs below its attachment by the spring's length.
         const glm::dvec3 centre = p.wheels[i] - glm::dvec3(0, p.suspensionRest - (w.onGround ? w.compression : 0.0), 0);
-        parts.push_back({v.wheelMesh.get(),
-                         body * glm::translate(glm::dmat4(1), centre) *
-                             glm::rotate(glm::dmat4(1), glm::half_pi<double>(), glm::dvec3(1, 0, 0)),
-                         glm::vec3(0.06f)});
+        parts.push_back({v.wheelMesh.get(), body * glm::translate(glm::dmat4(1), centre) * kWheelToAxle, glm::vec3(0.06f)});
       }
     }
     for (size_t t = 0; t < v.treads.size(); ++t) {
@@ -495,24 +513,9 @@ void Simulation::step() {
             normal += w.normal * w.load;
           }
           if (groundBody < 0 || !(load > 0)) continue;
-          BodyRuntime& ground = bodies_[static_cast<size_t>(groundBody)];
-          if (!ground.contactDeformation || !ground.surface) continue;
-          const double depth = deformDepth(ground.thickness, percentDeform(ground.material->kappa, 2 * load * h,
-                                                                            yieldThreshold(ground.material->restitution)));
-          if (!(depth > 0)) continue;
-          const RigidBody& g = world_.body(ground.index);
-          for (bool grousers : {true, false}) {
-            deform::DeformRequest rq;
-            rq.a = {ground.surface.get(), ground.gpuMesh.get(), modelAt(groundBody, {g.x, g.q})};
-            rq.b = {nullptr, grousers ? v.grouserMesh.get() : v.beltMesh.get(), treadModel(v, t, grousers)};
-            rq.point = contact / load;
-            rq.normal = glm::normalize(normal);
-            rq.penetration = 0;
-            rq.deformA = depth;
-            deformer_->deform(rq);
-            ++timings_.contactDeformations;
-          }
-          deformed = true;
+          for (bool grousers : {true, false})
+            deformed |= pressGround(groundBody, grousers ? v.grouserMesh.get() : v.beltMesh.get(),
+                                    treadModel(v, t, grousers), contact / load, glm::normalize(normal), 2 * load * h);
         }
         continue;
       }
@@ -520,28 +523,11 @@ void Simulation::step() {
       const RigidBody& car = world_.body(v.vehicle.body());
       for (const WheelState& w : v.vehicle.wheels()) {
         if (!w.onGround || w.ground < 0 || bodyOf[static_cast<size_t>(w.ground)] < 0) continue;
-        const int gi = bodyOf[static_cast<size_t>(w.ground)];
-        BodyRuntime& ground = bodies_[static_cast<size_t>(gi)];
-        if (!ground.contactDeformation || !ground.surface) continue;
-        const double depth = deformDepth(ground.thickness, percentDeform(ground.material->kappa, 2 * w.load * h,
-                                                                          yieldThreshold(ground.material->restitution)));
-        if (!(depth > 0)) continue;
-        // The wheel: a cylinder (axis y in its frame) turned to the car's axle (z), standing on the contact.
-        const glm::dmat3 r = car.rotation();
+        // The wheel standing on the contact, its axle along the car's.
         const glm::dvec3 centre = w.contact + w.normal * v.vehicle.params().wheelRadius;
-        glm::dmat4 wheel = glm::translate(glm::dmat4(1), centre) * glm::dmat4(r) *
-                           glm::rotate(glm::dmat4(1), glm::half_pi<double>(), glm::dvec3(1, 0, 0));
-        const RigidBody& g = world_.body(ground.index);
-        deform::DeformRequest rq;
-        rq.a = {ground.surface.get(), ground.gpuMesh.get(), modelAt(gi, {g.x, g.q})};
-        rq.b = {nullptr, v.wheelMesh.get(), wheel};
-        rq.point = w.contact;
-        rq.normal = w.normal;
-        rq.penetration = 0;
-        rq.deformA = depth;
-        deformer_->deform(rq);
-        ++timings_.contactDeformations;
-        deformed = true;
+        const glm::dmat4 wheel = glm::translate(glm::dmat4(1), centre) * glm::dmat4(car.rotation()) * kWheelToAxle;
+        deformed |= pressGround(bodyOf[static_cast<size_t>(w.ground)], v.wheelMesh.get(), wheel, w.contact, w.normal,
+                                2 * w.load * h);
       }
     }
   }

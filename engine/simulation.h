@@ -47,11 +47,12 @@ struct BodyRuntime {
 // Tread frame: x forward along the body's x, origin at the belt's centre in x,
 // on that side's wheel plane (z), at the grousers' bottom (the ground).
 struct TreadRuntime {
-  double centreX = 0, z = 0, length = 0;
+  double centreX = 0, z = 0;
   std::vector<int> wheels;  // indices into the vehicle's wheels
 };
 
 struct VehicleRuntime {
+  VehicleRuntime(int bodyIndex, const Vehicle& v) : body(bodyIndex), vehicle(v) {}
   int body = -1;  // index in Simulation::bodies()
   Vehicle vehicle;
   std::shared_ptr<const deform::GpuMesh> wheelMesh;  // prints wheels into contact-deformable ground
@@ -127,6 +128,11 @@ class Simulation {
 
  private:
   void buildBody(const BodyDesc& desc, size_t index);
+  // A print of `mesh` (placed by `model`, flat) pressed into contact-deformable
+  // ground body `groundBody` by a resting push (N s) at `point`; false when the
+  // ground takes no print or the push is below its threshold.
+  bool pressGround(int groundBody, const deform::GpuMesh* mesh, const glm::dmat4& model, const glm::dvec3& point,
+                   const glm::dvec3& normal, double push);
   // The deformation of one event (a collision or a resting contact) between bodies a and b.
   deform::DeformRequest eventRequest(const CollisionEvent& e, int a, int b, double depthA, double depthB) const;
   Scene scene_;

@@ -257,12 +257,14 @@ bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxD
 }
 
 namespace {
+// The angle of the rotation from one orientation to another.
+double rotationAngle(const glm::dquat& from, const glm::dquat& to) {
+  return 2 * std::acos(std::min(1.0, std::abs(glm::dot(from, to))));
+}
 // How far any point of a body within `reach` of its centre of mass can have
 // moved between two poses: the translation plus the rotation angle times the reach.
 double displacementBound(const Pose& from, const Pose& to, double reach) {
-  const double c = std::min(1.0, std::abs(glm::dot(from.orientation, to.orientation)));
-  const double angle = 2 * std::acos(c);
-  return glm::length(to.position - from.position) + angle * reach;
+  return glm::length(to.position - from.position) + rotationAngle(from.orientation, to.orientation) * reach;
 }
 }  // namespace
 
@@ -522,8 +524,6 @@ bool World::collide(double h) {
         const Levers hitLevers = leversOf(*hit);
         const glm::dvec3 j = contactImpulse(hit->a, hit->b, *hit, hitLevers, eps, false, false, &elastic);
         if (glm::dot(j, j) == 0) break;
-        const Contact hitContact = *hit;  // contacts stay as found; hit lives in them
-        hit = &hitContact;
         applyImpulse(hit->a, hit->b, hitLevers, j);
         ++version[static_cast<size_t>(ia)];
         ++version[static_cast<size_t>(ib)];
@@ -568,7 +568,9 @@ void World::contact(double h) {
   for (auto& g : grouped) g.clear();
   // K (and its inverse) per group: the points and inertias stay put until the
   // geometry is found again, so only the relative velocity changes between passes.
-  std::vector<std::vector<ImpulseMatrix>> matrices(pairs_.size());
+  std::vector<std::vector<ImpulseMatrix>>& matrices = groupMatrices_;
+  matrices.resize(pairs_.size());
+  for (auto& m : matrices) m.clear();
   std::vector<std::vector<Levers>>& leverArms = groupLevers_;
   leverArms.resize(pairs_.size());
   for (auto& l : leverArms) l.clear();
@@ -588,12 +590,11 @@ void World::contact(double h) {
       if (find) {
         // The collision step's last look at this pair was at the poses the
         // first pass predicts now (x + h (v + h a) either way) if no impulse
-        // has touched either body since: its contacts are reused as they are.
+        // has touched either body since: its contacts are reused, with the
+        // poses they were found at (levers must match the geometry). Fresh
+        // contacts are found at the poses the current velocities predict.
         const std::vector<Contact>* contacts = &fresh;
         const std::pair<uint32_t, uint32_t> now{version_[static_cast<size_t>(pair.a)], version_[static_cast<size_t>(pair.b)]};
-        // Reused contacts come with the poses the collision step predicted
-        // them at (levers must match the geometry); fresh ones are found at
-        // the poses the current velocities predict.
         const bool reuse = pass == 1 && pi < foundVersion_.size() && foundVersion_[pi] == now;
         const Pose pa = reuse ? predicted_[static_cast<size_t>(pair.a)] : predict(bodies_[static_cast<size_t>(pair.a)], h, false);
         const Pose pb = reuse ? predicted_[static_cast<size_t>(pair.b)] : predict(bodies_[static_cast<size_t>(pair.b)], h, false);
@@ -652,8 +653,7 @@ void World::contact(double h) {
   }
 }
 
-void World::shockPropagation(double h) {
-  (void)h;
+void World::shockPropagation() {
   if (settings_.shockPasses <= 0) return;
   const size_t n = bodies_.size();
   // The contact graph of the contact step's last look (positions moved with the
@@ -770,8 +770,7 @@ void World::projectPositions() {
           // next step and be pushed out again: the approach goes too
           // (inelastic, normal only: it never adds energy).
           const Levers& l = groupLevers_[pi][gi];
-          const glm::dvec3 j = frictionlessImpulse(collisionMatrixAt(c.a, c.b, l, false, false), relativeVelocity(c.a, c.b, l),
-                                                   c.normal, 0.0);
+          const glm::dvec3 j = frictionlessImpulse(groupMatrices_[pi][gi].K, relativeVelocity(c.a, c.b, l), c.normal, 0.0);
           if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, l, j);
         }
         const double corr = settings_.penetrationCorrection * depth / (wa + wb);
@@ -794,8 +793,7 @@ void World::updateSleep(double h) {
     RigidBody& b = bodies_[i];
     if (!b.movable() || i >= stepStart_.size()) continue;
     const Pose& start = stepStart_[i];
-    const double c = std::min(1.0, std::abs(glm::dot(start.orientation, b.q)));
-    const double speed = glm::length(b.x - start.position) / h, spin = 2 * std::acos(c) / h;
+    const double speed = glm::length(b.x - start.position) / h, spin = rotationAngle(start.orientation, b.q) / h;
     const bool still = speed < settings_.sleepLinear && spin < settings_.sleepAngular;
     b.stillTime = still ? b.stillTime + h : 0;
   }
@@ -856,7 +854,7 @@ void World::substep(double h) {
   }
   // 3. contact with the restitution ramp, 4. shock propagation
   contact(h);
-  shockPropagation(h);
+  shockPropagation();
   // 5. positions, then the positional projection
   stepStart_.resize(bodies_.size());
   for (size_t i = 0; i < bodies_.size(); ++i) stepStart_[i] = {bodies_[i].x, bodies_[i].q};

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "physics/body.h"
+#include "physics/impulse.h"
 
 namespace crumple {
 
@@ -149,7 +150,7 @@ class World {
   glm::dvec3 angularAcceleration(int i) const;
   bool collide(double h);
   void contact(double h);
-  void shockPropagation(double h);
+  void shockPropagation();
   void integratePositions(double h);
   void projectPositions();
   void updateSleep(double h);
@@ -185,9 +186,10 @@ class World {
   std::vector<Pose> predicted_;  // the collision step's predicted poses, valid while predictedVersion_ == version_
   std::vector<uint32_t> predictedVersion_;
   std::vector<Pose> stepStart_;
-  // The contact step's groups per pair as last found, with their levers (shock propagation works on them).
+  // The contact step's groups per pair as last found, with their levers (shock propagation and the projection work on them).
   std::vector<std::vector<Contact>> groups_;
   std::vector<std::vector<Levers>> groupLevers_;
+  std::vector<std::vector<ImpulseMatrix>> groupMatrices_;  // K and K^-1 at those levers
   std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
   void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
   StepStats stats_;

@@ -9,6 +9,8 @@
 
 #include "deform/deformer.h"
 #include "engine/primitives.h"
+#include "engine/scene_view.h"
+#include "engine/simulation.h"
 #include "gl_fixture.h"
 #include "render/renderer.h"
 
@@ -189,4 +191,26 @@ TEST_CASE("self-shadowing: a deep dent lit at a grazing angle has shadowed texel
   MESSAGE("pixels darkened by self-shadowing: " << darker);
   CHECK(darker > 20);
   CHECK(brighter == 0);
+}
+
+TEST_CASE("tracked vehicle: wheels and belts are drawn, and the grousers keep their place on the ground") {
+  test::glContext();
+  Simulation sim(loadScene(std::string(CRUMPLE_SCENES) + "/tank-tracks.json"), true);
+  REQUIRE(sim.vehicles().size() == 1);
+  const VehicleRuntime& tank = sim.vehicles().front();
+  // 8 wheels, and a belt and its grousers on each side, all among the render items.
+  CHECK(sim.vehicleParts().size() == 12);
+  CHECK(renderItems(sim).size() == sim.bodies().size() + 12);
+  for (int s = 0; s < 240; ++s) sim.step();  // settled and under way
+  const double pitch = tank.pitch;
+  auto phase = [&] { return std::fmod(sim.treadModel(tank, 0, true)[3].x, pitch); };
+  const double belt0 = sim.treadModel(tank, 0, false)[3].x, phase0 = phase();
+  for (int s = 0; s < 48; ++s) {
+    sim.step();
+    double d = std::abs(phase() - phase0);
+    d = std::min(d, pitch - d);  // around the pitch
+    CHECK(d < 0.01 * pitch);
+  }
+  // Meanwhile the belt went on with the body, more than a pitch.
+  CHECK(sim.treadModel(tank, 0, false)[3].x - belt0 > pitch);
 }

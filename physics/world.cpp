@@ -15,10 +15,6 @@ namespace {
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
-struct Aabb {
-  glm::dvec3 lo, hi;
-};
-
 Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& pose) {
   const glm::dvec3 c = (s.boundsMin + s.boundsMax) * 0.5, e = (s.boundsMax - s.boundsMin) * 0.5;
   const glm::dmat3 r = glm::mat3_cast(pose.orientation);
@@ -132,11 +128,13 @@ glm::dvec3 World::acceleration(int i) const {
   return settings_.gravity + force_[static_cast<size_t>(i)] * b.invMass;
 }
 
+// Within a substep: the world inverse inertia is invInertia_ (orientations
+// stay put until the position update).
 glm::dvec3 World::angularAcceleration(int i) const {
   const RigidBody& b = bodies_[static_cast<size_t>(i)];
   const glm::dmat3 r = b.rotation();
-  const glm::dmat3 inertiaWorld = r * b.inertiaBody * glm::transpose(r);
-  return b.invInertiaWorld() * (torque_[static_cast<size_t>(i)] - glm::cross(b.w, inertiaWorld * b.w));
+  const glm::dvec3 l = r * (b.inertiaBody * (glm::transpose(r) * b.w));  // angular momentum
+  return invInertia_[static_cast<size_t>(i)] * (torque_[static_cast<size_t>(i)] - glm::cross(b.w, l));
 }
 
 Pose World::predict(const RigidBody& b, double h, bool withForces) const {
@@ -410,60 +408,87 @@ glm::dvec3 World::contactImpulse(int a, int b, const Contact& c, const Levers& l
 }
 
 void World::findPairs(double h) {
-  std::vector<Pair> previous = std::move(pairs_);
-  pairs_.clear();
   const size_t n = bodies_.size();
-  std::vector<Aabb> box(n);
+  // Each body's bounds now and at its predicted pose; the prediction is kept
+  // for the collision step's first look (predictedVersion_ 0).
+  boxes_.resize(n);
+  predicted_.resize(n);
+  predictedVersion_.assign(n, 0);
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = bodies_[i];
-    const Pose now{b.x, b.q};
-    box[i] = worldBounds(*b.shape, b.localCom, now);
+    predicted_[i] = predict(b, h, true);
+    boxes_[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
     if (b.movable()) {
-      box[i] = merge(box[i], worldBounds(*b.shape, b.localCom, predict(b, h, true)));
+      Aabb& box = boxes_[i];
+      box = merge(box, worldBounds(*b.shape, b.localCom, predicted_[i]));
       const double margin = 0.005 + 2 * h * glm::length(b.v);
-      box[i].lo -= margin;
-      box[i].hi += margin;
+      box.lo -= margin;
+      box.hi += margin;
     }
   }
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int x, int y) {
-    if (box[static_cast<size_t>(x)].lo.x != box[static_cast<size_t>(y)].lo.x)
-      return box[static_cast<size_t>(x)].lo.x < box[static_cast<size_t>(y)].lo.x;
-    return x < y;
-  });
+  // Sweep and prune along x. The order of the last substep is nearly right:
+  // insertion sort, unless too much has moved (then a full sort). Ties go by
+  // index, so the order is unique whichever sort made it.
+  auto before = [&](int x, int y) {
+    const double bx = boxes_[static_cast<size_t>(x)].lo.x, by = boxes_[static_cast<size_t>(y)].lo.x;
+    return bx != by ? bx < by : x < y;
+  };
+  if (sweepOrder_.size() != n) {
+    sweepOrder_.resize(n);
+    std::iota(sweepOrder_.begin(), sweepOrder_.end(), 0);
+    std::sort(sweepOrder_.begin(), sweepOrder_.end(), before);
+  } else {
+    size_t shifts = 0;
+    for (size_t i = 1; i < n && shifts <= 8 * n; ++i) {
+      const int v = sweepOrder_[i];
+      size_t j = i;
+      for (; j > 0 && before(v, sweepOrder_[j - 1]); --j) sweepOrder_[j] = sweepOrder_[j - 1];
+      sweepOrder_[j] = v;
+      shifts += i - j;
+    }
+    if (shifts > 8 * n) std::sort(sweepOrder_.begin(), sweepOrder_.end(), before);
+  }
+  pairKeys_.clear();
   std::vector<int> wakeList;
   for (size_t oi = 0; oi < n; ++oi) {
-    const int i = order[oi];
-    const Aabb& bi = box[static_cast<size_t>(i)];
+    const int i = sweepOrder_[oi];
+    const Aabb& bi = boxes_[static_cast<size_t>(i)];
+    const RigidBody& A = bodies_[static_cast<size_t>(i)];
     for (size_t oj = oi + 1; oj < n; ++oj) {
-      const int j = order[oj];
-      const Aabb& bj = box[static_cast<size_t>(j)];
+      const int j = sweepOrder_[oj];
+      const Aabb& bj = boxes_[static_cast<size_t>(j)];
       if (bj.lo.x > bi.hi.x) break;
       if (bj.lo.y > bi.hi.y || bi.lo.y > bj.hi.y || bj.lo.z > bi.hi.z || bi.lo.z > bj.hi.z) continue;
-      const RigidBody& A = bodies_[static_cast<size_t>(i)];
       const RigidBody& B = bodies_[static_cast<size_t>(j)];
       if (!A.movable() && !B.movable()) continue;
       if (A.asleep) wakeList.push_back(i);
       if (B.asleep) wakeList.push_back(j);
-      Pair p;
-      p.a = std::min(i, j);
-      p.b = std::max(i, j);
-      pairs_.push_back(std::move(p));
+      pairKeys_.push_back(static_cast<uint64_t>(std::min(i, j)) << 32 | static_cast<uint64_t>(std::max(i, j)));
     }
   }
   for (int i : wakeList) wake(i);
-  std::sort(pairs_.begin(), pairs_.end(), [](const Pair& x, const Pair& y) { return x.a != y.a ? x.a < y.a : x.b < y.b; });
+  std::sort(pairKeys_.begin(), pairKeys_.end());
   // Pairs that already existed keep their candidate lists (both sorted by a, b).
+  std::swap(pairs_, previousPairs_);
+  pairs_.resize(pairKeys_.size());
   size_t k = 0;
-  for (Pair& p : pairs_) {
-    while (k < previous.size() && (previous[k].a < p.a || (previous[k].a == p.a && previous[k].b < p.b))) ++k;
-    if (k < previous.size() && previous[k].a == p.a && previous[k].b == p.b) {
-      p.bInA = std::move(previous[k].bInA);
-      p.aInB = std::move(previous[k].aInB);
-      p.builtA = previous[k].builtA;
-      p.builtB = previous[k].builtB;
-      p.builtMargin = previous[k].builtMargin;
+  for (size_t pi = 0; pi < pairKeys_.size(); ++pi) {
+    Pair& p = pairs_[pi];
+    p.a = static_cast<int>(pairKeys_[pi] >> 32);
+    p.b = static_cast<int>(pairKeys_[pi] & 0xffffffffu);
+    while (k < previousPairs_.size() &&
+           (previousPairs_[k].a < p.a || (previousPairs_[k].a == p.a && previousPairs_[k].b < p.b)))
+      ++k;
+    if (k < previousPairs_.size() && previousPairs_[k].a == p.a && previousPairs_[k].b == p.b) {
+      std::swap(p.bInA, previousPairs_[k].bInA);
+      std::swap(p.aInB, previousPairs_[k].aInB);
+      p.builtA = previousPairs_[k].builtA;
+      p.builtB = previousPairs_[k].builtB;
+      p.builtMargin = previousPairs_[k].builtMargin;
+    } else {
+      p.bInA.clear();
+      p.aInB.clear();
+      p.builtMargin = -1;
     }
   }
 }
@@ -479,9 +504,8 @@ bool World::collide(double h) {
   std::vector<std::pair<uint32_t, uint32_t>>& seen = foundVersion_;
   seen.assign(pairs_.size(), {UINT32_MAX, UINT32_MAX});
   found_.resize(pairs_.size());
-  // Each body's predicted pose, kept while no impulse has changed its velocity.
-  predicted_.resize(bodies_.size());
-  predictedVersion_.assign(bodies_.size(), UINT32_MAX);
+  // Each body's predicted pose (findPairs made the first), kept while no
+  // impulse has changed its velocity.
   auto predicted = [&](int i) -> const Pose& {
     const size_t k = static_cast<size_t>(i);
     if (predictedVersion_[k] != version[k]) {

@@ -70,6 +70,10 @@ struct Contact {
   double phi = 0;                  // < 0: penetrating
 };
 
+struct Aabb {
+  glm::dvec3 lo, hi;
+};
+
 struct RayHit {
   int body = -1;
   double distance = 0;
@@ -170,7 +174,11 @@ class World {
   WorldSettings settings_;
   std::vector<RigidBody> bodies_;
   std::vector<glm::dvec3> force_, torque_;
-  std::vector<Pair> pairs_;
+  std::vector<Pair> pairs_, previousPairs_;
+  // Broad phase: bounds per body, the sweep order kept between substeps, pair keys (a << 32 | b).
+  std::vector<Aabb> boxes_;
+  std::vector<int> sweepOrder_;
+  std::vector<uint64_t> pairKeys_;
   std::vector<CollisionEvent> events_, contactReports_;
   std::vector<char> reportContacts_, bumpNormals_;
   NormalModifier normalModifier_;

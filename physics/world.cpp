@@ -164,6 +164,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     const double hintLen = glm::length(hint);
     hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
     const size_t n = list ? list->size() : st.samples.size();
+    if (n == 0) return;
     const bool normals = !st.sampleNormals.empty();
     // One rigid map from the other's shape frame to the owner's: local = M s + t.
     const glm::dmat3 otherToOwner = rot * rt;
@@ -259,10 +260,15 @@ namespace {
 double rotationAngle(const glm::dquat& from, const glm::dquat& to) {
   return 2 * std::acos(std::min(1.0, std::abs(glm::dot(from, to))));
 }
-// How far any point of a body within `reach` of its centre of mass can have
-// moved between two poses: the translation plus the rotation angle times the reach.
-double displacementBound(const Pose& from, const Pose& to, double reach) {
-  return glm::length(to.position - from.position) + rotationAngle(from.orientation, to.orientation) * reach;
+// How far B's points near A can have moved in A's frame between two pairs of
+// poses: the change of B's offset from A, plus each rotation angle times the
+// reach about that body's centre (A's turn moves the points near A by at most
+// its angle times ra; B's turn moves its own points by its angle times rb).
+double relativeDisplacementBound(const Pose& fromA, const Pose& toA, double ra, const Pose& fromB, const Pose& toB,
+                                 double rb) {
+  const glm::dvec3 offsetChange = (toB.position - toA.position) - (fromB.position - fromA.position);
+  return glm::length(offsetChange) + rotationAngle(fromA.orientation, toA.orientation) * ra +
+         rotationAngle(fromB.orientation, toB.orientation) * rb;
 }
 }  // namespace
 
@@ -271,17 +277,18 @@ void World::findCandidates(double h) {
   for (Pair& pair : pairs_) {
     const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
     const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
-    auto reach = [&](const RigidBody& b) {
-      return b.movable() ? glm::length(b.v) + glm::length(b.w) * b.shape->boundingRadius + 2 * g * h : 0.0;
-    };
+    // What matters is B's motion relative to A: two bodies falling side by
+    // side do not approach each other however fast they fall.
+    auto spin = [&](const RigidBody& b) { return b.movable() ? glm::length(b.w) * b.shape->boundingRadius + 2 * g * h : 0.0; };
+    const glm::dvec3 va = A.movable() ? A.v : glm::dvec3(0), vb = B.movable() ? B.v : glm::dvec3(0);
     // Twice the bound on the relative motion this step, plus a little.
-    const double margin = 2 * h * (reach(A) + reach(B)) + 0.005;
+    const double margin = 2 * h * (glm::length(vb - va) + spin(A) + spin(B)) + 0.005;
     // The skin: a tenth of the smaller body's thinnest half thickness.
     const double skin = 0.1 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
     if (pair.builtMargin >= 0) {
       const double ra = A.shape->boundingRadius + glm::length(A.localCom) + pair.builtMargin;
       const double rb = B.shape->boundingRadius + glm::length(B.localCom) + pair.builtMargin;
-      const double moved = displacementBound(pair.builtA, {A.x, A.q}, ra) + displacementBound(pair.builtB, {B.x, B.q}, rb);
+      const double moved = relativeDisplacementBound(pair.builtA, {A.x, A.q}, ra, pair.builtB, {B.x, B.q}, rb);
       if (moved + margin <= pair.builtMargin) continue;  // the lists still hold every sample that can touch
     }
     const double built = margin + skin;
@@ -717,6 +724,8 @@ void World::shockPropagation() {
     struct LevelContact {
       Contact c;
       Levers l;
+      ImpulseMatrix m;  // K with this level's frozen bodies
+      double mu;
     };
     std::vector<LevelContact> lc;
     std::vector<int> share(n, 0);
@@ -724,11 +733,14 @@ void World::shockPropagation() {
       const Pair& pair = pairs_[pi];
       const int la = level_[static_cast<size_t>(pair.a)], lb = level_[static_cast<size_t>(pair.b)];
       if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
+      const double mu = std::sqrt(bodies_[static_cast<size_t>(pair.a)].friction * bodies_[static_cast<size_t>(pair.b)].friction);
       for (size_t gi = 0; gi < groups_[pi].size(); ++gi) {
         const Contact& c = groups_[pi][gi];
-        lc.push_back({c, groupLevers_[pi][gi]});
-        if (!frozen_[static_cast<size_t>(c.a)]) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
-        if (!frozen_[static_cast<size_t>(c.b)]) ++share[static_cast<size_t>(c.b)];
+        const Levers& l = groupLevers_[pi][gi];
+        const bool fa = frozen_[static_cast<size_t>(c.a)] != 0, fb = frozen_[static_cast<size_t>(c.b)] != 0;
+        lc.push_back({c, l, ImpulseMatrix(collisionMatrixAt(c.a, c.b, l, fa, fb)), mu});
+        if (!fa) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
+        if (!fb) ++share[static_cast<size_t>(c.b)];
       }
     }
     // Jacobi passes: every group's impulse from the same velocities, each
@@ -737,8 +749,7 @@ void World::shockPropagation() {
     std::vector<glm::dvec3> dj(lc.size());
     for (int pass = 0; pass < settings_.shockPasses; ++pass) {
       for (size_t k = 0; k < lc.size(); ++k)
-        dj[k] = contactImpulse(lc[k].c.a, lc[k].c.b, lc[k].c, lc[k].l, 0.0, frozen_[static_cast<size_t>(lc[k].c.a)] != 0,
-                               frozen_[static_cast<size_t>(lc[k].c.b)] != 0);
+        dj[k] = frictionImpulse(lc[k].m, relativeVelocity(lc[k].c.a, lc[k].c.b, lc[k].l), lc[k].c.normal, 0.0, lc[k].mu);
       for (size_t k = 0; k < lc.size(); ++k) {
         const Contact& c = lc[k].c;
         const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});

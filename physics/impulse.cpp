@@ -1,5 +1,6 @@
 #include "physics/impulse.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace crumple {
@@ -47,30 +48,68 @@ glm::dvec3 frictionImpulse(const glm::dmat3& K, const glm::dvec3& u, const glm::
 }
 
 glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu) {
+  return frictionImpulse(m, u, n, eps, mu, nullptr);
+}
+
+namespace {
+glm::dvec3 coulombImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu,
+                          const FrictionTotals* earlier) {
   const glm::dmat3& K = m.K;
   const double un = glm::dot(u, n);
-  if (un >= 0) return glm::dvec3(0);
   if (!(mu > 0)) return frictionlessImpulse(K, u, n, eps);
+  // Earlier impulses at this contact in this step, the friction in today's tangent plane.
+  const double pn = earlier ? std::max(0.0, earlier->normal) : 0.0;
+  const glm::dvec3 pt = earlier ? earlier->tangential - glm::dot(earlier->tangential, n) * n : glm::dvec3(0);
+  const double ptLen = glm::length(pt);
   if (m.invertible) {
     // Sticking: the relative velocity becomes -eps (u.n) n.
     const glm::dvec3 j = m.inverse * (-eps * un * n - u);
     const double jn = glm::dot(j, n);
     const glm::dvec3 jt = j - jn * n;
-    if (jn >= 0 && glm::length(jt) <= mu * jn && energyChange(K, u, j) <= 1e-12 * std::abs(glm::dot(j, u)) + 1e-15) {
+    if (jn >= 0 && glm::length(pt + jt) <= mu * (pn + jn) &&
+        energyChange(K, u, j) <= 1e-12 * std::abs(glm::dot(j, u)) + 1e-15) {
       return j;
     }
   }
   const glm::dvec3 ut = u - un * n;
   const double utLen = glm::length(ut);
   if (utLen < 1e-12) return frictionlessImpulse(K, u, n, eps);
+  // Sliding: j = lambda (n - m t), t the sliding direction; the normal part
+  // lambda = c / (n.K(n - m t)) makes the normal velocity change c.
   const glm::dvec3 t = ut / utLen;
-  const glm::dvec3 dir = n - mu * t;
-  const double denom = glm::dot(n, K * dir);
+  const double c = -(1 + eps) * un;
+  const glm::dvec3 kn = K * n, kt = K * t;
+  const double a = glm::dot(n, kn), b = glm::dot(n, kt), e = glm::dot(t, kt);
+  // The friction coefficient of this impulse: mu, or more where earlier
+  // impulses left friction unused (the total m lambda + |pt| may reach
+  // mu (pn + lambda)): m (c + s b) <= s a + mu c with s the unused friction.
+  double fm = mu;
+  const double spare = mu * pn - ptLen;
+  if (spare > 0 && c + spare * b > 0) fm = (spare * a + mu * c) / (c + spare * b);
+  // Kinetic friction opposes sliding; it may stop it, never reverse it: t.(u + K j)
+  // = |u_t| + c (b - m e) / (a - m b) falls with m (e a >= b^2, K positive
+  // definite) and is zero at m = (|u_t| a + c b) / (|u_t| b + c e).
+  const double stopLower = utLen * b + c * e;
+  if (stopLower > 0) fm = std::min(fm, (utLen * a + c * b) / stopLower);
+  fm = std::max(fm, 0.0);
+  const double denom = a - fm * b;
   if (!(denom > 0)) return frictionlessImpulse(K, u, n, eps);
-  glm::dvec3 j = -(1 + eps) * un / denom * dir;
-  // Friction may not reverse the sliding direction: cap the tangential part at
-  // the impulse that stops sliding, which also keeps the energy from rising.
-  if (energyChange(K, u, j) > 0) j = frictionlessImpulse(K, u, n, eps);
+  const glm::dvec3 j = c / denom * (n - fm * t);
+  // Never add kinetic energy.
+  if (energyChange(K, u, j) > 0) return frictionlessImpulse(K, u, n, eps);
+  return j;
+}
+}  // namespace
+
+glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu,
+                           FrictionTotals* totals) {
+  if (glm::dot(u, n) >= 0) return glm::dvec3(0);
+  const glm::dvec3 j = coulombImpulse(m, u, n, eps, mu, totals);
+  if (totals) {
+    const double jn = glm::dot(j, n);
+    totals->normal += jn;
+    totals->tangential += j - jn * n;
+  }
   return j;
 }
 

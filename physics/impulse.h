@@ -43,4 +43,20 @@ struct ImpulseMatrix {
 // The same impulse as frictionImpulse(m.K, ...), without inverting K again.
 glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu);
 
+// The impulses already applied at one contact during a step (the passes of the
+// contact step): normal magnitude and tangential vector.
+struct FrictionTotals {
+  double normal = 0;
+  glm::dvec3 tangential{0};
+};
+// Coulomb's law over the whole step: the cone bounds the total tangential
+// impulse at the contact by mu times its total normal impulse (as the law
+// bounds the friction force by the normal force), not each pass's impulse by
+// its own. The contact step ramps restitution from -1 to 0, so its first passes
+// push only a little along the normal; judged alone, their sticking impulses
+// leave the cone and a block that should stick on an incline creeps down it.
+// Adds the impulse to `totals` (nullptr: this impulse alone, as above).
+glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu,
+                           FrictionTotals* totals);
+
 }  // namespace crumple

@@ -550,12 +550,37 @@ bool World::collide(double h) {
           }
         }
         if (!hit) break;
+        // The impulse acts at the centre of the hit's group: the approaching
+        // points whose normals agree with the hit's, weighted by depth (as the
+        // contact step's groups). A box landing flat on another presses with
+        // its whole face; an impulse at whichever equally deep corner sorts
+        // first would spin it, and a tower of such landings leans and falls.
+        Contact at = *hit;
+        {
+          glm::dvec3 point(0), normal(0);
+          double weight = 0;
+          for (const Contact& c : contacts) {
+            const glm::dvec3 n = c.a == hit->a ? c.normal : -c.normal;
+            if (glm::dot(n, hit->normal) < 0.82) continue;
+            if (glm::dot(relativeVelocity(c.a, c.b, leversOf(c)), c.normal) >= 0) continue;
+            const double w = -c.phi + 1e-6;
+            point += w * c.point;
+            normal += w * n;
+            weight += w;
+          }
+          const double len = glm::length(normal);
+          if (weight > 0 && len > 1e-12) {
+            at.point = point / weight;
+            at.normal = normal / len;
+            if (glm::dot(relativeVelocity(at.a, at.b, leversOf(at)), at.normal) >= 0) at = *hit;
+          }
+        }
         const double eps = std::min(A.restitution, B.restitution);
         double elastic = 0;
-        const Levers hitLevers = leversOf(*hit);
-        const glm::dvec3 j = contactImpulse(hit->a, hit->b, *hit, hitLevers, eps, false, false, &elastic);
+        const Levers hitLevers = leversOf(at);
+        const glm::dvec3 j = contactImpulse(at.a, at.b, at, hitLevers, eps, false, false, &elastic);
         if (glm::dot(j, j) == 0) break;
-        applyImpulse(hit->a, hit->b, hitLevers, j);
+        applyImpulse(at.a, at.b, hitLevers, j);
         ++version[static_cast<size_t>(ia)];
         ++version[static_cast<size_t>(ib)];
         passAny = true;
@@ -607,6 +632,14 @@ void World::contact(double h) {
   for (auto& l : leverArms) l.clear();
   groupSpeed_.resize(pairs_.size());
   for (auto& g : groupSpeed_) g.clear();
+  // The impulses each group has had in this step (Coulomb's cone bounds their
+  // totals); a group found again inherits the totals of the group it replaces.
+  std::vector<std::vector<FrictionTotals>>& totals = groupTotals_;
+  totals.resize(pairs_.size());
+  for (auto& t : totals) t.clear();
+  std::vector<Contact> oldGroups;
+  std::vector<FrictionTotals> oldTotals;
+  std::vector<char> inherited;
   std::vector<double> pushed(reportContacts_.empty() ? 0 : pairs_.size(), 0.0);
   const int n = std::max(1, settings_.contactPasses);
   const int refresh = std::max(1, settings_.contactRefresh);
@@ -635,7 +668,28 @@ void World::contact(double h) {
           pairContacts(pair, pa, pb, fresh);
         }
         if (pass + refresh > n) stats_.contacts += static_cast<int>(contacts->size());  // the last look
+        oldGroups.swap(grouped[pi]);
+        oldTotals.swap(totals[pi]);
         manifolds(*contacts, grouped[pi]);
+        totals[pi].assign(grouped[pi].size(), FrictionTotals{});
+        inherited.assign(oldGroups.size(), 0);
+        for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
+          const Contact& g = grouped[pi][gi];
+          size_t best = oldGroups.size();
+          double bestDot = 0.82;
+          for (size_t k = 0; k < oldGroups.size(); ++k) {
+            const double d = glm::dot(g.normal, oldGroups[k].a == g.a ? oldGroups[k].normal : -oldGroups[k].normal);
+            if (!inherited[k] && d >= bestDot) {
+              best = k;
+              bestDot = d;
+            }
+          }
+          if (best == oldGroups.size()) continue;
+          inherited[best] = 1;
+          FrictionTotals t = oldTotals[best];
+          if (oldGroups[best].a != g.a) t.tangential = -t.tangential;  // impulses are on b
+          totals[pi][gi] = t;
+        }
         matrices[pi].clear();
         leverArms[pi].clear();
         groupSpeed_[pi].clear();
@@ -656,7 +710,7 @@ void World::contact(double h) {
       for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
         const Contact& c = grouped[pi][gi];
         const Levers& l = leverArms[pi][gi];
-        const glm::dvec3 j = frictionImpulse(matrices[pi][gi], relativeVelocity(c.a, c.b, l), c.normal, eps, mu);
+        const glm::dvec3 j = frictionImpulse(matrices[pi][gi], relativeVelocity(c.a, c.b, l), c.normal, eps, mu, &totals[pi][gi]);
         if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, l, j);
         if (report && &c == &grouped[pi].front()) pushed[pi] += glm::dot(j, c.normal);
       }

@@ -31,8 +31,8 @@ struct WorldSettings {
   glm::dvec3 gravity{0, -9.81, 0};
   int collisionPasses = 5;
   int collisionIterations = 20;  // per pair and pass
-  int contactPasses = 20;
-  int contactRefresh = 10;  // passes between re-finding contact geometry
+  int contactPasses = 14;
+  int contactRefresh = 7;  // passes between re-finding contact geometry
   // Shock propagation passes per contact-graph level (Jacobi: each body takes
   // the mean of its groups' impulses against the frozen level below, on the
   // contact step's last geometry). With it the 10-level pyramid stands with
@@ -199,6 +199,7 @@ class World {
   std::vector<std::vector<Levers>> groupLevers_;
   std::vector<std::vector<ImpulseMatrix>> groupMatrices_;  // K and K^-1 at those levers
   std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
+  std::vector<std::vector<FrictionTotals>> groupTotals_;  // each group's impulses so far this contact step
   void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
   StepStats stats_;
   double time_ = 0;

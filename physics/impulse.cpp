@@ -113,4 +113,87 @@ glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const gl
   return j;
 }
 
+PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch) {
+  PatchMatrix p;
+  p.patch = patch;
+  if (patch.flat() || !k.invertible) return p;
+  p.C = b.invInertia * cross(b.r) + a.invInertia * cross(a.r);
+  p.W = a.invInertia + b.invInertia;
+  // The system in (J, y), T = y1 t1 + y2 t2, is [K, B; B^T, D] with
+  // B = C^T [t1 t2], D = [t_i.W t_k]; it is solved through the Schur
+  // complement S = D - B^T K^-1 B of K.
+  const glm::dmat3 ct = glm::transpose(p.C);
+  p.b1 = ct * patch.t1;
+  p.b2 = ct * patch.t2;
+  p.kb1 = k.inverse * p.b1;
+  p.kb2 = k.inverse * p.b2;
+  const double s11 = glm::dot(patch.t1, p.W * patch.t1) - glm::dot(p.b1, p.kb1);
+  const double s12 = glm::dot(patch.t1, p.W * patch.t2) - glm::dot(p.b1, p.kb2);
+  const double s22 = glm::dot(patch.t2, p.W * patch.t2) - glm::dot(p.b2, p.kb2);
+  const double det = s11 * s22 - s12 * s12;
+  const double scale = std::max(std::abs(s11), std::abs(s22));
+  if (!(scale > 0) || !(det > 1e-12 * scale * scale)) return p;
+  p.s11 = s22 / det;
+  p.s12 = -s12 / det;
+  p.s22 = s11 / det;
+  p.valid = true;
+  return p;
+}
+
+bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
+                  const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& jOut, glm::dvec3& tOut) {
+  if (!p.valid || !m.invertible) return false;
+  const double un = glm::dot(u, n);
+  if (un >= 0) return false;
+  const PatchExtent& e = p.patch;
+  const glm::dvec3 dv = -eps * un * n - u;
+  const double r1 = -glm::dot(e.t1, omega), r2 = -glm::dot(e.t2, omega);
+  const glm::dvec3 j0 = m.inverse * dv;
+  const double q1 = r1 - glm::dot(p.b1, j0), q2 = r2 - glm::dot(p.b2, j0);
+  double y1 = p.s11 * q1 + p.s12 * q2, y2 = p.s12 * q1 + p.s22 * q2;
+  glm::dvec3 J = j0 - p.kb1 * y1 - p.kb2 * y2;
+  double jn = glm::dot(J, n);
+  if (!(jn > 0)) return false;
+  // The centre of pressure's offset d from the point: T = d x (jn n), so
+  // d = n x T / jn = (-y2 t1 + y1 t2) / jn.
+  const double d1 = -y2 / jn, d2 = y1 / jn;
+  double s = 1;
+  if (d1 > e.hi1) s = std::min(s, e.hi1 / d1);
+  if (d1 < e.lo1) s = std::min(s, e.lo1 / d1);
+  if (d2 > e.hi2) s = std::min(s, e.hi2 / d2);
+  if (d2 < e.lo2) s = std::min(s, e.lo2 / d2);
+  if (s < 1) {
+    // The patch cannot hold the tilt: the most it can, and the point's target with it.
+    y1 *= s;
+    y2 *= s;
+    J = j0 - p.kb1 * y1 - p.kb2 * y2;
+    jn = glm::dot(J, n);
+    if (!(jn > 0)) return false;
+  }
+  const glm::dvec3 T = y1 * e.t1 + y2 * e.t2;
+  const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
+  const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
+  const glm::dvec3 jt = J - jn * n;
+  if (glm::length(pt + jt) > mu * (pn + jn)) return false;
+  // Never add kinetic energy (of the relative motion, with the wrench
+  // mobility M): dE = x.v + x.M x / 2, and M x is the right-hand side
+  // (dv, r1, r2) when the tilt was not clamped.
+  double quad;
+  if (s == 1) {
+    quad = glm::dot(J, dv) + y1 * r1 + y2 * r2;
+  } else {
+    const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
+    quad = glm::dot(J, du) + glm::dot(T, dw);
+  }
+  const double dE = glm::dot(J, u) + glm::dot(T, omega) + 0.5 * quad;
+  if (dE > 1e-12 * (std::abs(glm::dot(J, u)) + std::abs(glm::dot(T, omega))) + 1e-15) return false;
+  if (totals) {
+    totals->normal += jn;
+    totals->tangential += jt;
+  }
+  jOut = J;
+  tOut = T;
+  return true;
+}
+
 }  // namespace crumple

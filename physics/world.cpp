@@ -335,8 +335,9 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
 // resting on a face rock from corner to corner and walk; one averaged contact
 // per face is the face's resultant and leaves no spurious torque. Grouping by
 // normal keeps the separate touching places of nonconvex bodies apart.
-void World::manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out) {
+void World::manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out, std::vector<PatchExtent>* patches) {
   out.clear();
+  if (patches) patches->clear();
   thread_local std::vector<char> used;
   used.assign(contacts.size(), 0);
   for (size_t seed = 0; seed < contacts.size(); ++seed) {
@@ -360,6 +361,24 @@ void World::manifolds(const std::vector<Contact>& contacts, std::vector<Contact>
     const double len = glm::length(normal);
     m.normal = len > 1e-12 ? normal / len : deepest.normal;
     out.push_back(m);
+    if (!patches) continue;
+    // The patch: the members' extent about the group's point in its tangent plane.
+    PatchExtent e;
+    const glm::dvec3& n = m.normal;
+    const glm::dvec3 axis = std::abs(n.x) < 0.57 ? glm::dvec3(1, 0, 0) : (std::abs(n.y) < 0.57 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1));
+    e.t1 = glm::normalize(glm::cross(n, axis));
+    e.t2 = glm::cross(n, e.t1);
+    for (size_t i = seed; i < contacts.size(); ++i) {
+      if (used[i] != 1) continue;
+      used[i] = 2;  // counted in this group
+      const glm::dvec3 d = contacts[i].point - m.point;
+      const double d1 = glm::dot(d, e.t1), d2 = glm::dot(d, e.t2);
+      e.lo1 = std::min(e.lo1, d1);
+      e.hi1 = std::max(e.hi1, d1);
+      e.lo2 = std::min(e.lo2, d2);
+      e.hi2 = std::max(e.hi2, d2);
+    }
+    patches->push_back(e);
   }
 }
 
@@ -387,9 +406,16 @@ void World::applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j) {
 }
 
 glm::dmat3 World::collisionMatrixAt(int a, int b, const Levers& l, bool frozenA, bool frozenB) const {
+  ImpulseSide sa, sb;
+  sidesAt(a, b, l, frozenA, frozenB, sa, sb);
+  return collisionMatrix(sa, sb);
+}
+
+void World::sidesAt(int a, int b, const Levers& l, bool frozenA, bool frozenB, ImpulseSide& sa, ImpulseSide& sb) const {
   const RigidBody& A = bodies_[static_cast<size_t>(a)];
   const RigidBody& B = bodies_[static_cast<size_t>(b)];
-  ImpulseSide sa, sb;
+  sa = {};
+  sb = {};
   if (A.movable() && !frozenA) {
     sa.invMass = A.invMass;
     sa.invInertia = invInertia_[static_cast<size_t>(a)];
@@ -400,7 +426,17 @@ glm::dmat3 World::collisionMatrixAt(int a, int b, const Levers& l, bool frozenA,
   }
   sa.r = l.ra;
   sb.r = l.rb;
-  return collisionMatrix(sa, sb);
+}
+
+glm::dvec3 World::relativeSpin(int a, int b) const {
+  return bodies_[static_cast<size_t>(b)].w - bodies_[static_cast<size_t>(a)].w;
+}
+
+void World::applyTorqueImpulse(int a, int b, const glm::dvec3& t) {
+  RigidBody& A = bodies_[static_cast<size_t>(a)];
+  RigidBody& B = bodies_[static_cast<size_t>(b)];
+  if (A.movable() && !frozen_[static_cast<size_t>(a)]) A.w -= invInertia_[static_cast<size_t>(a)] * t;
+  if (B.movable() && !frozen_[static_cast<size_t>(b)]) B.w += invInertia_[static_cast<size_t>(b)] * t;
 }
 
 glm::dvec3 World::contactImpulse(int a, int b, const Contact& c, const Levers& l, double eps, bool frozenA, bool frozenB,
@@ -637,6 +673,11 @@ void World::contact(double h) {
   std::vector<std::vector<FrictionTotals>>& totals = groupTotals_;
   totals.resize(pairs_.size());
   for (auto& t : totals) t.clear();
+  groupPatches_.resize(pairs_.size());
+  for (auto& g : groupPatches_) g.clear();
+  std::vector<std::vector<PatchMatrix>>& patchMatrices = groupPatchMatrices_;
+  patchMatrices.resize(pairs_.size());
+  for (auto& g : patchMatrices) g.clear();
   std::vector<Contact> oldGroups;
   std::vector<FrictionTotals> oldTotals;
   std::vector<char> inherited;
@@ -670,7 +711,7 @@ void World::contact(double h) {
         if (pass + refresh > n) stats_.contacts += static_cast<int>(contacts->size());  // the last look
         oldGroups.swap(grouped[pi]);
         oldTotals.swap(totals[pi]);
-        manifolds(*contacts, grouped[pi]);
+        manifolds(*contacts, grouped[pi], &groupPatches_[pi]);
         totals[pi].assign(grouped[pi].size(), FrictionTotals{});
         inherited.assign(oldGroups.size(), 0);
         for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
@@ -693,12 +734,17 @@ void World::contact(double h) {
         matrices[pi].clear();
         leverArms[pi].clear();
         groupSpeed_[pi].clear();
-        for (const Contact& c : grouped[pi]) {
+        patchMatrices[pi].clear();
+        for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
+          const Contact& c = grouped[pi][gi];
           // The levers at the poses the geometry was found at: measured from the
           // current centres, a point found ahead by h v would turn sliding into
           // a spurious normal velocity (a rolling ball would brake).
           leverArms[pi].push_back(levers(c, c.a == pair.a ? pa : pb, c.b == pair.b ? pb : pa));
-          matrices[pi].push_back(ImpulseMatrix(collisionMatrixAt(c.a, c.b, leverArms[pi].back(), false, false)));
+          ImpulseSide sa, sb;
+          sidesAt(c.a, c.b, leverArms[pi].back(), false, false, sa, sb);
+          matrices[pi].push_back(ImpulseMatrix(collisionMatrix(sa, sb)));
+          patchMatrices[pi].push_back(patchMatrix(sa, sb, matrices[pi].back(), groupPatches_[pi][gi]));
           groupSpeed_[pi].push_back(glm::dot(relativeVelocity(c.a, c.b, leverArms[pi].back()), c.normal));
         }
       }
@@ -710,8 +756,16 @@ void World::contact(double h) {
       for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
         const Contact& c = grouped[pi][gi];
         const Levers& l = leverArms[pi][gi];
-        const glm::dvec3 j = frictionImpulse(matrices[pi][gi], relativeVelocity(c.a, c.b, l), c.normal, eps, mu, &totals[pi][gi]);
-        if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, l, j);
+        const glm::dvec3 u = relativeVelocity(c.a, c.b, l);
+        glm::dvec3 j, torque;
+        if (patchImpulse(patchMatrices[pi][gi], matrices[pi][gi], u, relativeSpin(c.a, c.b), c.normal, eps, mu, &totals[pi][gi], j,
+                         torque)) {
+          applyImpulse(c.a, c.b, l, j);
+          applyTorqueImpulse(c.a, c.b, torque);
+        } else {
+          j = frictionImpulse(matrices[pi][gi], u, c.normal, eps, mu, &totals[pi][gi]);
+          if (glm::dot(j, j) > 0) applyImpulse(c.a, c.b, l, j);
+        }
         if (report && &c == &grouped[pi].front()) pushed[pi] += glm::dot(j, c.normal);
       }
     }
@@ -780,6 +834,9 @@ void World::shockPropagation() {
       Levers l;
       ImpulseMatrix m;  // K with this level's frozen bodies
       double mu;
+      ImpulseSide sa, sb;
+      const PatchExtent* extent;
+      PatchMatrix patch;  // valid only for a body's one support patch
     };
     std::vector<LevelContact> lc;
     std::vector<int> share(n, 0);
@@ -792,7 +849,10 @@ void World::shockPropagation() {
         const Contact& c = groups_[pi][gi];
         const Levers& l = groupLevers_[pi][gi];
         const bool fa = frozen_[static_cast<size_t>(c.a)] != 0, fb = frozen_[static_cast<size_t>(c.b)] != 0;
-        lc.push_back({c, l, ImpulseMatrix(collisionMatrixAt(c.a, c.b, l, fa, fb)), mu});
+        LevelContact x{c, l, {}, mu, {}, {}, &groupPatches_[pi][gi], {}};
+        sidesAt(c.a, c.b, l, fa, fb, x.sa, x.sb);
+        x.m = ImpulseMatrix(collisionMatrix(x.sa, x.sb));
+        lc.push_back(x);
         if (!fa) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
         if (!fb) ++share[static_cast<size_t>(c.b)];
       }
@@ -800,14 +860,29 @@ void World::shockPropagation() {
     // Jacobi passes: every group's impulse from the same velocities, each
     // body taking the mean of its groups' (a body on two supports follows
     // neither alone: in order, the last one processed would win).
-    std::vector<glm::dvec3> dj(lc.size());
+    // A body resting on one patch of the level below is held against tilting
+    // by that patch (its torque); one on several supports by the couple of
+    // their separate impulses. Patch torques from two supports would each ask
+    // for the tilt of their own support, and the body would jitter between them.
+    for (LevelContact& x : lc) {
+      const bool fa = frozen_[static_cast<size_t>(x.c.a)] != 0, fb = frozen_[static_cast<size_t>(x.c.b)] != 0;
+      if (fa != fb && share[static_cast<size_t>(fa ? x.c.b : x.c.a)] == 1) x.patch = patchMatrix(x.sa, x.sb, x.m, *x.extent);
+    }
+    std::vector<glm::dvec3> dj(lc.size()), dt(lc.size());
     for (int pass = 0; pass < settings_.shockPasses; ++pass) {
-      for (size_t k = 0; k < lc.size(); ++k)
-        dj[k] = frictionImpulse(lc[k].m, relativeVelocity(lc[k].c.a, lc[k].c.b, lc[k].l), lc[k].c.normal, 0.0, lc[k].mu);
+      for (size_t k = 0; k < lc.size(); ++k) {
+        const Contact& c = lc[k].c;
+        const glm::dvec3 u = relativeVelocity(c.a, c.b, lc[k].l);
+        if (!patchImpulse(lc[k].patch, lc[k].m, u, relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr, dj[k], dt[k])) {
+          dj[k] = frictionImpulse(lc[k].m, u, c.normal, 0.0, lc[k].mu);
+          dt[k] = glm::dvec3(0);
+        }
+      }
       for (size_t k = 0; k < lc.size(); ++k) {
         const Contact& c = lc[k].c;
         const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});
         if (glm::dot(dj[k], dj[k]) > 0) applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
+        if (glm::dot(dt[k], dt[k]) > 0) applyTorqueImpulse(c.a, c.b, dt[k] / double(m));
       }
     }
   }

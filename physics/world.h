@@ -31,8 +31,8 @@ struct WorldSettings {
   glm::dvec3 gravity{0, -9.81, 0};
   int collisionPasses = 5;
   int collisionIterations = 20;  // per pair and pass
-  int contactPasses = 14;
-  int contactRefresh = 7;  // passes between re-finding contact geometry
+  int contactPasses = 10;
+  int contactRefresh = 5;  // passes between re-finding contact geometry
   // Shock propagation passes per contact-graph level (Jacobi: each body takes
   // the mean of its groups' impulses against the frozen level below, on the
   // contact step's last geometry). With it the 10-level pyramid stands with
@@ -159,7 +159,9 @@ class World {
   void projectPositions();
   void updateSleep(double h);
   // Applies impulse j to b (and -j to a) at world point p.
-  static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out);
+  // Groups, and with `patches` each group's extent about its point.
+  static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out,
+                        std::vector<PatchExtent>* patches = nullptr);
   // A contact point's offsets from the two centres of mass, at the poses it was found at.
   struct Levers {
     glm::dvec3 ra, rb;
@@ -168,6 +170,9 @@ class World {
   glm::dvec3 relativeVelocity(int a, int b, const Levers& l) const;  // v_B - v_A at the point
   void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j);
   glm::dmat3 collisionMatrixAt(int a, int b, const Levers& l, bool frozenA, bool frozenB) const;
+  void sidesAt(int a, int b, const Levers& l, bool frozenA, bool frozenB, ImpulseSide& sa, ImpulseSide& sb) const;
+  glm::dvec3 relativeSpin(int a, int b) const;  // omega_B - omega_A
+  void applyTorqueImpulse(int a, int b, const glm::dvec3& t);  // t on b, -t on a
   glm::dvec3 contactImpulse(int a, int b, const Contact& c, const Levers& l, double eps, bool frozenA, bool frozenB,
                             double* elastic = nullptr, bool withFriction = true) const;
 
@@ -199,7 +204,9 @@ class World {
   std::vector<std::vector<Levers>> groupLevers_;
   std::vector<std::vector<ImpulseMatrix>> groupMatrices_;  // K and K^-1 at those levers
   std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
-  std::vector<std::vector<FrictionTotals>> groupTotals_;  // each group's impulses so far this contact step
+  std::vector<std::vector<FrictionTotals>> groupTotals_;
+  std::vector<std::vector<PatchExtent>> groupPatches_;
+  std::vector<std::vector<PatchMatrix>> groupPatchMatrices_;  // each group's impulses so far this contact step
   void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
   StepStats stats_;
   double time_ = 0;

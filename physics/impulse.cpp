@@ -119,23 +119,36 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
   if (patch.flat() || !k.invertible) return p;
   p.C = b.invInertia * cross(b.r) + a.invInertia * cross(a.r);
   p.W = a.invInertia + b.invInertia;
-  // The system in (J, y), T = y1 t1 + y2 t2, is [K, B; B^T, D] with
-  // B = C^T [t1 t2], D = [t_i.W t_k]; it is solved through the Schur
-  // complement S = D - B^T K^-1 B of K.
+  // The system in (J, y), T = y1 t1 + y2 t2 + y3 n, is [K, B; B^T, D] with
+  // B = C^T [t1 t2 n], D = [e_i.W e_k]; it is solved through the Schur
+  // complement S = D - B^T K^-1 B of K: with the twist (3x3), and without it
+  // (2x2, for a twist held at the torsional friction limit).
   const glm::dmat3 ct = glm::transpose(p.C);
-  p.b1 = ct * patch.t1;
-  p.b2 = ct * patch.t2;
-  p.kb1 = k.inverse * p.b1;
-  p.kb2 = k.inverse * p.b2;
-  const double s11 = glm::dot(patch.t1, p.W * patch.t1) - glm::dot(p.b1, p.kb1);
-  const double s12 = glm::dot(patch.t1, p.W * patch.t2) - glm::dot(p.b1, p.kb2);
-  const double s22 = glm::dot(patch.t2, p.W * patch.t2) - glm::dot(p.b2, p.kb2);
-  const double det = s11 * s22 - s12 * s12;
-  const double scale = std::max(std::abs(s11), std::abs(s22));
-  if (!(scale > 0) || !(det > 1e-12 * scale * scale)) return p;
-  p.s11 = s22 / det;
-  p.s12 = -s12 / det;
-  p.s22 = s11 / det;
+  const glm::dvec3 axes[3] = {patch.t1, patch.t2, patch.n};
+  for (int i = 0; i < 3; ++i) {
+    p.b[i] = ct * axes[i];
+    p.kb[i] = k.inverse * p.b[i];
+  }
+  glm::dmat3 schur;
+  double scale = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      p.w[i][j] = glm::dot(axes[i], p.W * axes[j]);
+      schur[j][i] = p.w[i][j] - glm::dot(p.b[i], p.kb[j]);
+      scale = std::max(scale, std::abs(schur[j][i]));
+    }
+  if (!(scale > 0)) return p;
+  const double det2 = schur[0][0] * schur[1][1] - schur[1][0] * schur[1][0];
+  if (!(det2 > 1e-12 * scale * scale)) return p;
+  p.s2[0][0] = schur[1][1] / det2;
+  p.s2[0][1] = p.s2[1][0] = -schur[1][0] / det2;
+  p.s2[1][1] = schur[0][0] / det2;
+  const double det3 = glm::determinant(schur);
+  if (!(det3 > 1e-12 * scale * scale * scale)) return p;
+  p.s3 = glm::inverse(schur);
+  // The lever of torsional friction: the mean distance from the centre of a
+  // uniformly pressed rectangle, about 0.77 of its mean half side.
+  p.twistRadius = 0.77 * 0.25 * ((patch.hi1 - patch.lo1) + (patch.hi2 - patch.lo2));
   p.valid = true;
   return p;
 }
@@ -147,40 +160,67 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
   if (un >= 0) return false;
   const PatchExtent& e = p.patch;
   const glm::dvec3 dv = -eps * un * n - u;
-  const double r1 = -glm::dot(e.t1, omega), r2 = -glm::dot(e.t2, omega);
+  const double r[3] = {-glm::dot(e.t1, omega), -glm::dot(e.t2, omega), -glm::dot(n, omega)};
   const glm::dvec3 j0 = m.inverse * dv;
-  const double q1 = r1 - glm::dot(p.b1, j0), q2 = r2 - glm::dot(p.b2, j0);
-  double y1 = p.s11 * q1 + p.s12 * q2, y2 = p.s12 * q1 + p.s22 * q2;
-  glm::dvec3 J = j0 - p.kb1 * y1 - p.kb2 * y2;
+  // Sticking in all six: the point's target, no relative tilt, no relative twist.
+  const glm::dvec3 q(r[0] - glm::dot(p.b[0], j0), r[1] - glm::dot(p.b[1], j0), r[2] - glm::dot(p.b[2], j0));
+  glm::dvec3 y = p.s3 * q;
+  glm::dvec3 J = j0 - p.kb[0] * y[0] - p.kb[1] * y[1] - p.kb[2] * y[2];
   double jn = glm::dot(J, n);
   if (!(jn > 0)) return false;
-  // The centre of pressure's offset d from the point: T = d x (jn n), so
-  // d = n x T / jn = (-y2 t1 + y1 t2) / jn.
-  const double d1 = -y2 / jn, d2 = y1 / jn;
+  bool exact = true;
+  // Torsional friction: |twist torque| <= mu jn times the patch's twist lever,
+  // else the twist slides at that limit and tilt and point are solved without it.
+  const double twistLimit = mu * jn * p.twistRadius;
+  if (std::abs(y[2]) > twistLimit) {
+    exact = false;
+    y[2] = std::copysign(twistLimit, y[2]);
+  }
+  auto solveTilt = [&] {
+    const glm::dvec3 jt = j0 - p.kb[2] * y[2];
+    const double q1 = r[0] - p.w[0][2] * y[2] - glm::dot(p.b[0], jt), q2 = r[1] - p.w[1][2] * y[2] - glm::dot(p.b[1], jt);
+    y[0] = p.s2[0][0] * q1 + p.s2[0][1] * q2;
+    y[1] = p.s2[1][0] * q1 + p.s2[1][1] * q2;
+  };
+  if (!exact) solveTilt();
+  // The centre of pressure's offset d from the point: the tilt torque is
+  // d x (jn n), so d = n x T / jn = (-y2 t1 + y1 t2) / jn.
+  J = j0 - p.kb[0] * y[0] - p.kb[1] * y[1] - p.kb[2] * y[2];
+  jn = glm::dot(J, n);
+  if (!(jn > 0)) return false;
+  // Scaling the tilt torque by s scales d's numerator by s and makes the
+  // normal impulse A - s B: the largest s that keeps d in the patch is exact.
+  const glm::dvec3 jTwist = j0 - p.kb[2] * y[2], jTilt = p.kb[0] * y[0] + p.kb[1] * y[1];
+  const double A = glm::dot(jTwist, n), B = glm::dot(jTilt, n);
+  const double num[2] = {-y[1], y[0]}, lo[2] = {e.lo1, e.lo2}, hi[2] = {e.hi1, e.hi2};
   double s = 1;
-  if (d1 > e.hi1) s = std::min(s, e.hi1 / d1);
-  if (d1 < e.lo1) s = std::min(s, e.lo1 / d1);
-  if (d2 > e.hi2) s = std::min(s, e.hi2 / d2);
-  if (d2 < e.lo2) s = std::min(s, e.lo2 / d2);
+  for (int k = 0; k < 2; ++k) {
+    const double bound = num[k] > 0 ? hi[k] : lo[k];
+    if (num[k] == 0 || std::abs(num[k]) <= std::abs(bound) * jn) continue;  // inside at s = 1
+    const double den = num[k] + bound * B;
+    const double sk = den != 0 ? bound * A / den : 0.0;
+    s = std::min(s, std::clamp(sk, 0.0, 1.0));
+  }
   if (s < 1) {
     // The patch cannot hold the tilt: the most it can, and the point's target with it.
-    y1 *= s;
-    y2 *= s;
-    J = j0 - p.kb1 * y1 - p.kb2 * y2;
+    exact = false;
+    y[0] *= s;
+    y[1] *= s;
+    J = jTwist - s * jTilt;
     jn = glm::dot(J, n);
     if (!(jn > 0)) return false;
   }
-  const glm::dvec3 T = y1 * e.t1 + y2 * e.t2;
+  const glm::dvec3 T = y[0] * e.t1 + y[1] * e.t2 + y[2] * n;
   const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
   const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
   const glm::dvec3 jt = J - jn * n;
   if (glm::length(pt + jt) > mu * (pn + jn)) return false;
   // Never add kinetic energy (of the relative motion, with the wrench
   // mobility M): dE = x.v + x.M x / 2, and M x is the right-hand side
-  // (dv, r1, r2) when the tilt was not clamped.
+  // (dv, r) when nothing was clamped.
   double quad;
-  if (s == 1) {
-    quad = glm::dot(J, dv) + y1 * r1 + y2 * r2;
+  if (exact) {
+    quad = glm::dot(J, dv) + y[0] * r[0] + y[1] * r[1] + y[2] * r[2];
   } else {
     const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
     quad = glm::dot(J, du) + glm::dot(T, dw);

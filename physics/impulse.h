@@ -62,24 +62,29 @@ glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const gl
 // A face contact: the extent of the touching patch about the point where its
 // impulse acts, in two tangent directions t1, t2 (t2 = n x t1).
 struct PatchExtent {
-  glm::dvec3 t1{0}, t2{0};
+  glm::dvec3 n{0}, t1{0}, t2{0};
   double lo1 = 0, hi1 = 0, lo2 = 0, hi2 = 0;  // lo <= 0 <= hi
   bool flat() const { return hi1 - lo1 <= 0 || hi2 - lo2 <= 0; }
 };
 // One impulse at a single point cannot hold a face: it zeroes the relative
-// velocity there but not the relative tilting, and a box resting off-centre on
-// another (a brick wall, a leaning tower) rocks on its one point. A patch
-// impulse adds a torque impulse T about the tangent axes, the moment of a
-// pressure that moves off the centre, while that centre of pressure stays
-// within the patch: J at the point plus T (on B; -J and -T on A) such that the
-// point's relative velocity becomes the target and the relative angular
-// velocity about t1 and t2 becomes zero. A centre of pressure outside the
-// patch is clamped to its edge: the body then tips, as it should.
+// velocity there but not the relative tilting or twisting, and a box resting
+// off-centre on another (a brick wall, a leaning tower) rocks on its one point,
+// and one set spinning keeps spinning. A patch impulse adds a torque impulse T:
+// about the tangent axes, the moment of a pressure that moves off the centre
+// while that centre of pressure stays within the patch; about the normal,
+// torsional friction, at most mu times the normal impulse times the patch's
+// mean lever. J at the point plus T (on B; -J and -T on A) make the point's
+// relative velocity the target and the relative angular velocity zero. A
+// centre of pressure outside the patch is clamped to its edge (the body then
+// tips, as it should), a twist beyond its friction slides.
 struct PatchMatrix {
   bool valid = false;
-  glm::dmat3 C{0}, W{0};                 // relative angular velocity change: C J + W T
-  glm::dvec3 b1{0}, b2{0}, kb1{0}, kb2{0};  // C^T t_i and K^-1 C^T t_i
-  double s11 = 0, s12 = 0, s22 = 0;       // the inverse Schur complement (2x2, symmetric)
+  glm::dmat3 C{0}, W{0};                    // relative angular velocity change: C J + W T
+  glm::dvec3 b[3] = {}, kb[3] = {};         // C^T e_i and K^-1 C^T e_i, e = (t1, t2, n)
+  double w[3][3] = {};                      // e_i.W e_k
+  glm::dmat3 s3{0};                         // inverse Schur complement, tilt and twist
+  double s2[2][2] = {};                     // inverse Schur complement, tilt only
+  double twistRadius = 0;
   PatchExtent patch;
 };
 PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch);

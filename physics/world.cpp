@@ -679,6 +679,8 @@ void World::contact(double h) {
   std::vector<std::vector<PatchMatrix>>& patchMatrices = groupPatchMatrices_;
   patchMatrices.resize(pairs_.size());
   for (auto& g : patchMatrices) g.clear();
+  lookPoses_.resize(pairs_.size());
+  lookCount_.assign(pairs_.size(), 0);
   std::vector<Contact> oldGroups;
   std::vector<FrictionTotals> oldTotals;
   std::vector<char> inherited;
@@ -693,23 +695,40 @@ void World::contact(double h) {
     for (size_t k = 0; k < pairs_.size(); ++k) {
       const size_t pi = pass % 2 ? k : pairs_.size() - 1 - k;
       const Pair& pair = pairs_[pi];
-      if (find) {
+      bool look = find;
+      bool reuse = false;
+      Pose pa, pb;
+      if (look) {
         // The collision step's last look at this pair was at the poses the
         // first pass predicts now (x + h (v + h a) either way) if no impulse
         // has touched either body since: its contacts are reused, with the
         // poses they were found at (levers must match the geometry). Fresh
         // contacts are found at the poses the current velocities predict.
-        const std::vector<Contact>* contacts = &fresh;
         const std::pair<uint32_t, uint32_t> now{version_[static_cast<size_t>(pair.a)], version_[static_cast<size_t>(pair.b)]};
-        const bool reuse = pass == 1 && pi < foundVersion_.size() && foundVersion_[pi] == now;
-        const Pose pa = reuse ? predicted_[static_cast<size_t>(pair.a)] : predict(bodies_[static_cast<size_t>(pair.a)], h, false);
-        const Pose pb = reuse ? predicted_[static_cast<size_t>(pair.b)] : predict(bodies_[static_cast<size_t>(pair.b)], h, false);
+        reuse = pass == 1 && pi < foundVersion_.size() && foundVersion_[pi] == now;
+        pa = reuse ? predicted_[static_cast<size_t>(pair.a)] : predict(bodies_[static_cast<size_t>(pair.a)], h, false);
+        pb = reuse ? predicted_[static_cast<size_t>(pair.b)] : predict(bodies_[static_cast<size_t>(pair.b)], h, false);
+        if (pass > 1) {
+          // A refresh re-finds the geometry only where the predicted poses have
+          // moved since the last look; resting contact keeps its groups (their
+          // depths follow to first order, endOfStepDepths).
+          const RigidBody& A = bodies_[static_cast<size_t>(pair.a)];
+          const RigidBody& B = bodies_[static_cast<size_t>(pair.b)];
+          const double ra = A.shape->boundingRadius + glm::length(A.localCom);
+          const double rb = B.shape->boundingRadius + glm::length(B.localCom);
+          look = relativeDisplacementBound(lookPoses_[pi].first, pa, ra, lookPoses_[pi].second, pb, rb) >
+                 settings_.contactRefreshTolerance;
+        }
+      }
+      if (look) {
+        const std::vector<Contact>* contacts = &fresh;
+        lookPoses_[pi] = {pa, pb};
+        lookCount_[pi] = static_cast<int>((reuse ? found_[pi] : fresh).size());
         if (reuse) {
           contacts = &found_[pi];
         } else {
           pairContacts(pair, pa, pb, fresh);
         }
-        if (pass + refresh > n) stats_.contacts += static_cast<int>(contacts->size());  // the last look
         oldGroups.swap(grouped[pi]);
         oldTotals.swap(totals[pi]);
         manifolds(*contacts, grouped[pi], &groupPatches_[pi]);
@@ -771,6 +790,7 @@ void World::contact(double h) {
       }
     }
   }
+  for (int c : lookCount_) stats_.contacts += c;  // each pair's last look
   if (reportContacts_.empty()) return;
   for (size_t pi = 0; pi < pairs_.size(); ++pi) {
     if (grouped[pi].empty() || !(pushed[pi] > 0)) continue;

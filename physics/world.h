@@ -33,6 +33,9 @@ struct WorldSettings {
   int collisionIterations = 20;  // per pair and pass
   int contactPasses = 10;
   int contactRefresh = 5;  // passes between re-finding contact geometry
+  // m: at a refresh, a pair whose predicted relative pose has moved less than
+  // this since its last look keeps its geometry (resting contact); 0 re-finds all.
+  double contactRefreshTolerance = 0.0005;
   // Shock propagation passes per contact-graph level (Jacobi: each body takes
   // the mean of its groups' impulses against the frozen level below, on the
   // contact step's last geometry). With it the 10-level pyramid stands with
@@ -206,6 +209,8 @@ class World {
   std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
   std::vector<std::vector<FrictionTotals>> groupTotals_;
   std::vector<std::vector<PatchExtent>> groupPatches_;
+  std::vector<std::pair<Pose, Pose>> lookPoses_;  // per pair, the poses of the contact step's last look
+  std::vector<int> lookCount_;                    // and the points it found
   std::vector<std::vector<PatchMatrix>> groupPatchMatrices_;  // each group's impulses so far this contact step
   void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
   StepStats stats_;

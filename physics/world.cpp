@@ -657,28 +657,26 @@ void World::contact(double h) {
   // use the current velocities).
   // The groups and levers of each pair's last look stay for shock propagation.
   std::vector<std::vector<Contact>>& grouped = groups_;
-  grouped.resize(pairs_.size());
-  for (auto& g : grouped) g.clear();
-  // K (and its inverse) per group: the points and inertias stay put until the
-  // geometry is found again, so only the relative velocity changes between passes.
+  // Per pair, per group: K (and its inverse) and the patch matrix (the points
+  // and inertias stay put until the geometry is found again, so only the
+  // relative velocity changes between passes), the impulses each group has had
+  // in this step (Coulomb's cone bounds their totals; a group found again
+  // inherits the totals of the group it replaces).
   std::vector<std::vector<ImpulseMatrix>>& matrices = groupMatrices_;
-  matrices.resize(pairs_.size());
-  for (auto& m : matrices) m.clear();
   std::vector<std::vector<Levers>>& leverArms = groupLevers_;
-  leverArms.resize(pairs_.size());
-  for (auto& l : leverArms) l.clear();
-  groupSpeed_.resize(pairs_.size());
-  for (auto& g : groupSpeed_) g.clear();
-  // The impulses each group has had in this step (Coulomb's cone bounds their
-  // totals); a group found again inherits the totals of the group it replaces.
   std::vector<std::vector<FrictionTotals>>& totals = groupTotals_;
-  totals.resize(pairs_.size());
-  for (auto& t : totals) t.clear();
-  groupPatches_.resize(pairs_.size());
-  for (auto& g : groupPatches_) g.clear();
   std::vector<std::vector<PatchMatrix>>& patchMatrices = groupPatchMatrices_;
-  patchMatrices.resize(pairs_.size());
-  for (auto& g : patchMatrices) g.clear();
+  auto reset = [count = pairs_.size()](auto& perPair) {
+    perPair.resize(count);
+    for (auto& v : perPair) v.clear();
+  };
+  reset(grouped);
+  reset(matrices);
+  reset(leverArms);
+  reset(groupSpeed_);
+  reset(totals);
+  reset(groupPatches_);
+  reset(patchMatrices);
   lookPoses_.resize(pairs_.size());
   lookCount_.assign(pairs_.size(), 0);
   std::vector<Contact> oldGroups;

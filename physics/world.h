@@ -39,7 +39,7 @@ struct WorldSettings {
   // Shock propagation passes per contact-graph level (Jacobi: each body takes
   // the mean of its groups' impulses against the frozen level below, on the
   // contact step's last geometry). With it the 10-level pyramid stands with
-  // 20 contact passes, sleeping or not (tests/test_physics.cpp); 0 turns it off.
+  // 10 contact passes, sleeping or not (tests/test_physics.cpp); 0 turns it off.
   int shockPasses = 3;
   double penetrationSlop = 0.0005;      // m left alone by the positional projection
   double penetrationCorrection = 0.4;   // fraction removed per projection iteration

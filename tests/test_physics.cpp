@@ -417,6 +417,57 @@ TEST_CASE("a tower of ten boxes, every other one 5 cm off, dropped with 10 cm ga
   CHECK(asleepAt < 2.0);
 }
 
+TEST_CASE("heavy bodies on light ones: each box ten times heavier than the one below rests still") {
+  World w;
+  w.settings().sleeping = false;  // the solver must hold them, not sleep
+  addGround(w, 0.6, 0.0);
+  std::vector<int> ids;
+  for (int k = 0; k < 4; ++k) {
+    BodyDef d;
+    d.shape = makeBox({0.5, 0.5, 0.5});
+    d.origin = {0.03 * (k % 2), 0.25 + 0.5 * k, 0};
+    d.density = 100 * std::pow(10.0, k);  // 12.5 kg ... 12.5 t
+    d.friction = 0.6;
+    d.restitution = 0;
+    ids.push_back(w.addBody(d));
+  }
+  for (int s = 0; s < 1200; ++s) w.step(1.0 / 240);
+  for (int k = 0; k < 4; ++k) {
+    CAPTURE(k);
+    const RigidBody& b = w.body(ids[static_cast<size_t>(k)]);
+    CHECK(b.x.y == Approx(0.25 + 0.5 * k).epsilon(0.002));
+    CHECK(std::abs(b.x.x - 0.03 * (k % 2)) < 0.002);
+    CHECK(glm::angle(b.q) < 0.005);
+  }
+}
+
+TEST_CASE("uneven stacks under a shared lid: the contact graph's cycle collapses and the lid rests level") {
+  // Left: one 0.5 m box; right: two 0.25 m boxes; a plank across both. By
+  // breadth-first levels the plank and the upper right box share a level and
+  // touch each other: a cycle that must neither loop nor topple anything.
+  World w;
+  addGround(w, 0.6, 0.0);
+  auto box = [&](glm::dvec3 size, glm::dvec3 origin) {
+    BodyDef d;
+    d.shape = makeBox(size);
+    d.origin = origin;
+    d.friction = 0.6;
+    d.restitution = 0;
+    return w.addBody(d);
+  };
+  box({0.5, 0.5, 0.5}, {-0.6, 0.25, 0});
+  box({0.5, 0.25, 0.5}, {0.6, 0.125, 0});
+  box({0.5, 0.25, 0.5}, {0.6, 0.375, 0});
+  const int lid = box({1.8, 0.1, 0.5}, {0, 0.55, 0});
+  const glm::dvec3 start = w.body(lid).x;
+  for (int s = 0; s < 1200; ++s) w.step(1.0 / 240);
+  const RigidBody& l = w.body(lid);
+  REQUIRE(std::isfinite(l.x.x + l.x.y + l.x.z));
+  CHECK(glm::length(l.x - start) < 0.005);
+  CHECK(glm::angle(l.q) < 0.01);
+  CHECK(w.lastStats().awake == 0);
+}
+
 TEST_CASE("a box spun on the floor stops by torsional friction in about the analytic time") {
   // A uniformly pressed square of half side a resists twist with mu m g times
   // its mean lever 0.77 a: t_stop = omega0 I / (mu m g 0.77 a), I = m (2a)^2 / 6.

@@ -159,15 +159,32 @@ struct BulletWorld {
 
 int gSteps = 240;
 
+// Besides the time, each engine's end state: how many bodies are still awake
+// and the highest centre (a pyramid or column that fell would show here), so
+// that the two figures are seen to time the same work.
 void crumplePhysics(benchmark::State& state, SceneSpec spec) {
   auto w = crumpleWorld(spec);
   for (auto _ : state) w->step(kStep);
+  double top = 0;
+  for (const RigidBody& b : w->bodies())
+    if (!b.isStatic) top = std::max(top, b.x.y);
   state.counters["bodies"] = static_cast<double>(w->size());
+  state.counters["awake"] = w->lastStats().awake;
+  state.counters["top_m"] = top;
 }
 void bulletPhysics(benchmark::State& state, SceneSpec spec) {
   BulletWorld w(spec);
   for (auto _ : state) w.world.stepSimulation(btScalar(kStep), 0);
+  double top = 0;
+  int awake = 0;
+  for (const auto& b : w.bodies) {
+    if (b->getInvMass() == 0) continue;
+    top = std::max(top, static_cast<double>(b->getWorldTransform().getOrigin().y()));
+    awake += b->isActive();
+  }
   state.counters["bodies"] = static_cast<double>(w.bodies.size());
+  state.counters["awake"] = awake;
+  state.counters["top_m"] = top;
 }
 
 // ---- deformation ----------------------------------------------------------
@@ -256,11 +273,13 @@ void renderBench(benchmark::State& state, bool pom) {
 class Collector : public benchmark::ConsoleReporter {
  public:
   std::map<std::string, double> ms;  // per iteration
+  std::map<std::string, std::map<std::string, double>> counters;
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const auto& r : runs) {
       std::string name = r.benchmark_name();
       name = name.substr(0, name.find("/iterations:"));
       ms[name] = r.GetAdjustedRealTime() * 1e3 / benchmark::GetTimeUnitMultiplier(r.time_unit);
+      for (const auto& [key, counter] : r.counters) counters[name][key] = counter.value;
     }
     ConsoleReporter::ReportRuns(runs);
   }
@@ -325,6 +344,11 @@ int main(int argc, char** argv) {
   for (const auto& c : cases) {
     const double a = ms("physics/crumple/" + c.name), b = ms("physics/bullet/" + c.name);
     std::printf("physics %-22s crumple %8.3f ms/step  bullet %8.3f ms/step  crumple/bullet %6.2fx\n", c.name.c_str(), a, b, a / b);
+    auto& ca = collector.counters["physics/crumple/" + c.name];
+    auto& cb = collector.counters["physics/bullet/" + c.name];
+    if (!ca.empty() && !cb.empty())
+      std::printf("        at the end: crumple %4.0f awake, top centre %.2f m; bullet %4.0f awake, top centre %.2f m\n",
+                  ca["awake"], ca["top_m"], cb["awake"], cb["top_m"]);
   }
   for (int size : {256, 512, 1024, 2048}) {
     const std::string s = "/" + std::to_string(size);

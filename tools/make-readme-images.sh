@@ -16,6 +16,7 @@ shoot highway rail 6
 shoot sphere-into-plate main 1.5
 shoot pattern-box wall 3
 shoot pyramid front 2
+shoot brick-wall front 5
 shoot mixed-pile main 3
 shoot tank-tracks side 4
 shoot bump-ramp main 1.5

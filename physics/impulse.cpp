@@ -153,6 +153,45 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
   return p;
 }
 
+PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch,
+                       const glm::dvec3& axis) {
+  PatchMatrix p;
+  const glm::dvec3 along = axis - glm::dot(axis, patch.n) * patch.n;
+  if (!k.invertible || !(glm::length(along) > 1e-9) || patch.hi1 - patch.lo1 <= 0 || patch.hi2 - patch.lo2 <= 0) return p;
+  // The patch in axes along and across the line: its corners' extent.
+  PatchExtent e;
+  e.n = patch.n;
+  e.t1 = glm::normalize(along);
+  e.t2 = glm::cross(e.n, e.t1);
+  for (double c1 : {patch.lo1, patch.hi1})
+    for (double c2 : {patch.lo2, patch.hi2}) {
+      const glm::dvec3 d = c1 * patch.t1 + c2 * patch.t2;
+      e.lo1 = std::min(e.lo1, glm::dot(d, e.t1));
+      e.hi1 = std::max(e.hi1, glm::dot(d, e.t1));
+      e.lo2 = std::min(e.lo2, glm::dot(d, e.t2));
+      e.hi2 = std::max(e.hi2, glm::dot(d, e.t2));
+    }
+  p.patch = e;
+  p.C = b.invInertia * cross(b.r) + a.invInertia * cross(a.r);
+  p.W = a.invInertia + b.invInertia;
+  p.b[0] = glm::transpose(p.C) * e.t1;
+  p.kb[0] = k.inverse * p.b[0];
+  const double w11 = glm::dot(e.t1, p.W * e.t1), schur = w11 - glm::dot(p.b[0], p.kb[0]);
+  if (!(schur > 1e-12 * w11)) return p;
+  p.s1 = 1 / schur;
+  p.hinge = true;
+  p.valid = true;
+  return p;
+}
+
+namespace {
+// A largest s in [0, 1] with alpha + s beta <= 0 (s = 0 if none).
+void limitScale(double& s, double alpha, double beta) {
+  if (alpha + beta <= 0) return;
+  s = std::min(s, beta > 0 && alpha <= 0 ? -alpha / beta : 0.0);
+}
+}  // namespace
+
 bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
                   const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& jOut, glm::dvec3& tOut) {
   if (!p.valid || !m.invertible) return false;
@@ -160,6 +199,35 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
   if (un >= 0) return false;
   const PatchExtent& e = p.patch;
   const glm::dvec3 dv = -eps * un * n - u;
+  if (p.hinge) {
+    // The tilt about t1 only: T = y t1, its centre of pressure d = y / jn across the line.
+    const glm::dvec3 j0 = m.inverse * dv;
+    const double r1 = -glm::dot(e.t1, omega);
+    double y = (r1 - glm::dot(p.b[0], j0)) * p.s1;
+    const double A = glm::dot(j0, n), B = glm::dot(p.kb[0], n) * y;
+    double s = 1;
+    limitScale(s, y - e.hi2 * A, e.hi2 * B);     // y s <= hi2 (A - s B)
+    limitScale(s, e.lo2 * A - y, -e.lo2 * B);    // y s >= lo2 (A - s B)
+    y *= std::max(s, 0.0);
+    const glm::dvec3 J = j0 - p.kb[0] * y;
+    const double jn = glm::dot(J, n);
+    if (!(jn > 0)) return false;
+    const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
+    const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
+    const glm::dvec3 jt = J - jn * n;
+    if (glm::length(pt + jt) > mu * (pn + jn)) return false;
+    const glm::dvec3 T = y * e.t1;
+    const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
+    const double dE = glm::dot(J, u) + glm::dot(T, omega) + 0.5 * (glm::dot(J, du) + glm::dot(T, dw));
+    if (dE > 1e-12 * (std::abs(glm::dot(J, u)) + std::abs(glm::dot(T, omega))) + 1e-15) return false;
+    if (totals) {
+      totals->normal += jn;
+      totals->tangential += jt;
+    }
+    jOut = J;
+    tOut = T;
+    return true;
+  }
   const double r[3] = {-glm::dot(e.t1, omega), -glm::dot(e.t2, omega), -glm::dot(n, omega)};
   const glm::dvec3 j0 = m.inverse * dv;
   // Sticking in all six: the point's target, no relative tilt, no relative twist.

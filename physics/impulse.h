@@ -85,9 +85,17 @@ struct PatchMatrix {
   glm::dmat3 s3{0};                         // inverse Schur complement, tilt and twist
   double s2[2][2] = {};                     // inverse Schur complement, tilt only
   double twistRadius = 0;
+  bool hinge = false;  // only the tilt about patch.t1 (lineMatrix)
+  double s1 = 0;       // its inverse Schur complement
   PatchExtent patch;
 };
 PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch);
+// For one of a body's two supports: the patch holds only the tilt about the
+// line through the two (`axis`, any direction along it), which the couple of
+// the two supports' point impulses cannot; tilt across the line and twist are
+// theirs. A brick on two bricks rocks out of the wall's plane without it.
+PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch,
+                       const glm::dvec3& axis);
 // The patch impulse (J, T) for relative velocity u and relative angular
 // velocity omega (B's minus A's) with the restitution and Coulomb cone of
 // frictionImpulse (the cone over `totals`, which it updates). False when the

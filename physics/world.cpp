@@ -883,9 +883,24 @@ void World::shockPropagation() {
     // by that patch (its torque); one on several supports by the couple of
     // their separate impulses. Patch torques from two supports would each ask
     // for the tilt of their own support, and the body would jitter between them.
-    for (LevelContact& x : lc) {
-      const bool fa = frozen_[static_cast<size_t>(x.c.a)] != 0, fb = frozen_[static_cast<size_t>(x.c.b)] != 0;
-      if (fa != fb && share[static_cast<size_t>(fa ? x.c.b : x.c.a)] == 1) x.patch = patchMatrix(x.sa, x.sb, x.m, *x.extent);
+    // A body on exactly two supports keeps, from each support's patch, the
+    // torque about the line through the two (lineMatrix): Jacobi averages the
+    // two supports' tilts about it instead of alternating between them.
+    std::vector<std::vector<size_t>> supports(n);
+    for (size_t k = 0; k < lc.size(); ++k) {
+      const bool fa = frozen_[static_cast<size_t>(lc[k].c.a)] != 0, fb = frozen_[static_cast<size_t>(lc[k].c.b)] != 0;
+      if (fa != fb) supports[static_cast<size_t>(fa ? lc[k].c.b : lc[k].c.a)].push_back(k);
+    }
+    for (size_t body = 0; body < n; ++body) {
+      const std::vector<size_t>& s = supports[body];
+      if (s.empty() || static_cast<size_t>(share[body]) != s.size()) continue;  // touches its own level too
+      if (s.size() == 1) {
+        LevelContact& x = lc[s[0]];
+        x.patch = patchMatrix(x.sa, x.sb, x.m, *x.extent);
+      } else if (s.size() == 2) {
+        const glm::dvec3 line = lc[s[1]].c.point - lc[s[0]].c.point;
+        for (size_t k : s) lc[k].patch = lineMatrix(lc[k].sa, lc[k].sb, lc[k].m, *lc[k].extent, line);
+      }
     }
     std::vector<glm::dvec3> dj(lc.size()), dt(lc.size());
     for (int pass = 0; pass < settings_.shockPasses; ++pass) {

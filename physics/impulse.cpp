@@ -185,6 +185,33 @@ PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impulse
 }
 
 namespace {
+// What every patch impulse ends with: Coulomb's cone over the totals, no gain
+// of kinetic energy (of the relative motion, with the wrench mobility M:
+// dE = x.v + x.M x / 2; `quad` is x.M x where known, NaN to compute it), the
+// totals, the result.
+bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
+                 const glm::dvec3& n, double mu, FrictionTotals* totals, const glm::dvec3& J, const glm::dvec3& T,
+                 double quad, glm::dvec3& jOut, glm::dvec3& tOut) {
+  const double jn = glm::dot(J, n);
+  const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
+  const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
+  const glm::dvec3 jt = J - jn * n;
+  if (glm::length(pt + jt) > mu * (pn + jn)) return false;
+  if (std::isnan(quad)) {
+    const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
+    quad = glm::dot(J, du) + glm::dot(T, dw);
+  }
+  const double dE = glm::dot(J, u) + glm::dot(T, omega) + 0.5 * quad;
+  if (dE > 1e-12 * (std::abs(glm::dot(J, u)) + std::abs(glm::dot(T, omega))) + 1e-15) return false;
+  if (totals) {
+    totals->normal += jn;
+    totals->tangential += jt;
+  }
+  jOut = J;
+  tOut = T;
+  return true;
+}
+
 // A largest s in [0, 1] with alpha + s beta <= 0 (s = 0 if none).
 void limitScale(double& s, double alpha, double beta) {
   if (alpha + beta <= 0) return;
@@ -210,23 +237,8 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
     limitScale(s, e.lo2 * A - y, -e.lo2 * B);    // y s >= lo2 (A - s B)
     y *= std::max(s, 0.0);
     const glm::dvec3 J = j0 - p.kb[0] * y;
-    const double jn = glm::dot(J, n);
-    if (!(jn > 0)) return false;
-    const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
-    const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
-    const glm::dvec3 jt = J - jn * n;
-    if (glm::length(pt + jt) > mu * (pn + jn)) return false;
-    const glm::dvec3 T = y * e.t1;
-    const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
-    const double dE = glm::dot(J, u) + glm::dot(T, omega) + 0.5 * (glm::dot(J, du) + glm::dot(T, dw));
-    if (dE > 1e-12 * (std::abs(glm::dot(J, u)) + std::abs(glm::dot(T, omega))) + 1e-15) return false;
-    if (totals) {
-      totals->normal += jn;
-      totals->tangential += jt;
-    }
-    jOut = J;
-    tOut = T;
-    return true;
+    if (!(glm::dot(J, n) > 0)) return false;
+    return finishPatch(p, m, u, omega, n, mu, totals, J, y * e.t1, std::nan(""), jOut, tOut);
   }
   const double r[3] = {-glm::dot(e.t1, omega), -glm::dot(e.t2, omega), -glm::dot(n, omega)};
   const glm::dvec3 j0 = m.inverse * dv;
@@ -279,29 +291,9 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
     if (!(jn > 0)) return false;
   }
   const glm::dvec3 T = y[0] * e.t1 + y[1] * e.t2 + y[2] * n;
-  const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
-  const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
-  const glm::dvec3 jt = J - jn * n;
-  if (glm::length(pt + jt) > mu * (pn + jn)) return false;
-  // Never add kinetic energy (of the relative motion, with the wrench
-  // mobility M): dE = x.v + x.M x / 2, and M x is the right-hand side
-  // (dv, r) when nothing was clamped.
-  double quad;
-  if (exact) {
-    quad = glm::dot(J, dv) + y[0] * r[0] + y[1] * r[1] + y[2] * r[2];
-  } else {
-    const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
-    quad = glm::dot(J, du) + glm::dot(T, dw);
-  }
-  const double dE = glm::dot(J, u) + glm::dot(T, omega) + 0.5 * quad;
-  if (dE > 1e-12 * (std::abs(glm::dot(J, u)) + std::abs(glm::dot(T, omega))) + 1e-15) return false;
-  if (totals) {
-    totals->normal += jn;
-    totals->tangential += jt;
-  }
-  jOut = J;
-  tOut = T;
-  return true;
+  // x.M x is the right-hand side (dv, r) dotted with x when nothing was clamped.
+  const double quad = exact ? glm::dot(J, dv) + y[0] * r[0] + y[1] * r[1] + y[2] * r[2] : std::nan("");
+  return finishPatch(p, m, u, omega, n, mu, totals, J, T, quad, jOut, tOut);
 }
 
 }  // namespace crumple

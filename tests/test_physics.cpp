@@ -21,6 +21,16 @@ int addGround(World& w, double friction = 0.5, double restitution = 1.0) {
   g.restitution = restitution;
   return w.addBody(g);
 }
+int addBox(World& w, const glm::dvec3& size, const glm::dvec3& origin, double friction, double restitution,
+           double density = 1000) {
+  BodyDef d;
+  d.shape = makeBox(size);
+  d.origin = origin;
+  d.friction = friction;
+  d.restitution = restitution;
+  d.density = density;
+  return w.addBody(d);
+}
 }  // namespace
 
 TEST_CASE("eq. 4: two point masses head-on") {
@@ -61,20 +71,33 @@ TEST_CASE("friction impulse stays in the cone and adds no energy") {
   }
 }
 
-TEST_CASE("a patch impulse holds a face: no relative tilt or twist, centre of pressure inside the patch") {
-  // B rests on a static A with its contact point 0.1 m off its centre of mass,
-  // sinking, tilting and twisting. Unit mass, inertia diag(1/6) (a unit cube).
-  const glm::dvec3 n(0, 1, 0), r(0.1, -0.5, 0);
-  const glm::dmat3 invI(6.0);
+namespace {
+// B rests on a static A with its contact point 0.1 m off its centre of mass,
+// sinking, tilting and twisting. Unit mass, inertia diag(1/6) (a unit cube);
+// a square patch of half side `half` about the point, first axis `t1`.
+struct PatchCase {
+  glm::dvec3 n{0, 1, 0}, r{0.1, -0.5, 0}, v{0, -1, 0}, w{0.3, 0.4, 0.2};
+  glm::dmat3 invI{6.0};
   ImpulseSide a{}, b{1.0, invI, r};
-  const ImpulseMatrix k(collisionMatrix(a, b));
+  ImpulseMatrix k{collisionMatrix(a, b)};
   PatchExtent e;
-  e.n = n;
-  e.t1 = {0, 0, 1};
-  e.t2 = glm::cross(n, e.t1);
-  e.lo1 = e.lo2 = -0.5;
-  e.hi1 = e.hi2 = 0.5;
-  const glm::dvec3 v(0, -1, 0), w(0.3, 0.4, 0.2);
+  PatchCase(const glm::dvec3& t1, double half) {
+    e.n = n;
+    e.t1 = t1;
+    e.t2 = glm::cross(n, e.t1);
+    e.lo1 = e.lo2 = -half;
+    e.hi1 = e.hi2 = half;
+  }
+};
+}  // namespace
+
+TEST_CASE("a patch impulse holds a face: no relative tilt or twist, centre of pressure inside the patch") {
+  PatchCase pc({0, 0, 1}, 0.5);
+  const glm::dvec3 &n = pc.n, &r = pc.r, &v = pc.v, &w = pc.w;
+  const glm::dmat3& invI = pc.invI;
+  const ImpulseSide &a = pc.a, &b = pc.b;
+  const ImpulseMatrix& k = pc.k;
+  PatchExtent& e = pc.e;
   auto after = [&](const glm::dvec3& j, const glm::dvec3& t, glm::dvec3& v2, glm::dvec3& w2) {
     v2 = v + j;
     w2 = w + invI * (glm::cross(r, j) + t);
@@ -122,18 +145,11 @@ TEST_CASE("a patch impulse holds a face: no relative tilt or twist, centre of pr
 }
 
 TEST_CASE("a hinge patch (one of two supports) holds only the tilt about the line through the supports") {
-  const glm::dvec3 n(0, 1, 0), r(0.1, -0.5, 0), line(0, 0, 1);
-  const glm::dmat3 invI(6.0);
-  ImpulseSide a{}, b{1.0, invI, r};
-  const ImpulseMatrix k(collisionMatrix(a, b));
-  PatchExtent e;
-  e.n = n;
-  e.t1 = {1, 0, 0};
-  e.t2 = glm::cross(n, e.t1);
-  e.lo1 = e.lo2 = -0.3;
-  e.hi1 = e.hi2 = 0.3;
-  const glm::dvec3 v(0, -1, 0), w(0.3, 0.4, 0.2);
-  const PatchMatrix p = lineMatrix(a, b, k, e, line);
+  const PatchCase pc({1, 0, 0}, 0.3);
+  const glm::dvec3 &n = pc.n, &r = pc.r, &v = pc.v, &w = pc.w, line(0, 0, 1);
+  const glm::dmat3& invI = pc.invI;
+  const ImpulseMatrix& k = pc.k;
+  const PatchMatrix p = lineMatrix(pc.a, pc.b, k, pc.e, line);
   REQUIRE(p.valid);
   glm::dvec3 j, t;
   REQUIRE(patchImpulse(p, k, v + glm::cross(w, r), w, n, 0.0, 2.0, nullptr, j, t));
@@ -413,14 +429,7 @@ TEST_CASE("a tower of ten boxes, every other one 5 cm off, dropped with 10 cm ga
   World w;
   addGround(w, 0.6, 0.1);
   std::vector<int> ids;
-  for (int k = 0; k < 10; ++k) {
-    BodyDef d;
-    d.shape = makeBox({0.4, 0.4, 0.4});
-    d.origin = {0.05 * (k % 2), 0.3 + 0.5 * k, 0};
-    d.friction = 0.6;
-    d.restitution = 0.1;
-    ids.push_back(w.addBody(d));
-  }
+  for (int k = 0; k < 10; ++k) ids.push_back(addBox(w, {0.4, 0.4, 0.4}, {0.05 * (k % 2), 0.3 + 0.5 * k, 0}, 0.6, 0.1));
   double asleepAt = -1;
   for (int s = 1; s <= 720; ++s) {
     w.step(1.0 / 240);
@@ -445,15 +454,8 @@ TEST_CASE("heavy bodies on light ones: each box ten times heavier than the one b
   w.settings().sleeping = false;  // the solver must hold them, not sleep
   addGround(w, 0.6, 0.0);
   std::vector<int> ids;
-  for (int k = 0; k < 4; ++k) {
-    BodyDef d;
-    d.shape = makeBox({0.5, 0.5, 0.5});
-    d.origin = {0.03 * (k % 2), 0.25 + 0.5 * k, 0};
-    d.density = 100 * std::pow(10.0, k);  // 12.5 kg ... 12.5 t
-    d.friction = 0.6;
-    d.restitution = 0;
-    ids.push_back(w.addBody(d));
-  }
+  for (int k = 0; k < 4; ++k)  // 12.5 kg ... 12.5 t
+    ids.push_back(addBox(w, {0.5, 0.5, 0.5}, {0.03 * (k % 2), 0.25 + 0.5 * k, 0}, 0.6, 0.0, 100 * std::pow(10.0, k)));
   for (int s = 0; s < 1200; ++s) w.step(1.0 / 240);
   for (int k = 0; k < 4; ++k) {
     CAPTURE(k);
@@ -470,14 +472,7 @@ TEST_CASE("uneven stacks under a shared lid: the contact graph's cycle collapses
   // touch each other: a cycle that must neither loop nor topple anything.
   World w;
   addGround(w, 0.6, 0.0);
-  auto box = [&](glm::dvec3 size, glm::dvec3 origin) {
-    BodyDef d;
-    d.shape = makeBox(size);
-    d.origin = origin;
-    d.friction = 0.6;
-    d.restitution = 0;
-    return w.addBody(d);
-  };
+  auto box = [&](glm::dvec3 size, glm::dvec3 origin) { return addBox(w, size, origin, 0.6, 0.0); };
   box({0.5, 0.5, 0.5}, {-0.6, 0.25, 0});
   box({0.5, 0.25, 0.5}, {0.6, 0.125, 0});
   box({0.5, 0.25, 0.5}, {0.6, 0.375, 0});
@@ -504,15 +499,10 @@ TEST_CASE("a running-bond wall (each block half on two below) of six courses sta
     const bool odd = course % 2 == 1;
     const int count = odd ? 13 : 12;
     for (int i = 0; i < count; ++i) {
-      BodyDef d;
       const bool half = odd && (i == 0 || i == count - 1);
-      d.shape = makeBox({T, H, half ? L / 2 - 0.01 : L - 0.01});
       const double z = !odd ? -L * 5.5 + L * i : half ? (i == 0 ? -1 : 1) * (L * 6 - L / 4) : -L * 6 + L * i;
-      d.origin = {12, H / 2 + (H + 0.0005) * course, z};  // off the origin: rounding breaks the wall's symmetry, as anywhere else it would
-      d.density = 1800;
-      d.friction = 0.7;
-      d.restitution = 0.1;
-      ids.push_back(w.addBody(d));
+      // Off the origin: rounding breaks the wall's symmetry, as anywhere else it would.
+      ids.push_back(addBox(w, {T, H, half ? L / 2 - 0.01 : L - 0.01}, {12, H / 2 + (H + 0.0005) * course, z}, 0.7, 0.1, 1800));
       start.push_back(w.body(ids.back()).x);
     }
   }

@@ -4,7 +4,9 @@
 //   1. collide:    up to `collisionPasses` passes on predicted positions with
 //                  restitution min(eps_A, eps_B); one CollisionEvent per colliding pair
 //   2. velocities: v += h g
-//   3. contact:    `contactPasses` passes with restitution ramped -1 -> 0
+//   3. contact:    `contactPasses` passes with restitution ramped -1 -> 0; a
+//                  face contact acts as a patch (patchImpulse: no tilt or twist
+//                  beyond what its extent and friction can hold)
 //   4. shock propagation: contact graph levels from the static bodies up, lower
 //                  levels frozen (infinite mass) while a level is processed
 //   5. positions:  x += h v, q integrated from omega; then a small positional
@@ -161,7 +163,6 @@ class World {
   void integratePositions(double h);
   void projectPositions();
   void updateSleep(double h);
-  // Applies impulse j to b (and -j to a) at world point p.
   // Groups, and with `patches` each group's extent about its point.
   static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out,
                         std::vector<PatchExtent>* patches = nullptr);
@@ -171,7 +172,7 @@ class World {
   };
   static Levers levers(const Contact& c, const Pose& poseA, const Pose& poseB);
   glm::dvec3 relativeVelocity(int a, int b, const Levers& l) const;  // v_B - v_A at the point
-  void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j);
+  void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j);  // j on b, -j on a, at the levers' point
   glm::dmat3 collisionMatrixAt(int a, int b, const Levers& l, bool frozenA, bool frozenB) const;
   void sidesAt(int a, int b, const Levers& l, bool frozenA, bool frozenB, ImpulseSide& sa, ImpulseSide& sb) const;
   glm::dvec3 relativeSpin(int a, int b) const;  // omega_B - omega_A
@@ -207,11 +208,11 @@ class World {
   std::vector<std::vector<Levers>> groupLevers_;
   std::vector<std::vector<ImpulseMatrix>> groupMatrices_;  // K and K^-1 at those levers
   std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
-  std::vector<std::vector<FrictionTotals>> groupTotals_;
-  std::vector<std::vector<PatchExtent>> groupPatches_;
+  std::vector<std::vector<FrictionTotals>> groupTotals_;      // each group's impulses so far this contact step
+  std::vector<std::vector<PatchExtent>> groupPatches_;        // each group's patch about its point
+  std::vector<std::vector<PatchMatrix>> groupPatchMatrices_;  // and its patch impulse system
   std::vector<std::pair<Pose, Pose>> lookPoses_;  // per pair, the poses of the contact step's last look
   std::vector<int> lookCount_;                    // and the points it found
-  std::vector<std::vector<PatchMatrix>> groupPatchMatrices_;  // each group's impulses so far this contact step
   void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
   StepStats stats_;
   double time_ = 0;

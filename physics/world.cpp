@@ -653,8 +653,9 @@ void World::contact(double h) {
   std::vector<Contact> fresh;
   // Contact geometry on the positions predicted with the current velocities.
   // Re-finding it costs most of the step; it changes little from one pass to
-  // the next, so it is refreshed every `contactRefresh` passes (impulses always
-  // use the current velocities).
+  // the next, so it is refreshed every `contactRefresh` passes, and then only
+  // for pairs whose predicted poses moved (impulses always use the current
+  // velocities).
   // The groups and levers of each pair's last look stay for shock propagation.
   std::vector<std::vector<Contact>>& grouped = groups_;
   // Per pair, per group: K (and its inverse) and the patch matrix (the points

@@ -2,6 +2,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include "physics/impulse.h"
@@ -516,6 +517,30 @@ TEST_CASE("a running-bond wall (each block half on two below) of six courses sta
   MESSAGE("running-bond wall: drift " << drift << " m, asleep at " << asleepAt << " s");
   CHECK(drift < 0.01);
   CHECK(asleepAt > 0);
+}
+
+TEST_CASE("a tall box sliding to a stop tips over exactly when mu h/2 > w/2") {
+  // Friction at the floor decelerates the box and turns it forward; the
+  // floor's pressure moves to the leading edge to hold it, and can hold it
+  // while mu (h/2) <= w/2: for 0.2 x 0.8 x 0.2, up to mu = 0.25.
+  for (double mu : {0.2, 0.3}) {
+    CAPTURE(mu);
+    World w;
+    addGround(w, mu, 0.0);
+    const int i = addBox(w, {0.2, 0.8, 0.2}, {0, 0.4, 0}, mu, 0.0);
+    w.body(i).v = {3, 0, 0};
+    double tilt = 0;
+    for (int s = 0; s < 480; ++s) {
+      w.step(1.0 / 240);
+      tilt = std::max(tilt, glm::angle(w.body(i).q));
+    }
+    if (mu < 0.25) {
+      CHECK(tilt < 0.05);
+      CHECK(w.body(i).x.x == Approx(9.0 / (2 * mu * 9.81)).epsilon(0.02));  // v^2 / (2 mu g)
+    } else {
+      CHECK(glm::angle(w.body(i).q) == Approx(glm::half_pi<double>()).epsilon(0.02));  // on its side
+    }
+  }
 }
 
 TEST_CASE("a box spun on the floor stops by torsional friction in about the analytic time") {

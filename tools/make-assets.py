@@ -179,6 +179,8 @@ def spots(x, y, n=256):
     return h
 
 if __name__ == "__main__":
+    import argparse
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     os.makedirs(HERE, exist_ok=True)
     car_obj(os.path.join(HERE, "car.obj"))
     cow_obj(os.path.join(HERE, "cow.obj"))

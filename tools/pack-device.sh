@@ -6,6 +6,18 @@
 #   . .devlib/env.sh && .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile
 # Tests that run crumple-sim find it at build/apps/crumple-sim: .devlib/env.sh puts it there.
 set -euo pipefail
+usage() {
+  cat <<'USAGE'
+Usage: tools/pack-device.sh
+Packs the built programs and test binaries with their shared libraries into .devlib/ for a GPU machine
+without the Debian packages; there: . .devlib/env.sh && .devlib/bin/crumple-bench ...
+USAGE
+}
+case "${1:-}" in
+  -h | --help) usage; exit 0 ;;
+  "") ;;
+  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
+esac
 cd "$(dirname "$0")/.."
 cmake --build build -j"$(nproc)" >/dev/null
 rm -rf .devlib

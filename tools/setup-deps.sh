@@ -3,6 +3,18 @@
 # Idempotent: packages already present are skipped; `apt-get update` runs once
 # only when something is missing.
 set -euo pipefail
+usage() {
+  cat <<'USAGE'
+Usage: tools/setup-deps.sh
+Installs the Debian packages crumple needs to build, test, benchmark and run (apt-get, with sudo when not
+root). Idempotent: does nothing when all are present.
+USAGE
+}
+case "${1:-}" in
+  -h | --help) usage; exit 0 ;;
+  "") ;;
+  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
+esac
 
 PACKAGES=(
   build-essential cmake pkg-config git

@@ -2,6 +2,19 @@
 # Sets up (Debian packages), builds and runs the whole test suite with ctest.
 # Usage: tools/test.sh [--sanitize]
 set -euo pipefail
+usage() {
+  cat <<'USAGE'
+Usage: tools/test.sh [--sanitize]
+Installs the Debian packages (tools/setup-deps.sh), builds into build/ and runs every test suite with
+ctest under Xvfb. --sanitize builds into build-asan/ with address and undefined-behaviour sanitizers.
+USAGE
+}
+case "${1:-}" in
+  -h | --help) usage; exit 0 ;;
+  "" | --sanitize) ;;
+  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
+esac
+if [ $# -gt 1 ]; then usage >&2; exit 2; fi
 cd "$(dirname "$0")/.."
 build=build
 extra=()

@@ -7,11 +7,8 @@ Usage: tools/make-readme-images.sh
 Re-renders the README's pictures (docs/images/*.png) from the shipped scenes with crumple-sim.
 USAGE
 }
-case "${1:-}" in
-  -h | --help) usage; exit 0 ;;
-  "") ;;
-  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
-esac
+. "$(dirname "$0")/args.sh"
+tool_args "" "$@"
 cd "$(dirname "$0")/.."
 cmake --build build -j"$(nproc)" --target crumple-sim >/dev/null
 tmp=$(mktemp -d)

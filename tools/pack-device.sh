@@ -13,11 +13,8 @@ Packs the built programs and test binaries with their shared libraries into .dev
 without the Debian packages; there: . .devlib/env.sh && .devlib/bin/crumple-bench ...
 USAGE
 }
-case "${1:-}" in
-  -h | --help) usage; exit 0 ;;
-  "") ;;
-  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
-esac
+. "$(dirname "$0")/args.sh"
+tool_args "" "$@"
 cd "$(dirname "$0")/.."
 cmake --build build -j"$(nproc)" >/dev/null
 rm -rf .devlib

@@ -9,7 +9,7 @@ plate) with rendered frames into out/sphere-into-plate/. Further options go to c
 (build/apps/crumple-sim --help lists them).
 USAGE
 }
-case "${1:-}" in
+case "${1:-}" in  # anything else goes to crumple-sim
   -h | --help) usage; exit 0 ;;
 esac
 cd "$(dirname "$0")/.."

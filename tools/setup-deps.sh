@@ -10,11 +10,8 @@ Installs the Debian packages crumple needs to build, test, benchmark and run (ap
 root). Idempotent: does nothing when all are present.
 USAGE
 }
-case "${1:-}" in
-  -h | --help) usage; exit 0 ;;
-  "") ;;
-  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
-esac
+. "$(dirname "$0")/args.sh"
+tool_args "" "$@"
 
 PACKAGES=(
   build-essential cmake pkg-config git

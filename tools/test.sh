@@ -9,12 +9,8 @@ Installs the Debian packages (tools/setup-deps.sh), builds into build/ and runs 
 ctest under Xvfb. --sanitize builds into build-asan/ with address and undefined-behaviour sanitizers.
 USAGE
 }
-case "${1:-}" in
-  -h | --help) usage; exit 0 ;;
-  "" | --sanitize) ;;
-  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
-esac
-if [ $# -gt 1 ]; then usage >&2; exit 2; fi
+. "$(dirname "$0")/args.sh"
+tool_args "--sanitize" "$@"
 cd "$(dirname "$0")/.."
 build=build
 extra=()

@@ -9,11 +9,8 @@ Rewrites the renderer's golden images (tests/golden/*.png) on purpose, after a d
 renderer; look at them before committing.
 USAGE
 }
-case "${1:-}" in
-  -h | --help) usage; exit 0 ;;
-  "") ;;
-  *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
-esac
+. "$(dirname "$0")/args.sh"
+tool_args "" "$@"
 cd "$(dirname "$0")/.."
 cmake --build build -j"$(nproc)" --target test_render_pom
 CRUMPLE_UPDATE_GOLDEN=1 build/tests/test_render_pom --test-case="golden*"

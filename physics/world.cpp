@@ -335,43 +335,60 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
 // resting on a face rock from corner to corner and walk; one averaged contact
 // per face is the face's resultant and leaves no spurious torque. Grouping by
 // normal keeps the separate touching places of nonconvex bodies apart.
+namespace {
+// Normals within about 35 degrees of a group's deepest make one group.
+constexpr double kSameGroup = 0.82;
+// A group's resultant: its members' points and normals (oriented as the
+// seed's, out of the seed's body a) weighted by depth.
+struct GroupSum {
+  const Contact& seed;
+  glm::dvec3 point{0}, normal{0};
+  double weight = 0;
+  glm::dvec3 oriented(const Contact& c) const { return c.a == seed.a ? c.normal : -c.normal; }
+  bool agrees(const Contact& c) const { return glm::dot(oriented(c), seed.normal) >= kSameGroup; }
+  void add(const Contact& c) {
+    const double w = -c.phi + 1e-6;
+    point += w * c.point;
+    normal += w * oriented(c);
+    weight += w;
+  }
+  Contact result() const {
+    Contact m = seed;
+    m.point = point / weight;
+    const double len = glm::length(normal);
+    m.normal = len > 1e-12 ? normal / len : seed.normal;
+    return m;
+  }
+};
+}  // namespace
+
 void World::manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out, std::vector<PatchExtent>* patches) {
   out.clear();
   if (patches) patches->clear();
   thread_local std::vector<char> used;
+  thread_local std::vector<size_t> members;
   used.assign(contacts.size(), 0);
   for (size_t seed = 0; seed < contacts.size(); ++seed) {
     if (used[seed]) continue;
-    const Contact& deepest = contacts[seed];  // sorted deepest first
-    glm::dvec3 point(0), normal(0);
-    double weight = 0;
+    GroupSum group{contacts[seed]};  // sorted deepest first
+    members.clear();
     for (size_t i = seed; i < contacts.size(); ++i) {
-      if (used[i]) continue;
-      const Contact& c = contacts[i];
-      const glm::dvec3 n = c.a == deepest.a ? c.normal : -c.normal;
-      if (glm::dot(n, deepest.normal) < 0.82) continue;
+      if (used[i] || !group.agrees(contacts[i])) continue;
       used[i] = 1;
-      const double w = -c.phi + 1e-6;
-      point += w * c.point;
-      normal += w * n;
-      weight += w;
+      group.add(contacts[i]);
+      members.push_back(i);
     }
-    Contact m = deepest;
-    m.point = point / weight;
-    const double len = glm::length(normal);
-    m.normal = len > 1e-12 ? normal / len : deepest.normal;
-    out.push_back(m);
+    out.push_back(group.result());
     if (!patches) continue;
     // The patch: the members' extent about the group's point in its tangent plane.
+    const Contact& m = out.back();
     PatchExtent e;
     const glm::dvec3& n = m.normal;
     const glm::dvec3 axis = std::abs(n.x) < 0.57 ? glm::dvec3(1, 0, 0) : (std::abs(n.y) < 0.57 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1));
     e.n = n;
     e.t1 = glm::normalize(glm::cross(n, axis));
     e.t2 = glm::cross(n, e.t1);
-    for (size_t i = seed; i < contacts.size(); ++i) {
-      if (used[i] != 1) continue;
-      used[i] = 2;  // counted in this group
+    for (size_t i : members) {
       const glm::dvec3 d = contacts[i].point - m.point;
       const double d1 = glm::dot(d, e.t1), d2 = glm::dot(d, e.t2);
       e.lo1 = std::min(e.lo1, d1);
@@ -594,21 +611,11 @@ bool World::collide(double h) {
         // first would spin it, and a tower of such landings leans and falls.
         Contact at = *hit;
         {
-          glm::dvec3 point(0), normal(0);
-          double weight = 0;
-          for (const Contact& c : contacts) {
-            const glm::dvec3 n = c.a == hit->a ? c.normal : -c.normal;
-            if (glm::dot(n, hit->normal) < 0.82) continue;
-            if (glm::dot(relativeVelocity(c.a, c.b, leversOf(c)), c.normal) >= 0) continue;
-            const double w = -c.phi + 1e-6;
-            point += w * c.point;
-            normal += w * n;
-            weight += w;
-          }
-          const double len = glm::length(normal);
-          if (weight > 0 && len > 1e-12) {
-            at.point = point / weight;
-            at.normal = normal / len;
+          GroupSum group{*hit};
+          for (const Contact& c : contacts)
+            if (group.agrees(c) && glm::dot(relativeVelocity(c.a, c.b, leversOf(c)), c.normal) < 0) group.add(c);
+          if (group.weight > 0) {
+            at = group.result();
             if (glm::dot(relativeVelocity(at.a, at.b, leversOf(at)), at.normal) >= 0) at = *hit;
           }
         }
@@ -736,7 +743,7 @@ void World::contact(double h) {
         for (size_t gi = 0; gi < grouped[pi].size(); ++gi) {
           const Contact& g = grouped[pi][gi];
           size_t best = oldGroups.size();
-          double bestDot = 0.82;
+          double bestDot = kSameGroup;
           for (size_t k = 0; k < oldGroups.size(); ++k) {
             const double d = glm::dot(g.normal, oldGroups[k].a == g.a ? oldGroups[k].normal : -oldGroups[k].normal);
             if (!inherited[k] && d >= bestDot) {
@@ -881,26 +888,30 @@ void World::shockPropagation() {
     // body taking the mean of its groups' (a body on two supports follows
     // neither alone: in order, the last one processed would win).
     // A body resting on one patch of the level below is held against tilting
-    // by that patch (its torque); one on several supports by the couple of
-    // their separate impulses. Patch torques from two supports would each ask
-    // for the tilt of their own support, and the body would jitter between them.
-    // A body on exactly two supports keeps, from each support's patch, the
-    // torque about the line through the two (lineMatrix): Jacobi averages the
-    // two supports' tilts about it instead of alternating between them.
-    std::vector<std::vector<size_t>> supports(n);
+    // by that patch (its torque). On two supports, the couple of their point
+    // impulses holds the tilt across the line through them and each support's
+    // patch keeps only the torque about that line (lineMatrix): full patch
+    // torques would each ask for their own support's tilt, and the body would
+    // jitter between them. On more, the couples hold every tilt.
+    // (body, level contact) for each support from the frozen level below, by body.
+    std::vector<std::pair<int, size_t>> supports;
     for (size_t k = 0; k < lc.size(); ++k) {
       const bool fa = frozen_[static_cast<size_t>(lc[k].c.a)] != 0, fb = frozen_[static_cast<size_t>(lc[k].c.b)] != 0;
-      if (fa != fb) supports[static_cast<size_t>(fa ? lc[k].c.b : lc[k].c.a)].push_back(k);
+      if (fa != fb) supports.push_back({fa ? lc[k].c.b : lc[k].c.a, k});
     }
-    for (size_t body = 0; body < n; ++body) {
-      const std::vector<size_t>& s = supports[body];
-      if (s.empty() || static_cast<size_t>(share[body]) != s.size()) continue;  // touches its own level too
-      if (s.size() == 1) {
-        LevelContact& x = lc[s[0]];
+    std::sort(supports.begin(), supports.end());
+    for (size_t first = 0, last; first < supports.size(); first = last) {
+      const int body = supports[first].first;
+      for (last = first; last < supports.size() && supports[last].first == body; ++last) {}
+      const size_t count = last - first;
+      if (static_cast<size_t>(share[static_cast<size_t>(body)]) != count) continue;  // touches its own level too
+      if (count == 1) {
+        LevelContact& x = lc[supports[first].second];
         x.patch = patchMatrix(x.sa, x.sb, x.m, *x.extent);
-      } else if (s.size() == 2) {
-        const glm::dvec3 line = lc[s[1]].c.point - lc[s[0]].c.point;
-        for (size_t k : s) lc[k].patch = lineMatrix(lc[k].sa, lc[k].sb, lc[k].m, *lc[k].extent, line);
+      } else if (count == 2) {
+        const size_t k0 = supports[first].second, k1 = supports[first + 1].second;
+        const glm::dvec3 line = lc[k1].c.point - lc[k0].c.point;
+        for (size_t k : {k0, k1}) lc[k].patch = lineMatrix(lc[k].sa, lc[k].sb, lc[k].m, *lc[k].extent, line);
       }
     }
     std::vector<glm::dvec3> dj(lc.size()), dt(lc.size());

@@ -52,21 +52,34 @@ glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const gl
 }
 
 namespace {
+// Earlier impulses at a contact in this step: the normal total, and the
+// friction total in today's tangent plane. holds(j): j keeps the totals in
+// Coulomb's cone.
+struct Earlier {
+  double pn = 0;
+  glm::dvec3 pt{0};
+  Earlier(const FrictionTotals* t, const glm::dvec3& n) {
+    if (!t) return;
+    pn = std::max(0.0, t->normal);
+    pt = t->tangential - glm::dot(t->tangential, n) * n;
+  }
+  bool holds(const glm::dvec3& j, const glm::dvec3& n, double mu) const {
+    const double jn = glm::dot(j, n);
+    return glm::length(pt + (j - jn * n)) <= mu * (pn + jn);
+  }
+};
+
 glm::dvec3 coulombImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& n, double eps, double mu,
                           const FrictionTotals* earlier) {
   const glm::dmat3& K = m.K;
   const double un = glm::dot(u, n);
   if (!(mu > 0)) return frictionlessImpulse(K, u, n, eps);
-  // Earlier impulses at this contact in this step, the friction in today's tangent plane.
-  const double pn = earlier ? std::max(0.0, earlier->normal) : 0.0;
-  const glm::dvec3 pt = earlier ? earlier->tangential - glm::dot(earlier->tangential, n) * n : glm::dvec3(0);
-  const double ptLen = glm::length(pt);
+  const Earlier before(earlier, n);
+  const double pn = before.pn, ptLen = glm::length(before.pt);
   if (m.invertible) {
     // Sticking: the relative velocity becomes -eps (u.n) n.
     const glm::dvec3 j = m.inverse * (-eps * un * n - u);
-    const double jn = glm::dot(j, n);
-    const glm::dvec3 jt = j - jn * n;
-    if (jn >= 0 && glm::length(pt + jt) <= mu * (pn + jn) &&
+    if (glm::dot(j, n) >= 0 && before.holds(j, n, mu) &&
         energyChange(K, u, j) <= 1e-12 * std::abs(glm::dot(j, u)) + 1e-15) {
       return j;
     }
@@ -192,11 +205,7 @@ namespace {
 bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
                  const glm::dvec3& n, double mu, FrictionTotals* totals, const glm::dvec3& J, const glm::dvec3& T,
                  double quad, glm::dvec3& jOut, glm::dvec3& tOut) {
-  const double jn = glm::dot(J, n);
-  const double pn = totals ? std::max(0.0, totals->normal) : 0.0;
-  const glm::dvec3 pt = totals ? totals->tangential - glm::dot(totals->tangential, n) * n : glm::dvec3(0);
-  const glm::dvec3 jt = J - jn * n;
-  if (glm::length(pt + jt) > mu * (pn + jn)) return false;
+  if (!Earlier(totals, n).holds(J, n, mu)) return false;
   if (std::isnan(quad)) {
     const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;
     quad = glm::dot(J, du) + glm::dot(T, dw);
@@ -204,8 +213,9 @@ bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3&
   const double dE = glm::dot(J, u) + glm::dot(T, omega) + 0.5 * quad;
   if (dE > 1e-12 * (std::abs(glm::dot(J, u)) + std::abs(glm::dot(T, omega))) + 1e-15) return false;
   if (totals) {
+    const double jn = glm::dot(J, n);
     totals->normal += jn;
-    totals->tangential += jt;
+    totals->tangential += J - jn * n;
   }
   jOut = J;
   tOut = T;

@@ -229,7 +229,7 @@ void deformBench(benchmark::State& state, deform::Path path) {
 void deformProfile(int iterations) {
   std::printf("\n== deformation phases: wall ms (GPU ms), mean of %d, glFinish between phases ==\n", iterations);
   for (int size : {256, 512, 1024, 2048})
-    for (deform::Path path : {deform::Path::Gpu, deform::Path::Readback}) {
+    for (deform::Path path : {deform::Path::Gather, deform::Path::Scatter, deform::Path::Readback}) {
       deform::DeformOptions o{size, path};
       o.profile = true;
       DeformCase c(o);
@@ -247,7 +247,7 @@ void deformProfile(int iterations) {
       }
       double total = 0, gpuTotal = 0;
       for (const auto& p : sum) total += p.ms / iterations, gpuTotal += p.gpuMs / iterations;
-      std::printf("%-8s %4d  wall %8.3f (gpu %7.3f) :", path == deform::Path::Gpu ? "gpu" : "readback", size, total, gpuTotal);
+      std::printf("%-8s %4d  wall %8.3f (gpu %7.3f) :", deform::pathName(path), size, total, gpuTotal);
       for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
       std::printf("\n");
     }
@@ -288,13 +288,13 @@ class Collector : public benchmark::ConsoleReporter {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"crumple-bench: crumple vs Bullet (physics), GPU vs read-back (deformation), POM on/off (render); "
+  CLI::App app{"crumple-bench: crumple vs Bullet (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
                "prints ms per step/deformation/frame and the ratios."};
   bool quick = false, noGl = false, deformPhases = false;
   std::string filter;
   app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
   app.add_flag("--no-gl", noGl, "Physics only");
-  app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, both paths");
+  app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, every path");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
   try {
     app.parse(argc, argv);
@@ -325,8 +325,9 @@ int main(int argc, char** argv) {
     stage = std::make_unique<DeformStage>();
     gDeformStage = stage.get();
     for (int size : {256, 512, 1024, 2048}) {
-      benchmark::RegisterBenchmark("deform/gpu", deformBench, deform::Path::Gpu)->Arg(size)->Iterations(quick ? 3 : 20)->Unit(benchmark::kMillisecond);
-      benchmark::RegisterBenchmark("deform/readback", deformBench, deform::Path::Readback)->Arg(size)->Iterations(quick ? 3 : 20)->Unit(benchmark::kMillisecond);
+      for (deform::Path path : {deform::Path::Gather, deform::Path::Scatter, deform::Path::Readback})
+        benchmark::RegisterBenchmark((std::string("deform/") + deform::pathName(path)).c_str(), deformBench, path)
+            ->Arg(size)->Iterations(quick ? 3 : 20)->Unit(benchmark::kMillisecond);
     }
     benchmark::RegisterBenchmark("render/1280x720/pom", renderBench, true)->Iterations(quick ? 2 : 10)->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark("render/1280x720/no_parallax", renderBench, false)->Iterations(quick ? 2 : 10)->Unit(benchmark::kMillisecond);
@@ -352,8 +353,10 @@ int main(int argc, char** argv) {
   }
   for (int size : {256, 512, 1024, 2048}) {
     const std::string s = "/" + std::to_string(size);
-    const double g = ms("deform/gpu" + s), r = ms("deform/readback" + s);
-    if (!std::isnan(g)) std::printf("deform  address map %4d       gpu %8.3f ms  readback %8.3f ms  readback/gpu %6.2fx\n", size, g, r, r / g);
+    const double g = ms("deform/gather" + s), c = ms("deform/scatter" + s), r = ms("deform/readback" + s);
+    if (!std::isnan(g))
+      std::printf("deform  address map %4d  gather %8.3f ms  scatter %8.3f ms  readback %8.3f ms  gather/scatter %6.2fx  "
+                  "readback/scatter %6.2fx\n", size, g, c, r, g / c, r / c);
   }
   const std::string it;
   const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);

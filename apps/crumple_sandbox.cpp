@@ -153,8 +153,8 @@ void panel(App& app) {
     int current = 0;
     for (int i = 0; i < 4; ++i) if (sizes[i] == d.addressMap) current = i;
     if (ImGui::Combo("address map", &current, "256\0" "512\0" "1024\0" "2048\0")) app.sim->setAddressMap(sizes[current]);
-    int path = d.path == DeformPath::Gpu ? 0 : 1;
-    if (ImGui::Combo("path", &path, "gpu\0readback\0")) app.sim->setDeformPath(path == 0 ? DeformPath::Gpu : DeformPath::Readback);
+    int path = static_cast<int>(d.path);
+    if (ImGui::Combo("path", &path, "gather\0scatter\0readback\0")) app.sim->setDeformPath(static_cast<DeformPath>(path));
     bool bumpNormals = d.normalMappedNormals;
     if (ImGui::Checkbox("normal-mapped collision normals", &bumpNormals)) app.sim->setNormalMappedNormals(bumpNormals);
     bool rims = d.craterRims;

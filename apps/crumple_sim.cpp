@@ -29,8 +29,10 @@ int main(int argc, char** argv) {
   app.add_option("--out,-o", outDir, "Output folder (default: out/<scene name>). Written atomically.");
   app.add_option("--duration", duration, "Simulated seconds, overriding the scene's duration")->check(CLI::Range(1e-6, 1e6));
   app.add_option("--steps", steps, "Number of steps, overriding duration")->check(CLI::Range(1L, 100000000L));
-  app.add_option("--deform-path", deformPath, "gpu (default: the update stays on the GPU) or readback (the paper's path)")
-      ->check(CLI::IsMember({"gpu", "readback"}));
+  app.add_option("--deform-path", deformPath,
+                 "gather (default: every texel of a dent gathers its depth on the GPU, no gaps), scatter (the paper's "
+                 "update on the GPU) or readback (the paper's path: address maps read back, CPU scatter)")
+      ->check(CLI::IsMember({"gather", "scatter", "readback", "gpu"}));
   app.add_flag("--render", renderFrames, "Write frames/<camera>_<frame>.png for every camera of the scene");
   app.add_option("--size", size, "Frame size WxH for --render")->default_val("960x540");
   app.add_option("--fps", fps, "Frames per simulated second for --render")->check(CLI::Range(0.01, 1000.0))->default_val(30);
@@ -53,7 +55,8 @@ int main(int argc, char** argv) {
   try {
     Scene scene = scenePath.empty() ? parseScene(builtinSceneText(), "<built-in default scene>", fs::current_path().string())
                                     : loadScene(scenePath);
-    if (deformPath == "gpu") scene.deformation.path = DeformPath::Gpu;
+    if (deformPath == "gather" || deformPath == "gpu") scene.deformation.path = DeformPath::Gather;
+    if (deformPath == "scatter") scene.deformation.path = DeformPath::Scatter;
     if (deformPath == "readback") scene.deformation.path = DeformPath::Readback;
     if (duration > 0) scene.duration = duration;
     const long totalSteps = steps > 0 ? steps : std::max(1L, std::lround(scene.duration / scene.timestep));

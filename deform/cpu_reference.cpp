@@ -66,7 +66,7 @@ bool hit(const ViewTriangle& t, double x, double y, glm::dvec3& bc) {
 }  // namespace
 
 render::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, const glm::dvec3& point,
-                              const glm::dvec3& n, double penetration, double depth, int size) {
+                              const glm::dvec3& n, double penetration, double depth) {
   render::Image out = x.height ? *x.height : render::Image(256, 256, 1, 0.5f);
   const int res = out.width;
   const render::Image in = out;
@@ -88,55 +88,68 @@ render::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other
   bounds(*other.mesh, other.model, bo);
   const AddressCamera cam = addressCamera(point, n, bx, bo);
   const double range = cam.zFar - cam.zNear;
-  const std::vector<ViewTriangle> tx = toView(x, modelX, cam.view), to = toView(other, other.model, cam.view);
-  // Pixel centres in view space: the projection maps [cx - h, cx + h] to the viewport.
-  const glm::dmat4 inv = glm::inverse(cam.projection);
   const double depthToHeight = range / x.bumpDepth;
-  for (int j = 0; j < size; ++j) {
-    for (int i = 0; i < size; ++i) {
-      const glm::dvec4 ndc((i + 0.5) / size * 2 - 1, (j + 0.5) / size * 2 - 1, 0, 1);
-      const glm::dvec4 v = inv * ndc;
-      const double px = v.x, py = v.y;
-      // Pass A: nearest front face of X.
-      double zA = 2;
-      glm::dvec2 uvA(-1);
-      for (const auto& t : tx) {
-        glm::dvec3 bc;
-        if (!t.front || !hit(t, px, py, bc)) continue;
-        const double d = -(bc.x * t.p[0].z + bc.y * t.p[1].z + bc.z * t.p[2].z);
-        const double zw = (d - cam.zNear) / range;
-        if (zw < 0 || zw > 1) continue;
-        const glm::dvec2 uv = bc.x * t.uv[0] + bc.y * t.uv[1] + bc.z * t.uv[2];
-        const double z = std::clamp(zw - (sampleBilinear(x.height, uv) - 0.5) * x.bumpDepthCollide / range, 0.0, 1.0);
-        if (z < zA) {
-          zA = z;
-          uvA = uv;
+  // The camera's view rectangle in view space.
+  const glm::dmat4 inv = glm::inverse(cam.projection);
+  const glm::dvec2 vlo(inv * glm::dvec4(-1, -1, 0, 1)), vhi(inv * glm::dvec4(1, 1, 0, 1));
+  const std::vector<ViewTriangle> tx = toView(x, modelX, cam.view);
+  std::vector<ViewTriangle> to;
+  for (const auto& t : toView(other, other.model, cam.view))
+    if (!t.front) to.push_back(t);
+  // The other body's back faces bucketed on a grid over the view rectangle.
+  const int cells = 64;
+  const glm::dvec2 cellSize = (vhi - vlo) / double(cells);
+  auto cellOf = [&](glm::dvec2 p) {
+    return glm::clamp(glm::ivec2(glm::floor((p - vlo) / cellSize)), glm::ivec2(0), glm::ivec2(cells - 1));
+  };
+  std::vector<std::vector<int>> grid(static_cast<size_t>(cells) * cells);
+  for (size_t i = 0; i < to.size(); ++i) {
+    if (to[i].hi.x < vlo.x || to[i].hi.y < vlo.y || to[i].lo.x > vhi.x || to[i].lo.y > vhi.y) continue;
+    const glm::ivec2 a = cellOf(to[i].lo), b = cellOf(to[i].hi);
+    for (int cy = a.y; cy <= b.y; ++cy)
+      for (int cx = a.x; cx <= b.x; ++cx) grid[static_cast<size_t>(cy) * cells + cx].push_back(static_cast<int>(i));
+  }
+  auto windowDepth = [&](const ViewTriangle& t, const glm::dvec3& bc) {
+    return (-(bc.x * t.p[0].z + bc.y * t.p[1].z + bc.z * t.p[2].z) - cam.zNear) / range;
+  };
+  for (const auto& t : tx) {
+    if (!t.front || t.hi.x < vlo.x || t.hi.y < vlo.y || t.lo.x > vhi.x || t.lo.y > vhi.y) continue;
+    const glm::dvec2 a = t.uv[0] * double(res), b = t.uv[1] * double(res), c = t.uv[2] * double(res);
+    const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (area == 0) continue;
+    const int y0 = std::max(0, static_cast<int>(std::floor(std::min({a.y, b.y, c.y})))),
+              y1 = std::min(res - 1, static_cast<int>(std::floor(std::max({a.y, b.y, c.y}))));
+    const int x0 = std::max(0, static_cast<int>(std::floor(std::min({a.x, b.x, c.x})))),
+              x1 = std::min(res - 1, static_cast<int>(std::floor(std::max({a.x, b.x, c.x}))));
+    for (int ty = y0; ty <= y1; ++ty)
+      for (int tx0 = x0; tx0 <= x1; ++tx0) {
+        const glm::dvec2 q(tx0 + 0.5, ty + 0.5);
+        const double w0 = ((b.x - q.x) * (c.y - q.y) - (b.y - q.y) * (c.x - q.x)) / area;
+        const double w1 = ((c.x - q.x) * (a.y - q.y) - (c.y - q.y) * (a.x - q.x)) / area;
+        const double w2 = 1 - w0 - w1;
+        if (w0 < 0 || w1 < 0 || w2 < 0) continue;
+        const glm::dvec3 bc(w0, w1, w2);
+        const glm::dvec3 p = w0 * t.p[0] + w1 * t.p[1] + w2 * t.p[2];
+        if (p.x < vlo.x || p.y < vlo.y || p.x > vhi.x || p.y > vhi.y) continue;
+        const float h = in.at(tx0, ty);
+        const double z = std::clamp(windowDepth(t, bc) - (h - 0.5) * x.bumpDepthCollide / range, 0.0, 1.0);
+        // The other body's farthest back face on the ray through p.
+        double zB = -1;
+        const glm::ivec2 cell = cellOf(glm::dvec2(p));
+        for (int i : grid[static_cast<size_t>(cell.y) * cells + cell.x]) {
+          glm::dvec3 obc;
+          if (!hit(to[static_cast<size_t>(i)], p.x, p.y, obc)) continue;
+          const ViewTriangle& o = to[static_cast<size_t>(i)];
+          const double zw = windowDepth(o, obc);
+          if (zw < 0 || zw > 1) continue;
+          const glm::dvec2 uv = obc.x * o.uv[0] + obc.y * o.uv[1] + obc.z * o.uv[2];
+          zB = std::max(zB, std::clamp(zw + (sampleBilinear(other.height, uv) - 0.5) * other.bumpDepthCollide / range, 0.0, 1.0));
         }
+        const double dD = zB - z;
+        if (!(dD > 0)) continue;
+        const float h2 = static_cast<float>(std::clamp(h - dD * depthToHeight, 0.0, 1.0));
+        out.at(tx0, ty) = std::min(out.at(tx0, ty), h2);
       }
-      if (uvA.x < 0) continue;
-      // Pass B: the farthest back face of the other body behind X's depth.
-      double zB = zA;
-      bool any = false;
-      for (const auto& t : to) {
-        glm::dvec3 bc;
-        if (t.front || !hit(t, px, py, bc)) continue;
-        const double d = -(bc.x * t.p[0].z + bc.y * t.p[1].z + bc.z * t.p[2].z);
-        const double zw = (d - cam.zNear) / range;
-        if (zw < 0 || zw > 1) continue;
-        const glm::dvec2 uv = bc.x * t.uv[0] + bc.y * t.uv[1] + bc.z * t.uv[2];
-        const double z = std::clamp(zw + (sampleBilinear(other.height, uv) - 0.5) * other.bumpDepthCollide / range, 0.0, 1.0);
-        if (z > zB) {
-          zB = z;
-          any = true;
-        }
-      }
-      if (!any) continue;
-      const double dD = zB - zA;
-      const int tx0 = std::clamp(static_cast<int>(std::floor(uvA.x * res)), 0, res - 1);
-      const int ty0 = std::clamp(static_cast<int>(std::floor(uvA.y * res)), 0, res - 1);
-      const float h2 = static_cast<float>(std::clamp(in.at(tx0, ty0) - dD * depthToHeight, 0.0, 1.0));
-      out.at(tx0, ty0) = std::min(out.at(tx0, ty0), h2);
-    }
   }
   return out;
 }

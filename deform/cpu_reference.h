@@ -1,6 +1,10 @@
-// A CPU reference of the deformation (the tests' oracle): rays cast along -N
-// through the centres of the address-map pixels, with the same camera, the
-// same bump offsets and the same update as the GPU passes, but no rasteriser.
+// A CPU reference of the deformation (the tests' oracle), per texel: every
+// texel of X whose centre lies on a triangle facing the deformation camera
+// takes its surface point (raised or lowered by its height, k'), and an exact
+// ray along -N through that point finds the other body's farthest back face
+// (with its bumps); where that lies beyond the point, the texel drops by the
+// depth between them, as the default (gather) path computes it. Same camera,
+// same offsets, same update; no rasteriser and no address map.
 #pragma once
 #include <glm/glm.hpp>
 
@@ -19,6 +23,6 @@ struct ReferenceBody {
 // New height map of side X after one deformation (X advanced by `depth` along
 // n minus the penetration, as in Deformer::deform). Texels not hit keep their value.
 render::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, const glm::dvec3& point,
-                              const glm::dvec3& n, double penetration, double depth, int addressMap);
+                              const glm::dvec3& n, double penetration, double depth);
 
 }  // namespace crumple::deform

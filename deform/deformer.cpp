@@ -16,6 +16,15 @@ std::string_view shaderSource(std::string_view name);
 }
 std::string_view deformShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
 
+const char* pathName(Path p) {
+  switch (p) {
+    case Path::Gather: return "gather";
+    case Path::Scatter: return "scatter";
+    case Path::Readback: return "readback";
+  }
+  return "?";
+}
+
 namespace {
 render::Program compute(const char* name) {
   return render::Program({{GL_COMPUTE_SHADER, name, std::string(deformShader(name))}});
@@ -166,6 +175,20 @@ struct Deformer::Impl {
   }
   render::Program address{{{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
                            {GL_FRAGMENT_SHADER, "address.frag", std::string(deformShader("address.frag"))}}};
+  render::Program gather{{{GL_VERTEX_SHADER, "texel.vert", std::string(deformShader("texel.vert"))},
+                          {GL_GEOMETRY_SHADER, "texel.geom", std::string(deformShader("texel.geom"))},
+                          {GL_FRAGMENT_SHADER, "texel_gather.frag", std::string(deformShader("texel_gather.frag"))}}};
+  // The gather draws in X's texture space and writes only through image
+  // atomics: a framebuffer without attachments, as large as any map.
+  render::Framebuffer texelSpace = [] {
+    render::Framebuffer f;
+    GLint w = 0, h = 0;
+    glGetIntegerv(GL_MAX_FRAMEBUFFER_WIDTH, &w);
+    glGetIntegerv(GL_MAX_FRAMEBUFFER_HEIGHT, &h);
+    glNamedFramebufferParameteri(f.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, std::min(w, 16384));
+    glNamedFramebufferParameteri(f.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, std::min(h, 16384));
+    return f;
+  }();
   render::Program update = compute("dent_update.comp");
   render::Program regionDispatch = compute("region_dispatch.comp");
   render::Program commit = compute("dent_commit.comp");
@@ -255,7 +278,9 @@ void Deformer::setOptions(const DeformOptions& options) {
   options_ = options;
 }
 
-const render::Texture2D& Deformer::lastAddressMap() const { return impl_->addressX[0]; }
+const render::Texture2D& Deformer::lastAddressMap() const {
+  return options_.path == Path::Gather ? impl_->addressO[0] : impl_->addressX[0];
+}
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 
 std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::Image* initial, float bumpDepth,
@@ -331,21 +356,9 @@ int Deformer::deform(const DeformRequest& rq) {
     glEnable(GL_CULL_FACE);
     glDisable(GL_BLEND);
     const float noAddress[4] = {-1, -1, 0, 0};
-    const float one = 1.0f, zero4[4] = {0, 0, 0, 0};
+    const float one = 1.0f, zero = 0.0f, zero4[4] = {0, 0, 0, 0};
+    const bool gather = options_.path == Path::Gather;
     m.address.use();
-    // Pass A: front faces of X, depth LESS.
-    m.fboX[side].bind();
-    glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 0, noAddress);
-    glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 1, &one);
-    // The normal attachment only serves the tangent-space correction: without
-    // it the pass writes (and clears) 8 bytes a pixel fewer.
-    const bool normals = options_.tangent != TangentMode::None;
-    const GLenum bufsX[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, normals ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE)};
-    glNamedFramebufferDrawBuffers(m.fboX[side].id(), 3, bufsX);
-    if (normals) glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 2, zero4);
-    glClearNamedFramebufferfv(m.fboX[side].id(), GL_DEPTH, 0, &one);
-    glDepthFunc(GL_LESS);
-    glCullFace(GL_BACK);
     auto draw = [&](const DeformBody& body, const glm::dmat4& model, float sign, float kCollide) {
       const glm::mat4 mvp = glm::mat4(vp * model);
       const glm::mat3 nrm = glm::mat3(glm::transpose(glm::inverse(glm::dmat3(model))));
@@ -357,12 +370,29 @@ int Deformer::deform(const DeformRequest& rq) {
       body.mesh->draw();
     };
     m.phase("setup");
-    draw(X, modelX, -1.0f, X.surface->bumpDepthCollide());
-    m.phase("address pass X");
-    // Pass B: back faces of the other, depth GREATER against X's depth.
+    if (!gather) {
+      // Pass A: front faces of X, depth LESS.
+      m.fboX[side].bind();
+      glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 0, noAddress);
+      glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 1, &one);
+      // The normal attachment only serves the tangent-space correction: without
+      // it the pass writes (and clears) 8 bytes a pixel fewer.
+      const bool normals = options_.tangent != TangentMode::None;
+      const GLenum bufsX[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, normals ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE)};
+      glNamedFramebufferDrawBuffers(m.fboX[side].id(), 3, bufsX);
+      if (normals) glClearNamedFramebufferfv(m.fboX[side].id(), GL_COLOR, 2, zero4);
+      glClearNamedFramebufferfv(m.fboX[side].id(), GL_DEPTH, 0, &one);
+      glDepthFunc(GL_LESS);
+      glCullFace(GL_BACK);
+      draw(X, modelX, -1.0f, X.surface->bumpDepthCollide());
+      m.phase("address pass X");
+    }
+    // Pass B: back faces of the other, depth GREATER: against X's depth (the
+    // scatter), or the farthest back face anywhere (the gather's depth map).
     m.fboO[side].bind();
     glClearNamedFramebufferfv(m.fboO[side].id(), GL_COLOR, 0, noAddress);
     glClearNamedFramebufferfv(m.fboO[side].id(), GL_COLOR, 1, &one);
+    if (gather) glClearNamedFramebufferfv(m.fboO[side].id(), GL_DEPTH, 0, &zero);
     glDepthFunc(GL_GREATER);
     glCullFace(GL_FRONT);
     draw(O, modelO, 1.0f, O.surface ? O.surface->bumpDepthCollide() : 0.0f);
@@ -375,7 +405,37 @@ int Deformer::deform(const DeformRequest& rq) {
     render::Texture2D& scratch = m.scratchFor(side, res);
     const float depthToHeight = static_cast<float>(range / X.surface->bumpDepth());
 
-    if (options_.path == Path::Gpu) {
+    if (gather) {
+      glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
+      m.gather.use();
+      m.texelSpace.bind();
+      glViewport(0, 0, res, res);
+      glDisable(GL_DEPTH_TEST);
+      glDisable(GL_CULL_FACE);
+      const glm::mat4 mvp = glm::mat4(vp * modelX);
+      const glm::mat3 nrm = glm::mat3(glm::transpose(glm::inverse(glm::dmat3(modelX))));
+      glUniformMatrix4fv(m.gather.uniform("uModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+      glUniformMatrix3fv(m.gather.uniform("uNormalToWorld"), 1, GL_FALSE, glm::value_ptr(nrm));
+      glBindTextureUnit(2, m.addressO[side].id());
+      glBindTextureUnit(3, m.depthO[side].id());
+      glBindTextureUnit(5, X.surface->height().id());
+      glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, m.region.id());
+      glUniform1i(m.gather.uniform("uSide"), side);
+      glUniform1i(m.gather.uniform("uSize"), m.size);
+      glUniform1i(m.gather.uniform("uResolution"), res);
+      glUniform1f(m.gather.uniform("uBumpToDepth"), static_cast<float>(X.surface->bumpDepthCollide() / range));
+      glUniform1f(m.gather.uniform("uDepthToHeight"), depthToHeight);
+      glUniform1i(m.gather.uniform("uTangentMode"), static_cast<int>(options_.tangent));
+      glUniform1f(m.gather.uniform("uTangentFloor"), options_.tangentFloor);
+      glUniform3f(m.gather.uniform("uViewNormal"), static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z));
+      X.mesh->draw();
+      glBindFramebuffer(GL_FRAMEBUFFER, 0);
+      glEnable(GL_DEPTH_TEST);
+      glEnable(GL_CULL_FACE);
+      glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+      m.phase("gather (texels)");
+    } else if (options_.path == Path::Scatter) {
       glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
       m.update.use();
       glBindTextureUnit(0, m.addressX[side].id());
@@ -395,6 +455,8 @@ int Deformer::deform(const DeformRequest& rq) {
       glUniform3f(m.update.uniform("uViewNormal"), static_cast<float>(n.x), static_cast<float>(n.y), static_cast<float>(n.z));
       glDispatchCompute(groups(m.size), groups(m.size), 1);
       m.phase("update (compute)");
+    }
+    if (options_.path != Path::Readback) {
       if (options_.craterRims) {
         // The ring width depends on the dent's size: read the region (4 ints) once.
         glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);

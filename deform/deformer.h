@@ -9,9 +9,19 @@
 // dD (zfar - znear) / k, the deepest write winning per texel. Both sides are
 // computed before either is committed.
 //
-// Path::Gpu keeps everything on the GPU (compute shaders, image atomics, an
-// indirect dispatch over the touched region). Path::Readback is the paper's
-// path: glReadPixels of the address maps and a CPU scatter, kept as a reference.
+// The paper scatters: each address-map pixel lowers the one texel it
+// addresses, so where the touched region holds more texels than the address
+// map has pixels, or the surface is oblique to N, texels are skipped and the
+// dent has gaps (its section 6). Path::Gather (the default) goes past that:
+// only the other body's depth pass is rendered; X's mesh is then drawn in its
+// own texture space, one fragment per texel, and each texel's surface point is
+// looked up in that depth map like a shadow-map lookup. Every texel of the
+// footprint gets its value; the address map's size trades the dent's accuracy
+// (the other body's depth is interpolated between its pixels), never its
+// continuity. Path::Scatter is the paper's update on the GPU (compute shaders,
+// image atomics, an indirect dispatch over the touched region); Path::Readback
+// is the paper's path as written: the address maps read back and a CPU
+// scatter. Both are kept as references and give bit-identical maps.
 #pragma once
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -24,12 +34,13 @@
 
 namespace crumple::deform {
 
-enum class Path { Gpu, Readback };
+enum class Path { Gather, Scatter, Readback };
+const char* pathName(Path p);  // "gather", "scatter", "readback"
 enum class TangentMode { None, Multiply, Divide };
 
 struct DeformOptions {
   int addressMap = 512;
-  Path path = Path::Gpu;
+  Path path = Path::Gather;
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
   bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
@@ -102,7 +113,8 @@ class Deformer {
                                           float texelSize);
   // Recomputes the normal map of a surface over texels [lo, hi] (inclusive).
   void regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi);
-  // The last address maps of side 0 (uv of X), for the renderer's debug view.
+  // The last address map of side 0, for the renderer's debug view: the uv of X
+  // (scatter paths) or of the other body (the gather renders only its pass).
   const render::Texture2D& lastAddressMap() const;
   // Phases of the last deform() when options().profile is set (empty otherwise).
   const std::vector<PhaseTime>& profile() const;

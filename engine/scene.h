@@ -30,7 +30,9 @@ struct Material {
   glm::vec3 color{0.7f, 0.7f, 0.7f};
 };
 
-enum class DeformPath { Gpu, Readback };
+// The bump-map update (deform::Path): a per-texel gather on the GPU (the default, no gaps), or the
+// paper's scatter, on the GPU or read back to the CPU.
+enum class DeformPath { Gather, Scatter, Readback };
 enum class TangentCorrection { None, Multiply, Divide };
 
 struct DeformationSettings {
@@ -39,7 +41,7 @@ struct DeformationSettings {
   double bumpDepth = 0.1;          // k (m)
   double bumpDepthCollide = 0.02;  // k' (m)
   int addressMap = 512;
-  DeformPath path = DeformPath::Gpu;
+  DeformPath path = DeformPath::Gather;
   TangentCorrection tangentCorrection = TangentCorrection::None;
   double tangentFloor = 0.2;       // for Divide: |N . N_C| never below this
   bool craterRims = false;

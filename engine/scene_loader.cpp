@@ -400,10 +400,11 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     ds.bumpDepth = d.number("bump_depth", ds.bumpDepth, 0, 10, true);
     ds.bumpDepthCollide = d.number("bump_depth_collide", ds.bumpDepthCollide, 0, 10);
     ds.addressMap = d.integer("address_map", ds.addressMap, 16, 4096);
-    const std::string path = d.string("path", "gpu");
-    if (path == "gpu") ds.path = DeformPath::Gpu;
+    const std::string path = d.string("path", "gather");
+    if (path == "gather" || path == "gpu") ds.path = DeformPath::Gather;  // "gpu": its name before the scatter had a GPU twin
+    else if (path == "scatter") ds.path = DeformPath::Scatter;
     else if (path == "readback") ds.path = DeformPath::Readback;
-    else d.fail("path", "must be \"gpu\" or \"readback\", got '" + path + "'");
+    else d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
     const std::string tc = d.string("tangent_correction", "none");
     if (tc == "none") ds.tangentCorrection = TangentCorrection::None;
     else if (tc == "multiply") ds.tangentCorrection = TangentCorrection::Multiply;

@@ -38,6 +38,15 @@ std::string shapeKey(const ShapeDesc& s) {
   else os << s.type << ":" << s.radius << "," << s.height;
   return os.str();
 }
+
+deform::Path toDeformPath(DeformPath p) {
+  switch (p) {
+    case DeformPath::Gather: return deform::Path::Gather;
+    case DeformPath::Scatter: return deform::Path::Scatter;
+    case DeformPath::Readback: return deform::Path::Readback;
+  }
+  return deform::Path::Gather;
+}
 }  // namespace
 
 Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl) {
@@ -45,7 +54,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl) {
   if (gl_) {
     deform::DeformOptions o;
     o.addressMap = scene.deformation.addressMap;
-    o.path = scene.deformation.path == DeformPath::Gpu ? deform::Path::Gpu : deform::Path::Readback;
+    o.path = toDeformPath(scene.deformation.path);
     o.tangent = static_cast<deform::TangentMode>(scene.deformation.tangentCorrection);
     o.tangentFloor = static_cast<float>(scene.deformation.tangentFloor);
     o.craterRims = scene.deformation.craterRims;
@@ -62,7 +71,7 @@ void Simulation::setDeformPath(DeformPath p) {
   scene_.deformation.path = p;
   if (deformer_) {
     deform::DeformOptions o = deformer_->options();
-    o.path = p == DeformPath::Gpu ? deform::Path::Gpu : deform::Path::Readback;
+    o.path = toDeformPath(p);
     deformer_->setOptions(o);
   }
 }

@@ -17,7 +17,7 @@ namespace {
 const char* kGood = R"({
   "format": "crumple-scene/1", "name": "t", "gravity": [0, -9.81, 0], "timestep": 0.004, "duration": 1,
   "materials": {"clay": {"density": 1800, "restitution": 0.2, "friction": 0.8, "kappa": 0.1, "thickness": 0.05}},
-  "deformation": {"enabled": true, "address_map": 256, "path": "gpu"},
+  "deformation": {"enabled": true, "address_map": 256, "path": "gather"},
   "bodies": [
     {"name": "plate", "shape": {"type": "box", "size": [2, 0.2, 2]}, "material": "clay", "static": true,
      "position": [0, -0.1, 0], "bump_map": {"resolution": 128}},
@@ -74,7 +74,7 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"duration\": 1", "\"duration\": 1e300"), "duration", "must be in"},
       {mutate("\"address_map\": 256", "\"address_map\": 100000"), "deformation.address_map", "must be in [16, 4096]"},
       {mutate("\"address_map\": 256", "\"address_map\": 256.5"), "deformation.address_map", "must be an integer"},
-      {mutate("\"path\": \"gpu\"", "\"path\": \"cpu\""), "deformation.path", "must be \"gpu\" or \"readback\""},
+      {mutate("\"path\": \"gather\"", "\"path\": \"cpu\""), "deformation.path", "must be \"gather\", \"scatter\" or \"readback\""},
       {mutate("\"material\": \"clay\", \"position\": [0, 0.6", "\"material\": \"steel\", \"position\": [0, 0.6"),
        "bodies[1].material", "unknown material 'steel'"},
       {mutate("\"type\": \"sphere\"", "\"type\": \"blob\""), "bodies[1].shape.type", "unknown shape type 'blob'"},

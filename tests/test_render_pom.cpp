@@ -24,7 +24,7 @@ struct Stage {
   TriangleMesh ballMesh = sphereMesh(0.25, 128);
   std::shared_ptr<deform::GpuMesh> plateGpu = std::make_shared<deform::GpuMesh>(plateMesh);
   std::shared_ptr<deform::GpuMesh> ballGpu = std::make_shared<deform::GpuMesh>(ballMesh);
-  deform::Deformer deformer{{256, deform::Path::Gpu}};
+  deform::Deformer deformer{{256, deform::Path::Gather}};
   std::unique_ptr<deform::Surface> plate;
   Stage(const Image* initial = nullptr) {
     const float texel = static_cast<float>(plateGpu->metresPerUv / 256);

@@ -1,0 +1,66 @@
+#version 450 core
+// texel_gather.frag: the bump-map update of section 4.2, gathered per texel.
+// The texel's surface point, raised or lowered by its height (k', as address
+// pass A does), is looked up in the other body's depth map like a shadow-map
+// lookup: where the other body's farthest back face lies beyond it (dD > 0),
+//   h' = clamp(h - dD (zfar - znear) / k, 0, 1)
+// at this very texel. The other body's depth is interpolated bilinearly between
+// the four nearest address-map pixels where all four saw it (the nearest one at
+// its silhouette), so the address map's size trades the dent's accuracy, never
+// its continuity: every texel of the footprint gets its value.
+// in:  gClip, gNormal, gBox; X's height map, the other body's depth pass
+// out: uNewHeight (r32ui float bits, minimum), uRegion[uSide] grows to the touched texels
+in vec3 gClip;
+in vec3 gNormal;
+flat in vec4 gBox;
+layout(binding = 2) uniform sampler2D uAddressOther;
+layout(binding = 3) uniform sampler2D uDepthOther;
+layout(binding = 5) uniform sampler2D uHeightX;
+layout(r32ui, binding = 0) uniform uimage2D uNewHeight;
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
+uniform int uSide;
+uniform int uSize;             // address map (pixels)
+uniform int uResolution;       // X's map (texels)
+uniform float uBumpToDepth;    // X's k' / (zfar - znear)
+uniform float uDepthToHeight;  // (zfar - znear) / k
+uniform int uTangentMode;      // 0 none, 1 multiply by |N . N_C|, 2 divide with a floor
+uniform float uTangentFloor;
+uniform vec3 uViewNormal;      // N_C as owned by X (towards the camera)
+bool seen(ivec2 q) { return all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(uSize))) && texelFetch(uAddressOther, q, 0).r >= 0.0; }
+float depthAt(ivec2 q) { return texelFetch(uDepthOther, q, 0).r; }
+void main() {
+  vec2 f = gl_FragCoord.xy;
+  if (any(lessThan(f, gBox.xy)) || any(greaterThan(f, gBox.zw))) return;
+  ivec2 t = ivec2(f);
+  if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(uResolution)))) return;
+  // Pixel coordinates in the address map (pixel centres at integers).
+  vec2 px = (gClip.xy * 0.5 + 0.5) * float(uSize) - 0.5;
+  if (any(lessThan(px, vec2(-0.5))) || any(greaterThan(px, vec2(float(uSize) - 0.5)))) return;
+  ivec2 b = ivec2(floor(px));
+  vec2 w = px - vec2(b);
+  float dO;
+  if (seen(b) && seen(b + ivec2(1, 0)) && seen(b + ivec2(0, 1)) && seen(b + ivec2(1, 1))) {
+    dO = mix(mix(depthAt(b), depthAt(b + ivec2(1, 0)), w.x), mix(depthAt(b + ivec2(0, 1)), depthAt(b + ivec2(1, 1)), w.x), w.y);
+  } else {
+    ivec2 q = ivec2(floor(px + 0.5));
+    if (!seen(q)) return;
+    dO = depthAt(q);
+  }
+  float h = texelFetch(uHeightX, t, 0).r;
+  float zX = clamp(gClip.z * 0.5 + 0.5 - (h - 0.5) * uBumpToDepth, 0.0, 1.0);
+  float dD = dO - zX;
+  if (!(dD > 0.0)) return;
+  if (uTangentMode != 0) {
+    float c = abs(dot(normalize(gNormal), uViewNormal));
+    dD = uTangentMode == 1 ? dD * c : dD / max(c, uTangentFloor);
+  }
+  float h2 = clamp(fma(-dD, uDepthToHeight, h), 0.0, 1.0);
+  if (!(h2 < h)) return;
+  imageAtomicMin(uNewHeight, t, floatBitsToUint(h2));
+  // Most fragments leave the region as it is: read before the atomics.
+  ivec4 r = uRegion[uSide];
+  if (t.x < r.x) atomicMin(uRegion[uSide].x, t.x);
+  if (t.y < r.y) atomicMin(uRegion[uSide].y, t.y);
+  if (t.x > r.z) atomicMax(uRegion[uSide].z, t.x);
+  if (t.y > r.w) atomicMax(uRegion[uSide].w, t.y);
+}

@@ -159,7 +159,6 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   BodyRuntime b;
   b.name = d.name;
   b.material = &scene_.materials.at(d.material);
-  b.thickness = b.material->thickness;
   const int res = d.bumpMap.present ? d.bumpMap.resolution : 256;
   render::Image initial;
   bool hasImage = false;
@@ -341,7 +340,7 @@ bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const 
                              const glm::dvec3& normal, double push) {
   BodyRuntime& ground = bodies_[static_cast<size_t>(groundBody)];
   if (!ground.contactDeformation || !ground.surface) return false;
-  const double depth = deformDepth(ground.thickness, percentDeform(ground.material->kappa, push,
+  const double depth = deformDepth(ground.material->thickness, percentDeform(ground.material->kappa, push,
                                                                     yieldThreshold(ground.material->restitution)));
   if (!(depth > 0)) return false;
   const RigidBody& g = world_.body(ground.index);
@@ -464,7 +463,7 @@ void Simulation::step() {
       SideDecision& d = rec.side[s];
       d.threshold = yieldThreshold(body.material->restitution);
       d.percentDeform = percentDeform(body.material->kappa, e.elasticImpulse, d.threshold);
-      d.deformDepth = deformDepth(body.thickness, d.percentDeform);
+      d.deformDepth = deformDepth(body.material->thickness, d.percentDeform);
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
@@ -494,7 +493,7 @@ void Simulation::step() {
       for (int s = 0; s < 2; ++s) {
         const BodyRuntime& body = bodies_[static_cast<size_t>(bi[s])];
         if (!body.contactDeformation || !body.surface) continue;
-        depth[s] = deformDepth(body.thickness, percentDeform(body.material->kappa, e.elasticImpulse,
+        depth[s] = deformDepth(body.material->thickness, percentDeform(body.material->kappa, e.elasticImpulse,
                                                              yieldThreshold(body.material->restitution)));
       }
       if (!(depth[0] > 0) && !(depth[1] > 0)) continue;

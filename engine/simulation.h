@@ -39,7 +39,6 @@ struct BodyRuntime {
   std::shared_ptr<const TriangleMesh> mesh;       // render mesh, shape frame, one-to-one uvs
   std::shared_ptr<const deform::GpuMesh> gpuMesh;  // null without GL
   std::unique_ptr<deform::Surface> surface;        // null without a bump map
-  double thickness = 0.05;
   bool contactDeformation = false;
 };
 

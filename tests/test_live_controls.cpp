@@ -1,0 +1,108 @@
+// The sandbox's panel changes a running simulation through these same calls:
+// each material and deformation control must change the next dent.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <functional>
+
+#include "engine/simulation.h"
+#include "gl_fixture.h"
+
+using namespace crumple;
+
+namespace {
+
+struct Dent {
+  render::Image map;
+  double volume = 0;  // sum of (0.5 - h) over dented texels, map units
+  int raised = 0;     // texels above 0.5
+};
+
+// Runs `scene` for `seconds` with `control` applied after the first step (as
+// the panel does, live) and returns body `body`'s height map.
+Dent run(const std::string& sceneName, const std::string& body, double seconds,
+         const std::function<void(Simulation&)>& control) {
+  test::glContext();
+  const std::string dir = std::string(CRUMPLE_SCENES);
+  const Scene scene = loadScene(dir + "/" + sceneName + ".json");
+  Simulation sim(scene, true);
+  sim.step();
+  if (control) control(sim);
+  const long steps = std::lround(seconds / scene.timestep);
+  for (long i = 1; i < steps; ++i) sim.step();
+  Dent d;
+  for (const BodyRuntime& b : sim.bodies())
+    if (b.name == body) d.map = b.surface->downloadHeight();
+  REQUIRE(d.map.width > 0);
+  for (float v : d.map.pixels) {
+    if (v < 0.5f) d.volume += 0.5 - v;
+    d.raised += v > 0.5f;
+  }
+  return d;
+}
+
+bool sameMap(const Dent& a, const Dent& b) { return a.map.pixels == b.map.pixels; }
+
+}  // namespace
+
+TEST_CASE("every material and deformation control of the sandbox changes the next dent") {
+  // A steel ball thrown onto a clay plate (the built-in default scene).
+  const std::string s = "sphere-into-plate";
+  const double t = 0.4;  // past the first impact
+  const Dent base = run(s, "plate", t, nullptr);
+  REQUIRE(base.volume > 10);
+  auto material = [](const char* name) {
+    return [name](Simulation& sim) -> Material& { return sim.sceneMaterials().at(name); };
+  };
+  SUBCASE("thickness") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { material("clay")(sim).thickness *= 2; });
+    CHECK(d.volume > base.volume * 1.5);
+  }
+  SUBCASE("kappa") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { material("clay")(sim).kappa *= 2; });
+    CHECK(d.volume > base.volume * 1.1);
+  }
+  SUBCASE("restitution (the yield threshold, equation 4)") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setRestitution("clay", 0.9); });
+    CHECK_FALSE(sameMap(d, base));
+  }
+  SUBCASE("k (bump depth): the same dent in metres is deeper in map units when k is smaller") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setBumpDepths(0.05, 0.02); });
+    CHECK(d.volume > base.volume * 1.5);
+  }
+  SUBCASE("address map") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setAddressMap(64); });
+    CHECK_FALSE(sameMap(d, base));
+    CHECK(d.volume == doctest::Approx(base.volume).epsilon(0.05));  // accuracy, not the dent, changes
+  }
+  SUBCASE("path") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setDeformPath(DeformPath::Scatter); });
+    CHECK_FALSE(sameMap(d, base));
+  }
+  SUBCASE("crater rims") {
+    CHECK(base.raised == 0);
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setCraterRims(true); });
+    CHECK(d.raised > 20);
+  }
+  SUBCASE("impulse floor") {
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.deformationSettings().impulseFloor = 1e9; });
+    CHECK(d.volume == 0.0);
+  }
+}
+
+TEST_CASE("k' and normal-mapped collision normals change the print of a patterned stamp") {
+  // A bronze box whose map carries raised spots strikes a plaster wall (figure 7).
+  const std::string s = "pattern-box";
+  const double t = 0.5;
+  const Dent base = run(s, "wall", t, nullptr);
+  REQUIRE(base.volume > 10);
+  SUBCASE("k' (bump depth used in collisions): the spots reach deeper") {
+    const Dent d = run(s, "wall", t, [&](Simulation& sim) { sim.setBumpDepths(0.1, 0.08); });
+    CHECK(d.volume > base.volume * 1.05);
+  }
+  SUBCASE("normal-mapped collision normals") {
+    const Dent d = run(s, "wall", t, [&](Simulation& sim) { sim.setNormalMappedNormals(true); });
+    CHECK_FALSE(sameMap(d, base));
+  }
+}

@@ -263,7 +263,7 @@ void renderBench(benchmark::State& state, bool pom) {
   r.settings().parallax = pom ? render::ParallaxMode::Occlusion : render::ParallaxMode::None;
   r.settings().selfShadow = pom;
   const std::vector<render::RenderItem> items = renderItems(sim);
-  const render::View view = cameraView(sim.scene().cameras.front());
+  const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   for (auto _ : state) {
     r.draw(items, view);
     glFinish();

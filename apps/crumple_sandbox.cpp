@@ -86,7 +86,7 @@ struct App {
                                                      std::cos(orbitPitch) * std::sin(orbitYaw));
     }
     if (!follow && !scene.cameras.empty() && car < 0) {
-      v = cameraView(scene.cameras.front());
+      v = cameraView(scene.cameras.front(), sim.get());
     }
     v.fovDegrees = 50;
     return v;

@@ -100,7 +100,7 @@ int main(int argc, char** argv) {
       for (const auto& cam : cams) {
         char name[64];
         std::snprintf(name, sizeof name, "_%05ld.png", frame);
-        renderer->draw(renderItems(sim), cameraView(cam));
+        renderer->draw(renderItems(sim), cameraView(cam, &sim));
         renderer->savePng((framesDir / (cam.name + name)).string());
       }
       ++frame;

@@ -7,12 +7,13 @@ namespace crumple::deform {
 
 GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   std::vector<float> v;
-  v.reserve(mesh.positions.size() * 8);
+  v.reserve(mesh.positions.size() * 11);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const glm::vec3 p = mesh.positions[i];
     const glm::vec3 n = i < mesh.normals.size() ? mesh.normals[i] : glm::vec3(0, 1, 0);
     const glm::vec2 t = i < mesh.uvs.size() ? mesh.uvs[i] : glm::vec2(0);
-    v.insert(v.end(), {p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y});
+    const glm::vec3 c = i < mesh.colors.size() ? mesh.colors[i] : glm::vec3(1);
+    v.insert(v.end(), {p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y, c.x, c.y, c.z});
   }
   std::vector<uint32_t> idx;
   idx.reserve(mesh.triangles.size() * 3);
@@ -33,15 +34,16 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   boundsMin = mesh.boundsMin();
   boundsMax = mesh.boundsMax();
   const GLuint a = vao.id();
-  glVertexArrayVertexBuffer(a, 0, vertices.id(), 0, 8 * sizeof(float));
+  glVertexArrayVertexBuffer(a, 0, vertices.id(), 0, 11 * sizeof(float));
   glVertexArrayElementBuffer(a, indices.id());
-  for (GLuint k = 0; k < 3; ++k) {
+  for (GLuint k = 0; k < 4; ++k) {
     glEnableVertexArrayAttrib(a, k);
     glVertexArrayAttribBinding(a, k, 0);
   }
   glVertexArrayAttribFormat(a, 0, 3, GL_FLOAT, GL_FALSE, 0);
   glVertexArrayAttribFormat(a, 1, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float));
   glVertexArrayAttribFormat(a, 2, 2, GL_FLOAT, GL_FALSE, 6 * sizeof(float));
+  glVertexArrayAttribFormat(a, 3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float));
 }
 
 void GpuMesh::draw() const {

@@ -8,11 +8,13 @@
 
 namespace crumple {
 
-void ChartMesh::addTriangle(int chartId, const glm::vec3 p[3], const glm::vec3 n[3], const glm::vec2 uv[3]) {
+void ChartMesh::addTriangle(int chartId, const glm::vec3 p[3], const glm::vec3 n[3], const glm::vec2 uv[3],
+                            const glm::vec3* color) {
   for (int k = 0; k < 3; ++k) {
     positions.push_back(p[k]);
     normals.push_back(n[k]);
     chartUV.push_back(uv[k]);
+    if (color) colors.push_back(color[k]);
   }
   chart.push_back(chartId);
 }
@@ -100,6 +102,7 @@ TriangleMesh packCharts(const ChartMesh& cm, int resolution, int gutterTexels) {
         out.positions.push_back(p);
         out.normals.push_back(n);
         out.uvs.push_back(uv);
+        if (!cm.colors.empty()) out.colors.push_back(cm.colors[t * 3 + k]);
       }
       idx[k] = it->second;
     }
@@ -230,7 +233,10 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
       }
       glm::vec2 uv[3];
       for (int k = 0; k < 3; ++k) uv[k] = project(p[k], axis[t]);
-      cm.addTriangle(chartIds[t], p, n, uv);
+      const bool coloured = mesh.colors.size() == mesh.positions.size();
+      const glm::vec3 c[3] = {coloured ? mesh.colors[tri.x] : glm::vec3(1), coloured ? mesh.colors[tri.y] : glm::vec3(1),
+                              coloured ? mesh.colors[tri.z] : glm::vec3(1)};
+      cm.addTriangle(chartIds[t], p, n, uv, coloured ? c : nullptr);
     }
     return cm;
   };

@@ -238,6 +238,7 @@ TriangleMesh loadObj(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw MeshError(path + ": cannot be opened");
   std::vector<glm::vec3> v;
+  std::vector<glm::vec3> vc;  // vertex colours, when the file has them
   std::vector<glm::vec2> vt;
   TriangleMesh out;
   bool anyUv = false, allUv = true;
@@ -274,6 +275,15 @@ TriangleMesh loadObj(const std::string& path) {
     if (tag == "v") {
       const float x = number(ls), y = number(ls), z = number(ls);
       v.emplace_back(x, y, z);
+      // A common extension: "v x y z r g b", colours in [0, 1].
+      std::string r;
+      if (ls >> r) {
+        std::istringstream rs(r);
+        const float cr = number(rs), cg = number(ls), cb = number(ls);
+        if (!(cr >= 0 && cr <= 1 && cg >= 0 && cg <= 1 && cb >= 0 && cb <= 1)) fail("vertex colour outside [0, 1]");
+        vc.resize(v.size() - 1, glm::vec3(1));
+        vc.emplace_back(cr, cg, cb);
+      }
     } else if (tag == "vt") {
       const float a = number(ls);
       std::string rest;
@@ -296,6 +306,10 @@ TriangleMesh loadObj(const std::string& path) {
           if (!t.empty()) ti = index(t, vt.size(), "texture coordinate");
         }
         out.positions.push_back(v[static_cast<size_t>(vi)]);
+        if (!vc.empty()) {
+          out.colors.resize(out.positions.size() - 1, glm::vec3(1));
+          out.colors.push_back(static_cast<size_t>(vi) < vc.size() ? vc[static_cast<size_t>(vi)] : glm::vec3(1));
+        }
         out.uvs.push_back(ti >= 0 ? vt[static_cast<size_t>(ti)] : glm::vec2(-1));
         anyUv = anyUv || ti >= 0;
         allUv = allUv && ti >= 0;
@@ -308,6 +322,7 @@ TriangleMesh loadObj(const std::string& path) {
   }
   if (out.triangles.empty()) throw MeshError(path + ": no faces");
   if (!anyUv || !allUv) out.uvs.clear();
+  if (!out.colors.empty()) out.colors.resize(out.positions.size(), glm::vec3(1));
   out.computeNormals();
   return out;
 }

@@ -115,6 +115,11 @@ struct CameraDesc {
   glm::dvec3 target{0};
   glm::dvec3 up{0, 1, 0};
   double fov = 45;  // degrees, vertical
+  // A camera that follows a body: position and target are then offsets from
+  // its centre of mass, in world axes, or (heading) in axes turned with the
+  // body's heading about up (x: the body's x projected on the ground).
+  std::string follow;
+  bool followHeading = false;
 };
 
 struct Scene {

@@ -34,10 +34,30 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
   return items;
 }
 
-render::View cameraView(const CameraDesc& c) {
+render::View cameraView(const CameraDesc& c, const Simulation* sim) {
   render::View v;
-  v.eye = glm::vec3(c.position);
-  v.target = glm::vec3(c.target);
+  glm::dvec3 eye = c.position, target = c.target;
+  if (!c.follow.empty() && sim) {
+    for (const BodyRuntime& b : sim->bodies()) {
+      if (b.name != c.follow) continue;
+      const RigidBody& rb = sim->world().body(b.index);
+      glm::dmat3 axes(1);
+      if (c.followHeading) {
+        // The body's x on the ground plane (normal to up) gives the heading.
+        const glm::dvec3 up = glm::normalize(c.up);
+        glm::dvec3 fwd = glm::mat3_cast(rb.q) * glm::dvec3(1, 0, 0);
+        fwd -= up * glm::dot(fwd, up);
+        if (glm::length(fwd) > 1e-6) {
+          fwd = glm::normalize(fwd);
+          axes = glm::dmat3(fwd, up, glm::cross(fwd, up));
+        }
+      }
+      eye = rb.x + axes * c.position;
+      target = rb.x + axes * c.target;
+    }
+  }
+  v.eye = glm::vec3(eye);
+  v.target = glm::vec3(target);
   v.up = glm::vec3(c.up);
   v.fovDegrees = static_cast<float>(c.fov);
   const float dist = glm::length(v.target - v.eye);

@@ -9,6 +9,7 @@
 namespace crumple {
 
 std::vector<render::RenderItem> renderItems(const Simulation& sim);
-render::View cameraView(const CameraDesc& camera);
+// The view of a scene camera; a camera that follows a body needs the simulation.
+render::View cameraView(const CameraDesc& camera, const Simulation* sim = nullptr);
 
 }  // namespace crumple

@@ -89,6 +89,7 @@ class Simulation {
   void step();
   const Scene& scene() const { return scene_; }
   World& world() { return world_; }
+  const World& world() const { return world_; }
   const std::vector<BodyRuntime>& bodies() const { return bodies_; }
   std::vector<BodyRuntime>& bodies() { return bodies_; }
   const std::vector<EventRecord>& events() const { return events_; }

@@ -13,6 +13,9 @@ struct TriangleMesh {
   std::vector<glm::vec3> positions;
   std::vector<glm::vec3> normals;
   std::vector<glm::vec2> uvs;  // empty when the mesh has no parameterisation
+  // Vertex colours (sRGB), empty when the file has none. They multiply the
+  // material's colour, as glTF's COLOR_0 multiplies its base colour.
+  std::vector<glm::vec3> colors;
   std::vector<glm::uvec3> triangles;
 
   bool empty() const { return triangles.empty(); }

@@ -144,6 +144,7 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
   glUniform2f(u("uLodFade"), s.lodFadeStart, s.lodFadeEnd);
   glBindTextureUnit(2, m.shadowMap.id());
   if (s.debug == DebugView::Wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+  glVertexAttrib3f(3, 1.0f, 1.0f, 1.0f);  // the colour of vertex arrays without one: white
   for (const auto& it : items) {
     const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
     glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));

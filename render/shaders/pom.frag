@@ -7,6 +7,7 @@
 in vec3 vWorld;
 in vec3 vNormal;
 in vec2 vUV;
+in vec3 vColor;  // multiplies uColor (glTF's COLOR_0)
 in vec4 vShadow;
 layout(binding = 0) uniform sampler2D uHeight;
 layout(binding = 1) uniform sampler2D uNormalMap;
@@ -114,7 +115,7 @@ void main() {
     }
     selfShadow = 1.0 - clamp(occlusion, 0.0, 1.0) * fade;
   }
-  vec3 albedo = pow(uColor, vec3(2.2));
+  vec3 albedo = pow(uColor * vColor, vec3(2.2));
   vec3 ambient = mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
   vec3 H = normalize(L - V);
   float spec = pow(max(dot(Nb, H), 0.0), 48.0) * 0.15;

@@ -1,10 +1,11 @@
 #version 450 core
 // pom.vert: world-space position, normal and uv for the parallax-occlusion pass.
-// in:  aPosition, aNormal, aUV (shape frame)
-// out: vWorld, vNormal, vUV, vShadow (sun clip space)
+// in:  aPosition, aNormal, aUV (shape frame), aColor
+// out: vWorld, vNormal, vUV, vShadow (sun clip space), vColor
 layout(location = 0) in vec3 aPosition;
 layout(location = 1) in vec3 aNormal;
 layout(location = 2) in vec2 aUV;
+layout(location = 3) in vec3 aColor;  // vertex colour (sRGB), white where the mesh has none
 uniform mat4 uModel;
 uniform mat3 uNormalMatrix;
 uniform mat4 uViewProjection;
@@ -13,7 +14,9 @@ out vec3 vWorld;
 out vec3 vNormal;
 out vec2 vUV;
 out vec4 vShadow;
+out vec3 vColor;
 void main() {
+  vColor = aColor;
   vec4 world = uModel * vec4(aPosition, 1.0);
   vWorld = world.xyz;
   vNormal = uNormalMatrix * aNormal;

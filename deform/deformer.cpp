@@ -179,16 +179,18 @@ struct Deformer::Impl {
                           {GL_GEOMETRY_SHADER, "texel.geom", std::string(deformShader("texel.geom"))},
                           {GL_FRAGMENT_SHADER, "texel_gather.frag", std::string(deformShader("texel_gather.frag"))}}};
   // The gather draws in X's texture space and writes only through image
-  // atomics: a framebuffer without attachments, as large as any map.
-  render::Framebuffer texelSpace = [] {
-    render::Framebuffer f;
-    GLint w = 0, h = 0;
-    glGetIntegerv(GL_MAX_FRAMEBUFFER_WIDTH, &w);
-    glGetIntegerv(GL_MAX_FRAMEBUFFER_HEIGHT, &h);
-    glNamedFramebufferParameteri(f.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, std::min(w, 16384));
-    glNamedFramebufferParameteri(f.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, std::min(h, 16384));
-    return f;
-  }();
+  // atomics: a framebuffer without attachments, sized to the map being drawn
+  // (a software rasteriser bins the whole framebuffer: no larger than needed).
+  render::Framebuffer texelSpace;
+  int texelSpaceSize = 0;
+  void bindTexelSpace(int res) {
+    if (res != texelSpaceSize) {
+      glNamedFramebufferParameteri(texelSpace.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, res);
+      glNamedFramebufferParameteri(texelSpace.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, res);
+      texelSpaceSize = res;
+    }
+    texelSpace.bind();
+  }
   render::Program update = compute("dent_update.comp");
   render::Program regionDispatch = compute("region_dispatch.comp");
   render::Program commit = compute("dent_commit.comp");
@@ -408,7 +410,7 @@ int Deformer::deform(const DeformRequest& rq) {
     if (gather) {
       glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
       m.gather.use();
-      m.texelSpace.bind();
+      m.bindTexelSpace(res);
       glViewport(0, 0, res, res);
       glDisable(GL_DEPTH_TEST);
       glDisable(GL_CULL_FACE);
@@ -424,6 +426,15 @@ int Deformer::deform(const DeformRequest& rq) {
       glUniform1i(m.gather.uniform("uSide"), side);
       glUniform1i(m.gather.uniform("uSize"), m.size);
       glUniform1i(m.gather.uniform("uResolution"), res);
+      glUniform1f(m.gather.uniform("uViewMargin"), 4.0f / static_cast<float>(m.size));
+      double farthest = 0;
+      for (int c = 0; c < 8; ++c) {
+        const glm::dvec3 corner(c & 1 ? bo[1].x : bo[0].x, c & 2 ? bo[1].y : bo[0].y, c & 4 ? bo[1].z : bo[0].z);
+        farthest = std::max(farthest, (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / range);
+      }
+      if (O.surface) farthest += 0.5 * O.surface->bumpDepthCollide() / range;
+      glUniform1f(m.gather.uniform("uFarthestOther"), static_cast<float>(farthest + 1e-6));
+      glUniform1f(m.gather.uniform("uBumpReach"), static_cast<float>(0.5 * X.surface->bumpDepthCollide() / range));
       glUniform1f(m.gather.uniform("uBumpToDepth"), static_cast<float>(X.surface->bumpDepthCollide() / range));
       glUniform1f(m.gather.uniform("uDepthToHeight"), depthToHeight);
       glUniform1i(m.gather.uniform("uTangentMode"), static_cast<int>(options_.tangent));

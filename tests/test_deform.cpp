@@ -388,7 +388,7 @@ TEST_CASE("crater rims: the volume pushed down rises in a ring around the dent, 
       }
       if (plain.pixels[i] < 0.5f) plainDown += 0.5 - plain.pixels[i];
     }
-    MESSAGE(pathName(path) << ": dent volume " << down << ", rim volume " << up << " over " << raised << " texels");
+    MESSAGE(name << ": dent volume " << down << ", rim volume " << up << " over " << raised << " texels");
     CHECK(down == Approx(plainDown).epsilon(1e-6));  // the dent itself is unchanged
     CHECK(raised > 20);
     CHECK(up == Approx(down).epsilon(0.01));        // volume conserved

@@ -628,17 +628,26 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   // Maps.
   long deformedSides = 0;
   for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
+  // Bodies that were never dented share their maps (lazy maps): encode each once, copy the files.
+  std::map<GLuint, std::string> written;
   for (const auto& b : sim.bodies()) {
     if (!b.surface) continue;
+    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"), normalPath = root / "normalmaps" / (b.name + ".png");
+    if (auto it = written.find(b.surface->height().id()); it != written.end()) {
+      fs::copy_file(root / "heightmaps" / it->second, heightPath);
+      fs::copy_file(root / "normalmaps" / it->second, normalPath);
+      continue;
+    }
+    written[b.surface->height().id()] = b.name + ".png";
     const render::Image h = b.surface->downloadHeight();
-    render::writePng((root / "heightmaps" / (b.name + ".png")).string(), h, 16);
+    render::writePng(heightPath.string(), h, 16);
     const int n = b.surface->resolution();
     std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
     b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
     render::Image nm(n, n, 3);
     for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
       for (int c = 0; c < 3; ++c) nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
-    render::writePng((root / "normalmaps" / (b.name + ".png")).string(), nm, 8);
+    render::writePng(normalPath.string(), nm, 8);
   }
   // Summary.
   json s;
@@ -708,14 +717,15 @@ std::string_view shaderSource(std::string_view name);
 std::string builtinSceneText(const std::string& name) {
   if (name == "default" || name == "sphere-into-plate") return std::string(engine::scenes::shaderSource("sphere-into-plate.json"));
   if (name == "highway") return std::string(engine::scenes::shaderSource("highway.json"));
-  if (name == "car.obj") return std::string(engine::scenes::shaderSource("car.obj"));
+  for (const char* asset : {"car.obj", "sedan.obj", "wbeam.obj"})
+    if (name == asset) return std::string(engine::scenes::shaderSource(asset));
   throw std::invalid_argument("no built-in scene named " + name);
 }
 
 Scene builtinHighway() {
   const fs::path dir = fs::temp_directory_path() / ("crumple-highway-" + std::to_string(::getpid()));
   fs::create_directories(dir / "assets");
-  std::ofstream(dir / "assets" / "car.obj") << builtinSceneText("car.obj");
+  for (const char* asset : {"sedan.obj", "wbeam.obj"}) std::ofstream(dir / "assets" / asset) << builtinSceneText(asset);
   return parseScene(builtinSceneText("highway"), "<built-in highway scene>", dir.string());
 }
 

@@ -50,7 +50,7 @@ std::vector<uint8_t> encodePng(const Image& image, int bitDepth) {
         float v = image.at(x, y, c);
         if (!(v >= 0.0f)) v = 0.0f;  // NaN -> 0
         v = std::min(v, 1.0f);
-        auto q = static_cast<uint32_t>(std::lround(v * maxLevel));
+        const auto q = static_cast<uint32_t>(v * maxLevel + 0.5f);  // v in [0, 1]: round half up
         if (bitDepth == 16) raw.push_back(static_cast<uint8_t>(q >> 8));
         raw.push_back(static_cast<uint8_t>(q & 0xff));
       }

@@ -13,7 +13,7 @@
 
 namespace fs = std::filesystem;
 
-TEST_CASE("sandbox: --frames 600 --autopilot --screenshot ends with a picture and dented car and rail") {
+TEST_CASE("sandbox: --frames 150 --autopilot --screenshot ends with a picture and dented car and rail") {
   const fs::path dir = fs::temp_directory_path() / ("crumple_sandbox_test_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -23,7 +23,7 @@ TEST_CASE("sandbox: --frames 600 --autopilot --screenshot ends with a picture an
   const char* asan = std::getenv("ASAN_OPTIONS");
   const std::string options = std::string(asan ? asan : "") + (asan ? ":" : "") + "detect_leaks=0";
   setenv("ASAN_OPTIONS", options.c_str(), 1);
-  const std::string cmd = std::string(CRUMPLE_SANDBOX) + " --frames 600 --autopilot --width 480 --height 270 --screenshot " +
+  const std::string cmd = std::string(CRUMPLE_SANDBOX) + " --frames 150 --autopilot --width 480 --height 270 --screenshot " +
                           shot.string() + " --out " + out.string() + " > " + log.string() + " 2>&1";
   const int rc = std::system(cmd.c_str());
   std::ifstream lf(log);
@@ -42,13 +42,17 @@ TEST_CASE("sandbox: --frames 600 --autopilot --screenshot ends with a picture an
   for (float v : img.pixels) var += (v - mean) * (v - mean);
   var /= img.pixels.size();
   CHECK(var > 0.002);
-  for (const char* map : {"car.png", "rail_left.png"}) {
-    CAPTURE(map);
-    const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / map).string());
-    float lowest = 1;
-    for (float v : h.pixels) lowest = std::min(lowest, v);
-    CHECK(lowest < 0.49f);
-  }
+  // The car and one of the rail's segments are dented.
+  auto lowest = [](const fs::path& map) {
+    float low = 1;
+    for (float v : crumple::render::readPng(map.string()).pixels) low = std::min(low, v);
+    return low;
+  };
+  CHECK(lowest(out / "heightmaps" / "car.png") < 0.49f);
+  float rail = 1;
+  for (const auto& f : fs::directory_iterator(out / "heightmaps"))
+    if (f.path().filename().string().rfind("rail_", 0) == 0) rail = std::min(rail, lowest(f.path()));
+  CHECK(rail < 0.49f);
 }
 
 TEST_CASE("sandbox: a fixed render scale renders the view smaller and scales it to the window; bad scales are bad input") {

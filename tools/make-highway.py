@@ -61,7 +61,7 @@ def scene():
                      "color": [0.58, 0.6, 0.62]},
             "post": {"density": 7800, "restitution": 0.4, "friction": 0.5, "kappa": 0.0, "thickness": 0.1,
                      "color": [0.35, 0.36, 0.38]},
-            "car_body": {"density": 300, "restitution": 0.3, "friction": 0.5, "kappa": 0.00012, "thickness": 0.08,
+            "car_body": {"density": 300, "restitution": 0.3, "friction": 0.5, "kappa": 0.0002, "thickness": 0.12,
                          "color": [1.0, 1.0, 1.0]},
         },
         "deformation": {"enabled": True, "impulse_floor": 300, "bump_depth": 0.1, "bump_depth_collide": 0.02,

@@ -13,14 +13,22 @@ cd "$(dirname "$0")/.."
 cmake --build build -j"$(nproc)" --target crumple-sim >/dev/null
 tmp=$(mktemp -d)
 mkdir -p docs/images
-shoot() {  # scene camera frame-seconds
-  local scene=$1 camera=$2 at=$3
+shoot() {  # scene camera frame-seconds [picture name]
+  local scene=$1 camera=$2 at=$3 name=${4:-$1}
   build/apps/crumple-sim "scenes/$scene.json" --out "$tmp/$scene" --render --fps 2 --size 640x360 --duration "$at" -q
   local last
   last=$(ls "$tmp/$scene/frames/${camera}"_*.png | tail -1)
-  cp "$last" "docs/images/$scene.png"
+  cp "$last" "docs/images/$name.png"
+  rm -rf "$tmp/$scene"
 }
-shoot highway rail 6
+shoot highway side 3.5
+shoot highway impact 4.5 highway-rail
+# The car's crease in its height map: the per-texel gather (left) and the paper's scatter (right).
+for path in gather scatter; do
+  build/apps/crumple-sim scenes/highway.json --out "$tmp/dent-$path" --duration 2.5 --deform-path $path -q
+done
+tools/dent-view.py "$tmp/dent-gather/heightmaps/car.png" --compare "$tmp/dent-scatter/heightmaps/car.png" --k 0.2 \
+  --crop 760,1125,1060,1255 --scale 2 --png docs/images/highway-dent-gather-vs-scatter.png
 shoot sphere-into-plate main 1.5
 shoot pattern-box wall 3
 shoot pyramid front 2

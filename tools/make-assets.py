@@ -331,13 +331,14 @@ def sedan_obj(path, cell=0.03):
                      "vertices carry sRGB paint colours (v x y z r g b)"], verts, faces, "%.4f", cols)
     return len(faces)
 
-def wbeam_obj(path, length=4.0, step=0.1):
+def wbeam_obj(path, length=4.0, step=0.5):
     """A guard-rail W-beam segment as a closed solid along x. Its traffic face
     (towards -z) is the W profile: flat 2 cm flanges at y = +-0.155 and between
     them a cosine W of two crests (0.083 m proud) around a valley; the back is
     the plane 0.10 m behind the valley and flanges. Origin at the centre of the
-    cross-section's bounding box; 0.1 m segments along x; end caps as strips of
-    trapezoids between the face and the back (each convex: same y, face in front)."""
+    cross-section's bounding box; 0.5 m segments along x (it is flat along x:
+    more would only cost drawing); end caps as strips of trapezoids between
+    the face and the back (each convex: same y, face in front)."""
     depth, thick, half, flat = 0.083, 0.10, 0.155, 0.02
     z0 = (depth - thick) / 2                  # valley and flanges; the crests at z0 - depth
     ys = [-half] + [(half - flat) * (-1 + s / 16.0) for s in range(33)] + [half]

@@ -1,0 +1,152 @@
+// The passes of one deformation (internal to deform/). Each owns its program,
+// looks its uniform locations up once and has typed setters; the Deformer
+// (deformer.cpp) runs them in the order of figure 11:
+//
+//   AddressPasses   the paper's two rasterised passes: X's front faces (pass A)
+//                   and the other body's back faces (pass B), colour = texture
+//                   coordinate, depth offset by the height maps scaled by k'
+//   GatherUpdate    the default update: X drawn in its own texture space, each
+//                   texel's surface point looked up in pass B's depth
+//   ScatterUpdate   the paper's update on the GPU: each address-map pixel
+//                   lowers the texel it addresses
+//   ReadbackUpdate  the paper's update as written: the address maps read back
+//                   and scattered on the CPU
+//   CraterRims      the volume a dent pushed down raised in a ring around it
+//   CommitPass      new heights written over the touched region, the normal
+//                   map regenerated there
+//
+// Every update writes new heights as float bits into a scratch image
+// (+infinity where untouched; the deepest write wins by an atomic minimum) and
+// grows the side's touched region (ivec4 per side in a region buffer).
+#pragma once
+#include <glm/glm.hpp>
+
+#include <functional>
+#include <vector>
+
+#include "deform/deformer.h"
+#include "render/gl_objects.h"
+
+namespace crumple::deform {
+
+constexpr GLuint kUntouched = 0x7f800000u;  // +infinity as float bits
+// Marks the end of a named phase (profile mode: wall and GPU time since the last mark).
+using PhaseMark = std::function<void(const char*)>;
+inline GLuint dispatchGroups(int n) { return static_cast<GLuint>((n + 15) / 16); }
+
+// What the updates share about one side of one event.
+struct SideUpdate {
+  int side = 0;
+  int resolution = 0;         // X's map
+  float depthToHeight = 0;    // (zfar - znear) / k
+  float bumpToDepth = 0;      // X's k' / (zfar - znear)
+  TangentMode tangent = TangentMode::None;
+  float tangentFloor = 0.2f;
+  glm::vec3 viewNormal{0};    // N_C as owned by X (towards the camera)
+};
+
+class AddressPasses {
+ public:
+  explicit AddressPasses(int size);
+  void resize(int size);
+  int size() const { return size_; }
+  // Pass A: X's front faces, depth LESS; the world-normal attachment only when asked (tangent correction).
+  void drawX(int side, const DeformBody& x, const glm::dmat4& viewProjection, const glm::dmat4& model, float bumpToDepth,
+             bool normals);
+  // Pass B: the other body's back faces, depth GREATER: against X's depth from pass A (scatter), or
+  // alone, the farthest back face anywhere (the gather's depth map).
+  void drawOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
+                 float bumpToDepth, bool alone);
+  const render::Texture2D& addressX(int side) const { return addressX_[side]; }
+  const render::Texture2D& depthX(int side) const { return depthX_[side]; }
+  const render::Texture2D& normalX(int side) const { return normalX_[side]; }
+  const render::Texture2D& addressOther(int side) const { return addressO_[side]; }
+  const render::Texture2D& depthOther(int side) const { return depthO_[side]; }
+
+ private:
+  void draw(const DeformBody& body, const glm::dmat4& viewProjection, const glm::dmat4& model, float sign, float bumpToDepth);
+  render::Program program_;
+  GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
+  render::Texture2D flat_{1, 1, GL_R32F};
+  int size_ = 0;
+  // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.
+  render::Texture2D addressX_[2], depthX_[2], normalX_[2], addressO_[2], depthO_[2], depthBuffer_[2];
+  render::Framebuffer fboX_[2], fboO_[2];
+};
+
+class GatherUpdate {
+ public:
+  GatherUpdate();
+  // Draws X (at `model`, seen through `viewProjection`) in its texture space over the texels the camera sees
+  // and that reach the other body's farthest window depth.
+  void run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& viewProjection,
+           const glm::dmat4& model, const AddressPasses& passes, float farthestOther, render::Texture2D& scratch,
+           const render::Buffer& region);
+
+ private:
+  void bindTexelSpace(int resolution);
+  render::Program program_;
+  GLint uMvp_, uNormalToWorld_, uResolution_, uViewMargin_, uFarthestOther_, uBumpReach_, uSide_, uSize_,
+      uBumpToDepth_, uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+  // A framebuffer without attachments, sized to the map being drawn (a software rasteriser bins all of it).
+  render::Framebuffer texelSpace_;
+  int texelSpaceSize_ = 0;
+};
+
+class ScatterUpdate {
+ public:
+  ScatterUpdate();
+  void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height, render::Texture2D& scratch,
+           const render::Buffer& region);
+
+ private:
+  render::Program program_;
+  GLint uSide_, uSize_, uResolution_, uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+};
+
+// Ring width (texels) of the crater rim for a dent whose touched region is w x h texels: craterRing().
+class CraterRims {
+ public:
+  CraterRims();
+  // Reads the side's region back (4 ints) for the ring's width; returns it (0: nothing dented).
+  int run(int side, int resolution, const render::Texture2D& height, render::Texture2D& scratch,
+          const render::Buffer& region);
+
+ private:
+  render::Program program_;
+  GLint uSide_, uRing_, uResolution_, uMode_;
+  render::Buffer sums_{4 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
+};
+
+class ReadbackUpdate {
+ public:
+  void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height, bool craterRims,
+           render::Texture2D& scratch, render::Buffer& region, const PhaseMark& phase);
+
+ private:
+  void scatter(const SideUpdate& u, const AddressPasses& passes, const std::vector<float>& h, bool craterRims,
+               std::vector<float>& out, GLint box[4]);
+  std::vector<float> ca_, da_, cb_, db_, na_;
+};
+
+class CommitPass {
+ public:
+  CommitPass();
+  // Writes side's new heights into X's map over its region (grown by `grow` texels), counts what changed
+  // into stats entry `statsIndex`, puts the scratch back to untouched, and regenerates the normals there.
+  void run(int side, Surface& x, int grow, render::Texture2D& scratch, const render::Buffer& region,
+           const render::Buffer& stats, int statsIndex, const PhaseMark& phase);
+  // Normals over texels [lo, hi] of a map (inclusive).
+  void normals(const render::Texture2D& height, const render::Texture2D& normal, int resolution, float slopeScale,
+               glm::ivec2 lo, glm::ivec2 hi);
+
+ private:
+  render::Program dispatch_, commit_, normals_;
+  GLint dSide_, dResolution_, dGrow_;
+  GLint cSide_, cStatsIndex_, cBumpDepth_;
+  GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;
+  render::Buffer indirect_{12 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
+  render::Buffer normalRegion_{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};
+};
+
+}  // namespace crumple::deform

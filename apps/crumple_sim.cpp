@@ -9,6 +9,8 @@
 #include <fstream>
 #include <iostream>
 
+#include "engine/builtin_scenes.h"
+#include "engine/output_writer.h"
 #include "engine/simulation.h"
 #include "physics/log.h"
 #include "render/gl_context.h"
@@ -94,17 +96,18 @@ int main(int argc, char** argv) {
     const long frameEvery = std::max(1L, std::lround(1.0 / (fps * scene.timestep)));
     long frame = 0;
     auto renderFrame = [&]() {
-      const auto t0 = std::chrono::steady_clock::now();
       std::vector<CameraDesc> cams = scene.cameras;
-      if (cams.empty()) cams.push_back(CameraDesc{"default"});
+      if (cams.empty()) {
+        cams.emplace_back();
+        cams.back().name = "default";
+      }
       for (const auto& cam : cams) {
         char name[64];
         std::snprintf(name, sizeof name, "_%05ld.png", frame);
-        renderer->draw(renderItems(sim), cameraView(cam, &sim));
+        drawFrame(sim, *renderer, cameraView(cam, &sim));
         renderer->savePng((framesDir / (cam.name + name)).string());
       }
       ++frame;
-      sim.timings().renderMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       ++sim.timings().frames;
     };
     if (renderer) renderFrame();

@@ -1,6 +1,6 @@
 # Script mode: writes OUT, a C++ file with the contents of FILES as raw strings,
-# looked up by file name through crumple::<NS>::shaderSource(name).
-set(body "// Generated from GLSL sources; do not edit.\n#include <string_view>\n#include <stdexcept>\n#include <string>\nnamespace crumple::${NS} {\n")
+# looked up by file name through crumple::<NS>::<FN>(name) (shaderSource or embeddedFile).
+set(body "// Generated from embedded sources (cmake/EmbedShaders.cmake); do not edit.\n#include <string_view>\n#include <stdexcept>\n#include <string>\nnamespace crumple::${NS} {\n")
 set(table "")
 set(i 0)
 string(REPLACE "|" ";" FILES "${FILES}")
@@ -11,6 +11,6 @@ foreach(f ${FILES})
   string(APPEND table "  if (name == \"${name}\") return kSrc${i};\n")
   math(EXPR i "${i}+1")
 endforeach()
-string(APPEND body "std::string_view shaderSource(std::string_view name) {\n${table}  throw std::runtime_error(\"no embedded shader named \" + std::string(name));\n}\n}\n")
+string(APPEND body "std::string_view ${FN}(std::string_view name) {\n${table}  throw std::runtime_error(\"no embedded file named \" + std::string(name));\n}\n}\n")
 file(WRITE "${OUT}.tmp" "${body}")
 file(COPY_FILE "${OUT}.tmp" "${OUT}" ONLY_IF_DIFFERENT)

@@ -1,5 +1,7 @@
 #include "engine/scene_view.h"
 
+#include <chrono>
+
 namespace crumple {
 
 std::vector<render::RenderItem> renderItems(const Simulation& sim) {
@@ -32,6 +34,15 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     items.push_back(it);
   }
   return items;
+}
+
+double drawFrame(Simulation& sim, render::Renderer& renderer, const render::View& view) {
+  const auto t0 = std::chrono::steady_clock::now();
+  renderer.draw(renderItems(sim), view);
+  glFinish();
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  sim.timings().renderMs += ms;
+  return ms;
 }
 
 render::View cameraView(const CameraDesc& c, const Simulation* sim) {

@@ -26,19 +26,20 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 // The wheel mesh is a cylinder along y; wheels turn about the body's z axis.
-const glm::dmat4 kWheelToAxle = glm::rotate(glm::dmat4(1), glm::half_pi<double>(), glm::dvec3(1, 0, 0));
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-std::string shapeKey(const ShapeDesc& s) {
-  std::ostringstream os;
-  os.precision(17);
-  if (s.type == "box") os << "box:" << s.size.x << "," << s.size.y << "," << s.size.z;
-  else if (s.type == "sphere") os << "sphere:" << s.radius;
-  else if (s.type == "mesh") os << "mesh:" << s.file << "|" << s.scale.x << "," << s.scale.y << "," << s.scale.z;
-  else os << s.type << ":" << s.radius << "," << s.height;
-  return os.str();
+
+}  // namespace
+
+SideDecision decideSide(const Material& material, double thickness, double impulse) {
+  SideDecision d;
+  d.threshold = yieldThreshold(material.restitution);                   // eq. 6
+  d.percentDeform = percentDeform(material.kappa, impulse, d.threshold);  // eq. 5
+  d.deformDepth = deformDepth(thickness, d.percentDeform);
+  return d;
 }
 
+namespace {
 deform::Path toDeformPath(DeformPath p) {
   switch (p) {
     case DeformPath::Gather: return deform::Path::Gather;
@@ -49,7 +50,7 @@ deform::Path toDeformPath(DeformPath p) {
 }
 }  // namespace
 
-Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl) {
+Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), assets_(scene.file) {
   world_.settings().gravity = scene.gravity;
   if (gl_) {
     deform::DeformOptions o;
@@ -159,83 +160,11 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   BodyRuntime b;
   b.name = d.name;
   b.material = &scene_.materials.at(d.material);
-  const int res = d.bumpMap.present ? d.bumpMap.resolution : 256;
-  render::Image initial;
-  bool hasImage = false;
-  if (d.bumpMap.present && !d.bumpMap.image.empty()) {
-    try {
-      initial = render::readPng(d.bumpMap.image, 1);
-    } catch (const render::ImageError& e) {
-      throw SceneError(scene_.file, where + ".bump_map.image", e.what());
-    }
-    if (initial.width != initial.height)
-      throw SceneError(scene_.file, where + ".bump_map.image", "must be square, got " + std::to_string(initial.width) + "x" + std::to_string(initial.height));
-    if (initial.width < 8 || initial.width > 4096)
-      throw SceneError(scene_.file, where + ".bump_map.image", "size must be in [8, 4096]");
-    hasImage = true;
-  }
-  const int mapRes = hasImage ? initial.width : res;
-  const std::string key = shapeKey(d.shape);
-  const std::string meshKey = key + "|" + std::to_string(mapRes);
-
-  // Physics shape, shared between bodies of one shape.
-  std::shared_ptr<const Shape> shape;
-  std::shared_ptr<const TriangleMesh> mesh;
-  if (auto it = meshCache_.find(meshKey); it != meshCache_.end()) mesh = it->second;
-  try {
-    if (auto it = shapeCache_.find(key); it != shapeCache_.end()) shape = it->second;
-    const ShapeDesc& s = d.shape;
-    if (s.type == "box") {
-      if (!shape) shape = makeBox(s.size);
-      if (!mesh) mesh = std::make_shared<TriangleMesh>(boxMesh(s.size, mapRes));
-    } else if (s.type == "sphere") {
-      if (!shape) shape = makeSphere(s.radius);
-      if (!mesh) mesh = std::make_shared<TriangleMesh>(sphereMesh(s.radius, mapRes));
-    } else if (s.type == "capsule") {
-      if (!shape) shape = makeCapsule(s.radius, s.height);
-      if (!mesh) mesh = std::make_shared<TriangleMesh>(capsuleMesh(s.radius, s.height, mapRes));
-    } else if (s.type == "cylinder") {
-      if (!shape) shape = makeCylinder(s.radius, s.height);
-      if (!mesh) mesh = std::make_shared<TriangleMesh>(cylinderMesh(s.radius, s.height, mapRes));
-    } else {
-      TriangleMesh m;
-      try {
-        m = loadMeshFile(s.file);
-      } catch (const MeshError& e) {
-        throw SceneError(scene_.file, where + ".shape.file", e.what());
-      }
-      for (auto& p : m.positions) p *= glm::vec3(s.scale);
-      for (auto& n : m.normals) n = glm::normalize(n / glm::vec3(s.scale));
-      const double volume = polyhedralMassProperties(m).volume;
-      if (volume < 0) {
-        logWarning(where, " (", d.name, "): ", s.file, " is inside out: flipped its triangles");
-        for (auto& t : m.triangles) std::swap(t.y, t.z);
-        for (auto& n : m.normals) n = -n;
-      }
-      if (!mesh) {
-        const AtlasCheck check = checkAtlas(m, mapRes);
-        if (!check.oneToOne) {
-          std::string why = check.missing ? "has no texture coordinates"
-                            : check.overlappingTexels ? std::to_string(check.overlappingTexels) + " texels used twice"
-                            : check.outsideTriangles ? std::to_string(check.outsideTriangles) + " triangles outside [0,1]"
-                                                     : std::to_string(check.collapsedTriangles) + " triangles with no texture area";
-          m = generateAtlas(m, mapRes);
-          logInfo(where, " (", d.name, "): ", fs::path(s.file).filename().string(), " ", why,
-                  ": generated an automatic one-to-one atlas");
-        }
-        mesh = std::make_shared<TriangleMesh>(std::move(m));
-      }
-      if (!shape) shape = makeMeshShape(*mesh);
-    }
-  } catch (const std::invalid_argument& e) {
-    throw SceneError(scene_.file, where + ".shape", e.what());
-  }
-  shapeCache_[key] = shape;
-  meshCache_[meshKey] = mesh;
-  b.mesh = mesh;
+  const BodyAssets assets = assets_.load(d, where);
+  b.mesh = assets.mesh;
 
   BodyDef def;
-  def.shape = shape;
+  def.shape = assets.shape;
   def.origin = d.position;
   def.orientation = d.orientation;
   def.linearVelocity = d.velocity;
@@ -254,85 +183,14 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   if (d.contactDeformation) world_.setReportContacts(b.index, true);
 
   if (gl_) {
-    auto& g = gpuMeshCache_[meshKey];
-    if (!g) g = std::make_shared<deform::GpuMesh>(*mesh);
-    b.gpuMesh = g;
+    b.gpuMesh = assets_.gpuMesh(assets);
     if (d.bumpMap.present) {
       const float k = static_cast<float>(d.bumpMap.bumpDepth.value_or(scene_.deformation.bumpDepth));
       const float kc = static_cast<float>(d.bumpMap.bumpDepthCollide.value_or(scene_.deformation.bumpDepthCollide));
-      const float texel = static_cast<float>(g->metresPerUv / mapRes);
-      std::shared_ptr<deform::SurfaceMaps> maps;
-      const std::string mapKey = meshKey + "|" + std::to_string(k);
-      if (hasImage) {
-        maps = deformer_->createMaps(mapRes, &initial, k, texel);
-      } else if (scene_.deformation.lazyMaps) {
-        auto& shared = mapCache_[mapKey];
-        if (!shared) shared = deformer_->createMaps(mapRes, nullptr, k, texel);
-        maps = shared;
-      } else {
-        maps = deformer_->createMaps(mapRes, nullptr, k, texel);
-      }
-      b.surface = std::make_unique<deform::Surface>(g, mapRes, k, kc, maps);
+      b.surface = assets_.surface(assets, b.gpuMesh, k, kc, scene_.deformation.lazyMaps, *deformer_);
     }
   }
-  if (d.vehicle.present) {
-    VehicleParams vp;
-    vp.wheels = d.vehicle.wheels;
-    vp.wheelRadius = d.vehicle.wheelRadius;
-    vp.suspensionRest = d.vehicle.suspensionRest;
-    vp.stiffness = d.vehicle.suspensionStiffness;
-    vp.damping = d.vehicle.suspensionDamping;
-    vp.engineForce = d.vehicle.engineForce;
-    vp.brakeForce = d.vehicle.brakeForce;
-    vp.maxSteer = d.vehicle.maxSteer;
-    vp.grip = d.vehicle.tyreGrip;
-    VehicleRuntime v(static_cast<int>(bodies_.size()), Vehicle(b.index, vp));
-    v.script = d.vehicle.script;
-    if (gl_) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(d.vehicle.wheelRadius, d.vehicle.wheelWidth, 64));
-    if (d.vehicle.treads) {
-      v.pitch = d.vehicle.treadPitch;
-      v.grouserHeight = d.vehicle.grouserHeight;
-      const double r = d.vehicle.wheelRadius;
-      double length = 0;
-      for (double side : {1.0, -1.0}) {
-        TreadRuntime t;
-        double lo = 1e300, hi = -1e300, z = 0;
-        for (size_t i = 0; i < vp.wheels.size(); ++i) {
-          if ((vp.wheels[i].z < 0) != (side < 0)) continue;
-          t.wheels.push_back(static_cast<int>(i));
-          lo = std::min(lo, vp.wheels[i].x);
-          hi = std::max(hi, vp.wheels[i].x);
-          z += vp.wheels[i].z;
-        }
-        t.centreX = 0.5 * (lo + hi);
-        t.z = z / static_cast<double>(t.wheels.size());
-        length = std::max(length, hi - lo + 2 * r);
-        v.treads.push_back(t);
-      }
-      if (gl_) {
-        const double w = d.vehicle.wheelWidth, gh = v.grouserHeight, p = v.pitch;
-        // The belt wraps the wheels: from the grousers' roots up to the wheel tops.
-        TriangleMesh belt = boxMesh({length, 2 * r, w}, 128);
-        for (auto& q : belt.positions) q.y += static_cast<float>(gh + r);
-        v.beltMesh = std::make_shared<deform::GpuMesh>(belt);
-        // Grousers every pitch along the belt's underside, as many as fit
-        // whatever their shift in [0, pitch).
-        TriangleMesh bars;
-        const int count = std::max(1, static_cast<int>(std::floor(length / p)) - 1);
-        const TriangleMesh bar = boxMesh({0.4 * p, gh, w}, 16);
-        for (int k = 0; k < count; ++k) {
-          const float x = static_cast<float>(-0.5 * length + p * (k + 1));
-          const auto base = static_cast<unsigned>(bars.positions.size());
-          for (const auto& q : bar.positions) bars.positions.push_back(q + glm::vec3(x, static_cast<float>(0.5 * gh), 0));
-          bars.normals.insert(bars.normals.end(), bar.normals.begin(), bar.normals.end());
-          bars.uvs.insert(bars.uvs.end(), bar.uvs.begin(), bar.uvs.end());
-          for (const auto& tri : bar.triangles) bars.triangles.push_back(tri + glm::uvec3(base));
-        }
-        v.grouserMesh = std::make_shared<deform::GpuMesh>(bars);
-      }
-    }
-    vehicles_.push_back(std::move(v));
-  }
+  if (d.vehicle.present) vehicles_.push_back(makeVehicle(d.vehicle, static_cast<int>(bodies_.size()), b.index, gl_));
   bodies_.push_back(std::move(b));
 }
 
@@ -340,8 +198,7 @@ bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const 
                              const glm::dvec3& normal, double push) {
   BodyRuntime& ground = bodies_[static_cast<size_t>(groundBody)];
   if (!ground.contactDeformation || !ground.surface) return false;
-  const double depth = deformDepth(ground.material->thickness, percentDeform(ground.material->kappa, push,
-                                                                    yieldThreshold(ground.material->restitution)));
+  const double depth = decideSide(*ground.material, ground.material->thickness, push).deformDepth;
   if (!(depth > 0)) return false;
   const RigidBody& g = world_.body(ground.index);
   deform::DeformRequest rq;
@@ -356,53 +213,10 @@ bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const 
   return true;
 }
 
-glm::dmat4 Simulation::treadModel(const VehicleRuntime& v, size_t t, bool grousers) const {
-  const TreadRuntime& tr = v.treads[t];
-  const VehicleParams& p = v.vehicle.params();
-  // The grousers' bottom: where that side's wheels meet the ground (their
-  // suspension as it is now), in the body's shape frame.
-  double bottom = 0;
-  for (int wi : tr.wheels) {
-    const WheelState& w = v.vehicle.wheels()[static_cast<size_t>(wi)];
-    bottom += p.wheels[static_cast<size_t>(wi)].y - p.suspensionRest + w.compression - p.wheelRadius;
-  }
-  bottom /= static_cast<double>(tr.wheels.size());
-  double x = tr.centreX;
-  if (grousers) x -= std::fmod(std::fmod(v.travel, v.pitch) + v.pitch, v.pitch);
-  return model(v.body) * glm::translate(glm::dmat4(1), glm::dvec3(x, bottom, tr.z));
-}
-
 std::vector<VehiclePart> Simulation::vehicleParts() const {
   std::vector<VehiclePart> parts;
-  for (const VehicleRuntime& v : vehicles_) {
-    const VehicleParams& p = v.vehicle.params();
-    const glm::dmat4 body = model(v.body);
-    if (v.wheelMesh) {
-      for (size_t i = 0; i < p.wheels.size(); ++i) {
-        const WheelState& w = v.vehicle.wheels()[i];
-        // The wheel's centre hangs below its attachment by the spring's length.
-        const glm::dvec3 centre = p.wheels[i] - glm::dvec3(0, p.suspensionRest - (w.onGround ? w.compression : 0.0), 0);
-        parts.push_back({v.wheelMesh.get(), body * glm::translate(glm::dmat4(1), centre) * kWheelToAxle, glm::vec3(0.06f)});
-      }
-    }
-    for (size_t t = 0; t < v.treads.size(); ++t) {
-      if (v.beltMesh) parts.push_back({v.beltMesh.get(), treadModel(v, t, false), glm::vec3(0.12f, 0.12f, 0.11f)});
-      if (v.grouserMesh) parts.push_back({v.grouserMesh.get(), treadModel(v, t, true), glm::vec3(0.2f, 0.19f, 0.17f)});
-    }
-  }
+  for (const VehicleRuntime& v : vehicles_) addVehicleParts(v, model(v.body), parts);
   return parts;
-}
-
-VehicleControls Simulation::scriptAt(const std::vector<VehicleInput>& script, double t) {
-  VehicleControls c;
-  for (const VehicleInput& in : script) {
-    if (in.time > t) break;
-    c.throttle = in.throttle;
-    c.steer = in.steer;
-    c.brake = in.brake;
-    c.handbrake = in.handbrake;
-  }
-  return c;
 }
 
 glm::dmat4 Simulation::model(int i) const {
@@ -430,9 +244,27 @@ deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, i
   return rq;
 }
 
+// The step of architecture.md: physics (1, 2), the deformation decision (3)
+// and the deformations (4) of this step's collisions, then contact
+// deformation (figure 8) of resting contacts and vehicle prints.
 void Simulation::step() {
   const double h = scene_.timestep;
   auto t0 = Clock::now();
+  stepPhysics(h);
+  timings_.physicsMs += msSince(t0);
+  ++steps_;
+  ++timings_.steps;
+  t0 = Clock::now();
+  std::vector<int> bodyOf(world_.size(), -1);
+  for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[static_cast<size_t>(bodies_[i].index)] = static_cast<int>(i);
+  bool deformed = deformCollisions(bodyOf);
+  deformed |= deformContacts(bodyOf, h);
+  if (deformed) glFinish();  // honest timings: the GPU work is part of the deformation's cost
+  timings_.deformMs += msSince(t0);
+  if (onStep) onStep(world_.events());
+}
+
+void Simulation::stepPhysics(double h) {
   if (beforeStep) beforeStep(*this, h);
   for (VehicleRuntime& v : vehicles_) {
     const VehicleControls c = v.manual ? v.controls : scriptAt(v.script, world_.time());
@@ -444,15 +276,10 @@ void Simulation::step() {
     const RigidBody& car = world_.body(v.vehicle.body());
     v.travel += glm::dot(car.v, car.rotation() * glm::dvec3(1, 0, 0)) * h;
   }
-  timings_.physicsMs += msSince(t0);
-  ++steps_;
-  ++timings_.steps;
+}
 
-  // The deformation decision (eq. 5, 6) for every collision of this step.
-  t0 = Clock::now();
+bool Simulation::deformCollisions(const std::vector<int>& bodyOf) {
   bool deformed = false;
-  std::vector<int> bodyOf(world_.size(), -1);
-  for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[static_cast<size_t>(bodies_[i].index)] = static_cast<int>(i);
   for (const CollisionEvent& e : world_.events()) {
     if (e.elasticImpulse < scene_.deformation.impulseFloor) continue;  // the paper's floor: too weak to mark
     EventRecord rec;
@@ -461,9 +288,7 @@ void Simulation::step() {
     for (int s = 0; s < 2; ++s) {
       const BodyRuntime& body = bodies_[static_cast<size_t>(bi[s])];
       SideDecision& d = rec.side[s];
-      d.threshold = yieldThreshold(body.material->restitution);
-      d.percentDeform = percentDeform(body.material->kappa, e.elasticImpulse, d.threshold);
-      d.deformDepth = deformDepth(body.material->thickness, d.percentDeform);
+      d = decideSide(*body.material, body.material->thickness, e.elasticImpulse);
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
@@ -474,74 +299,42 @@ void Simulation::step() {
     }
     events_.push_back(rec);
   }
-  // Contact deformation (figure 8): resting contacts of flagged bodies press
-  // their maps too, at most every contact_interval seconds.
-  const long every = std::max(1L, std::lround(scene_.deformation.contactInterval / h));
+  return deformed;
+}
+
+bool Simulation::deformContacts(const std::vector<int>& bodyOf, double h) {
   // Resting contact pushes intermittently (a step of push, a step of none), so
   // the strongest report of each pair over the interval is kept.
   for (const CollisionEvent& e : world_.contactReports()) {
     auto [it, inserted] = pendingContacts_.try_emplace({e.a, e.b}, e);
     if (!inserted && e.elasticImpulse >= it->second.elasticImpulse) it->second = e;
   }
-  if (deformer_ && scene_.deformation.enabled && steps_ % every == 0) {
-    std::vector<CollisionEvent> due;
-    for (const auto& [key, e] : pendingContacts_) due.push_back(e);
-    pendingContacts_.clear();
-    for (const CollisionEvent& e : due) {
-      const int bi[2] = {bodyOf[static_cast<size_t>(e.a)], bodyOf[static_cast<size_t>(e.b)]};
-      double depth[2] = {0, 0};
-      for (int s = 0; s < 2; ++s) {
-        const BodyRuntime& body = bodies_[static_cast<size_t>(bi[s])];
-        if (!body.contactDeformation || !body.surface) continue;
-        depth[s] = deformDepth(body.material->thickness, percentDeform(body.material->kappa, e.elasticImpulse,
-                                                             yieldThreshold(body.material->restitution)));
-      }
-      if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
-      deformer_->deform(eventRequest(e, bi[0], bi[1], depth[0], depth[1]));
-      ++timings_.contactDeformations;
-      deformed = true;
+  // At most every contact_interval seconds.
+  const long every = std::max(1L, std::lround(scene_.deformation.contactInterval / h));
+  if (!deformer_ || !scene_.deformation.enabled || steps_ % every != 0) return false;
+  bool deformed = false;
+  std::vector<CollisionEvent> due;
+  for (const auto& [key, e] : pendingContacts_) due.push_back(e);
+  pendingContacts_.clear();
+  for (const CollisionEvent& e : due) {
+    const int bi[2] = {bodyOf[static_cast<size_t>(e.a)], bodyOf[static_cast<size_t>(e.b)]};
+    double depth[2] = {0, 0};
+    for (int s = 0; s < 2; ++s) {
+      const BodyRuntime& body = bodies_[static_cast<size_t>(bi[s])];
+      if (!body.contactDeformation || !body.surface) continue;
+      depth[s] = decideSide(*body.material, body.material->thickness, e.elasticImpulse).deformDepth;
     }
-    // Wheels press contact-deformable ground too: a wheel-shaped print under
-    // each loaded wheel, its push over one step taken as the impulse (like the
-    // resting contacts above).
-    for (const VehicleRuntime& v : vehicles_) {
-      if (!v.treads.empty()) {
-        // Tracks: each belt presses with its wheels' load; the grousers print
-        // first, the belt between them once the grousers have sunk in.
-        for (size_t t = 0; t < v.treads.size(); ++t) {
-          double load = 0;
-          int groundBody = -1;
-          glm::dvec3 contact(0), normal(0);
-          for (int wi : v.treads[t].wheels) {
-            const WheelState& w = v.vehicle.wheels()[static_cast<size_t>(wi)];
-            if (!w.onGround || w.ground < 0 || bodyOf[static_cast<size_t>(w.ground)] < 0) continue;
-            load += w.load;
-            groundBody = bodyOf[static_cast<size_t>(w.ground)];
-            contact += w.contact * w.load;
-            normal += w.normal * w.load;
-          }
-          if (groundBody < 0 || !(load > 0)) continue;
-          for (bool grousers : {true, false})
-            deformed |= pressGround(groundBody, grousers ? v.grouserMesh.get() : v.beltMesh.get(),
-                                    treadModel(v, t, grousers), contact / load, glm::normalize(normal), 2 * load * h);
-        }
-        continue;
-      }
-      if (!v.wheelMesh) continue;
-      const RigidBody& car = world_.body(v.vehicle.body());
-      for (const WheelState& w : v.vehicle.wheels()) {
-        if (!w.onGround || w.ground < 0 || bodyOf[static_cast<size_t>(w.ground)] < 0) continue;
-        // The wheel standing on the contact, its axle along the car's.
-        const glm::dvec3 centre = w.contact + w.normal * v.vehicle.params().wheelRadius;
-        const glm::dmat4 wheel = glm::translate(glm::dmat4(1), centre) * glm::dmat4(car.rotation()) * kWheelToAxle;
-        deformed |= pressGround(bodyOf[static_cast<size_t>(w.ground)], v.wheelMesh.get(), wheel, w.contact, w.normal,
-                                2 * w.load * h);
-      }
-    }
+    if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
+    deformer_->deform(eventRequest(e, bi[0], bi[1], depth[0], depth[1]));
+    ++timings_.contactDeformations;
+    deformed = true;
   }
-  if (deformed) glFinish();  // honest timings: the GPU work is part of the deformation's cost
-  timings_.deformMs += msSince(t0);
-  if (onStep) onStep(world_.events());
+  // Wheels and treads press contact-deformable ground too, their push over
+  // one step taken as the impulse (like the resting contacts above).
+  for (const VehicleRuntime& v : vehicles_)
+    for (const GroundPrint& p : vehiclePrints(v, world_, bodyOf, model(v.body), h))
+      deformed |= pressGround(p.groundBody, p.mesh, p.model, p.point, p.normal, p.push);
+  return deformed;
 }
 
 void Simulation::resolveEventStats() {
@@ -551,182 +344,6 @@ void Simulation::resolveEventStats() {
     for (int s = 0; s < 2; ++s)
       if (r.side[s].deformed) r.side[s].stats = deformer_->stats(r.statsHandle, s);
   }
-}
-
-// ---- outputs ---------------------------------------------------------------
-
-OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexically_normal().string()) {
-  while (!dir_.empty() && dir_.back() == '/') dir_.pop_back();
-  std::error_code ec;
-  if (fs::exists(dir_, ec)) {
-    if (!fs::is_directory(dir_, ec)) throw SceneError(dir, "", "output path exists and is not a folder");
-    const bool empty = fs::is_empty(dir_, ec);
-    if (!empty && !fs::exists(fs::path(dir_) / "summary.json", ec))
-      throw SceneError(dir, "", "output folder exists, is not empty and holds no crumple output (summary.json): refusing to overwrite it");
-  }
-  const fs::path parent = fs::path(dir_).parent_path();
-  fs::create_directories(parent, ec);
-  if (ec) throw SceneError(dir, "", "cannot create the parent folder: " + ec.message());
-  std::random_device rd;
-  staging_ = dir_ + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
-  fs::create_directories(staging_, ec);
-  if (ec) throw SceneError(dir, "", "cannot create a folder next to it: " + ec.message());
-}
-
-OutputWriter::~OutputWriter() {
-  if (!committed_) {
-    std::error_code ec;
-    fs::remove_all(staging_, ec);
-  }
-}
-
-namespace {
-nlohmann::ordered_json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
-}  // namespace
-
-void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
-  using json = nlohmann::ordered_json;
-  sim.resolveEventStats();
-  const fs::path root(staging_);
-  fs::create_directories(root / "heightmaps");
-  fs::create_directories(root / "normalmaps");
-  // Events.
-  {
-    std::ofstream ev(root / "events.jsonl");
-    for (const EventRecord& r : sim.events()) {
-      const auto& e = r.event;
-      json line;
-      line["t"] = e.time;
-      const std::string* names[2] = {nullptr, nullptr};
-      for (const auto& b : sim.bodies()) {
-        if (b.index == e.a) names[0] = &b.name;
-        if (b.index == e.b) names[1] = &b.name;
-      }
-      line["a"] = *names[0];
-      line["b"] = *names[1];
-      line["point"] = vec(e.point);
-      line["normal"] = vec(e.normal);
-      line["penetration"] = e.penetration;
-      line["impulse_elastic"] = e.elasticImpulse;
-      line["impulse"] = e.impulse;
-      for (int s = 0; s < 2; ++s) {
-        const SideDecision& d = r.side[s];
-        json side;
-        side["threshold"] = std::isfinite(d.threshold) ? json(d.threshold) : json(nullptr);  // null: infinite (eps = 1)
-        side["percent_deform"] = d.percentDeform;
-        side["deform_depth"] = d.deformDepth;
-        side["deformed"] = d.deformed;
-        side["texels_changed"] = d.stats.texelsChanged;
-        side["max_dent"] = d.stats.maxDent;
-        side["saturated"] = d.stats.saturated;
-        line[s == 0 ? "a_side" : "b_side"] = side;
-      }
-      ev << line.dump() << "\n";
-    }
-    if (!ev) throw std::runtime_error("writing events.jsonl failed");
-  }
-  // Maps.
-  long deformedSides = 0;
-  for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
-  // Bodies that were never dented share their maps (lazy maps): encode each once, copy the files.
-  std::map<GLuint, std::string> written;
-  for (const auto& b : sim.bodies()) {
-    if (!b.surface) continue;
-    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"), normalPath = root / "normalmaps" / (b.name + ".png");
-    if (auto it = written.find(b.surface->height().id()); it != written.end()) {
-      fs::copy_file(root / "heightmaps" / it->second, heightPath);
-      fs::copy_file(root / "normalmaps" / it->second, normalPath);
-      continue;
-    }
-    written[b.surface->height().id()] = b.name + ".png";
-    const render::Image h = b.surface->downloadHeight();
-    render::writePng(heightPath.string(), h, 16);
-    const int n = b.surface->resolution();
-    std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
-    b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
-    render::Image nm(n, n, 3);
-    for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
-      for (int c = 0; c < 3; ++c) nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
-    render::writePng(normalPath.string(), nm, 8);
-  }
-  // Summary.
-  json s;
-  s["scene"] = sim.scene().name;
-  s["scene_file"] = sim.scene().file;
-  s["steps"] = sim.steps();
-  s["time"] = sim.world().time();
-  json bodies = json::array();
-  for (const auto& b : sim.bodies()) {
-    const RigidBody& rb = sim.world().body(b.index);
-    json jb;
-    jb["name"] = b.name;
-    jb["position"] = vec(rb.origin());
-    jb["orientation"] = {rb.q.w, rb.q.x, rb.q.y, rb.q.z};
-    jb["linear_velocity"] = vec(rb.v);
-    jb["angular_velocity"] = vec(rb.w);
-    jb["center_of_mass"] = vec(rb.x);
-    jb["mass"] = rb.isStatic ? json(nullptr) : json(rb.mass);
-    jb["static"] = rb.isStatic;
-    jb["asleep"] = rb.asleep;
-    bodies.push_back(jb);
-  }
-  s["bodies"] = bodies;
-  s["collisions"] = sim.events().size();
-  s["deformations"] = sim.timings().deformations;
-  s["deformed_sides"] = deformedSides;
-  s["contact_deformations"] = sim.timings().contactDeformations;
-  const Timings& t = sim.timings();
-  json tj;
-  tj["physics_ms"] = t.physicsMs;
-  tj["physics_ms_per_step"] = t.steps ? t.physicsMs / static_cast<double>(t.steps) : 0.0;
-  tj["deform_ms"] = t.deformMs;
-  tj["deform_ms_per_deformation"] = t.deformations ? t.deformMs / static_cast<double>(t.deformations) : 0.0;
-  tj["render_ms"] = t.renderMs;
-  tj["render_ms_per_frame"] = t.frames ? t.renderMs / static_cast<double>(t.frames) : 0.0;
-  tj["frames"] = t.frames;
-  s["timings"] = tj;
-  for (const auto& [k, v] : extra) s[k] = v;
-  std::ofstream f(root / "summary.json");
-  f << s.dump(2) << "\n";
-  if (!f) throw std::runtime_error("writing summary.json failed");
-}
-
-void OutputWriter::commit() {
-  std::error_code ec;
-  if (fs::exists(dir_, ec)) {
-    const std::string old = staging_ + ".old";
-    fs::rename(dir_, old, ec);
-    if (ec) throw std::runtime_error(dir_ + ": cannot replace the previous output: " + ec.message());
-    fs::rename(staging_, dir_, ec);
-    if (ec) {
-      fs::rename(old, dir_);
-      throw std::runtime_error(dir_ + ": cannot move the new output into place: " + ec.message());
-    }
-    fs::remove_all(old, ec);
-  } else {
-    fs::rename(staging_, dir_, ec);
-    if (ec) throw std::runtime_error(dir_ + ": cannot move the output into place: " + ec.message());
-  }
-  committed_ = true;
-}
-
-namespace engine::scenes {
-std::string_view shaderSource(std::string_view name);
-}
-
-std::string builtinSceneText(const std::string& name) {
-  if (name == "default" || name == "sphere-into-plate") return std::string(engine::scenes::shaderSource("sphere-into-plate.json"));
-  if (name == "highway") return std::string(engine::scenes::shaderSource("highway.json"));
-  for (const char* asset : {"car.obj", "sedan.obj", "wbeam.obj"})
-    if (name == asset) return std::string(engine::scenes::shaderSource(asset));
-  throw std::invalid_argument("no built-in scene named " + name);
-}
-
-Scene builtinHighway() {
-  const fs::path dir = fs::temp_directory_path() / ("crumple-highway-" + std::to_string(::getpid()));
-  fs::create_directories(dir / "assets");
-  for (const char* asset : {"sedan.obj", "wbeam.obj"}) std::ofstream(dir / "assets" / asset) << builtinSceneText(asset);
-  return parseScene(builtinSceneText("highway"), "<built-in highway scene>", dir.string());
 }
 
 }  // namespace crumple

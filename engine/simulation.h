@@ -10,7 +10,9 @@
 
 #include "deform/deformer.h"
 #include "deform/surface.h"
+#include "engine/assets.h"
 #include "engine/scene.h"
+#include "engine/vehicles.h"
 #include "physics/sdf_grid.h"
 #include "physics/vehicle.h"
 #include "physics/world.h"
@@ -26,6 +28,11 @@ struct SideDecision {
   deform::SideStats stats;
 };
 
+// Equations 5 and 6 for one side: its threshold Y from its restitution, the
+// fraction pushed in by elastic impulse |j_eps=1| (N s), and the dent's depth
+// t * percentDeform for wall thickness t (m). `deformed` is left to the caller.
+SideDecision decideSide(const Material& material, double thickness, double impulse);
+
 struct EventRecord {
   CollisionEvent event;
   SideDecision side[2];
@@ -40,39 +47,6 @@ struct BodyRuntime {
   std::shared_ptr<const deform::GpuMesh> gpuMesh;  // null without GL
   std::unique_ptr<deform::Surface> surface;        // null without a bump map
   bool contactDeformation = false;
-};
-
-// One track of a tracked vehicle: the belt around the wheels of one side.
-// Tread frame: x forward along the body's x, origin at the belt's centre in x,
-// on that side's wheel plane (z), at the grousers' bottom (the ground).
-struct TreadRuntime {
-  double centreX = 0, z = 0;
-  std::vector<int> wheels;  // indices into the vehicle's wheels
-};
-
-struct VehicleRuntime {
-  VehicleRuntime(int bodyIndex, const Vehicle& v) : body(bodyIndex), vehicle(v) {}
-  int body = -1;  // index in Simulation::bodies()
-  Vehicle vehicle;
-  std::shared_ptr<const deform::GpuMesh> wheelMesh;  // prints wheels into contact-deformable ground
-  std::vector<VehicleInput> script;
-  bool manual = false;  // the sandbox drives: `controls` instead of the script
-  VehicleControls controls;
-  // Tracked vehicles: two treads, the belt and the grousers as meshes in the
-  // tread frame. The grousers move back along the belt as the body moves on
-  // (`travel`), so that under the body they stay put on the ground, as a
-  // track's links do, and print a clean ladder.
-  std::vector<TreadRuntime> treads;
-  std::shared_ptr<const deform::GpuMesh> beltMesh, grouserMesh;
-  double pitch = 0, grouserHeight = 0;
-  double travel = 0;  // m along the body's x since the start
-};
-
-// A vehicle's wheel or track, placed in the world, for drawing.
-struct VehiclePart {
-  const deform::GpuMesh* mesh = nullptr;
-  glm::dmat4 model{1};
-  glm::vec3 color{0.08f};
 };
 
 struct Timings {
@@ -97,8 +71,6 @@ class Simulation {
   Timings& timings() { return timings_; }
   deform::Deformer* deformer() { return deformer_.get(); }
   std::vector<VehicleRuntime>& vehicles() { return vehicles_; }
-  // The scripted input at time t (the last entry at or before t; zero before the first).
-  static VehicleControls scriptAt(const std::vector<VehicleInput>& script, double t);
   void setDeformPath(DeformPath p);
   // Live changes (the sandbox's panel).
   std::map<std::string, Material>& sceneMaterials() { return scene_.materials; }
@@ -118,7 +90,9 @@ class Simulation {
   // Wheels, belts and grousers of the vehicles at their current poses.
   std::vector<VehiclePart> vehicleParts() const;
   // Tread frame to world for tread t of vehicle v; `grousers` adds their shift along the belt.
-  glm::dmat4 treadModel(const VehicleRuntime& v, size_t t, bool grousers) const;
+  glm::dmat4 treadModel(const VehicleRuntime& v, size_t t, bool grousers) const {
+    return crumple::treadModel(v, t, grousers, model(v.body));
+  }
   // Fetches the per-event texel statistics (one small read of the GPU's counters).
   void resolveEventStats();
   // Called after each step with the events it produced (the sandbox's HUD, vehicles).
@@ -128,6 +102,12 @@ class Simulation {
 
  private:
   void buildBody(const BodyDesc& desc, size_t index);
+  // The stages of step(): physics with the vehicles' forces; the decision and
+  // deformation of this step's collisions; contact deformation. `bodyOf` maps
+  // world body indices to bodies_. The last two return whether anything deformed.
+  void stepPhysics(double h);
+  bool deformCollisions(const std::vector<int>& bodyOf);
+  bool deformContacts(const std::vector<int>& bodyOf, double h);
   // A print of `mesh` (placed by `model`, flat) pressed into contact-deformable
   // ground body `groundBody` by a resting push (N s) at `point`; false when the
   // ground takes no print or the push is below its threshold.
@@ -149,34 +129,9 @@ class Simulation {
   };
   std::map<int, NormalLookup> normalLookups_;  // by body index in bodies_
   std::unique_ptr<deform::Deformer> deformer_;
-  std::map<std::string, std::shared_ptr<const Shape>> shapeCache_;
-  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshCache_;
-  std::map<std::string, std::shared_ptr<const deform::GpuMesh>> gpuMeshCache_;
-  std::map<std::string, std::shared_ptr<deform::SurfaceMaps>> mapCache_;
+  AssetCache assets_;
   long steps_ = 0;
   Timings timings_;
 };
-
-// Writes the outputs of the contract into `dir`: summary.json, events.jsonl,
-// heightmaps/ and normalmaps/ (and whatever is already in `staging`, e.g. frames/).
-// Everything goes to a temporary sibling folder first and is renamed into place
-// at the end, so a failed run never leaves a folder that looks complete.
-class OutputWriter {
- public:
-  explicit OutputWriter(const std::string& dir);  // throws SceneError(dir) if dir is unusable
-  ~OutputWriter();                                // removes the staging folder if not committed
-  const std::string& staging() const { return staging_; }
-  void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
-  void commit();
-
- private:
-  std::string dir_, staging_;
-  bool committed_ = false;
-};
-
-// Built-in files as text: "default" (sphere into plate), "highway" and its "car.obj".
-std::string builtinSceneText(const std::string& name = "default");
-// The built-in highway scene, its car mesh written to a temporary folder.
-Scene builtinHighway();
 
 }  // namespace crumple

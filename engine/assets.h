@@ -1,0 +1,47 @@
+// What bodies are built from, loaded once and shared: physics shapes, render
+// meshes with a checked one-to-one atlas (generated when a file's is missing or
+// broken), their GPU copies, and undented surface maps (lazy maps: bodies of one
+// mesh share them until their first dent).
+#pragma once
+#include <map>
+#include <memory>
+#include <string>
+
+#include "deform/deformer.h"
+#include "deform/surface.h"
+#include "engine/scene.h"
+#include "physics/shape.h"
+#include "render/image.h"
+
+namespace crumple {
+
+// One body's assets. `where` (e.g. "bodies[3]") and the scene's file name go into errors.
+struct BodyAssets {
+  std::shared_ptr<const Shape> shape;
+  std::shared_ptr<const TriangleMesh> mesh;  // render mesh, shape frame, one-to-one uvs
+  int mapResolution = 256;                   // the bump map's (its image's when it has one)
+  render::Image initialMap;                  // the bump map's image, when it has one
+  bool hasImage = false;
+  std::string meshKey;                       // shape and map resolution: what the render mesh depends on
+};
+
+class AssetCache {
+ public:
+  explicit AssetCache(std::string sceneFile) : sceneFile_(std::move(sceneFile)) {}
+  // Throws SceneError naming `where` and the key at fault.
+  BodyAssets load(const BodyDesc& desc, const std::string& where);
+  std::shared_ptr<const deform::GpuMesh> gpuMesh(const BodyAssets& a);
+  // The body's surface: its own maps from its image, or maps shared by every undented body of the
+  // same mesh and bump depth (`lazy`), or maps of its own.
+  std::unique_ptr<deform::Surface> surface(const BodyAssets& a, std::shared_ptr<const deform::GpuMesh> mesh, float k,
+                                           float kCollide, bool lazy, deform::Deformer& deformer);
+
+ private:
+  std::string sceneFile_;
+  std::map<std::string, std::shared_ptr<const Shape>> shapes_;
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes_;
+  std::map<std::string, std::shared_ptr<const deform::GpuMesh>> gpuMeshes_;
+  std::map<std::string, std::shared_ptr<deform::SurfaceMaps>> maps_;
+};
+
+}  // namespace crumple

@@ -1,0 +1,171 @@
+#include "engine/output_writer.h"
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <unistd.h>
+
+#include "physics/log.h"
+#include "render/image.h"
+
+namespace crumple {
+
+namespace fs = std::filesystem;
+
+OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexically_normal().string()) {
+  while (!dir_.empty() && dir_.back() == '/') dir_.pop_back();
+  std::error_code ec;
+  if (fs::exists(dir_, ec)) {
+    if (!fs::is_directory(dir_, ec)) throw SceneError(dir, "", "output path exists and is not a folder");
+    const bool empty = fs::is_empty(dir_, ec);
+    if (!empty && !fs::exists(fs::path(dir_) / "summary.json", ec))
+      throw SceneError(dir, "", "output folder exists, is not empty and holds no crumple output (summary.json): refusing to overwrite it");
+  }
+  const fs::path parent = fs::path(dir_).parent_path();
+  fs::create_directories(parent, ec);
+  if (ec) throw SceneError(dir, "", "cannot create the parent folder: " + ec.message());
+  std::random_device rd;
+  staging_ = dir_ + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
+  fs::create_directories(staging_, ec);
+  if (ec) throw SceneError(dir, "", "cannot create a folder next to it: " + ec.message());
+}
+
+OutputWriter::~OutputWriter() {
+  if (!committed_) {
+    std::error_code ec;
+    fs::remove_all(staging_, ec);
+  }
+}
+
+namespace {
+nlohmann::ordered_json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
+}  // namespace
+
+void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
+  using json = nlohmann::ordered_json;
+  sim.resolveEventStats();
+  const fs::path root(staging_);
+  fs::create_directories(root / "heightmaps");
+  fs::create_directories(root / "normalmaps");
+  // Events.
+  {
+    std::ofstream ev(root / "events.jsonl");
+    for (const EventRecord& r : sim.events()) {
+      const auto& e = r.event;
+      json line;
+      line["t"] = e.time;
+      const std::string* names[2] = {nullptr, nullptr};
+      for (const auto& b : sim.bodies()) {
+        if (b.index == e.a) names[0] = &b.name;
+        if (b.index == e.b) names[1] = &b.name;
+      }
+      line["a"] = *names[0];
+      line["b"] = *names[1];
+      line["point"] = vec(e.point);
+      line["normal"] = vec(e.normal);
+      line["penetration"] = e.penetration;
+      line["impulse_elastic"] = e.elasticImpulse;
+      line["impulse"] = e.impulse;
+      for (int s = 0; s < 2; ++s) {
+        const SideDecision& d = r.side[s];
+        json side;
+        side["threshold"] = std::isfinite(d.threshold) ? json(d.threshold) : json(nullptr);  // null: infinite (eps = 1)
+        side["percent_deform"] = d.percentDeform;
+        side["deform_depth"] = d.deformDepth;
+        side["deformed"] = d.deformed;
+        side["texels_changed"] = d.stats.texelsChanged;
+        side["max_dent"] = d.stats.maxDent;
+        side["saturated"] = d.stats.saturated;
+        line[s == 0 ? "a_side" : "b_side"] = side;
+      }
+      ev << line.dump() << "\n";
+    }
+    if (!ev) throw std::runtime_error("writing events.jsonl failed");
+  }
+  // Maps.
+  long deformedSides = 0;
+  for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
+  // Bodies that were never dented share their maps (lazy maps): encode each once, copy the files.
+  std::map<GLuint, std::string> written;
+  for (const auto& b : sim.bodies()) {
+    if (!b.surface) continue;
+    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"), normalPath = root / "normalmaps" / (b.name + ".png");
+    if (auto it = written.find(b.surface->height().id()); it != written.end()) {
+      fs::copy_file(root / "heightmaps" / it->second, heightPath);
+      fs::copy_file(root / "normalmaps" / it->second, normalPath);
+      continue;
+    }
+    written[b.surface->height().id()] = b.name + ".png";
+    const render::Image h = b.surface->downloadHeight();
+    render::writePng(heightPath.string(), h, 16);
+    const int n = b.surface->resolution();
+    std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
+    b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
+    render::Image nm(n, n, 3);
+    for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
+      for (int c = 0; c < 3; ++c) nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
+    render::writePng(normalPath.string(), nm, 8);
+  }
+  // Summary.
+  json s;
+  s["scene"] = sim.scene().name;
+  s["scene_file"] = sim.scene().file;
+  s["steps"] = sim.steps();
+  s["time"] = sim.world().time();
+  json bodies = json::array();
+  for (const auto& b : sim.bodies()) {
+    const RigidBody& rb = sim.world().body(b.index);
+    json jb;
+    jb["name"] = b.name;
+    jb["position"] = vec(rb.origin());
+    jb["orientation"] = {rb.q.w, rb.q.x, rb.q.y, rb.q.z};
+    jb["linear_velocity"] = vec(rb.v);
+    jb["angular_velocity"] = vec(rb.w);
+    jb["center_of_mass"] = vec(rb.x);
+    jb["mass"] = rb.isStatic ? json(nullptr) : json(rb.mass);
+    jb["static"] = rb.isStatic;
+    jb["asleep"] = rb.asleep;
+    bodies.push_back(jb);
+  }
+  s["bodies"] = bodies;
+  s["collisions"] = sim.events().size();
+  s["deformations"] = sim.timings().deformations;
+  s["deformed_sides"] = deformedSides;
+  s["contact_deformations"] = sim.timings().contactDeformations;
+  const Timings& t = sim.timings();
+  json tj;
+  tj["physics_ms"] = t.physicsMs;
+  tj["physics_ms_per_step"] = t.steps ? t.physicsMs / static_cast<double>(t.steps) : 0.0;
+  tj["deform_ms"] = t.deformMs;
+  tj["deform_ms_per_deformation"] = t.deformations ? t.deformMs / static_cast<double>(t.deformations) : 0.0;
+  tj["render_ms"] = t.renderMs;
+  tj["render_ms_per_frame"] = t.frames ? t.renderMs / static_cast<double>(t.frames) : 0.0;
+  tj["frames"] = t.frames;
+  s["timings"] = tj;
+  for (const auto& [k, v] : extra) s[k] = v;
+  std::ofstream f(root / "summary.json");
+  f << s.dump(2) << "\n";
+  if (!f) throw std::runtime_error("writing summary.json failed");
+}
+
+void OutputWriter::commit() {
+  std::error_code ec;
+  if (fs::exists(dir_, ec)) {
+    const std::string old = staging_ + ".old";
+    fs::rename(dir_, old, ec);
+    if (ec) throw std::runtime_error(dir_ + ": cannot replace the previous output: " + ec.message());
+    fs::rename(staging_, dir_, ec);
+    if (ec) {
+      fs::rename(old, dir_);
+      throw std::runtime_error(dir_ + ": cannot move the new output into place: " + ec.message());
+    }
+    fs::remove_all(old, ec);
+  } else {
+    fs::rename(staging_, dir_, ec);
+    if (ec) throw std::runtime_error(dir_ + ": cannot move the output into place: " + ec.message());
+  }
+  committed_ = true;
+}
+
+}  // namespace crumple

@@ -1,0 +1,28 @@
+// The outputs of a run (shared/design/scene-format.md, "Outputs"): summary.json,
+// events.jsonl, heightmaps/ and normalmaps/, written atomically.
+#pragma once
+#include <map>
+#include <string>
+
+#include "engine/simulation.h"
+
+namespace crumple {
+
+// Writes the outputs of the contract into `dir`: summary.json, events.jsonl,
+// heightmaps/ and normalmaps/ (and whatever is already in `staging`, e.g. frames/).
+// Everything goes to a temporary sibling folder first and is renamed into place
+// at the end, so a failed run never leaves a folder that looks complete.
+class OutputWriter {
+ public:
+  explicit OutputWriter(const std::string& dir);  // throws SceneError(dir) if dir is unusable
+  ~OutputWriter();                                // removes the staging folder if not committed
+  const std::string& staging() const { return staging_; }
+  void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
+  void commit();
+
+ private:
+  std::string dir_, staging_;
+  bool committed_ = false;
+};
+
+}  // namespace crumple

@@ -23,6 +23,7 @@
 #include "deform/deformer.h"
 #include "engine/primitives.h"
 #include "engine/scene_view.h"
+#include "engine/builtin_scenes.h"
 #include "engine/simulation.h"
 #include "physics/world.h"
 #include "render/gl_context.h"

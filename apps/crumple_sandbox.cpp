@@ -153,14 +153,22 @@ void panel(App& app) {
     if (changed) app.sim->setBumpDepths(k, kc);
     static const int sizes[] = {256, 512, 1024, 2048};
     int current = 0;
-    for (int i = 0; i < 4; ++i) if (sizes[i] == d.addressMap) current = i;
-    if (ImGui::Combo("address map", &current, "256\0" "512\0" "1024\0" "2048\0")) app.sim->setAddressMap(sizes[current]);
-    int path = static_cast<int>(d.path);
-    if (ImGui::Combo("path", &path, "gather\0scatter\0readback\0")) app.sim->setDeformPath(static_cast<DeformPath>(path));
+    deform::DeformOptions o = d.options;
+    for (int i = 0; i < 4; ++i) if (sizes[i] == o.addressMap) current = i;
+    bool optionsChanged = false;
+    if (ImGui::Combo("address map", &current, "256\0" "512\0" "1024\0" "2048\0")) {
+      o.addressMap = sizes[current];
+      optionsChanged = true;
+    }
+    int path = static_cast<int>(o.path);
+    if (ImGui::Combo("path", &path, "gather\0scatter\0readback\0")) {
+      o.path = static_cast<deform::Path>(path);
+      optionsChanged = true;
+    }
     bool bumpNormals = d.normalMappedNormals;
     if (ImGui::Checkbox("normal-mapped collision normals", &bumpNormals)) app.sim->setNormalMappedNormals(bumpNormals);
-    bool rims = d.craterRims;
-    if (ImGui::Checkbox("crater rims", &rims)) app.sim->setCraterRims(rims);
+    optionsChanged |= ImGui::Checkbox("crater rims", &o.craterRims);
+    if (optionsChanged) app.sim->setDeformOptions(o);
     float floor = static_cast<float>(d.impulseFloor);
     if (ImGui::SliderFloat("impulse floor", &floor, 0.0f, 5000.0f)) d.impulseFloor = floor;
   }

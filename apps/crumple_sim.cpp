@@ -57,9 +57,9 @@ int main(int argc, char** argv) {
   try {
     Scene scene = scenePath.empty() ? parseScene(builtinSceneText(), "<built-in default scene>", fs::current_path().string())
                                     : loadScene(scenePath);
-    if (deformPath == "gather" || deformPath == "gpu") scene.deformation.path = DeformPath::Gather;
-    if (deformPath == "scatter") scene.deformation.path = DeformPath::Scatter;
-    if (deformPath == "readback") scene.deformation.path = DeformPath::Readback;
+    if (deformPath == "gather" || deformPath == "gpu") scene.deformation.options.path = deform::Path::Gather;
+    if (deformPath == "scatter") scene.deformation.options.path = deform::Path::Scatter;
+    if (deformPath == "readback") scene.deformation.options.path = deform::Path::Readback;
     if (duration > 0) scene.duration = duration;
     const long totalSteps = steps > 0 ? steps : std::max(1L, std::lround(scene.duration / scene.timestep));
     if (outDir.empty()) outDir = "out/" + scene.name;

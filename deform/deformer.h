@@ -29,25 +29,11 @@
 #include <memory>
 #include <vector>
 
+#include "deform/options.h"
 #include "deform/surface.h"
 #include "render/gl_objects.h"
 
 namespace crumple::deform {
-
-enum class Path { Gather, Scatter, Readback };
-const char* pathName(Path p);  // "gather", "scatter", "readback"
-enum class TangentMode { None, Multiply, Divide };
-
-struct DeformOptions {
-  int addressMap = 512;
-  Path path = Path::Gather;
-  TangentMode tangent = TangentMode::None;
-  float tangentFloor = 0.2f;
-  bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
-  // Measure: glFinish at each phase boundary and record the wall time of each
-  // phase (profile()). Slows the stage down; for crumple-bench --deform-profile.
-  bool profile = false;
-};
 
 // Wall time of one phase of the last deformation (profile mode).
 struct PhaseTime {

@@ -10,6 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "deform/options.h"
+#include "physics/vehicle.h"
+
 namespace crumple {
 
 // Bad input: names the file, the key path and what is wrong. Apps exit with 2.
@@ -30,21 +33,13 @@ struct Material {
   glm::vec3 color{0.7f, 0.7f, 0.7f};
 };
 
-// The bump-map update (deform::Path): a per-texel gather on the GPU (the default, no gaps), or the
-// paper's scatter, on the GPU or read back to the CPU.
-enum class DeformPath { Gather, Scatter, Readback };
-enum class TangentCorrection { None, Multiply, Divide };
 
 struct DeformationSettings {
   bool enabled = true;
   double impulseFloor = 0.0;
   double bumpDepth = 0.1;          // k (m)
   double bumpDepthCollide = 0.02;  // k' (m)
-  int addressMap = 512;
-  DeformPath path = DeformPath::Gather;
-  TangentCorrection tangentCorrection = TangentCorrection::None;
-  double tangentFloor = 0.2;       // for Divide: |N . N_C| never below this
-  bool craterRims = false;
+  deform::DeformOptions options;  // address map, update path, tangent correction, crater rims
   bool lazyMaps = true;
   double contactInterval = 0.05;
   bool normalMappedNormals = false;  // contact normals from the normal maps (figure 10)  // s between contact deformations (bodies with contact_deformation)
@@ -74,16 +69,8 @@ struct VehicleInput {
 
 struct VehicleDesc {
   bool present = false;
-  std::vector<glm::dvec3> wheels;  // attachment points, body frame
-  double wheelRadius = 0.35;
-  double wheelWidth = 0.25;  // for wheel prints in contact-deformable ground
-  double suspensionRest = 0.3;
-  double suspensionStiffness = 40000;
-  double suspensionDamping = 4000;
-  double engineForce = 6000;
-  double brakeForce = 9000;
-  double maxSteer = 0.6;  // rad
-  double tyreGrip = 1.2;
+  VehicleParams params;      // wheels (attachment points, body frame), suspension, engine, brakes, grip
+  double wheelWidth = 0.25;  // for drawing and for wheel prints in contact-deformable ground
   std::vector<VehicleInput> script;
   // Tracks instead of tyres (a tank): on each side of the body (z < 0, z > 0) a
   // belt around that side's wheels, carrying grousers (cross bars) every `pitch`

@@ -239,16 +239,16 @@ VehicleDesc parseVehicle(const Node& n) {
   if (!n.has("wheels")) n.fail("wheels", "is required (wheel attachment points in the body frame)");
   const json& w = n.raw("wheels");
   if (!w.is_array() || w.size() < 3 || w.size() > 16) n.fail("wheels", "must be an array of 3 to 16 points");
-  for (size_t i = 0; i < w.size(); ++i) v.wheels.push_back(n.vec3Value(w[i], "wheels[" + std::to_string(i) + "]", 1e3));
-  v.wheelRadius = n.number("wheel_radius", v.wheelRadius, 0, 10, true);
+  for (size_t i = 0; i < w.size(); ++i) v.params.wheels.push_back(n.vec3Value(w[i], "wheels[" + std::to_string(i) + "]", 1e3));
+  v.params.wheelRadius = n.number("wheel_radius", v.params.wheelRadius, 0, 10, true);
   v.wheelWidth = n.number("wheel_width", v.wheelWidth, 0, 10, true);
-  v.suspensionRest = n.number("suspension_rest", v.suspensionRest, 0, 10, true);
-  v.suspensionStiffness = n.number("suspension_stiffness", v.suspensionStiffness, 0, 1e9, true);
-  v.suspensionDamping = n.number("suspension_damping", v.suspensionDamping, 0, 1e9);
-  v.engineForce = n.number("engine_force", v.engineForce, 0, 1e9);
-  v.brakeForce = n.number("brake_force", v.brakeForce, 0, 1e9);
-  v.maxSteer = glm::radians(n.number("max_steer", glm::degrees(v.maxSteer), 0, 89));
-  v.tyreGrip = n.number("tyre_grip", v.tyreGrip, 0, 100);
+  v.params.suspensionRest = n.number("suspension_rest", v.params.suspensionRest, 0, 10, true);
+  v.params.stiffness = n.number("suspension_stiffness", v.params.stiffness, 0, 1e9, true);
+  v.params.damping = n.number("suspension_damping", v.params.damping, 0, 1e9);
+  v.params.engineForce = n.number("engine_force", v.params.engineForce, 0, 1e9);
+  v.params.brakeForce = n.number("brake_force", v.params.brakeForce, 0, 1e9);
+  v.params.maxSteer = glm::radians(n.number("max_steer", glm::degrees(v.params.maxSteer), 0, 89));
+  v.params.grip = n.number("tyre_grip", v.params.grip, 0, 100);
   if (n.has("treads")) {
     Node t(n.raw("treads"), n.join("treads"), n.file());
     t.requireObject();
@@ -257,7 +257,7 @@ VehicleDesc parseVehicle(const Node& n) {
     v.treadPitch = t.number("pitch", v.treadPitch, 0.02, 10, true);
     v.grouserHeight = t.number("grouser_height", v.grouserHeight, 0.001, 1, true);
     bool left = false, right = false;
-    for (const glm::dvec3& p : v.wheels) (p.z < 0 ? right : left) = true;
+    for (const glm::dvec3& p : v.params.wheels) (p.z < 0 ? right : left) = true;
     if (!left || !right) n.fail("treads", "need wheels on both sides of the body (z < 0 and z > 0)");
   }
   if (n.has("script")) {
@@ -399,19 +399,20 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
     ds.bumpDepth = d.number("bump_depth", ds.bumpDepth, 0, 10, true);
     ds.bumpDepthCollide = d.number("bump_depth_collide", ds.bumpDepthCollide, 0, 10);
-    ds.addressMap = d.integer("address_map", ds.addressMap, 16, 4096);
+    auto& o = ds.options;
+    o.addressMap = d.integer("address_map", o.addressMap, 16, 4096);
     const std::string path = d.string("path", "gather");
-    if (path == "gather" || path == "gpu") ds.path = DeformPath::Gather;  // "gpu": its name before the scatter had a GPU twin
-    else if (path == "scatter") ds.path = DeformPath::Scatter;
-    else if (path == "readback") ds.path = DeformPath::Readback;
+    if (path == "gather" || path == "gpu") o.path = deform::Path::Gather;  // "gpu": its name before the scatter had a GPU twin
+    else if (path == "scatter") o.path = deform::Path::Scatter;
+    else if (path == "readback") o.path = deform::Path::Readback;
     else d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
     const std::string tc = d.string("tangent_correction", "none");
-    if (tc == "none") ds.tangentCorrection = TangentCorrection::None;
-    else if (tc == "multiply") ds.tangentCorrection = TangentCorrection::Multiply;
-    else if (tc == "divide") ds.tangentCorrection = TangentCorrection::Divide;
+    if (tc == "none") o.tangent = deform::TangentMode::None;
+    else if (tc == "multiply") o.tangent = deform::TangentMode::Multiply;
+    else if (tc == "divide") o.tangent = deform::TangentMode::Divide;
     else d.fail("tangent_correction", "must be \"none\", \"multiply\" or \"divide\", got '" + tc + "'");
-    ds.tangentFloor = d.number("tangent_floor", ds.tangentFloor, 0, 1, true);
-    ds.craterRims = d.boolean("crater_rims", ds.craterRims);
+    o.tangentFloor = static_cast<float>(d.number("tangent_floor", o.tangentFloor, 0, 1, true));
+    o.craterRims = d.boolean("crater_rims", o.craterRims);
     ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);
     ds.contactInterval = d.number("contact_interval", ds.contactInterval, 0, 10);
     ds.normalMappedNormals = d.boolean("normal_mapped_normals", ds.normalMappedNormals);

@@ -40,26 +40,12 @@ SideDecision decideSide(const Material& material, double thickness, double impul
 }
 
 namespace {
-deform::Path toDeformPath(DeformPath p) {
-  switch (p) {
-    case DeformPath::Gather: return deform::Path::Gather;
-    case DeformPath::Scatter: return deform::Path::Scatter;
-    case DeformPath::Readback: return deform::Path::Readback;
-  }
-  return deform::Path::Gather;
-}
 }  // namespace
 
 Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), assets_(scene.file) {
   world_.settings().gravity = scene.gravity;
   if (gl_) {
-    deform::DeformOptions o;
-    o.addressMap = scene.deformation.addressMap;
-    o.path = toDeformPath(scene.deformation.path);
-    o.tangent = static_cast<deform::TangentMode>(scene.deformation.tangentCorrection);
-    o.tangentFloor = static_cast<float>(scene.deformation.tangentFloor);
-    o.craterRims = scene.deformation.craterRims;
-    deformer_ = std::make_unique<deform::Deformer>(o);
+    deformer_ = std::make_unique<deform::Deformer>(scene.deformation.options);
   }
   bodies_.reserve(scene.bodies.size());
   for (size_t i = 0; i < scene.bodies.size(); ++i) buildBody(scene.bodies[i], i);
@@ -68,20 +54,16 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
 
 Simulation::~Simulation() = default;
 
-void Simulation::setDeformPath(DeformPath p) {
-  scene_.deformation.path = p;
-  if (deformer_) {
-    deform::DeformOptions o = deformer_->options();
-    o.path = toDeformPath(p);
-    deformer_->setOptions(o);
-  }
+void Simulation::setDeformOptions(const deform::DeformOptions& o) {
+  scene_.deformation.options = o;
+  if (deformer_) deformer_->setOptions(o);
 }
 
 void Simulation::setRestitution(const std::string& material, double eps) {
   Material& m = scene_.materials.at(material);
   m.restitution = std::clamp(eps, 0.0, 1.0);
   for (const BodyRuntime& b : bodies_)
-    if (b.material == &m) world_.body(b.index).restitution = m.restitution;
+    if (b.material == &m) world_.setRestitution(b.index, m.restitution);
 }
 
 void Simulation::setBumpDepths(double k, double kCollide) {
@@ -89,24 +71,6 @@ void Simulation::setBumpDepths(double k, double kCollide) {
   scene_.deformation.bumpDepthCollide = kCollide;
   for (BodyRuntime& b : bodies_)
     if (b.surface) b.surface->setBumpDepths(static_cast<float>(k), static_cast<float>(kCollide));
-}
-
-void Simulation::setAddressMap(int size) {
-  scene_.deformation.addressMap = size;
-  if (deformer_) {
-    deform::DeformOptions o = deformer_->options();
-    o.addressMap = size;
-    deformer_->setOptions(o);
-  }
-}
-
-void Simulation::setCraterRims(bool on) {
-  scene_.deformation.craterRims = on;
-  if (deformer_) {
-    deform::DeformOptions o = deformer_->options();
-    o.craterRims = on;
-    deformer_->setOptions(o);
-  }
 }
 
 void Simulation::setNormalMappedNormals(bool on) {

@@ -71,15 +71,14 @@ class Simulation {
   Timings& timings() { return timings_; }
   deform::Deformer* deformer() { return deformer_.get(); }
   std::vector<VehicleRuntime>& vehicles() { return vehicles_; }
-  void setDeformPath(DeformPath p);
   // Live changes (the sandbox's panel).
   std::map<std::string, Material>& sceneMaterials() { return scene_.materials; }
   DeformationSettings& deformationSettings() { return scene_.deformation; }
   void setRestitution(const std::string& material, double eps);
   void setBumpDepths(double k, double kCollide);
-  void setAddressMap(int size);
+  // Address map, update path, tangent correction, crater rims: from the next deformation on.
+  void setDeformOptions(const deform::DeformOptions& options);
   void setNormalMappedNormals(bool on);
-  void setCraterRims(bool on);
   // The normal map's normal at a point of body i's surface (shape frame), around
   // the geometric normal n: what contacts use with normal-mapped normals on.
   glm::dvec3 bumpNormal(int body, const glm::dvec3& point, const glm::dvec3& n);

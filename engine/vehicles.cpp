@@ -15,23 +15,14 @@ const glm::dmat4 kWheelToAxle = glm::rotate(glm::dmat4(1), glm::half_pi<double>(
 }  // namespace
 
 VehicleRuntime makeVehicle(const VehicleDesc& d, int bodyIndex, int worldIndex, bool gl) {
-  VehicleParams vp;
-  vp.wheels = d.wheels;
-  vp.wheelRadius = d.wheelRadius;
-  vp.suspensionRest = d.suspensionRest;
-  vp.stiffness = d.suspensionStiffness;
-  vp.damping = d.suspensionDamping;
-  vp.engineForce = d.engineForce;
-  vp.brakeForce = d.brakeForce;
-  vp.maxSteer = d.maxSteer;
-  vp.grip = d.tyreGrip;
+  const VehicleParams& vp = d.params;
   VehicleRuntime v(bodyIndex, Vehicle(worldIndex, vp));
   v.script = d.script;
-  if (gl) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(d.wheelRadius, d.wheelWidth, 64));
+  if (gl) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(vp.wheelRadius, d.wheelWidth, 64));
   if (!d.treads) return v;
   v.pitch = d.treadPitch;
   v.grouserHeight = d.grouserHeight;
-  const double r = d.wheelRadius;
+  const double r = vp.wheelRadius;
   double length = 0;
   for (double side : {1.0, -1.0}) {
     TreadRuntime t;

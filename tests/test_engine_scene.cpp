@@ -52,7 +52,7 @@ TEST_CASE("the good scene loads") {
   CHECK(s.bodies[0].isStatic);
   CHECK(s.bodies[0].bumpMap.resolution == 128);
   CHECK(s.materials.at("clay").restitution == doctest::Approx(0.2));
-  CHECK(s.deformation.addressMap == 256);
+  CHECK(s.deformation.options.addressMap == 256);
 }
 
 TEST_CASE("malformed scenes name the key path and the reason") {
@@ -89,6 +89,8 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"static\": true", "\"static\": \"yes\""), "bodies[0].static", "must be true or false"},
       {mutate("\"fov\": 45", "\"fov\": 180"), "cameras[0].fov", "must be in (0, 180)"},
       {mutate("\"target\": [0, 0, 0]", "\"target\": [2, 1.5, 2]"), "cameras[0].target", "must differ from position"},
+      {mutate("\"fov\": 45", "\"fov\": 45, \"follow\": \"bal\""), "cameras[0].follow", "no body is named 'bal'"},
+      {mutate("\"fov\": 45", "\"fov\": 45, \"follow_heading\": true"), "cameras[0].follow_heading", "needs \"follow\""},
       {mutate("{\"type\": \"sphere\", \"radius\": 0.25}", "{\"type\": \"mesh\", \"file\": \"nope.glb\"}"),
        "bodies[1].shape.file", "no such file"},
       {mutate("\"bodies\": [", "\"bodies\": 3, \"x\": ["), "bodies", "must be an array"},

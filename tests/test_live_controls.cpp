@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "engine/scene_view.h"
 #include "engine/simulation.h"
 #include "gl_fixture.h"
 
@@ -44,6 +45,14 @@ Dent run(const std::string& sceneName, const std::string& body, double seconds,
 
 bool sameMap(const Dent& a, const Dent& b) { return a.map.pixels == b.map.pixels; }
 
+// The simulation's deformation options with one change (as the panel makes them).
+template <class Change>
+deform::DeformOptions with(Simulation& sim, Change change) {
+  deform::DeformOptions o = sim.deformationSettings().options;
+  change(o);
+  return o;
+}
+
 }  // namespace
 
 TEST_CASE("every material and deformation control of the sandbox changes the next dent") {
@@ -72,17 +81,19 @@ TEST_CASE("every material and deformation control of the sandbox changes the nex
     CHECK(d.volume > base.volume * 1.5);
   }
   SUBCASE("address map") {
-    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setAddressMap(64); });
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setDeformOptions(with(sim, [](auto& o) { o.addressMap = 64; })); });
     CHECK_FALSE(sameMap(d, base));
     CHECK(d.volume == doctest::Approx(base.volume).epsilon(0.05));  // accuracy, not the dent, changes
   }
   SUBCASE("path") {
-    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setDeformPath(DeformPath::Scatter); });
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) {
+      sim.setDeformOptions(with(sim, [](auto& o) { o.path = deform::Path::Scatter; }));
+    });
     CHECK_FALSE(sameMap(d, base));
   }
   SUBCASE("crater rims") {
     CHECK(base.raised == 0);
-    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setCraterRims(true); });
+    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setDeformOptions(with(sim, [](auto& o) { o.craterRims = true; })); });
     CHECK(d.raised > 20);
   }
   SUBCASE("impulse floor") {
@@ -105,4 +116,32 @@ TEST_CASE("k' and normal-mapped collision normals change the print of a patterne
     const Dent d = run(s, "wall", t, [&](Simulation& sim) { sim.setNormalMappedNormals(true); });
     CHECK_FALSE(sameMap(d, base));
   }
+}
+
+TEST_CASE("a camera that follows a body keeps its offset from it, in world axes or turned with its heading") {
+  test::glContext();
+  Scene scene = loadScene(std::string(CRUMPLE_SCENES) + "/sphere-into-plate.json");
+  CameraDesc world, heading;
+  world.follow = heading.follow = "ball";
+  world.position = heading.position = {-2, 1, 0.5};
+  world.target = heading.target = {1, 0, 0};
+  heading.followHeading = true;
+  Simulation sim(scene, true);
+  for (int i = 0; i < 60; ++i) sim.step();  // the ball has fallen, bounced and spun
+  const RigidBody& ball = sim.world().body(sim.bodies()[1].index);
+  const render::View v = cameraView(world, &sim);
+  CHECK(glm::length(glm::dvec3(v.eye) - (ball.x + world.position)) < 1e-5);
+  CHECK(glm::length(glm::dvec3(v.target) - (ball.x + world.target)) < 1e-5);
+  // With the heading: the offset turns with the body's x projected on the ground, its height kept.
+  const render::View h = cameraView(heading, &sim);
+  const glm::dvec3 offset = glm::dvec3(h.eye) - ball.x;
+  CHECK(offset.y == doctest::Approx(1.0).epsilon(1e-5));
+  CHECK(glm::length(offset) == doctest::Approx(glm::length(heading.position)).epsilon(1e-5));
+  glm::dvec3 fwd = glm::mat3_cast(ball.q) * glm::dvec3(1, 0, 0);
+  fwd.y = 0;
+  fwd = glm::normalize(fwd);
+  CHECK(glm::dot(glm::dvec3(offset.x, 0, offset.z), fwd) == doctest::Approx(-2.0).epsilon(1e-4));
+  // A fixed camera stays where the scene put it.
+  const render::View f = cameraView(scene.cameras.front(), &sim);
+  CHECK(glm::length(glm::dvec3(f.eye) - scene.cameras.front().position) < 1e-5);
 }

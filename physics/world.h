@@ -16,12 +16,16 @@
 // Steps are split into substeps when a body would move more than a fraction of
 // the thinnest body's half thickness (no tunnelling; see `maxSubsteps`).
 // Everything runs single-threaded in a fixed order: the same input gives
-// bit-identical states.
+// bit-identical states (tests/test_physics_golden.cpp pins one).
+//
+// One file per stage, each opening with what it guarantees; what they share is
+// physics/step_context.h (internal), which lists them.
 #pragma once
 #include <glm/glm.hpp>
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "physics/body.h"
@@ -85,47 +89,77 @@ struct RayHit {
   glm::dvec3 point{0}, normal{0};
 };
 
+// Wall milliseconds of each stage of the last step, summed over its substeps
+// (Box2D's b2Profile). Timing never changes what a step computes.
+struct StepProfile {
+  double broadPhase = 0;        // pairs (sweep and prune) and their candidate sample lists
+  double collide = 0;           // the collision step: narrow phase on predicted poses, restitution impulses
+  double contact = 0;           // velocities (v += h g) and the contact step
+  double shockPropagation = 0;  // levels from the static bodies up
+  double positions = 0;         // position update and positional projection
+  double sleep = 0;             // stillness and islands
+  double total = 0;             // the whole step
+};
+
 struct StepStats {
   int substeps = 0;
   int pairs = 0;
   int collisions = 0;
   int contacts = 0;
   int awake = 0;
+  StepProfile ms;
 };
+
+namespace detail {
+struct StepContext;
+}
 
 class World {
  public:
   explicit World(const WorldSettings& settings = {});
+  ~World();
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
   int addBody(const BodyDef& def);  // throws std::invalid_argument on bad input (NaN, non-positive mass)
   void step(double h);
 
-  const std::vector<RigidBody>& bodies() const { return bodies_; }
-  RigidBody& body(int i) { return bodies_.at(static_cast<size_t>(i)); }
-  const RigidBody& body(int i) const { return bodies_.at(static_cast<size_t>(i)); }
-  size_t size() const { return bodies_.size(); }
-  WorldSettings& settings() { return settings_; }
-  double time() const { return time_; }
+  const std::vector<RigidBody>& bodies() const;
+  const RigidBody& body(int i) const;  // throws std::out_of_range for a bad index
+  RigidBody& body(int i);  // TEMPORARY: goes once the callers use the setters
+  size_t size() const;
+  WorldSettings& settings();
+  const WorldSettings& settings() const;
+  double time() const;
+  // Setters of a body's state; each throws std::invalid_argument on a value
+  // that is not finite (std::out_of_range for a bad index). A velocity that is
+  // not zero, or a new pose, wakes the body (static bodies never wake).
+  void setVelocity(int i, const glm::dvec3& v);         // of the centre of mass
+  void setAngularVelocity(int i, const glm::dvec3& w);  // rad/s, world
+  void setPose(int i, const Pose& pose);                // centre of mass and orientation (normalised)
+  void setRestitution(int i, double restitution);       // in [0, 1]
+  void setFriction(int i, double friction);             // >= 0
   // Events of the last step (all substeps).
-  const std::vector<CollisionEvent>& events() const { return events_; }
+  const std::vector<CollisionEvent>& events() const;
   // Resting contacts of the last step that involve a body flagged with
   // setReportContacts (contact deformation, the paper's figure 8): one per
   // touching pair, the deepest contact group, with the normal impulse the
   // contact step applied there (elasticImpulse holds twice that: the impulse
   // the same push would have had as an elastic collision).
-  const std::vector<CollisionEvent>& contactReports() const { return contactReports_; }
+  const std::vector<CollisionEvent>& contactReports() const;
   void setReportContacts(int body, bool on);
   // Normal-mapped collision normals (Wrotek et al. section 5): contacts on a
   // flagged body take their normal from this function of (body, point on its
   // surface, geometric normal), both in its shape frame. Off by default: it
   // makes bodies roll down slopes that exist only in the bump map (figure 10).
   using NormalModifier = std::function<glm::dvec3(int body, const glm::dvec3& point, const glm::dvec3& normal)>;
-  void setNormalModifier(NormalModifier modifier) { normalModifier_ = std::move(modifier); }
+  void setNormalModifier(NormalModifier modifier);
   void setBumpNormals(int body, bool on);
-  const StepStats& lastStats() const { return stats_; }
+  const StepStats& lastStats() const;
   void wake(int i);
   // A hash of every body's state, for determinism checks.
   uint64_t stateHash() const;
   // Applied to body i at the next step only (vehicle forces, user pushes): force at a world point.
+  // Each throws std::invalid_argument on a value that is not finite.
   void addForceAtPoint(int i, const glm::dvec3& force, const glm::dvec3& point);
   void addForce(int i, const glm::dvec3& force);
   void addTorque(int i, const glm::dvec3& torque);
@@ -139,84 +173,10 @@ class World {
   void findContacts(int a, int b, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const;
 
  private:
-  struct Pair {
-    int a = -1, b = -1;
-    // Samples that can reach the other body during this substep; every pass of
-    // the substep tests only these. The lists are built with a skin beyond the
-    // margin the substep needs, at the poses builtA/builtB, and kept from one
-    // substep to the next while the bodies have moved less than the skin (a
-    // Verlet list): the lists then still hold every sample that can touch.
-    std::vector<uint32_t> bInA, aInB;
-    Pose builtA, builtB;
-    double builtMargin = -1;  // < 0: no lists yet
-  };
-  void findCandidates(double h);
-  void pairContacts(const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const;
   void substep(double h);
-  void findPairs(double h);
-  Pose predict(const RigidBody& b, double h, bool withForces) const;
-  glm::dvec3 acceleration(int i) const;
-  glm::dvec3 angularAcceleration(int i) const;
-  bool collide(double h);
-  void contact(double h);
-  void shockPropagation();
-  void integratePositions(double h);
-  void projectPositions();
-  void updateSleep(double h);
-  // Groups, and with `patches` each group's extent about its point.
-  static void manifolds(const std::vector<Contact>& contacts, std::vector<Contact>& out,
-                        std::vector<PatchExtent>* patches = nullptr);
-  // A contact point's offsets from the two centres of mass, at the poses it was found at.
-  struct Levers {
-    glm::dvec3 ra, rb;
-  };
-  static Levers levers(const Contact& c, const Pose& poseA, const Pose& poseB);
-  glm::dvec3 relativeVelocity(int a, int b, const Levers& l) const;  // v_B - v_A at the point
-  void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j);  // j on b, -j on a, at the levers' point
-  glm::dmat3 collisionMatrixAt(int a, int b, const Levers& l, bool frozenA, bool frozenB) const;
-  void sidesAt(int a, int b, const Levers& l, bool frozenA, bool frozenB, ImpulseSide& sa, ImpulseSide& sb) const;
-  glm::dvec3 relativeSpin(int a, int b) const;  // omega_B - omega_A
-  void applyTorqueImpulse(int a, int b, const glm::dvec3& t);  // t on b, -t on a
-  glm::dvec3 contactImpulse(int a, int b, const Contact& c, const Levers& l, double eps, bool frozenA, bool frozenB,
-                            double* elastic = nullptr, bool withFriction = true) const;
-
-  WorldSettings settings_;
-  std::vector<RigidBody> bodies_;
-  std::vector<glm::dvec3> force_, torque_;
-  std::vector<Pair> pairs_, previousPairs_;
-  // Broad phase: bounds per body, the sweep order kept between substeps, pair keys (a << 32 | b).
-  std::vector<Aabb> boxes_;
-  std::vector<int> sweepOrder_;
-  std::vector<uint64_t> pairKeys_;
-  std::vector<CollisionEvent> events_, contactReports_;
-  std::vector<char> reportContacts_, bumpNormals_;
-  NormalModifier normalModifier_;
-  std::vector<int> level_;
-  std::vector<char> frozen_;
-  std::vector<glm::dmat3> invInertia_;  // per body, this substep
-  // The collision step's last contacts per pair, found when the two bodies'
-  // impulse counts (version_) were foundVersion_; the contact step's first
-  // pass reuses them while those counts have not moved.
-  std::vector<std::vector<Contact>> found_;
-  std::vector<std::pair<uint32_t, uint32_t>> foundVersion_;
-  std::vector<uint32_t> version_;
-  std::vector<Pose> predicted_;  // the collision step's predicted poses, valid while predictedVersion_ == version_
-  std::vector<uint32_t> predictedVersion_;
-  std::vector<Pose> stepStart_;
-  // The contact step's groups per pair as last found, with their levers (shock propagation and the projection work on them).
-  std::vector<std::vector<Contact>> groups_;
-  std::vector<std::vector<Levers>> groupLevers_;
-  std::vector<std::vector<ImpulseMatrix>> groupMatrices_;  // K and K^-1 at those levers
-  std::vector<std::vector<double>> groupSpeed_;  // each group's normal relative speed when found
-  std::vector<std::vector<FrictionTotals>> groupTotals_;      // each group's impulses so far this contact step
-  std::vector<std::vector<PatchExtent>> groupPatches_;        // each group's patch about its point
-  std::vector<std::vector<PatchMatrix>> groupPatchMatrices_;  // and its patch impulse system
-  std::vector<std::pair<Pose, Pose>> lookPoses_;  // per pair, the poses of the contact step's last look
-  std::vector<int> lookCount_;                    // and the points it found
-  void endOfStepDepths(double h);  // poses before this substep's position update (sleep test)
-  StepStats stats_;
-  double time_ = 0;
-  double minHalfThickness_ = 1e30;
+  // Everything else: the bodies, the caches kept between steps and the state
+  // the stages share (physics/step_context.h).
+  std::unique_ptr<detail::StepContext> ctx_;
 };
 
 }  // namespace crumple

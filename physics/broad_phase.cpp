@@ -1,0 +1,161 @@
+// Broad phase: which bodies may touch during the substep, and which of their
+// samples may.
+//
+// Guarantees, after findPairs and findCandidates:
+// - ctx.pairs holds every pair of bodies (at least one movable) whose bounds,
+//   swept from the current pose to the predicted one and widened by a margin,
+//   overlap; sorted by (a, b), a < b, with no duplicates. A sleeping body in
+//   such a pair is woken.
+// - Each pair's candidate lists (bInA, aInB) hold every sample of one body that
+//   can come within the substep's margin of the other's surface (Verlet lists:
+//   kept from the last substep while the bodies have moved less than the skin
+//   they were built with, rebuilt otherwise).
+// - ctx.predicted holds each body's predicted pose x + h (v + h a) (version 0),
+//   for the collision step's first look.
+// The order is unique whichever sort made it (ties by index): same input, same pairs.
+#include <algorithm>
+#include <numeric>
+
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+void findPairs(StepContext& ctx, double h) {
+  const std::vector<RigidBody>& bodies = ctx.bodies;
+  const size_t n = bodies.size();
+  std::vector<Aabb>& boxes = ctx.boxes;
+  std::vector<int>& sweepOrder = ctx.sweepOrder;
+  // Each body's bounds now and at its predicted pose; the prediction is kept
+  // for the collision step's first look (predictedVersion 0).
+  boxes.resize(n);
+  ctx.predicted.resize(n);
+  ctx.predictedVersion.assign(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const RigidBody& b = bodies[i];
+    ctx.predicted[i] = ctx.predict(b, h, true);
+    boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
+    if (b.movable()) {
+      Aabb& box = boxes[i];
+      box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i]));
+      const double margin = 0.005 + 2 * h * glm::length(b.v);
+      box.lo -= margin;
+      box.hi += margin;
+    }
+  }
+  // Sweep and prune along x. The order of the last substep is nearly right:
+  // insertion sort, unless too much has moved (then a full sort). Ties go by
+  // index, so the order is unique whichever sort made it.
+  auto before = [&](int x, int y) {
+    const double bx = boxes[static_cast<size_t>(x)].lo.x, by = boxes[static_cast<size_t>(y)].lo.x;
+    return bx != by ? bx < by : x < y;
+  };
+  if (sweepOrder.size() != n) {
+    sweepOrder.resize(n);
+    std::iota(sweepOrder.begin(), sweepOrder.end(), 0);
+    std::sort(sweepOrder.begin(), sweepOrder.end(), before);
+  } else {
+    size_t shifts = 0;
+    for (size_t i = 1; i < n && shifts <= 8 * n; ++i) {
+      const int v = sweepOrder[i];
+      size_t j = i;
+      for (; j > 0 && before(v, sweepOrder[j - 1]); --j) sweepOrder[j] = sweepOrder[j - 1];
+      sweepOrder[j] = v;
+      shifts += i - j;
+    }
+    if (shifts > 8 * n) std::sort(sweepOrder.begin(), sweepOrder.end(), before);
+  }
+  std::vector<uint64_t>& pairKeys = ctx.pairKeys;
+  pairKeys.clear();
+  std::vector<int> wakeList;
+  for (size_t oi = 0; oi < n; ++oi) {
+    const int i = sweepOrder[oi];
+    const Aabb& bi = boxes[static_cast<size_t>(i)];
+    const RigidBody& A = bodies[static_cast<size_t>(i)];
+    for (size_t oj = oi + 1; oj < n; ++oj) {
+      const int j = sweepOrder[oj];
+      const Aabb& bj = boxes[static_cast<size_t>(j)];
+      if (bj.lo.x > bi.hi.x) break;
+      if (bj.lo.y > bi.hi.y || bi.lo.y > bj.hi.y || bj.lo.z > bi.hi.z || bi.lo.z > bj.hi.z) continue;
+      const RigidBody& B = bodies[static_cast<size_t>(j)];
+      if (!A.movable() && !B.movable()) continue;
+      if (A.asleep) wakeList.push_back(i);
+      if (B.asleep) wakeList.push_back(j);
+      pairKeys.push_back(static_cast<uint64_t>(std::min(i, j)) << 32 | static_cast<uint64_t>(std::max(i, j)));
+    }
+  }
+  for (int i : wakeList) ctx.wake(i);
+  std::sort(pairKeys.begin(), pairKeys.end());
+  // Pairs that already existed keep their candidate lists (both sorted by a, b).
+  std::vector<Pair>& pairs = ctx.pairs;
+  std::vector<Pair>& previousPairs = ctx.previousPairs;
+  std::swap(pairs, previousPairs);
+  pairs.resize(pairKeys.size());
+  size_t k = 0;
+  for (size_t pi = 0; pi < pairKeys.size(); ++pi) {
+    Pair& p = pairs[pi];
+    p.a = static_cast<int>(pairKeys[pi] >> 32);
+    p.b = static_cast<int>(pairKeys[pi] & 0xffffffffu);
+    while (k < previousPairs.size() &&
+           (previousPairs[k].a < p.a || (previousPairs[k].a == p.a && previousPairs[k].b < p.b)))
+      ++k;
+    if (k < previousPairs.size() && previousPairs[k].a == p.a && previousPairs[k].b == p.b) {
+      std::swap(p.bInA, previousPairs[k].bInA);
+      std::swap(p.aInB, previousPairs[k].aInB);
+      p.builtA = previousPairs[k].builtA;
+      p.builtB = previousPairs[k].builtB;
+      p.builtMargin = previousPairs[k].builtMargin;
+    } else {
+      p.bInA.clear();
+      p.aInB.clear();
+      p.builtMargin = -1;
+    }
+  }
+}
+
+void findCandidates(StepContext& ctx, double h) {
+  const double g = glm::length(ctx.settings.gravity);
+  for (Pair& pair : ctx.pairs) {
+    const RigidBody& A = ctx.body(pair.a);
+    const RigidBody& B = ctx.body(pair.b);
+    // What matters is B's motion relative to A: two bodies falling side by
+    // side do not approach each other however fast they fall.
+    auto spin = [&](const RigidBody& b) { return b.movable() ? glm::length(b.w) * b.shape->boundingRadius + 2 * g * h : 0.0; };
+    const glm::dvec3 va = A.movable() ? A.v : glm::dvec3(0), vb = B.movable() ? B.v : glm::dvec3(0);
+    // Twice the bound on the relative motion this step, plus a little.
+    const double margin = 2 * h * (glm::length(vb - va) + spin(A) + spin(B)) + 0.005;
+    // The skin: a tenth of the smaller body's thinnest half thickness.
+    const double skin = 0.1 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
+    if (pair.builtMargin >= 0) {
+      const double ra = A.shape->boundingRadius + glm::length(A.localCom) + pair.builtMargin;
+      const double rb = B.shape->boundingRadius + glm::length(B.localCom) + pair.builtMargin;
+      const double moved = relativeDisplacementBound(pair.builtA, {A.x, A.q}, ra, pair.builtB, {B.x, B.q}, rb);
+      if (moved + margin <= pair.builtMargin) continue;  // the lists still hold every sample that can touch
+    }
+    const double built = margin + skin;
+    auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list) {
+      list.clear();
+      const Shape& so = *owner.shape;
+      const Shape& st = *other.shape;
+      const double r = st.sampleRadius;
+      const glm::dvec3 lo = so.boundsMin - r - built, hi = so.boundsMax + r + built;
+      const glm::dmat3 rot = glm::transpose(owner.rotation());
+      const glm::dmat3 rt = other.rotation();
+      const glm::dmat3 m = rot * rt;
+      const glm::dvec3 offset = rot * (other.x - owner.x - rt * other.localCom) + owner.localCom;
+      for (size_t k = 0; k < st.samples.size(); ++k) {
+        const glm::dvec3 local = m * st.samples[k] + offset;
+        if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
+          continue;
+        if (so.distance(local) - r > built) continue;
+        list.push_back(static_cast<uint32_t>(k));
+      }
+    };
+    collect(A, B, pair.bInA);
+    collect(B, A, pair.aInB);
+    pair.builtA = {A.x, A.q};
+    pair.builtB = {B.x, B.q};
+    pair.builtMargin = built;
+  }
+}
+
+}  // namespace crumple::detail

@@ -1,0 +1,127 @@
+// Collision step (Guendelman et al. 2003, section 7.1): restitution impulses on
+// the positions predicted with this substep's forces.
+//
+// Guarantees:
+// - Up to `collisionPasses` passes over the pairs (in pair order), each pair up
+//   to `collisionIterations` times: while some contact at the predicted poses
+//   approaches faster than gravity adds in one substep (g h), an impulse with
+//   restitution min(eps_A, eps_B) and friction acts at the centre of its group.
+//   Slower approaches are resting contact, left to the contact step. Stops
+//   early after a pass that applied nothing.
+// - At most one CollisionEvent per pair and substep, for a hit approaching at
+//   eventMinApproachSpeed or faster, carrying the first hit's geometry, the
+//   elastic impulse and the sum of the pair's impulses; stats.collisions counts them.
+// - ctx.found / ctx.foundVersion: each pair's last contacts and the impulse
+//   counts they were found at; ctx.predicted stays valid for bodies whose
+//   version has not moved (the contact step's first pass reuses both).
+#include <algorithm>
+
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+bool collide(StepContext& ctx, double h) {
+  const WorldSettings& settings = ctx.settings;
+  const std::vector<Pair>& pairs = ctx.pairs;
+  const double restingSpeed = glm::length(settings.gravity) * h;
+  std::vector<int> eventOfPair(pairs.size(), -1);
+  // A pair whose two bodies kept their velocities since it was last checked
+  // would find the same (no) collision again: skip it. Exact, so runs stay
+  // bit-identical; it saves the repeated passes most of their work.
+  std::vector<uint32_t>& version = ctx.version;
+  version.assign(ctx.bodies.size(), 0);
+  std::vector<std::pair<uint32_t, uint32_t>>& seen = ctx.foundVersion;
+  seen.assign(pairs.size(), {UINT32_MAX, UINT32_MAX});
+  ctx.found.resize(pairs.size());
+  // Each body's predicted pose (findPairs made the first), kept while no
+  // impulse has changed its velocity.
+  auto predicted = [&](int i) -> const Pose& {
+    const size_t k = static_cast<size_t>(i);
+    if (ctx.predictedVersion[k] != version[k]) {
+      ctx.predicted[k] = ctx.predict(ctx.bodies[k], h, true);
+      ctx.predictedVersion[k] = version[k];
+    }
+    return ctx.predicted[k];
+  };
+  bool any = false;
+  for (int pass = 0; pass < settings.collisionPasses; ++pass) {
+    bool passAny = false;
+    for (size_t pi = 0; pi < pairs.size(); ++pi) {
+      const int ia = pairs[pi].a, ib = pairs[pi].b;
+      const std::pair<uint32_t, uint32_t> now{version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
+      if (seen[pi] == now) continue;
+      for (int it = 0; it < settings.collisionIterations; ++it) {
+        const RigidBody& A = ctx.body(ia);
+        const RigidBody& B = ctx.body(ib);
+        const Pose pa = predicted(ia), pb = predicted(ib);
+        std::vector<Contact>& contacts = ctx.found[pi];
+        pairContacts(ctx, pairs[pi], pa, pb, contacts);
+        seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
+        const Contact* hit = nullptr;
+        double approach = 0;
+        // Levers from the centres of mass at the poses the contacts were found at.
+        auto leversOf = [&](const Contact& c) { return levers(c, c.a == ia ? pa : pb, c.b == ib ? pb : pa); };
+        for (const Contact& c : contacts) {
+          const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, leversOf(c));
+          // Approaches slower than gravity adds in one step are resting contact:
+          // the contact step handles them (no restitution, no event).
+          if (glm::dot(u, c.normal) < -restingSpeed) {
+            hit = &c;
+            approach = -glm::dot(u, c.normal);
+            break;
+          }
+        }
+        if (!hit) break;
+        // The impulse acts at the centre of the hit's group: the approaching
+        // points whose normals agree with the hit's, weighted by depth (as the
+        // contact step's groups). A box landing flat on another presses with
+        // its whole face; an impulse at whichever equally deep corner sorts
+        // first would spin it, and a tower of such landings leans and falls.
+        Contact at = *hit;
+        {
+          GroupSum group{*hit};
+          for (const Contact& c : contacts)
+            if (group.agrees(c) && glm::dot(ctx.relativeVelocity(c.a, c.b, leversOf(c)), c.normal) < 0) group.add(c);
+          if (group.weight > 0) {
+            at = group.result();
+            if (glm::dot(ctx.relativeVelocity(at.a, at.b, leversOf(at)), at.normal) >= 0) at = *hit;
+          }
+        }
+        const double eps = std::min(A.restitution, B.restitution);
+        double elastic = 0;
+        const Levers hitLevers = leversOf(at);
+        const glm::dvec3 j = ctx.contactImpulse(at.a, at.b, at, hitLevers, eps, false, false, &elastic);
+        if (glm::dot(j, j) == 0) break;
+        ctx.applyImpulse(at.a, at.b, hitLevers, j);
+        ++version[static_cast<size_t>(ia)];
+        ++version[static_cast<size_t>(ib)];
+        passAny = true;
+        int& ev = eventOfPair[pi];
+        if (ev < 0 && approach >= settings.eventMinApproachSpeed) {
+          CollisionEvent e;
+          e.time = ctx.time;
+          e.a = hit->a;
+          e.b = hit->b;
+          e.point = hit->point;
+          e.normal = hit->normal;
+          e.penetration = -hit->phi;
+          e.elasticImpulse = elastic;
+          e.poseA = hit->a == ia ? pa : pb;
+          e.poseB = hit->a == ia ? pb : pa;
+          ev = static_cast<int>(ctx.events.size());
+          ctx.events.push_back(e);
+        }
+        if (ev < 0) continue;
+        CollisionEvent& e = ctx.events[static_cast<size_t>(ev)];
+        e.impulseVector += hit->a == e.a ? j : -j;
+        e.impulse = glm::length(e.impulseVector);
+      }
+    }
+    any = any || passAny;
+    if (!passAny) break;
+  }
+  for (int ev : eventOfPair) ctx.stats.collisions += ev >= 0;
+  return any;
+}
+
+}  // namespace crumple::detail

@@ -1,0 +1,210 @@
+// Velocities and the contact step (Guendelman et al. 2003, section 7.2).
+//
+// Guarantees:
+// - integrateVelocities: every movable body's v += h a, omega += h alpha
+//   (gravity, applied forces and torques, the gyroscopic term).
+// - contactStep: `contactPasses` passes over the pairs, alternately forward and
+//   backward, with restitution ramped from -1 (exclusive) to 0. Each pair's
+//   penetrating points on the poses predicted with the current velocities are
+//   grouped (contact_groups.h); each group gets one impulse per pass (a patch
+//   impulse where its face can hold, else a point impulse with friction) whose
+//   Coulomb cone bounds the group's totals over the whole step. The geometry
+//   is looked at again every `contactRefresh` passes, and then only for pairs
+//   whose predicted relative pose moved more than `contactRefreshTolerance`;
+//   a group found again inherits the totals of the old group it replaces.
+// - After it, ctx.groups holds each pair's groups of its last look (levers, K,
+//   normal speed then, patch): shock propagation and the position step use them.
+//   stats.contacts counts the points of each pair's last look.
+// - For pairs involving a body flagged with setReportContacts: one contact
+//   report per pair that the step pushed apart, at its deepest group.
+#include <algorithm>
+#include <cmath>
+
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+void integrateVelocities(StepContext& ctx, double h) {
+  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+    RigidBody& b = ctx.bodies[i];
+    if (!b.movable()) continue;
+    const glm::dvec3 a = ctx.acceleration(static_cast<int>(i));
+    const glm::dvec3 alpha = ctx.angularAcceleration(static_cast<int>(i));
+    b.v += h * a;
+    b.w += h * alpha;
+  }
+}
+
+namespace {
+
+// A group found again inherits the totals of the old group whose normal agrees
+// best (within kSameGroup; each old group passes its totals on once).
+void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGroup>& groups, std::vector<char>& inherited) {
+  inherited.assign(old.size(), 0);
+  for (ContactGroup& group : groups) {
+    const Contact& g = group.contact;
+    size_t best = old.size();
+    double bestDot = kSameGroup;
+    for (size_t k = 0; k < old.size(); ++k) {
+      const Contact& o = old[k].contact;
+      const double d = glm::dot(g.normal, o.a == g.a ? o.normal : -o.normal);
+      if (!inherited[k] && d >= bestDot) {
+        best = k;
+        bestDot = d;
+      }
+    }
+    if (best == old.size()) continue;
+    inherited[best] = 1;
+    FrictionTotals t = old[best].totals;
+    if (old[best].contact.a != g.a) t.tangential = -t.tangential;  // impulses are on b
+    group.totals = t;
+  }
+}
+
+// Scratch kept over one contact step.
+struct Scratch {
+  std::vector<Contact> fresh;
+  std::vector<ContactGroup> old;
+  std::vector<char> inherited;
+};
+
+// A new look at pair pi's geometry at poses pa, pb: its groups (inheriting the
+// old groups' totals), their levers, matrices, patch matrices and normal speeds.
+void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, bool reuse, Scratch& s) {
+  const Pair& pair = ctx.pairs[pi];
+  const std::vector<Contact>* contacts = &s.fresh;
+  ctx.lookPoses[pi] = {pa, pb};
+  // NB: a fresh look counts `fresh` before pairContacts refills it (the count
+  // of the previous fresh look); kept as it was to keep runs bit-identical.
+  ctx.lookCount[pi] = static_cast<int>((reuse ? ctx.found[pi] : s.fresh).size());
+  if (reuse) {
+    contacts = &ctx.found[pi];
+  } else {
+    pairContacts(ctx, pair, pa, pb, s.fresh);
+  }
+  std::vector<ContactGroup>& groups = ctx.groups[pi];
+  s.old.swap(groups);
+  groupContacts(*contacts, groups);
+  inheritTotals(s.old, groups, s.inherited);
+  for (ContactGroup& g : groups) {
+    const Contact& c = g.contact;
+    // The levers at the poses the geometry was found at: measured from the
+    // current centres, a point found ahead by h v would turn sliding into
+    // a spurious normal velocity (a rolling ball would brake).
+    g.levers = levers(c, c.a == pair.a ? pa : pb, c.b == pair.b ? pb : pa);
+    ImpulseSide sa, sb;
+    ctx.sidesAt(c.a, c.b, g.levers, false, false, sa, sb);
+    g.matrix = ImpulseMatrix(collisionMatrix(sa, sb));
+    g.patchMatrix = patchMatrix(sa, sb, g.matrix, g.patch);
+    g.speed = glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal);
+  }
+}
+
+// One pass's impulses on pair pi's groups, with restitution eps. Adds the
+// normal impulse at the deepest group to `pushed` when asked.
+void solvePair(StepContext& ctx, size_t pi, double eps, double* pushed) {
+  const Pair& pair = ctx.pairs[pi];
+  const double mu = std::sqrt(ctx.body(pair.a).friction * ctx.body(pair.b).friction);
+  std::vector<ContactGroup>& groups = ctx.groups[pi];
+  for (size_t gi = 0; gi < groups.size(); ++gi) {
+    ContactGroup& g = groups[gi];
+    const Contact& c = g.contact;
+    const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, g.levers);
+    glm::dvec3 j, torque;
+    if (patchImpulse(g.patchMatrix, g.matrix, u, ctx.relativeSpin(c.a, c.b), c.normal, eps, mu, &g.totals, j, torque)) {
+      ctx.applyImpulse(c.a, c.b, g.levers, j);
+      ctx.applyTorqueImpulse(c.a, c.b, torque);
+    } else {
+      j = frictionImpulse(g.matrix, u, c.normal, eps, mu, &g.totals);
+      if (glm::dot(j, j) > 0) ctx.applyImpulse(c.a, c.b, g.levers, j);
+    }
+    if (pushed && gi == 0) *pushed += glm::dot(j, c.normal);
+  }
+}
+
+// One report per pair the step pushed apart, at its deepest group.
+void reportContacts(StepContext& ctx, const std::vector<double>& pushed) {
+  for (size_t pi = 0; pi < ctx.pairs.size(); ++pi) {
+    const std::vector<ContactGroup>& groups = ctx.groups[pi];
+    if (groups.empty() || !(pushed[pi] > 0)) continue;
+    const Contact& c = groups.front().contact;
+    CollisionEvent e;
+    e.time = ctx.time;
+    e.a = c.a;
+    e.b = c.b;
+    e.point = c.point;
+    e.normal = c.normal;
+    e.penetration = -c.phi;
+    e.impulse = pushed[pi];
+    e.impulseVector = c.normal * pushed[pi];
+    e.elasticImpulse = 2 * pushed[pi];
+    const RigidBody& A = ctx.body(c.a);
+    const RigidBody& B = ctx.body(c.b);
+    e.poseA = {A.x, A.q};
+    e.poseB = {B.x, B.q};
+    ctx.contactReports.push_back(e);
+  }
+}
+
+}  // namespace
+
+void contactStep(StepContext& ctx, double h) {
+  const std::vector<Pair>& pairs = ctx.pairs;
+  // Contact geometry on the positions predicted with the current velocities.
+  // Re-finding it costs most of the step; it changes little from one pass to
+  // the next, so it is refreshed every `contactRefresh` passes, and then only
+  // for pairs whose predicted poses moved (impulses always use the current
+  // velocities).
+  ctx.groups.resize(pairs.size());
+  for (auto& g : ctx.groups) g.clear();
+  ctx.lookPoses.resize(pairs.size());
+  ctx.lookCount.assign(pairs.size(), 0);
+  Scratch scratch;
+  const bool reporting = !ctx.reportContacts.empty();
+  std::vector<double> pushed(reporting ? pairs.size() : 0, 0.0);
+  const int n = std::max(1, ctx.settings.contactPasses);
+  const int refresh = std::max(1, ctx.settings.contactRefresh);
+  for (int pass = 1; pass <= n; ++pass) {
+    const double eps = -1.0 + static_cast<double>(pass) / n;
+    const bool find = (pass - 1) % refresh == 0;
+    // Alternate sweeps (forward, then backward): a one-way order pushes every
+    // stack the same way, a little each pass.
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      const size_t pi = pass % 2 ? k : pairs.size() - 1 - k;
+      const Pair& pair = pairs[pi];
+      bool look = find;
+      bool reuse = false;
+      Pose pa, pb;
+      if (look) {
+        // The collision step's last look at this pair was at the poses the
+        // first pass predicts now (x + h (v + h a) either way) if no impulse
+        // has touched either body since: its contacts are reused, with the
+        // poses they were found at (levers must match the geometry). Fresh
+        // contacts are found at the poses the current velocities predict.
+        const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)], ctx.version[static_cast<size_t>(pair.b)]};
+        reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
+        pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
+        pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);
+        if (pass > 1) {
+          // A refresh re-finds the geometry only where the predicted poses have
+          // moved since the last look; resting contact keeps its groups (their
+          // depths follow to first order, endOfStepDepths).
+          const RigidBody& A = ctx.body(pair.a);
+          const RigidBody& B = ctx.body(pair.b);
+          const double ra = A.shape->boundingRadius + glm::length(A.localCom);
+          const double rb = B.shape->boundingRadius + glm::length(B.localCom);
+          look = relativeDisplacementBound(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb) >
+                 ctx.settings.contactRefreshTolerance;
+        }
+      }
+      if (look) refreshGroups(ctx, pi, pa, pb, reuse, scratch);
+      const bool report = reporting && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
+                                        ctx.reportContacts[static_cast<size_t>(pair.b)]);
+      solvePair(ctx, pi, eps, report ? &pushed[pi] : nullptr);
+    }
+  }
+  for (int c : ctx.lookCount) ctx.stats.contacts += c;  // each pair's last look
+  if (reporting) reportContacts(ctx, pushed);
+}
+
+}  // namespace crumple::detail

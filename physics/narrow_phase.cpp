@@ -1,0 +1,140 @@
+// Narrow phase: contact points between two bodies at given poses, and rays.
+//
+// Guarantees:
+// - pairContacts / World::findContacts return every sample of either body that
+//   penetrates the other's distance field (phi < 0, the sample radius
+//   subtracted): point on the sampled body's surface, unit normal out of the
+//   field's owner (a), depth phi. pairContacts tests only the pair's candidate
+//   samples (broad_phase.cpp guarantees they hold every sample that can touch).
+// - The list is sorted deepest first; equal depths keep the order found
+//   (samples of b in a first, then of a in b, each in sample order).
+// - On a body flagged with setBumpNormals (and with a normal modifier set), the
+//   normal is the modifier's, normalised.
+// - World::raycast returns the nearest surface along the ray within the
+//   distance, to the sphere tracer's tolerance (1e-4 m).
+#include <algorithm>
+
+#include "physics/step_context.h"
+
+namespace crumple {
+
+namespace {
+// Tests samples of `other` (all, or the listed ones) against the field of `owner`.
+void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
+                    const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
+                    const World::NormalModifier* modifier = nullptr) {
+  const Shape& so = *owner.shape;
+  const Shape& st = *other.shape;
+  const double r = st.sampleRadius;
+  const glm::dvec3 lo = so.boundsMin - r, hi = so.boundsMax + r;
+  const glm::dmat3 ro = glm::mat3_cast(po.orientation);
+  const glm::dmat3 rot = glm::transpose(ro);
+  const glm::dmat3 rt = glm::mat3_cast(pother.orientation);
+  glm::dvec3 hint = rot * (pother.position - po.position);
+  const double hintLen = glm::length(hint);
+  hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
+  const size_t n = list ? list->size() : st.samples.size();
+  if (n == 0) return;
+  const bool normals = !st.sampleNormals.empty();
+  // One rigid map from the other's shape frame to the owner's: local = M s + t.
+  const glm::dmat3 otherToOwner = rot * rt;
+  const glm::dvec3 offset = rot * (pother.position - po.position - rt * other.localCom) + owner.localCom;
+  for (size_t k = 0; k < n; ++k) {
+    const size_t index = list ? (*list)[k] : k;
+    const glm::dvec3& s = st.samples[index];
+    const glm::dvec3 local = otherToOwner * s + offset;
+    if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
+      continue;
+    glm::dvec3 g;
+    glm::dvec3 sampleHint = hint;
+    if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
+      sampleHint = -(otherToOwner * st.sampleNormals[index]);
+    const double phi = so.distance(local, &g, &sampleHint) - r;
+    if (phi >= 0) continue;
+    if (modifier) g = glm::normalize((*modifier)(iOwner, local - (phi + r) * g, g));
+    Contact c;
+    c.a = iOwner;
+    c.b = iOther;
+    c.normal = ro * g;  // unit: every shape's distance gradient is normalised
+    c.point = pother.position + rt * (s - other.localCom) - r * c.normal;
+    c.phi = phi;
+    out.push_back(c);
+  }
+}
+// Deepest first; equal depths keep the order they were found in (a stable
+// insertion sort: the lists are short, and it allocates nothing).
+void sortContacts(std::vector<Contact>& out) {
+  if (out.size() > 64) {
+    std::stable_sort(out.begin(), out.end(), [](const Contact& x, const Contact& y) { return x.phi < y.phi; });
+    return;
+  }
+  for (size_t i = 1; i < out.size(); ++i) {
+    if (!(out[i].phi < out[i - 1].phi)) continue;
+    const Contact c = out[i];
+    size_t j = i;
+    for (; j > 0 && c.phi < out[j - 1].phi; --j) out[j] = out[j - 1];
+    out[j] = c;
+  }
+}
+}  // namespace
+
+namespace detail {
+void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
+  out.clear();
+  const RigidBody& A = ctx.body(pair.a);
+  const RigidBody& B = ctx.body(pair.b);
+  const bool bump = ctx.normalModifier && !ctx.bumpNormals.empty();
+  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
+                 bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr);
+  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out,
+                 bump && ctx.bumpNormals[static_cast<size_t>(pair.b)] ? &ctx.normalModifier : nullptr);
+  sortContacts(out);
+}
+}  // namespace detail
+
+void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::vector<Contact>& out) const {
+  out.clear();
+  const RigidBody& A = ctx_->body(ia);
+  const RigidBody& B = ctx_->body(ib);
+  contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out);
+  contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out);
+  sortContacts(out);
+}
+
+bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxDistance, int ignore, RayHit& hit) const {
+  bool found = false;
+  hit.distance = maxDistance;
+  const glm::dvec3 end = origin + dir * maxDistance;
+  const glm::dvec3 rlo = glm::min(origin, end), rhi = glm::max(origin, end);
+  const std::vector<RigidBody>& bodies = ctx_->bodies;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    if (static_cast<int>(i) == ignore) continue;
+    const RigidBody& b = bodies[i];
+    const Pose pose{b.x, b.q};
+    const Aabb box = detail::worldBounds(*b.shape, b.localCom, pose);
+    if (box.lo.x > rhi.x || box.lo.y > rhi.y || box.lo.z > rhi.z || box.hi.x < rlo.x || box.hi.y < rlo.y || box.hi.z < rlo.z)
+      continue;
+    const glm::dmat3 rt = glm::transpose(b.rotation());
+    const glm::dvec3 o = rt * (origin - b.x) + b.localCom, d = rt * dir;
+    double t = 0;
+    for (int it = 0; it < 128 && t <= hit.distance; ++it) {
+      const double phi = b.shape->distance(o + d * t);
+      if (phi < 1e-4) {
+        if (t < hit.distance || !found) {
+          glm::dvec3 g;
+          b.shape->distance(o + d * t, &g);
+          hit.body = static_cast<int>(i);
+          hit.distance = t;
+          hit.point = origin + dir * t;
+          hit.normal = glm::normalize(b.rotation() * g);
+          found = true;
+        }
+        break;
+      }
+      t += std::max(phi, 1e-4);
+    }
+  }
+  return found;
+}
+
+}  // namespace crumple

@@ -1,0 +1,79 @@
+// Position step: x += h v, q integrated from omega, then a positional
+// projection of the penetration left.
+//
+// Guarantees:
+// - endOfStepDepths (before the update): each contact group's depth is its
+//   depth at the contact step's last look plus h times the change of its
+//   normal relative speed since: its depth at the new positions, to first order
+//   in h (exact for translations).
+// - integratePositions: every movable body moves with its velocities; the
+//   orientation stays a unit quaternion.
+// - projectPositions: `projectionIterations` iterations over the groups push
+//   the two bodies apart along the normal by `penetrationCorrection` of the
+//   depth beyond `penetrationSlop`, split by inverse mass. Translations only:
+//   no velocity changes, except that a group still approaching at the first
+//   iteration loses its approach (an inelastic, frictionless normal impulse;
+//   it never adds energy).
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+// The contact step's last look saw the positions predicted with the
+// velocities of that moment; the step ends with others. Each group's depth at
+// the new positions is its depth then plus h times the change of its normal
+// relative speed since (first order in h; exact for translations). Called
+// between the contact step and the position update, it spares the projection
+// a look of its own.
+void endOfStepDepths(StepContext& ctx, double h) {
+  for (size_t pi = 0; pi < ctx.groups.size() && pi < ctx.pairs.size(); ++pi)
+    for (ContactGroup& g : ctx.groups[pi]) {
+      Contact& c = g.contact;
+      c.phi += h * (glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal) - g.speed);
+    }
+}
+
+void integratePositions(StepContext& ctx, double h) {
+  for (RigidBody& b : ctx.bodies) {
+    if (!b.movable()) continue;
+    b.x += h * b.v;
+    b.q = integrateOrientation(b.q, b.w, h);
+  }
+}
+
+// Positional projection on the contact step's groups (depths at the new
+// positions from endOfStepDepths). The projection only translates bodies, so
+// from one iteration to the next each group's depth moves by the two bodies'
+// translations along its normal (exact for flat contact).
+void projectPositions(StepContext& ctx) {
+  const WorldSettings& settings = ctx.settings;
+  if (settings.projectionIterations <= 0) return;
+  std::vector<glm::dvec3> moved(ctx.bodies.size(), glm::dvec3(0));
+  for (int it = 0; it < settings.projectionIterations; ++it) {
+    for (size_t pi = 0; pi < ctx.groups.size() && pi < ctx.pairs.size(); ++pi) {
+      for (const ContactGroup& g : ctx.groups[pi]) {
+        const Contact& c = g.contact;
+        const size_t ia = static_cast<size_t>(c.a), ib = static_cast<size_t>(c.b);
+        const double depth = -(c.phi + glm::dot(moved[ib] - moved[ia], c.normal)) - settings.penetrationSlop;
+        if (depth <= 0) continue;
+        RigidBody& ca = ctx.bodies[ia];
+        RigidBody& cb = ctx.bodies[ib];
+        const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
+        if (wa + wb <= 0) continue;
+        if (it == 0) {
+          // A contact still sinking after the contact step would sink again
+          // next step and be pushed out again: the approach goes too
+          // (inelastic, normal only: it never adds energy).
+          const glm::dvec3 j = frictionlessImpulse(g.matrix.K, ctx.relativeVelocity(c.a, c.b, g.levers), c.normal, 0.0);
+          if (glm::dot(j, j) > 0) ctx.applyImpulse(c.a, c.b, g.levers, j);
+        }
+        const double corr = settings.penetrationCorrection * depth / (wa + wb);
+        ca.x -= c.normal * corr * wa;
+        cb.x += c.normal * corr * wb;
+        moved[ia] -= c.normal * corr * wa;
+        moved[ib] += c.normal * corr * wb;
+      }
+    }
+  }
+}
+
+}  // namespace crumple::detail

@@ -1,0 +1,166 @@
+// Shock propagation (Guendelman et al. 2003, section 7.3), on the contact
+// step's last groups.
+//
+// Guarantees:
+// - Levels: static and sleeping bodies are level 0; every other body touching
+//   one (through a pair with groups) is one more than the lowest level it
+//   touches (breadth-first, so cycles collapse into one level and it never
+//   loops); bodies touching nothing stay unlevelled and untouched.
+// - Level by level from 1 up, with every lower level frozen (infinite mass):
+//   `shockPasses` Jacobi passes over the level's groups, each group's impulse
+//   computed from the same velocities and each body taking the mean of its
+//   groups' (restitution 0, friction). A body resting on one patch of the
+//   frozen level below is held against tilting by that patch; on two, the
+//   patches hold only the tilt about the line through them.
+// - Afterwards no body is frozen.
+#include <algorithm>
+#include <cmath>
+
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+namespace {
+
+// One group of the level being processed, with what its impulses need.
+struct LevelContact {
+  Contact c;
+  Levers l;
+  ImpulseMatrix m;  // K with this level's frozen bodies
+  double mu;
+  ImpulseSide sa, sb;
+  const PatchExtent* extent;
+  PatchMatrix patch;  // valid only for a body's one or two support patches
+};
+
+// The contact graph of the contact step's last look (positions moved with the
+// velocities of then); levels from the static (and sleeping) bodies up by
+// breadth-first search. Fills `touching` with the pairs that have groups;
+// returns the highest level.
+int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
+  const size_t n = ctx.bodies.size();
+  std::vector<std::vector<int>> adjacency(n);
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
+    if (ctx.groups[pi].empty()) continue;
+    const Pair& pair = ctx.pairs[pi];
+    adjacency[static_cast<size_t>(pair.a)].push_back(pair.b);
+    adjacency[static_cast<size_t>(pair.b)].push_back(pair.a);
+    touching.push_back(pi);
+  }
+  std::vector<int>& level = ctx.level;
+  level.assign(n, -1);
+  std::vector<int> queue;
+  for (size_t i = 0; i < n; ++i) {
+    if (!ctx.bodies[i].movable()) {
+      level[i] = 0;
+      queue.push_back(static_cast<int>(i));
+    }
+  }
+  int maxLevel = 0;
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int i = queue[head];
+    for (int j : adjacency[static_cast<size_t>(i)]) {
+      if (level[static_cast<size_t>(j)] < 0) {
+        level[static_cast<size_t>(j)] = level[static_cast<size_t>(i)] + 1;
+        maxLevel = std::max(maxLevel, level[static_cast<size_t>(j)]);
+        queue.push_back(j);
+      }
+    }
+  }
+  return maxLevel;
+}
+
+// This level's contact groups (a pair whose upper body is on this level), with
+// K for the frozen bodies of the levels below, and each body's count of them.
+void levelContacts(const StepContext& ctx, const std::vector<size_t>& touching, int level, std::vector<LevelContact>& lc,
+                   std::vector<int>& share) {
+  for (size_t pi : touching) {
+    const Pair& pair = ctx.pairs[pi];
+    const int la = ctx.level[static_cast<size_t>(pair.a)], lb = ctx.level[static_cast<size_t>(pair.b)];
+    if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
+    const double mu = std::sqrt(ctx.body(pair.a).friction * ctx.body(pair.b).friction);
+    for (const ContactGroup& g : ctx.groups[pi]) {
+      const Contact& c = g.contact;
+      const bool fa = ctx.frozen[static_cast<size_t>(c.a)] != 0, fb = ctx.frozen[static_cast<size_t>(c.b)] != 0;
+      LevelContact x{c, g.levers, {}, mu, {}, {}, &g.patch, {}};
+      ctx.sidesAt(c.a, c.b, g.levers, fa, fb, x.sa, x.sb);
+      x.m = ImpulseMatrix(collisionMatrix(x.sa, x.sb));
+      lc.push_back(x);
+      if (!fa) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
+      if (!fb) ++share[static_cast<size_t>(c.b)];
+    }
+  }
+}
+
+// A body resting on one patch of the level below is held against tilting by
+// that patch (its torque). On two supports, the couple of their point
+// impulses holds the tilt across the line through them and each support's
+// patch keeps only the torque about that line (lineMatrix): full patch
+// torques would each ask for their own support's tilt, and the body would
+// jitter between them. On more, the couples hold every tilt.
+void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::vector<LevelContact>& lc) {
+  // (body, level contact) for each support from the frozen level below, by body.
+  std::vector<std::pair<int, size_t>> supports;
+  for (size_t k = 0; k < lc.size(); ++k) {
+    const bool fa = ctx.frozen[static_cast<size_t>(lc[k].c.a)] != 0, fb = ctx.frozen[static_cast<size_t>(lc[k].c.b)] != 0;
+    if (fa != fb) supports.push_back({fa ? lc[k].c.b : lc[k].c.a, k});
+  }
+  std::sort(supports.begin(), supports.end());
+  for (size_t first = 0, last; first < supports.size(); first = last) {
+    const int body = supports[first].first;
+    for (last = first; last < supports.size() && supports[last].first == body; ++last) {}
+    const size_t count = last - first;
+    if (static_cast<size_t>(share[static_cast<size_t>(body)]) != count) continue;  // touches its own level too
+    if (count == 1) {
+      LevelContact& x = lc[supports[first].second];
+      x.patch = patchMatrix(x.sa, x.sb, x.m, *x.extent);
+    } else if (count == 2) {
+      const size_t k0 = supports[first].second, k1 = supports[first + 1].second;
+      const glm::dvec3 line = lc[k1].c.point - lc[k0].c.point;
+      for (size_t k : {k0, k1}) lc[k].patch = lineMatrix(lc[k].sa, lc[k].sb, lc[k].m, *lc[k].extent, line);
+    }
+  }
+}
+
+// Jacobi passes: every group's impulse from the same velocities, each body
+// taking the mean of its groups' (a body on two supports follows neither
+// alone: in order, the last one processed would win).
+void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const std::vector<int>& share) {
+  std::vector<glm::dvec3> dj(lc.size()), dt(lc.size());
+  for (int pass = 0; pass < ctx.settings.shockPasses; ++pass) {
+    for (size_t k = 0; k < lc.size(); ++k) {
+      const Contact& c = lc[k].c;
+      const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, lc[k].l);
+      if (!patchImpulse(lc[k].patch, lc[k].m, u, ctx.relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr, dj[k], dt[k])) {
+        dj[k] = frictionImpulse(lc[k].m, u, c.normal, 0.0, lc[k].mu);
+        dt[k] = glm::dvec3(0);
+      }
+    }
+    for (size_t k = 0; k < lc.size(); ++k) {
+      const Contact& c = lc[k].c;
+      const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});
+      if (glm::dot(dj[k], dj[k]) > 0) ctx.applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
+      if (glm::dot(dt[k], dt[k]) > 0) ctx.applyTorqueImpulse(c.a, c.b, dt[k] / double(m));
+    }
+  }
+}
+
+}  // namespace
+
+void shockPropagation(StepContext& ctx) {
+  if (ctx.settings.shockPasses <= 0) return;
+  const size_t n = ctx.bodies.size();
+  std::vector<size_t> touching;
+  const int maxLevel = computeLevels(ctx, touching);
+  for (int level = 1; level <= maxLevel; ++level) {
+    for (size_t i = 0; i < n; ++i) ctx.frozen[i] = ctx.level[i] >= 0 && ctx.level[i] < level;
+    std::vector<LevelContact> lc;
+    std::vector<int> share(n, 0);
+    levelContacts(ctx, touching, level, lc, share);
+    supportPatches(ctx, share, lc);
+    jacobiPasses(ctx, lc, share);
+  }
+  std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
+}
+
+}  // namespace crumple::detail

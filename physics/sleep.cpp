@@ -1,0 +1,73 @@
+// Sleeping: islands that stayed still for `sleepTime` freeze.
+//
+// Guarantees:
+// - Every movable body's stillTime grows by h when it moved less than
+//   sleepLinear (m/s) and turned less than sleepAngular (rad/s) over the
+//   substep (measured from ctx.stepStart, not from its velocity), else resets.
+// - With `sleeping` on: the bodies of an island (movable bodies joined by
+//   pairs not involving a static body) fall asleep together, velocities
+//   zeroed, when every one has been still for sleepTime and the island rests
+//   on something (a pair with a static or sleeping body). A body in free
+//   flight never sleeps. Bodies wake in the broad phase (a pair with a
+//   movable body) or through World::wake and the forces.
+#include <algorithm>
+#include <numeric>
+
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+void updateSleep(StepContext& ctx, double h) {
+  const WorldSettings& settings = ctx.settings;
+  std::vector<RigidBody>& bodies = ctx.bodies;
+  const size_t n = bodies.size();
+  // Still: the body hardly moved over the step. Its velocity would not do: a
+  // body resting on another ends each step still approaching it by about g h
+  // (the contact step stops penetration at the predicted positions, the
+  // projection the rest), which at 60 Hz is more than any sleep threshold.
+  for (size_t i = 0; i < n; ++i) {
+    RigidBody& b = bodies[i];
+    if (!b.movable() || i >= ctx.stepStart.size()) continue;
+    const Pose& start = ctx.stepStart[i];
+    const double speed = glm::length(b.x - start.position) / h, spin = rotationAngle(start.orientation, b.q) / h;
+    const bool still = speed < settings.sleepLinear && spin < settings.sleepAngular;
+    b.stillTime = still ? b.stillTime + h : 0;
+  }
+  if (!settings.sleeping) return;
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](int x) {
+    while (parent[static_cast<size_t>(x)] != x) x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+    return x;
+  };
+  for (const Pair& p : ctx.pairs) {
+    if (bodies[static_cast<size_t>(p.a)].isStatic || bodies[static_cast<size_t>(p.b)].isStatic) continue;
+    const int ra = find(p.a), rb = find(p.b);
+    if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
+  }
+  std::vector<char> islandStill(n, 1), supported(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const RigidBody& b = bodies[i];
+    if (b.isStatic) continue;
+    if (b.movable() && b.stillTime < settings.sleepTime) islandStill[static_cast<size_t>(find(static_cast<int>(i)))] = 0;
+  }
+  // Only an island that rests on something (a static or sleeping body near
+  // one of its bodies) sleeps: a slow body in free flight (zero gravity, say)
+  // keeps its momentum.
+  for (const Pair& p : ctx.pairs) {
+    const RigidBody& A = bodies[static_cast<size_t>(p.a)];
+    const RigidBody& B = bodies[static_cast<size_t>(p.b)];
+    if (!A.movable()) supported[static_cast<size_t>(find(p.b))] = 1;
+    if (!B.movable()) supported[static_cast<size_t>(find(p.a))] = 1;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    RigidBody& b = bodies[i];
+    const size_t root = static_cast<size_t>(find(static_cast<int>(i)));
+    if (!b.movable() || !islandStill[root] || !supported[root]) continue;
+    b.asleep = true;
+    b.v = glm::dvec3(0);
+    b.w = glm::dvec3(0);
+  }
+}
+
+}  // namespace crumple::detail

@@ -1,0 +1,249 @@
+// What the stages of a step share (internal to the physics library; Box2D's
+// b2StepContext). The World is a facade over one StepContext: the bodies and
+// what the API reads back live here too, beside the caches kept from one step
+// to the next (pairs and their candidate lists, the sweep order) and the state
+// of the substep under way (world inverse inertias, frozen flags, predicted
+// poses, the contact groups, the poses at the start of the position update).
+//
+// The stages, one file each, in the order World::substep runs them:
+//   broad_phase.cpp        findPairs, findCandidates
+//   collision_step.cpp     collide           (narrow_phase.cpp finds the contacts)
+//   contact_step.cpp       integrateVelocities, contactStep
+//   shock_propagation.cpp  shockPropagation
+//   position_step.cpp      endOfStepDepths, integratePositions, projectPositions
+//   sleep.cpp              updateSleep
+// Each file opens with what its stage guarantees.
+#pragma once
+#include <glm/glm.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "physics/body.h"
+#include "physics/contact_groups.h"
+#include "physics/impulse.h"
+#include "physics/world.h"
+
+namespace crumple::detail {
+
+// A pair of bodies whose bounds overlap (broad phase), at least one movable.
+struct Pair {
+  int a = -1, b = -1;
+  // Samples that can reach the other body during this substep; every pass of
+  // the substep tests only these. The lists are built with a skin beyond the
+  // margin the substep needs, at the poses builtA/builtB, and kept from one
+  // substep to the next while the bodies have moved less than the skin (a
+  // Verlet list): the lists then still hold every sample that can touch.
+  std::vector<uint32_t> bInA, aInB;
+  Pose builtA, builtB;
+  double builtMargin = -1;  // < 0: no lists yet
+};
+
+// ---- helpers the stages share ------------------------------------------------
+
+inline bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& pose) {
+  const glm::dvec3 c = (s.boundsMin + s.boundsMax) * 0.5, e = (s.boundsMax - s.boundsMin) * 0.5;
+  const glm::dmat3 r = glm::mat3_cast(pose.orientation);
+  const glm::dvec3 wc = pose.position + r * (c - localCom);
+  glm::dvec3 we(0);
+  for (int col = 0; col < 3; ++col) we += glm::abs(r[col]) * e[col];
+  return {wc - we, wc + we};
+}
+
+inline Aabb merge(const Aabb& a, const Aabb& b) { return {glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; }
+
+inline glm::dquat integrateOrientation(const glm::dquat& q, const glm::dvec3& w, double h) {
+  const glm::dquat spin(0, w.x, w.y, w.z);
+  glm::dquat r = q + (0.5 * h) * (spin * q);
+  return glm::normalize(r);
+}
+
+// The angle of the rotation from one orientation to another.
+inline double rotationAngle(const glm::dquat& from, const glm::dquat& to) {
+  return 2 * std::acos(std::min(1.0, std::abs(glm::dot(from, to))));
+}
+
+// How far B's points near A can have moved in A's frame between two pairs of
+// poses: the change of B's offset from A, plus each rotation angle times the
+// reach about that body's centre (A's turn moves the points near A by at most
+// its angle times ra; B's turn moves its own points by its angle times rb).
+inline double relativeDisplacementBound(const Pose& fromA, const Pose& toA, double ra, const Pose& fromB, const Pose& toB,
+                                        double rb) {
+  const glm::dvec3 offsetChange = (toB.position - toA.position) - (fromB.position - fromA.position);
+  return glm::length(offsetChange) + rotationAngle(fromA.orientation, toA.orientation) * ra +
+         rotationAngle(fromB.orientation, toB.orientation) * rb;
+}
+
+// ---- the context ------------------------------------------------------------
+
+struct StepContext {
+  // The world's state, as the API sees it.
+  WorldSettings settings;
+  std::vector<RigidBody> bodies;
+  std::vector<glm::dvec3> force, torque;  // per body, applied at the next step only
+  std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
+  World::NormalModifier normalModifier;
+  double minHalfThickness = 1e30;  // of every body added (substep size)
+  double time = 0;
+  // What the last step produced (all its substeps).
+  std::vector<CollisionEvent> events, contactReports;
+  StepStats stats;
+
+  // Broad phase, kept between substeps: bounds per body, the sweep order, pair
+  // keys (a << 32 | b), the pairs (sorted by a, b) with their candidate lists
+  // and the last substep's (whose lists the pairs found again take over).
+  std::vector<Aabb> boxes;
+  std::vector<int> sweepOrder;
+  std::vector<uint64_t> pairKeys;
+  std::vector<Pair> pairs, previousPairs;
+
+  // Per body, this substep.
+  std::vector<glm::dmat3> invInertia;  // world inverse inertias: orientations stay put until the position update
+  std::vector<char> frozen;            // infinite mass for the impulses (shock propagation's lower levels)
+  std::vector<int> level;              // contact graph level (shock propagation)
+  // Impulse counts: every impulse the collision step applies bumps both bodies'.
+  std::vector<uint32_t> version;
+  // The collision step's predicted poses, valid while predictedVersion == version.
+  std::vector<Pose> predicted;
+  std::vector<uint32_t> predictedVersion;
+  std::vector<Pose> stepStart;  // poses before the position update (sleep test)
+
+  // Per pair, this substep. The collision step's last contacts, found when the
+  // two bodies' impulse counts were foundVersion; the contact step's first
+  // pass reuses them while those counts have not moved.
+  std::vector<std::vector<Contact>> found;
+  std::vector<std::pair<uint32_t, uint32_t>> foundVersion;
+  // The contact step's groups as last found (shock propagation and the
+  // projection work on them), the poses of its last look and the points it found.
+  std::vector<std::vector<ContactGroup>> groups;
+  std::vector<std::pair<Pose, Pose>> lookPoses;
+  std::vector<int> lookCount;
+
+  RigidBody& body(int i) { return bodies[static_cast<size_t>(i)]; }
+  const RigidBody& body(int i) const { return bodies[static_cast<size_t>(i)]; }
+
+  void wake(int i) {
+    RigidBody& b = bodies.at(static_cast<size_t>(i));
+    if (b.isStatic) return;
+    b.asleep = false;
+    b.stillTime = 0;
+  }
+
+  glm::dvec3 acceleration(int i) const {
+    const RigidBody& b = bodies[static_cast<size_t>(i)];
+    return settings.gravity + force[static_cast<size_t>(i)] * b.invMass;
+  }
+  // Within a substep: the world inverse inertia is invInertia (orientations
+  // stay put until the position update).
+  glm::dvec3 angularAcceleration(int i) const {
+    const RigidBody& b = bodies[static_cast<size_t>(i)];
+    const glm::dmat3 r = b.rotation();
+    const glm::dvec3 l = r * (b.inertiaBody * (glm::transpose(r) * b.w));  // angular momentum
+    return invInertia[static_cast<size_t>(i)] * (torque[static_cast<size_t>(i)] - glm::cross(b.w, l));
+  }
+  // The pose after h at the current velocities (with this step's accelerations when asked).
+  Pose predict(const RigidBody& b, double h, bool withForces) const {
+    if (!b.movable()) return {b.x, b.q};
+    const int i = static_cast<int>(&b - bodies.data());
+    glm::dvec3 v = b.v, w = b.w;
+    if (withForces) {
+      v += h * acceleration(i);
+      w += h * angularAcceleration(i);
+    }
+    return {b.x + h * v, integrateOrientation(b.q, w, h)};
+  }
+
+  // v_B - v_A at the levers' point.
+  glm::dvec3 relativeVelocity(int a, int b, const Levers& l) const {
+    const RigidBody& A = bodies[static_cast<size_t>(a)];
+    const RigidBody& B = bodies[static_cast<size_t>(b)];
+    return (B.v + glm::cross(B.w, l.rb)) - (A.v + glm::cross(A.w, l.ra));
+  }
+  // omega_B - omega_A
+  glm::dvec3 relativeSpin(int a, int b) const {
+    return bodies[static_cast<size_t>(b)].w - bodies[static_cast<size_t>(a)].w;
+  }
+  // j on b, -j on a, at the levers' point (frozen bodies do not move).
+  void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j) {
+    RigidBody& A = bodies[static_cast<size_t>(a)];
+    RigidBody& B = bodies[static_cast<size_t>(b)];
+    if (A.movable() && !frozen[static_cast<size_t>(a)]) {
+      A.v -= j * A.invMass;
+      A.w -= invInertia[static_cast<size_t>(a)] * glm::cross(l.ra, j);
+    }
+    if (B.movable() && !frozen[static_cast<size_t>(b)]) {
+      B.v += j * B.invMass;
+      B.w += invInertia[static_cast<size_t>(b)] * glm::cross(l.rb, j);
+    }
+  }
+  // t on b, -t on a
+  void applyTorqueImpulse(int a, int b, const glm::dvec3& t) {
+    RigidBody& A = bodies[static_cast<size_t>(a)];
+    RigidBody& B = bodies[static_cast<size_t>(b)];
+    if (A.movable() && !frozen[static_cast<size_t>(a)]) A.w -= invInertia[static_cast<size_t>(a)] * t;
+    if (B.movable() && !frozen[static_cast<size_t>(b)]) B.w += invInertia[static_cast<size_t>(b)] * t;
+  }
+  // The two sides of an impulse at the levers' point; a frozen or immovable side has no mass terms.
+  void sidesAt(int a, int b, const Levers& l, bool frozenA, bool frozenB, ImpulseSide& sa, ImpulseSide& sb) const {
+    const RigidBody& A = bodies[static_cast<size_t>(a)];
+    const RigidBody& B = bodies[static_cast<size_t>(b)];
+    sa = {};
+    sb = {};
+    if (A.movable() && !frozenA) {
+      sa.invMass = A.invMass;
+      sa.invInertia = invInertia[static_cast<size_t>(a)];
+    }
+    if (B.movable() && !frozenB) {
+      sb.invMass = B.invMass;
+      sb.invInertia = invInertia[static_cast<size_t>(b)];
+    }
+    sa.r = l.ra;
+    sb.r = l.rb;
+  }
+  glm::dmat3 collisionMatrixAt(int a, int b, const Levers& l, bool frozenA, bool frozenB) const {
+    ImpulseSide sa, sb;
+    sidesAt(a, b, l, frozenA, frozenB, sa, sb);
+    return collisionMatrix(sa, sb);
+  }
+  // The impulse with restitution eps (and friction) at contact c; with `elastic`
+  // also the size of the frictionless impulse at eps = 1.
+  glm::dvec3 contactImpulse(int a, int b, const Contact& c, const Levers& l, double eps, bool frozenA, bool frozenB,
+                            double* elastic = nullptr, bool withFriction = true) const {
+    const RigidBody& A = bodies[static_cast<size_t>(a)];
+    const RigidBody& B = bodies[static_cast<size_t>(b)];
+    const glm::dmat3 K = collisionMatrixAt(a, b, l, frozenA, frozenB);
+    const glm::dvec3 u = relativeVelocity(a, b, l);
+    if (elastic) *elastic = glm::length(frictionlessImpulse(K, u, c.normal, 1.0));
+    const double mu = withFriction ? std::sqrt(A.friction * B.friction) : 0.0;
+    return frictionImpulse(K, u, c.normal, eps, mu);
+  }
+};
+
+// ---- the stages -------------------------------------------------------------
+
+// narrow_phase.cpp: the contacts of a pair at the given poses, testing only its
+// candidate samples (both directions), deepest first.
+void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+// broad_phase.cpp
+void findPairs(StepContext& ctx, double h);
+void findCandidates(StepContext& ctx, double h);
+// collision_step.cpp
+bool collide(StepContext& ctx, double h);
+// contact_step.cpp
+void integrateVelocities(StepContext& ctx, double h);
+void contactStep(StepContext& ctx, double h);
+// shock_propagation.cpp
+void shockPropagation(StepContext& ctx);
+// position_step.cpp
+void endOfStepDepths(StepContext& ctx, double h);
+void integratePositions(StepContext& ctx, double h);
+void projectPositions(StepContext& ctx);
+// sleep.cpp
+void updateSleep(StepContext& ctx, double h);
+
+}  // namespace crumple::detail

@@ -4,14 +4,8 @@
 
 namespace crumple::deform {
 
-namespace {
-render::Program compute(const char* name) {
-  return render::Program({{GL_COMPUTE_SHADER, name, std::string(deformShader(name))}});
-}
-}  // namespace
-
 CommitPass::CommitPass()
-    : dispatch_(compute("region_dispatch.comp")), commit_(compute("dent_commit.comp")), normals_(compute("normal_map.comp")) {
+    : dispatch_(computeProgram("region_dispatch.comp")), commit_(computeProgram("dent_commit.comp")), normals_(computeProgram("normal_map.comp")) {
   dSide_ = dispatch_.uniform("uSide");
   dResolution_ = dispatch_.uniform("uResolution");
   dGrow_ = dispatch_.uniform("uGrow");

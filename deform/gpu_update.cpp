@@ -7,12 +7,6 @@
 
 namespace crumple::deform {
 
-namespace {
-render::Program compute(const char* name) {
-  return render::Program({{GL_COMPUTE_SHADER, name, std::string(deformShader(name))}});
-}
-}  // namespace
-
 GatherUpdate::GatherUpdate()
     : program_({{GL_VERTEX_SHADER, "texel.vert", std::string(deformShader("texel.vert"))},
                 {GL_GEOMETRY_SHADER, "texel.geom", std::string(deformShader("texel.geom"))},
@@ -77,7 +71,7 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::T
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
 }
 
-ScatterUpdate::ScatterUpdate() : program_(compute("dent_update.comp")) {
+ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {
   uSide_ = program_.uniform("uSide");
   uSize_ = program_.uniform("uSize");
   uResolution_ = program_.uniform("uResolution");
@@ -109,7 +103,7 @@ void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const 
   glDispatchCompute(dispatchGroups(passes.size()), dispatchGroups(passes.size()), 1);
 }
 
-CraterRims::CraterRims() : program_(compute("crater_rim.comp")) {
+CraterRims::CraterRims() : program_(computeProgram("crater_rim.comp")) {
   uSide_ = program_.uniform("uSide");
   uRing_ = program_.uniform("uRing");
   uResolution_ = program_.uniform("uResolution");

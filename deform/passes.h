@@ -33,6 +33,9 @@ constexpr GLuint kUntouched = 0x7f800000u;  // +infinity as float bits
 // Marks the end of a named phase (profile mode: wall and GPU time since the last mark).
 using PhaseMark = std::function<void(const char*)>;
 inline GLuint dispatchGroups(int n) { return static_cast<GLuint>((n + 15) / 16); }
+inline render::Program computeProgram(const char* name) {
+  return render::Program({{GL_COMPUTE_SHADER, name, std::string(deformShader(name))}});
+}
 
 // What the updates share about one side of one event.
 struct SideUpdate {

@@ -4,7 +4,8 @@
 //   deform:  the GPU path vs the paper's read-back path, ms per deformation
 //            (both sides of one event) at address maps of 256..2048
 //   render:  ms per 1280x720 frame of the sandbox scene, parallax occlusion on and off
-// Prints Google Benchmark's table, then the ratios.
+// Prints Google Benchmark's table, then the ratios (with crumple's ms per step in
+// each stage: World::lastStats().ms).
 #include <benchmark/benchmark.h>
 #include <btBulletDynamicsCommon.h>
 #include <BulletCollision/Gimpact/btGImpactCollisionAlgorithm.h>
@@ -160,12 +161,29 @@ struct BulletWorld {
 
 int gSteps = 240;
 
+// crumple's stage times (World::lastStats().ms) per case: mean ms per step.
+std::map<std::string, StepProfile> gStageMs;
+
 // Besides the time, each engine's end state: how many bodies are still awake
 // and the highest centre (a pyramid or column that fell would show here), so
 // that the two figures are seen to time the same work.
-void crumplePhysics(benchmark::State& state, SceneSpec spec) {
+void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
   auto w = crumpleWorld(spec);
-  for (auto _ : state) w->step(kStep);
+  StepProfile sum;
+  for (auto _ : state) {
+    w->step(kStep);
+    const StepProfile& p = w->lastStats().ms;
+    sum.broadPhase += p.broadPhase;
+    sum.collide += p.collide;
+    sum.contact += p.contact;
+    sum.shockPropagation += p.shockPropagation;
+    sum.positions += p.positions;
+    sum.sleep += p.sleep;
+    sum.total += p.total;
+  }
+  const double n = std::max<double>(1, static_cast<double>(state.iterations()));
+  gStageMs[name] = {sum.broadPhase / n, sum.collide / n, sum.contact / n, sum.shockPropagation / n,
+                    sum.positions / n, sum.sleep / n, sum.total / n};
   double top = 0;
   for (const RigidBody& b : w->bodies())
     if (!b.isStatic) top = std::max(top, b.x.y);
@@ -315,7 +333,7 @@ int main(int argc, char** argv) {
       {"pile_" + std::to_string(boxes) + "boxes", pile(boxes)},
       {"tori_" + std::to_string(tori) + "meshes", toriScene(tori)}};
   for (const auto& c : cases) {
-    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
   }
   std::unique_ptr<render::GlContext> gl;
@@ -351,6 +369,12 @@ int main(int argc, char** argv) {
     if (!ca.empty() && !cb.empty())
       std::printf("        at the end: crumple %4.0f awake, top centre %.2f m; bullet %4.0f awake, top centre %.2f m\n",
                   ca["awake"], ca["top_m"], cb["awake"], cb["top_m"]);
+    if (gStageMs.count(c.name)) {
+      const StepProfile& p = gStageMs[c.name];
+      std::printf("        crumple stages, ms/step: broad phase %.3f  collide %.3f  contact %.3f  shock %.3f  positions %.3f  "
+                  "sleep %.3f  (total %.3f)\n", p.broadPhase, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep,
+                  p.total);
+    }
   }
   for (int size : {256, 512, 1024, 2048}) {
     const std::string s = "/" + std::to_string(size);

@@ -64,7 +64,6 @@ int World::addBody(const BodyDef& def) {
 
 const std::vector<RigidBody>& World::bodies() const { return ctx_->bodies; }
 const RigidBody& World::body(int i) const { return ctx_->bodies.at(static_cast<size_t>(i)); }
-RigidBody& World::body(int i) { return ctx_->bodies.at(static_cast<size_t>(i)); }
 size_t World::size() const { return ctx_->bodies.size(); }
 WorldSettings& World::settings() { return ctx_->settings; }
 const WorldSettings& World::settings() const { return ctx_->settings; }

@@ -125,7 +125,6 @@ class World {
 
   const std::vector<RigidBody>& bodies() const;
   const RigidBody& body(int i) const;  // throws std::out_of_range for a bad index
-  RigidBody& body(int i);  // TEMPORARY: goes once the callers use the setters
   size_t size() const;
   WorldSettings& settings();
   const WorldSettings& settings() const;

@@ -528,7 +528,7 @@ TEST_CASE("a tall box sliding to a stop tips over exactly when mu h/2 > w/2") {
     World w;
     addGround(w, mu, 0.0);
     const int i = addBox(w, {0.2, 0.8, 0.2}, {0, 0.4, 0}, mu, 0.0);
-    w.body(i).v = {3, 0, 0};
+    w.setVelocity(i, {3, 0, 0});
     double tilt = 0;
     for (int s = 0; s < 480; ++s) {
       w.step(1.0 / 240);

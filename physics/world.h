@@ -16,7 +16,7 @@
 // Steps are split into substeps when a body would move more than a fraction of
 // the thinnest body's half thickness (no tunnelling; see `maxSubsteps`).
 // Everything runs single-threaded in a fixed order: the same input gives
-// bit-identical states (tests/test_physics_golden.cpp pins one).
+// bit-identical states (tests/test_physics_determinism.cpp pins one).
 //
 // One file per stage, each opening with what it guarantees; what they share is
 // physics/step_context.h (internal), which lists them.
@@ -45,7 +45,7 @@ struct WorldSettings {
   // Shock propagation passes per contact-graph level (Jacobi: each body takes
   // the mean of its groups' impulses against the frozen level below, on the
   // contact step's last geometry). With it the 10-level pyramid stands with
-  // 10 contact passes, sleeping or not (tests/test_physics.cpp); 0 turns it off.
+  // 10 contact passes, sleeping or not (tests/test_physics_stacks.cpp); 0 turns it off.
   int shockPasses = 3;
   double penetrationSlop = 0.0005;      // m left alone by the positional projection
   double penetrationCorrection = 0.4;   // fraction removed per projection iteration

@@ -1,0 +1,115 @@
+// The World's API edges: read-only bodies, setters and forces that refuse
+// values that are not finite, and the per-stage timings of a step.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <type_traits>
+#include <utility>
+
+#include "physics_fixture.h"
+
+using namespace crumple;
+using namespace crumple::test;
+using doctest::Approx;
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}  // namespace
+
+// A body's state changes only through the World (its setters and forces).
+static_assert(std::is_same_v<decltype(std::declval<World&>().body(0)), const RigidBody&>);
+
+TEST_CASE("setters refuse values that are not finite and leave the body as it was") {
+  PhysicsTestContext c;
+  const int i = c.addBox({0.5, 0.5, 0.5}, {0, 2, 0}, 0.5, 0.3);
+  World& w = c.world();
+  const RigidBody before = w.body(i);
+  CHECK_THROWS_AS(w.setVelocity(i, {kNaN, 0, 0}), std::invalid_argument);
+  CHECK_THROWS_AS(w.setAngularVelocity(i, {0, kInf, 0}), std::invalid_argument);
+  CHECK_THROWS_AS(w.setPose(i, {{0, -kInf, 0}, {1, 0, 0, 0}}), std::invalid_argument);
+  CHECK_THROWS_AS(w.setPose(i, {{0, 1, 0}, {kNaN, 0, 0, 0}}), std::invalid_argument);
+  CHECK_THROWS_AS(w.setPose(i, {{0, 1, 0}, {0, 0, 0, 0}}), std::invalid_argument);
+  CHECK_THROWS_AS(w.setRestitution(i, 1.5), std::invalid_argument);
+  CHECK_THROWS_AS(w.setRestitution(i, -0.1), std::invalid_argument);
+  CHECK_THROWS_AS(w.setRestitution(i, kNaN), std::invalid_argument);
+  CHECK_THROWS_AS(w.setFriction(i, -1), std::invalid_argument);
+  CHECK_THROWS_AS(w.setFriction(i, kNaN), std::invalid_argument);
+  CHECK_THROWS_AS(w.setFriction(i, kInf), std::invalid_argument);
+  CHECK_THROWS_AS(w.setVelocity(7, {1, 0, 0}), std::out_of_range);
+  CHECK_THROWS_AS(w.setPose(-1, {}), std::out_of_range);
+  const RigidBody& b = w.body(i);
+  CHECK(b.x == before.x);
+  CHECK(b.q == before.q);
+  CHECK(b.v == before.v);
+  CHECK(b.w == before.w);
+  CHECK(b.restitution == before.restitution);
+  CHECK(b.friction == before.friction);
+}
+
+TEST_CASE("forces and torques refuse values that are not finite; a refused one is not applied") {
+  WorldSettings s;
+  s.gravity = glm::dvec3(0);
+  PhysicsTestContext c(240, s);
+  const int i = c.addSphere(0.5, {0, 0, 0}, 0.5, 0.5);
+  World& w = c.world();
+  CHECK_THROWS_AS(w.addForce(i, {kNaN, 0, 0}), std::invalid_argument);
+  CHECK_THROWS_AS(w.addTorque(i, {0, 0, kInf}), std::invalid_argument);
+  CHECK_THROWS_AS(w.addForceAtPoint(i, {1, 0, 0}, {0, kNaN, 0}), std::invalid_argument);
+  CHECK_THROWS_AS(w.addForceAtPoint(i, {-kInf, 0, 0}, {0, 1, 0}), std::invalid_argument);
+  CHECK_THROWS_AS(w.addForce(3, {1, 0, 0}), std::out_of_range);
+  c.simulateSteps(1);
+  CHECK(w.body(i).v == glm::dvec3(0));
+  CHECK(w.body(i).w == glm::dvec3(0));
+  // A finite force still acts: a = F / m for one step.
+  const double m = w.body(i).mass;
+  w.addForce(i, {m, 0, 0});
+  c.simulateSteps(1);
+  CHECK(w.body(i).v.x == Approx(c.stepSize()));
+}
+
+TEST_CASE("setters change the state; a velocity or a new pose wakes a sleeping body, never a static one") {
+  PhysicsTestContext c;
+  const int ground = c.addGround(0.6, 0.0);
+  const int i = c.addBox({0.5, 0.5, 0.5}, {0, 0.25, 0}, 0.6, 0.0);
+  World& w = c.world();
+  c.simulate(2.0);
+  REQUIRE(w.body(i).asleep);
+  w.setVelocity(i, {0.5, 0, 0});
+  CHECK_FALSE(w.body(i).asleep);
+  CHECK(w.body(i).v == glm::dvec3(0.5, 0, 0));
+  w.setAngularVelocity(i, {0, 1, 0});
+  CHECK(w.body(i).w == glm::dvec3(0, 1, 0));
+  // A pose: the centre of mass and a normalised orientation.
+  w.setPose(i, {{1, 2, 3}, {2, 0, 0, 0}});
+  CHECK(w.body(i).x == glm::dvec3(1, 2, 3));
+  CHECK(w.body(i).q == glm::dquat(1, 0, 0, 0));
+  w.setRestitution(i, 0.25);
+  w.setFriction(i, 0.75);
+  CHECK(w.body(i).restitution == 0.25);
+  CHECK(w.body(i).friction == 0.75);
+  // The box falls from its new place and lands on the ground.
+  w.setVelocity(i, glm::dvec3(0));
+  w.setAngularVelocity(i, glm::dvec3(0));
+  c.simulate(2.0);
+  CHECK(w.body(i).x.y == Approx(0.25).epsilon(0.01));
+  // A static body stays static.
+  w.setVelocity(ground, {1, 0, 0});
+  CHECK(w.body(ground).isStatic);
+  CHECK_FALSE(w.body(ground).asleep);
+}
+
+TEST_CASE("a step reports the milliseconds of each stage") {
+  PhysicsTestContext c;
+  c.addGround(0.6, 0.1);
+  for (int k = 0; k < 20; ++k) c.addBox({0.4, 0.4, 0.4}, {0.05 * (k % 2), 0.3 + 0.5 * k, 0}, 0.6, 0.1);
+  c.simulateSteps(10);
+  const StepProfile& ms = c.world().lastStats().ms;
+  const double stages = ms.broadPhase + ms.collide + ms.contact + ms.shockPropagation + ms.positions + ms.sleep;
+  for (double t : {ms.broadPhase, ms.collide, ms.contact, ms.shockPropagation, ms.positions, ms.sleep}) CHECK(t >= 0);
+  CHECK(ms.total > 0);
+  CHECK(stages <= ms.total * (1 + 1e-9));
+  CHECK(ms.contact > 0);
+}

@@ -174,6 +174,7 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
     w->step(kStep);
     const StepProfile& p = w->lastStats().ms;
     sum.broadPhase += p.broadPhase;
+    sum.candidates += p.candidates;
     sum.collide += p.collide;
     sum.contact += p.contact;
     sum.shockPropagation += p.shockPropagation;
@@ -182,8 +183,8 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
     sum.total += p.total;
   }
   const double n = std::max<double>(1, static_cast<double>(state.iterations()));
-  gStageMs[name] = {sum.broadPhase / n, sum.collide / n, sum.contact / n, sum.shockPropagation / n,
-                    sum.positions / n, sum.sleep / n, sum.total / n};
+  gStageMs[name] = {sum.broadPhase / n, sum.candidates / n, sum.collide / n, sum.contact / n,
+                    sum.shockPropagation / n, sum.positions / n, sum.sleep / n, sum.total / n};
   double top = 0;
   for (const RigidBody& b : w->bodies())
     if (!b.isStatic) top = std::max(top, b.x.y);
@@ -371,9 +372,9 @@ int main(int argc, char** argv) {
                   ca["awake"], ca["top_m"], cb["awake"], cb["top_m"]);
     if (gStageMs.count(c.name)) {
       const StepProfile& p = gStageMs[c.name];
-      std::printf("        crumple stages, ms/step: broad phase %.3f  collide %.3f  contact %.3f  shock %.3f  positions %.3f  "
-                  "sleep %.3f  (total %.3f)\n", p.broadPhase, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep,
-                  p.total);
+      std::printf("        crumple stages, ms/step: broad phase %.3f  candidates %.3f  collide %.3f  contact %.3f  shock %.3f  "
+                  "positions %.3f  sleep %.3f  (total %.3f)\n", p.broadPhase, p.candidates, p.collide, p.contact,
+                  p.shockPropagation, p.positions, p.sleep, p.total);
     }
   }
   for (int size : {256, 512, 1024, 2048}) {

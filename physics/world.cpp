@@ -172,9 +172,10 @@ void World::substep(double h) {
   c.invInertia.resize(c.bodies.size());
   for (size_t i = 0; i < c.bodies.size(); ++i) c.invInertia[i] = c.bodies[i].invInertiaWorld();
   detail::findPairs(c, h);
-  detail::findCandidates(c, h);
   c.stats.pairs += static_cast<int>(c.pairs.size());
   clock.lap(ms.broadPhase);
+  detail::findCandidates(c, h);
+  clock.lap(ms.candidates);
   // 1. collision with restitution on predicted positions (emits events)
   detail::collide(c, h);
   clock.lap(ms.collide);

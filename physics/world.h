@@ -92,7 +92,8 @@ struct RayHit {
 // Wall milliseconds of each stage of the last step, summed over its substeps
 // (Box2D's b2Profile). Timing never changes what a step computes.
 struct StepProfile {
-  double broadPhase = 0;        // pairs (sweep and prune) and their candidate sample lists
+  double broadPhase = 0;        // pairs: sweep and prune on bounds
+  double candidates = 0;        // the pairs' candidate sample lists (distance queries; most of it for meshes)
   double collide = 0;           // the collision step: narrow phase on predicted poses, restitution impulses
   double contact = 0;           // velocities (v += h g) and the contact step
   double shockPropagation = 0;  // levels from the static bodies up

@@ -55,7 +55,9 @@ SceneSpec pyramid(int levels) {
 SceneSpec pile(int n) {
   SceneSpec s;
   for (int k = 0; k < n; ++k)
-    s.boxes.push_back({{0.4, 0.4, 0.4}, {(k % 10) * 0.5 - 2.25 + 0.05 * ((k / 100) % 2), 0.3 + 0.5 * (k / 100), ((k / 10) % 10) * 0.5 - 2.25}});
+    s.boxes.push_back(
+        {{0.4, 0.4, 0.4},
+         {(k % 10) * 0.5 - 2.25 + 0.05 * ((k / 100) % 2), 0.3 + 0.5 * (k / 100), ((k / 10) % 10) * 0.5 - 2.25}});
   return s;
 }
 SceneSpec toriScene(int n) {
@@ -64,7 +66,9 @@ SceneSpec toriScene(int n) {
   return s;
 }
 glm::dvec3 torusPosition(int k) { return {-2.0 + 0.85 * (k % 6), 0.5 + 0.85 * (k / 36), -2.0 + 0.85 * ((k / 6) % 6)}; }
-glm::dquat torusOrientation(int k) { return glm::angleAxis(0.7 * k, glm::normalize(glm::dvec3(1, 0.3 * (k % 3), 0.5))); }
+glm::dquat torusOrientation(int k) {
+  return glm::angleAxis(0.7 * k, glm::normalize(glm::dvec3(1, 0.3 * (k % 3), 0.5)));
+}
 
 TriangleMesh benchTorus() { return torusMesh(0.3f, 0.1f, 16, 8); }
 
@@ -123,15 +127,18 @@ struct BulletWorld {
     add(new btBoxShape(btVector3(30, 0.5f, 30)), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity());
     for (const auto& b : spec.boxes) {
       const glm::dvec3 h = b.size * 0.5;
-      add(new btBoxShape(btVector3(btScalar(h.x), btScalar(h.y), btScalar(h.z))), btScalar(b.size.x * b.size.y * b.size.z * 1000),
-          btVector3(btScalar(b.position.x), btScalar(b.position.y), btScalar(b.position.z)), btQuaternion::getIdentity());
+      add(new btBoxShape(btVector3(btScalar(h.x), btScalar(h.y), btScalar(h.z))),
+          btScalar(b.size.x * b.size.y * b.size.z * 1000),
+          btVector3(btScalar(b.position.x), btScalar(b.position.y), btScalar(b.position.z)),
+          btQuaternion::getIdentity());
     }
     if (spec.tori) {
       torus = benchTorus();
       for (const auto& p : torus.positions) torusVertices.insert(torusVertices.end(), {p.x, p.y, p.z});
       for (const auto& t : torus.triangles) torusIndices.insert(torusIndices.end(), {int(t.x), int(t.y), int(t.z)});
-      torusArray = std::make_unique<btTriangleIndexVertexArray>(int(torus.triangles.size()), torusIndices.data(), 3 * sizeof(int),
-                                                                int(torus.positions.size()), torusVertices.data(), 3 * sizeof(btScalar));
+      torusArray = std::make_unique<btTriangleIndexVertexArray>(int(torus.triangles.size()), torusIndices.data(),
+                                                                3 * sizeof(int), int(torus.positions.size()),
+                                                                torusVertices.data(), 3 * sizeof(btScalar));
       const double mass = polyhedralMassProperties(torus).volume * 800;
       for (int k = 0; k < spec.tori; ++k) {
         auto* shape = new btGImpactMeshShape(torusArray.get());
@@ -183,8 +190,8 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
     sum.total += p.total;
   }
   const double n = std::max<double>(1, static_cast<double>(state.iterations()));
-  gStageMs[name] = {sum.broadPhase / n, sum.candidates / n, sum.collide / n, sum.contact / n,
-                    sum.shockPropagation / n, sum.positions / n, sum.sleep / n, sum.total / n};
+  gStageMs[name] = {sum.broadPhase / n,       sum.candidates / n, sum.collide / n, sum.contact / n,
+                    sum.shockPropagation / n, sum.positions / n,  sum.sleep / n,   sum.total / n};
   double top = 0;
   for (const RigidBody& b : w->bodies())
     if (!b.isStatic) top = std::max(top, b.x.y);
@@ -257,8 +264,10 @@ void deformProfile(int iterations) {
       for (int i = 0; i < iterations; ++i) {
         c.deformer.deform(c.request);
         for (const auto& p : c.deformer.profile()) {
-          auto it = std::find_if(sum.begin(), sum.end(), [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
-          if (it == sum.end()) sum.push_back(p);
+          auto it = std::find_if(sum.begin(), sum.end(),
+                                 [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
+          if (it == sum.end())
+            sum.push_back(p);
           else {
             it->ms += p.ms;
             it->gpuMs += p.gpuMs;
@@ -308,8 +317,9 @@ class Collector : public benchmark::ConsoleReporter {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"crumple-bench: crumple vs Bullet (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
-               "prints ms per step/deformation/frame and the ratios."};
+  CLI::App app{
+      "crumple-bench: crumple vs Bullet (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
+      "prints ms per step/deformation/frame and the ratios."};
   bool quick = false, noGl = false, deformPhases = false;
   std::string filter;
   app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
@@ -334,8 +344,12 @@ int main(int argc, char** argv) {
       {"pile_" + std::to_string(boxes) + "boxes", pile(boxes)},
       {"tori_" + std::to_string(tori) + "meshes", toriScene(tori)}};
   for (const auto& c : cases) {
-    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)->Iterations(gSteps)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name)
+        ->Iterations(gSteps)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)
+        ->Iterations(gSteps)
+        ->Unit(benchmark::kMillisecond);
   }
   std::unique_ptr<render::GlContext> gl;
   std::unique_ptr<DeformStage> stage;
@@ -347,10 +361,16 @@ int main(int argc, char** argv) {
     for (int size : {256, 512, 1024, 2048}) {
       for (deform::Path path : {deform::Path::Gather, deform::Path::Scatter, deform::Path::Readback})
         benchmark::RegisterBenchmark((std::string("deform/") + deform::pathName(path)).c_str(), deformBench, path)
-            ->Arg(size)->Iterations(quick ? 3 : 20)->Unit(benchmark::kMillisecond);
+            ->Arg(size)
+            ->Iterations(quick ? 3 : 20)
+            ->Unit(benchmark::kMillisecond);
     }
-    benchmark::RegisterBenchmark("render/1280x720/pom", renderBench, true)->Iterations(quick ? 2 : 10)->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark("render/1280x720/no_parallax", renderBench, false)->Iterations(quick ? 2 : 10)->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("render/1280x720/pom", renderBench, true)
+        ->Iterations(quick ? 2 : 10)
+        ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("render/1280x720/no_parallax", renderBench, false)
+        ->Iterations(quick ? 2 : 10)
+        ->Unit(benchmark::kMillisecond);
   }
   std::vector<char*> args = {argv[0]};
   std::string filterArg = "--benchmark_filter=" + filter;
@@ -364,7 +384,8 @@ int main(int argc, char** argv) {
   std::printf("\n== ratios ==\n");
   for (const auto& c : cases) {
     const double a = ms("physics/crumple/" + c.name), b = ms("physics/bullet/" + c.name);
-    std::printf("physics %-22s crumple %8.3f ms/step  bullet %8.3f ms/step  crumple/bullet %6.2fx\n", c.name.c_str(), a, b, a / b);
+    std::printf("physics %-22s crumple %8.3f ms/step  bullet %8.3f ms/step  crumple/bullet %6.2fx\n", c.name.c_str(), a,
+                b, a / b);
     auto& ca = collector.counters["physics/crumple/" + c.name];
     auto& cb = collector.counters["physics/bullet/" + c.name];
     if (!ca.empty() && !cb.empty())
@@ -372,21 +393,25 @@ int main(int argc, char** argv) {
                   ca["awake"], ca["top_m"], cb["awake"], cb["top_m"]);
     if (gStageMs.count(c.name)) {
       const StepProfile& p = gStageMs[c.name];
-      std::printf("        crumple stages, ms/step: broad phase %.3f  candidates %.3f  collide %.3f  contact %.3f  shock %.3f  "
-                  "positions %.3f  sleep %.3f  (total %.3f)\n", p.broadPhase, p.candidates, p.collide, p.contact,
-                  p.shockPropagation, p.positions, p.sleep, p.total);
+      std::printf(
+          "        crumple stages, ms/step: broad phase %.3f  candidates %.3f  collide %.3f  contact %.3f  shock %.3f  "
+          "positions %.3f  sleep %.3f  (total %.3f)\n",
+          p.broadPhase, p.candidates, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep, p.total);
     }
   }
   for (int size : {256, 512, 1024, 2048}) {
     const std::string s = "/" + std::to_string(size);
     const double g = ms("deform/gather" + s), c = ms("deform/scatter" + s), r = ms("deform/readback" + s);
     if (!std::isnan(g))
-      std::printf("deform  address map %4d  gather %8.3f ms  scatter %8.3f ms  readback %8.3f ms  gather/scatter %6.2fx  "
-                  "readback/scatter %6.2fx\n", size, g, c, r, g / c, r / c);
+      std::printf(
+          "deform  address map %4d  gather %8.3f ms  scatter %8.3f ms  readback %8.3f ms  gather/scatter %6.2fx  "
+          "readback/scatter %6.2fx\n",
+          size, g, c, r, g / c, r / c);
   }
   const std::string it;
   const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);
-  if (!std::isnan(p)) std::printf("render  1280x720   pom %8.3f ms/frame  no parallax %8.3f ms/frame  pom/none %6.2fx\n", p, f, p / f);
+  if (!std::isnan(p))
+    std::printf("render  1280x720   pom %8.3f ms/frame  no parallax %8.3f ms/frame  pom/none %6.2fx\n", p, f, p / f);
   if (deformPhases && gDeformStage) deformProfile(quick ? 3 : 20);
   return 0;
 }

@@ -55,8 +55,10 @@ struct App {
     renderAverage = renderAverage == 0 ? renderMs : 0.85 * renderAverage + 0.15 * renderMs;
     if (!autoScale || frame - lastScaleChange < 10) return;
     float next = renderScale;
-    if (renderAverage > 25.0) next = std::max(0.35f, renderScale * 0.85f);
-    else if (renderAverage < 10.0) next = std::min(1.0f, renderScale * 1.1f);
+    if (renderAverage > 25.0)
+      next = std::max(0.35f, renderScale * 0.85f);
+    else if (renderAverage < 10.0)
+      next = std::min(1.0f, renderScale * 1.1f);
     if (next != renderScale) {
       renderScale = next;
       lastScaleChange = frame;
@@ -68,9 +70,7 @@ struct App {
     for (auto& v : sim->vehicles()) v.manual = !autopilot;
   }
 
-  int carBody() {
-    return sim->vehicles().empty() ? -1 : sim->vehicles().front().body;
-  }
+  int carBody() { return sim->vehicles().empty() ? -1 : sim->vehicles().front().body; }
 
   render::View view() {
     render::View v;
@@ -78,14 +78,15 @@ struct App {
     if (follow && car >= 0) {
       const glm::dmat4 m = sim->model(car);
       const glm::vec3 pos = glm::vec3(m[3]);
-      const glm::vec3 fwd = glm::normalize(glm::vec3(m * glm::dvec4(1, 0, 0, 0)) * glm::vec3(1, 0, 1) + glm::vec3(1e-4f, 0, 0));
+      const glm::vec3 fwd =
+          glm::normalize(glm::vec3(m * glm::dvec4(1, 0, 0, 0)) * glm::vec3(1, 0, 1) + glm::vec3(1e-4f, 0, 0));
       v.eye = pos - fwd * 8.0f + glm::vec3(0, 3.5f, 0);
       v.target = pos + fwd * 2.0f;
     } else {
       if (car >= 0) orbitTarget = glm::vec3(sim->model(car)[3]);
       v.target = orbitTarget;
       v.eye = orbitTarget + orbitDistance * glm::vec3(std::cos(orbitPitch) * std::cos(orbitYaw), std::sin(orbitPitch),
-                                                     std::cos(orbitPitch) * std::sin(orbitYaw));
+                                                      std::cos(orbitPitch) * std::sin(orbitYaw));
     }
     if (!follow && !scene.cameras.empty() && car < 0) {
       v = cameraView(scene.cameras.front(), sim.get());
@@ -103,8 +104,10 @@ void drive(App& app, GLFWwindow* w) {
     const double speed = v.vehicle.speed(app.sim->world());
     if (key(GLFW_KEY_W, GLFW_KEY_UP)) c.throttle = 1;
     if (key(GLFW_KEY_S, GLFW_KEY_DOWN)) {
-      if (speed > 0.5) c.brake = 1;
-      else c.throttle = -0.5;
+      if (speed > 0.5)
+        c.brake = 1;
+      else
+        c.throttle = -0.5;
     }
     if (key(GLFW_KEY_A, GLFW_KEY_LEFT)) c.steer += 1;
     if (key(GLFW_KEY_D, GLFW_KEY_RIGHT)) c.steer -= 1;
@@ -125,7 +128,8 @@ void panel(App& app) {
   ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.renderScale,
               app.autoScale ? ", auto" : "");
   ImGui::Text("collisions %zu  deformations %ld", app.sim->events().size(), app.sim->timings().deformations);
-  if (!app.sim->vehicles().empty()) ImGui::Text("speed %.1f km/h", app.sim->vehicles().front().vehicle.speed(app.sim->world()) * 3.6);
+  if (!app.sim->vehicles().empty())
+    ImGui::Text("speed %.1f km/h", app.sim->vehicles().front().vehicle.speed(app.sim->world()) * 3.6);
   if (ImGui::Button(app.paused ? "Run" : "Pause")) app.paused = !app.paused;
   ImGui::SameLine();
   if (ImGui::Button("Step")) app.stepOnce = true;
@@ -138,7 +142,8 @@ void panel(App& app) {
     for (auto& [name, m] : app.sim->sceneMaterials()) {
       ImGui::PushID(name.c_str());
       ImGui::Text("%s", name.c_str());
-      float kappa = static_cast<float>(m.kappa), eps = static_cast<float>(m.restitution), t = static_cast<float>(m.thickness);
+      float kappa = static_cast<float>(m.kappa), eps = static_cast<float>(m.restitution),
+            t = static_cast<float>(m.thickness);
       if (ImGui::SliderFloat("kappa", &kappa, 0.0f, 0.001f, "%.6f", ImGuiSliderFlags_Logarithmic)) m.kappa = kappa;
       if (ImGui::SliderFloat("eps", &eps, 0.0f, 1.0f)) app.sim->setRestitution(name, eps);
       if (ImGui::SliderFloat("thickness", &t, 0.001f, 1.0f)) m.thickness = t;
@@ -154,9 +159,14 @@ void panel(App& app) {
     static const int sizes[] = {256, 512, 1024, 2048};
     int current = 0;
     deform::DeformOptions o = d.options;
-    for (int i = 0; i < 4; ++i) if (sizes[i] == o.addressMap) current = i;
+    for (int i = 0; i < 4; ++i)
+      if (sizes[i] == o.addressMap) current = i;
     bool optionsChanged = false;
-    if (ImGui::Combo("address map", &current, "256\0" "512\0" "1024\0" "2048\0")) {
+    if (ImGui::Combo("address map", &current,
+                     "256\0"
+                     "512\0"
+                     "1024\0"
+                     "2048\0")) {
       o.addressMap = sizes[current];
       optionsChanged = true;
     }
@@ -175,8 +185,10 @@ void panel(App& app) {
   if (ImGui::CollapsingHeader("Renderer", ImGuiTreeNodeFlags_DefaultOpen)) {
     auto& s = app.renderer->settings();
     int mode = static_cast<int>(s.parallax), debug = static_cast<int>(s.debug);
-    if (ImGui::Combo("parallax", &mode, "occlusion\0offset limited (paper)\0none\0")) s.parallax = static_cast<render::ParallaxMode>(mode);
-    if (ImGui::Combo("view", &debug, "shaded\0height map\0normal map\0address map\0wireframe\0")) s.debug = static_cast<render::DebugView>(debug);
+    if (ImGui::Combo("parallax", &mode, "occlusion\0offset limited (paper)\0none\0"))
+      s.parallax = static_cast<render::ParallaxMode>(mode);
+    if (ImGui::Combo("view", &debug, "shaded\0height map\0normal map\0address map\0wireframe\0"))
+      s.debug = static_cast<render::DebugView>(debug);
     ImGui::Checkbox("shadows", &s.shadows);
     ImGui::SameLine();
     ImGui::Checkbox("self-shadowing", &s.selfShadow);
@@ -197,7 +209,8 @@ int main(int argc, char** argv) {
   int width = 1280, height = 720;
   bool autopilot = false, quiet = false;
   cli.add_option("scene", scenePath, "Scene file; without one, the built-in highway scene");
-  cli.add_option("--frames", frames, "Run this many frames (1/60 s of simulation each), then exit")->check(CLI::Range(0L, 10000000L));
+  cli.add_option("--frames", frames, "Run this many frames (1/60 s of simulation each), then exit")
+      ->check(CLI::Range(0L, 10000000L));
   cli.add_flag("--autopilot", autopilot, "Drive by the scene's vehicle script (a drive into the rails)");
   cli.add_option("--screenshot", screenshot, "Write the last frame to this PNG on exit");
   cli.add_option("--out", outDir, "Write crumple-sim's outputs (summary, events, maps) here on exit");
@@ -222,8 +235,8 @@ int main(int argc, char** argv) {
     char* end = nullptr;
     const double value = std::strtod(renderScale.c_str(), &end);
     if (end == renderScale.c_str() || *end != '\0' || !(value >= 0.25 && value <= 1.0)) {
-      std::cerr << "crumple-sandbox: error: --render-scale: expected a number in [0.25, 1] or 'auto', got '" << renderScale
-                << "'\n";
+      std::cerr << "crumple-sandbox: error: --render-scale: expected a number in [0.25, 1] or 'auto', got '"
+                << renderScale << "'\n";
       return 2;
     }
     app.renderScale = static_cast<float>(value);
@@ -290,7 +303,8 @@ int main(int argc, char** argv) {
         app.orbitYaw += d.x * 0.005f;
         app.orbitPitch = std::clamp(app.orbitPitch + d.y * 0.005f, -0.1f, 1.5f);
       }
-      if (!ImGui::GetIO().WantCaptureMouse) app.orbitDistance = std::clamp(app.orbitDistance - ImGui::GetIO().MouseWheel, 2.0f, 80.0f);
+      if (!ImGui::GetIO().WantCaptureMouse)
+        app.orbitDistance = std::clamp(app.orbitDistance - ImGui::GetIO().MouseWheel, 2.0f, 80.0f);
       for (auto& v : app.sim->vehicles()) v.manual = !app.autopilot;
 
       // Fixed steps: in --frames runs exactly one frame's worth; interactively, real time.
@@ -336,7 +350,8 @@ int main(int argc, char** argv) {
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
       const bool last = frames && frame + 1 == frames;
       if (pressed(GLFW_KEY_F12) || (last && !screenshot.empty())) {
-        const std::string path = last && !screenshot.empty() ? screenshot : "crumple-shot-" + std::to_string(app.shots++) + ".png";
+        const std::string path =
+            last && !screenshot.empty() ? screenshot : "crumple-shot-" + std::to_string(app.shots++) + ".png";
         render::captureToPng(0, fw, fh, path);
         logInfo("screenshot: ", path);
       }
@@ -351,10 +366,11 @@ int main(int argc, char** argv) {
     ImGui_ImplGlfw_Shutdown();
     ImGui::DestroyContext();
     if (!quiet)
-      std::printf("crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; render %.1f ms a frame "
-                  "(view scale %.2f at the end)\n",
-                  frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations,
-                  frame ? renderTotal / double(frame) : 0.0, app.renderScale);
+      std::printf(
+          "crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; render %.1f ms a frame "
+          "(view scale %.2f at the end)\n",
+          frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations,
+          frame ? renderTotal / double(frame) : 0.0, app.renderScale);
     app.sim.reset();
     app.renderer.reset();
     return 0;

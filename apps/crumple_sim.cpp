@@ -21,15 +21,18 @@ using namespace crumple;
 namespace fs = std::filesystem;
 
 int main(int argc, char** argv) {
-  CLI::App app{"crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
-               "heightmaps/, normalmaps/, frames/)."};
+  CLI::App app{
+      "crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
+      "heightmaps/, normalmaps/, frames/)."};
   std::string scenePath, outDir, deformPath, trace, size = "960x540";
   double duration = -1, fps = 30;
   long steps = -1;
   bool renderFrames = false, quiet = false, verbose = false;
-  app.add_option("scene", scenePath, "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
+  app.add_option("scene", scenePath,
+                 "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
   app.add_option("--out,-o", outDir, "Output folder (default: out/<scene name>). Written atomically.");
-  app.add_option("--duration", duration, "Simulated seconds, overriding the scene's duration")->check(CLI::Range(1e-6, 1e6));
+  app.add_option("--duration", duration, "Simulated seconds, overriding the scene's duration")
+      ->check(CLI::Range(1e-6, 1e6));
   app.add_option("--steps", steps, "Number of steps, overriding duration")->check(CLI::Range(1L, 100000000L));
   app.add_option("--deform-path", deformPath,
                  "gather (default: every texel of a dent gathers its depth on the GPU, no gaps), scatter (the paper's "
@@ -37,7 +40,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"gather", "scatter", "readback", "gpu"}));
   app.add_flag("--render", renderFrames, "Write frames/<camera>_<frame>.png for every camera of the scene");
   app.add_option("--size", size, "Frame size WxH for --render")->default_val("960x540");
-  app.add_option("--fps", fps, "Frames per simulated second for --render")->check(CLI::Range(0.01, 1000.0))->default_val(30);
+  app.add_option("--fps", fps, "Frames per simulated second for --render")
+      ->check(CLI::Range(0.01, 1000.0))
+      ->default_val(30);
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
   app.add_flag("--quiet,-q", quiet, "Only errors");
   app.add_flag("--verbose,-v", verbose, "Debug messages (GL debug output included)");
@@ -50,13 +55,15 @@ int main(int argc, char** argv) {
 
   setLogLevel(quiet ? LogLevel::Error : verbose ? LogLevel::Debug : LogLevel::Info);
   int width = 0, height = 0;
-  if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16 || width > 8192 || height > 8192) {
+  if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16 || width > 8192 ||
+      height > 8192) {
     std::cerr << "crumple-sim: --size must be WxH with sides in [16, 8192], got '" << size << "'\n";
     return 2;
   }
   try {
-    Scene scene = scenePath.empty() ? parseScene(builtinSceneText(), "<built-in default scene>", fs::current_path().string())
-                                    : loadScene(scenePath);
+    Scene scene = scenePath.empty()
+                      ? parseScene(builtinSceneText(), "<built-in default scene>", fs::current_path().string())
+                      : loadScene(scenePath);
     if (deformPath == "gather" || deformPath == "gpu") scene.deformation.options.path = deform::Path::Gather;
     if (deformPath == "scatter") scene.deformation.options.path = deform::Path::Scatter;
     if (deformPath == "readback") scene.deformation.options.path = deform::Path::Readback;
@@ -125,8 +132,9 @@ int main(int argc, char** argv) {
       }
       if (tty && (s % 16 == 0 || s == totalSteps)) {
         const int width = 30, filled = static_cast<int>(width * s / totalSteps);
-        std::fprintf(stderr, "\r[%.*s%*s] %3ld%%  step %ld/%ld  collisions %zu", filled, "##############################",
-                     width - filled, "", 100 * s / totalSteps, s, totalSteps, sim.events().size());
+        std::fprintf(stderr, "\r[%.*s%*s] %3ld%%  step %ld/%ld  collisions %zu", filled,
+                     "##############################", width - filled, "", 100 * s / totalSteps, s, totalSteps,
+                     sim.events().size());
         if (s == totalSteps) std::fprintf(stderr, "\n");
       }
     }

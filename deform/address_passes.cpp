@@ -31,7 +31,8 @@ void AddressPasses::resize(int n) {
     addressO_[s] = render::Texture2D(n, n, GL_RG32F);
     depthO_[s] = render::Texture2D(n, n, GL_R32F);
     depthBuffer_[s] = render::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
-    for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s], &addressO_[s], &depthO_[s]}) t->setFilter(GL_NEAREST, GL_NEAREST);
+    for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s], &addressO_[s], &depthO_[s]})
+      t->setFilter(GL_NEAREST, GL_NEAREST);
     fboX_[s] = render::Framebuffer();
     fboX_[s].attachColor(addressX_[s], 0);
     fboX_[s].attachColor(depthX_[s], 1);
@@ -73,8 +74,8 @@ void beginPass() {
 }
 }  // namespace
 
-void AddressPasses::drawX(int side, const DeformBody& x, const glm::dmat4& vp, const glm::dmat4& model, float bumpToDepth,
-                          bool normals) {
+void AddressPasses::drawX(int side, const DeformBody& x, const glm::dmat4& vp, const glm::dmat4& model,
+                          float bumpToDepth, bool normals) {
   beginPass();
   glViewport(0, 0, size_, size_);
   program_.use();
@@ -83,7 +84,8 @@ void AddressPasses::drawX(int side, const DeformBody& x, const glm::dmat4& vp, c
   glClearNamedFramebufferfv(fboX_[side].id(), GL_COLOR, 1, &kOne);
   // The normal attachment only serves the tangent-space correction: without
   // it the pass writes (and clears) 8 bytes a pixel fewer.
-  const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, normals ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE)};
+  const GLenum bufs[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                          normals ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE)};
   glNamedFramebufferDrawBuffers(fboX_[side].id(), 3, bufs);
   if (normals) glClearNamedFramebufferfv(fboX_[side].id(), GL_COLOR, 2, kZero4);
   glClearNamedFramebufferfv(fboX_[side].id(), GL_DEPTH, 0, &kOne);

@@ -5,7 +5,9 @@
 namespace crumple::deform {
 
 CommitPass::CommitPass()
-    : dispatch_(computeProgram("region_dispatch.comp")), commit_(computeProgram("dent_commit.comp")), normals_(computeProgram("normal_map.comp")) {
+    : dispatch_(computeProgram("region_dispatch.comp")),
+      commit_(computeProgram("dent_commit.comp")),
+      normals_(computeProgram("normal_map.comp")) {
   dSide_ = dispatch_.uniform("uSide");
   dResolution_ = dispatch_.uniform("uResolution");
   dGrow_ = dispatch_.uniform("uGrow");

@@ -26,7 +26,7 @@ float sampleBilinear(const render::Image* img, glm::dvec2 uv) {
 struct ViewTriangle {
   glm::dvec3 p[3];  // view space
   glm::dvec2 uv[3];
-  bool front;       // faces the camera (+z in view space)
+  bool front;  // faces the camera (+z in view space)
   glm::dvec2 lo, hi;
 };
 
@@ -143,7 +143,8 @@ render::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other
           const double zw = windowDepth(o, obc);
           if (zw < 0 || zw > 1) continue;
           const glm::dvec2 uv = obc.x * o.uv[0] + obc.y * o.uv[1] + obc.z * o.uv[2];
-          zB = std::max(zB, std::clamp(zw + (sampleBilinear(other.height, uv) - 0.5) * other.bumpDepthCollide / range, 0.0, 1.0));
+          zB = std::max(
+              zB, std::clamp(zw + (sampleBilinear(other.height, uv) - 0.5) * other.bumpDepthCollide / range, 0.0, 1.0));
         }
         const double dD = zB - z;
         if (!(dD > 0)) continue;

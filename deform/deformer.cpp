@@ -20,9 +20,12 @@ std::string_view deformShader(std::string_view fileName) { return shaders::shade
 
 const char* pathName(Path p) {
   switch (p) {
-    case Path::Gather: return "gather";
-    case Path::Scatter: return "scatter";
-    case Path::Readback: return "readback";
+    case Path::Gather:
+      return "gather";
+    case Path::Scatter:
+      return "scatter";
+    case Path::Readback:
+      return "readback";
   }
   return "?";
 }
@@ -39,7 +42,8 @@ void worldBounds(const GpuMesh& mesh, const glm::dmat4& model, glm::dvec3 out[2]
   }
 }
 
-AddressCamera addressCamera(const glm::dvec3& point, const glm::dvec3& n, const glm::dvec3 bx[2], const glm::dvec3 bo[2]) {
+AddressCamera addressCamera(const glm::dvec3& point, const glm::dvec3& n, const glm::dvec3 bx[2],
+                            const glm::dvec3 bo[2]) {
   // Up: the world x or y axis, whichever is less aligned with the normal (figure 11, lines 6-8).
   const glm::dvec3 up = std::abs(n.y) < std::abs(n.x) ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
   glm::dvec3 corners[16];
@@ -127,7 +131,7 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
-  std::map<int, render::Texture2D> scratch[2];  // per side and resolution
+  std::map<int, render::Texture2D> scratch[2];                                    // per side and resolution
   render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per side
   render::Buffer stats;
   int statsCapacity = 0, statsUsed = 0, statsRead = -1;
@@ -154,7 +158,9 @@ struct Deformer::Impl {
       render::Buffer bigger(static_cast<size_t>(cap) * 4 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
       std::vector<GLuint> zeros(static_cast<size_t>(cap) * 4, 0);
       bigger.upload(0, zeros.size() * sizeof(GLuint), zeros.data());
-      if (statsCapacity) glCopyNamedBufferSubData(stats.id(), bigger.id(), 0, 0, static_cast<GLsizeiptr>(statsCapacity) * 4 * sizeof(GLuint));
+      if (statsCapacity)
+        glCopyNamedBufferSubData(stats.id(), bigger.id(), 0, 0,
+                                 static_cast<GLsizeiptr>(statsCapacity) * 4 * sizeof(GLuint));
       stats = std::move(bigger);
       statsCapacity = cap;
     }
@@ -164,11 +170,12 @@ struct Deformer::Impl {
   }
 
   // One side of an event up to its new heights in the scratch (returns the crater ring's width).
-  int updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other, const DeformRequest& rq,
-                 double depth);
+  int updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
+                 const DeformRequest& rq, double depth);
 };
 
-Deformer::Deformer(const DeformOptions& options) : impl_(std::make_unique<Impl>(options.addressMap)), options_(options) {}
+Deformer::Deformer(const DeformOptions& options)
+    : impl_(std::make_unique<Impl>(options.addressMap)), options_(options) {}
 Deformer::~Deformer() = default;
 
 void Deformer::setOptions(const DeformOptions& options) {
@@ -276,7 +283,8 @@ int Deformer::deform(const DeformRequest& rq) {
     if (!active[side]) continue;
     Surface& x = *(side == 0 ? rq.a : rq.b).surface;
     x.makeUnique();
-    m.commit.run(side, x, rings[side], m.scratchFor(side, x.resolution()), m.region, m.stats, handle + side, m.phaseMark);
+    m.commit.run(side, x, rings[side], m.scratchFor(side, x.resolution()), m.region, m.stats, handle + side,
+                 m.phaseMark);
   }
   glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);
   glDisable(GL_CULL_FACE);
@@ -290,7 +298,8 @@ SideStats Deformer::stats(int handle, int side) {
   if (m.statsRead < m.statsUsed) {
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     m.statsHost.resize(static_cast<size_t>(m.statsUsed) * 4);
-    glGetNamedBufferSubData(m.stats.id(), 0, static_cast<GLsizeiptr>(m.statsHost.size() * sizeof(GLuint)), m.statsHost.data());
+    glGetNamedBufferSubData(m.stats.id(), 0, static_cast<GLsizeiptr>(m.statsHost.size() * sizeof(GLuint)),
+                            m.statsHost.data());
     m.statsRead = m.statsUsed;
   }
   const size_t base = static_cast<size_t>(handle + side) * 4;

@@ -64,7 +64,7 @@ struct DeformRequest {
 // What one side's update did; filled when stats are fetched.
 struct SideStats {
   int texelsChanged = 0;
-  double maxDent = 0;  // m: largest drop of one texel, times k
+  double maxDent = 0;      // m: largest drop of one texel, times k
   bool saturated = false;  // some texel reached 0
 };
 

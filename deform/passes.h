@@ -40,12 +40,12 @@ inline render::Program computeProgram(const char* name) {
 // What the updates share about one side of one event.
 struct SideUpdate {
   int side = 0;
-  int resolution = 0;         // X's map
-  float depthToHeight = 0;    // (zfar - znear) / k
-  float bumpToDepth = 0;      // X's k' / (zfar - znear)
+  int resolution = 0;       // X's map
+  float depthToHeight = 0;  // (zfar - znear) / k
+  float bumpToDepth = 0;    // X's k' / (zfar - znear)
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
-  glm::vec3 viewNormal{0};    // N_C as owned by X (towards the camera)
+  glm::vec3 viewNormal{0};  // N_C as owned by X (towards the camera)
 };
 
 class AddressPasses {
@@ -54,8 +54,8 @@ class AddressPasses {
   void resize(int size);
   int size() const { return size_; }
   // Pass A: X's front faces, depth LESS; the world-normal attachment only when asked (tangent correction).
-  void drawX(int side, const DeformBody& x, const glm::dmat4& viewProjection, const glm::dmat4& model, float bumpToDepth,
-             bool normals);
+  void drawX(int side, const DeformBody& x, const glm::dmat4& viewProjection, const glm::dmat4& model,
+             float bumpToDepth, bool normals);
   // Pass B: the other body's back faces, depth GREATER: against X's depth from pass A (scatter), or
   // alone, the farthest back face anywhere (the gather's depth map).
   void drawOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
@@ -67,7 +67,8 @@ class AddressPasses {
   const render::Texture2D& depthOther(int side) const { return depthO_[side]; }
 
  private:
-  void draw(const DeformBody& body, const glm::dmat4& viewProjection, const glm::dmat4& model, float sign, float bumpToDepth);
+  void draw(const DeformBody& body, const glm::dmat4& viewProjection, const glm::dmat4& model, float sign,
+            float bumpToDepth);
   render::Program program_;
   GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
   render::Texture2D flat_{1, 1, GL_R32F};
@@ -89,8 +90,8 @@ class GatherUpdate {
  private:
   void bindTexelSpace(int resolution);
   render::Program program_;
-  GLint uMvp_, uNormalToWorld_, uResolution_, uViewMargin_, uFarthestOther_, uBumpReach_, uSide_, uSize_,
-      uBumpToDepth_, uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+  GLint uMvp_, uNormalToWorld_, uResolution_, uViewMargin_, uFarthestOther_, uBumpReach_, uSide_, uSize_, uBumpToDepth_,
+      uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
   // A framebuffer without attachments, sized to the map being drawn (a software rasteriser bins all of it).
   render::Framebuffer texelSpace_;
   int texelSpaceSize_ = 0;
@@ -99,8 +100,8 @@ class GatherUpdate {
 class ScatterUpdate {
  public:
   ScatterUpdate();
-  void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height, render::Texture2D& scratch,
-           const render::Buffer& region);
+  void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
+           render::Texture2D& scratch, const render::Buffer& region);
 
  private:
   render::Program program_;

@@ -105,7 +105,8 @@ void ReadbackUpdate::scatter(const SideUpdate& u, const AddressPasses& passes, c
     float dD = db_[i] - da_[i];
     if (!(dD > 0.0f)) continue;
     if (tangent) {
-      const float c = std::abs(glm::dot(glm::normalize(glm::vec3(na_[i * 4], na_[i * 4 + 1], na_[i * 4 + 2])), u.viewNormal));
+      const float c =
+          std::abs(glm::dot(glm::normalize(glm::vec3(na_[i * 4], na_[i * 4 + 1], na_[i * 4 + 2])), u.viewNormal));
       dD = u.tangent == TangentMode::Multiply ? dD * c : dD / std::max(c, u.tangentFloor);
     }
     const int tx = std::clamp(static_cast<int>(std::floor(ca_[i * 2] * static_cast<float>(res))), 0, res - 1);

@@ -51,11 +51,16 @@ void GpuMesh::draw() const {
   glDrawElements(GL_TRIANGLES, indexCount, GL_UNSIGNED_INT, nullptr);
 }
 
-SurfaceMaps::SurfaceMaps(int resolution) : height(resolution, resolution, GL_R32F), normal(resolution, resolution, GL_RGBA8) {}
+SurfaceMaps::SurfaceMaps(int resolution)
+    : height(resolution, resolution, GL_R32F), normal(resolution, resolution, GL_RGBA8) {}
 
 Surface::Surface(std::shared_ptr<const GpuMesh> mesh, int resolution, float bumpDepth, float bumpDepthCollide,
                  std::shared_ptr<SurfaceMaps> shared)
-    : mesh_(std::move(mesh)), maps_(std::move(shared)), resolution_(resolution), k_(bumpDepth), kCollide_(bumpDepthCollide) {}
+    : mesh_(std::move(mesh)),
+      maps_(std::move(shared)),
+      resolution_(resolution),
+      k_(bumpDepth),
+      kCollide_(bumpDepthCollide) {}
 
 void Surface::makeUnique() {
   if (maps_.use_count() <= 1) return;

@@ -16,10 +16,14 @@ namespace {
 std::string shapeKey(const ShapeDesc& s) {
   std::ostringstream os;
   os.precision(17);
-  if (s.type == "box") os << "box:" << s.size.x << "," << s.size.y << "," << s.size.z;
-  else if (s.type == "sphere") os << "sphere:" << s.radius;
-  else if (s.type == "mesh") os << "mesh:" << s.file << "|" << s.scale.x << "," << s.scale.y << "," << s.scale.z;
-  else os << s.type << ":" << s.radius << "," << s.height;
+  if (s.type == "box")
+    os << "box:" << s.size.x << "," << s.size.y << "," << s.size.z;
+  else if (s.type == "sphere")
+    os << "sphere:" << s.radius;
+  else if (s.type == "mesh")
+    os << "mesh:" << s.file << "|" << s.scale.x << "," << s.scale.y << "," << s.scale.z;
+  else
+    os << s.type << ":" << s.radius << "," << s.height;
   return os.str();
 }
 }  // namespace
@@ -36,7 +40,8 @@ BodyAssets AssetCache::load(const BodyDesc& d, const std::string& where) {
       throw SceneError(sceneFile_, where + ".bump_map.image", e.what());
     }
     if (initial.width != initial.height)
-      throw SceneError(sceneFile_, where + ".bump_map.image", "must be square, got " + std::to_string(initial.width) + "x" + std::to_string(initial.height));
+      throw SceneError(sceneFile_, where + ".bump_map.image",
+                       "must be square, got " + std::to_string(initial.width) + "x" + std::to_string(initial.height));
     if (initial.width < 8 || initial.width > 4096)
       throw SceneError(sceneFile_, where + ".bump_map.image", "size must be in [8, 4096]");
     hasImage = true;
@@ -82,10 +87,11 @@ BodyAssets AssetCache::load(const BodyDesc& d, const std::string& where) {
       if (!mesh) {
         const AtlasCheck check = checkAtlas(m, mapRes);
         if (!check.oneToOne) {
-          std::string why = check.missing ? "has no texture coordinates"
+          std::string why = check.missing             ? "has no texture coordinates"
                             : check.overlappingTexels ? std::to_string(check.overlappingTexels) + " texels used twice"
-                            : check.outsideTriangles ? std::to_string(check.outsideTriangles) + " triangles outside [0,1]"
-                                                     : std::to_string(check.collapsedTriangles) + " triangles with no texture area";
+                            : check.outsideTriangles
+                                ? std::to_string(check.outsideTriangles) + " triangles outside [0,1]"
+                                : std::to_string(check.collapsedTriangles) + " triangles with no texture area";
           m = generateAtlas(m, mapRes);
           logInfo(where, " (", d.name, "): ", fs::path(s.file).filename().string(), " ", why,
                   ": generated an automatic one-to-one atlas");

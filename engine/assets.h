@@ -22,7 +22,7 @@ struct BodyAssets {
   int mapResolution = 256;                   // the bump map's (its image's when it has one)
   render::Image initialMap;                  // the bump map's image, when it has one
   bool hasImage = false;
-  std::string meshKey;                       // shape and map resolution: what the render mesh depends on
+  std::string meshKey;  // shape and map resolution: what the render mesh depends on
 };
 
 class AssetCache {

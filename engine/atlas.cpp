@@ -25,7 +25,7 @@ struct Rect {
   int chart;
   glm::vec2 lo, size;  // chart bounds in metres
   bool rotated = false;
-  glm::vec2 at{0};     // packed position (uv) of the lower-left corner
+  glm::vec2 at{0};  // packed position (uv) of the lower-left corner
 };
 
 // Shelf packing at `scale` (uv per metre); returns false if it does not fit.
@@ -52,7 +52,8 @@ bool shelfPack(std::vector<Rect>& rects, double scale, double gutter) {
 TriangleMesh packCharts(const ChartMesh& cm, int resolution, int gutterTexels) {
   const int nCharts = cm.chart.empty() ? 0 : *std::max_element(cm.chart.begin(), cm.chart.end()) + 1;
   std::vector<Rect> rects(static_cast<size_t>(nCharts));
-  std::vector<glm::vec2> lo(static_cast<size_t>(nCharts), glm::vec2(1e30f)), hi(static_cast<size_t>(nCharts), glm::vec2(-1e30f));
+  std::vector<glm::vec2> lo(static_cast<size_t>(nCharts), glm::vec2(1e30f)),
+      hi(static_cast<size_t>(nCharts), glm::vec2(-1e30f));
   for (size_t t = 0; t < cm.chart.size(); ++t) {
     const auto c = static_cast<size_t>(cm.chart[t]);
     for (int k = 0; k < 3; ++k) {
@@ -97,7 +98,8 @@ TriangleMesh packCharts(const ChartMesh& cm, int resolution, int gutterTexels) {
       const glm::vec2 uv = r.at + local * static_cast<float>(good);
       const glm::vec3& p = cm.positions[t * 3 + k];
       const glm::vec3& n = cm.normals[t * 3 + k];
-      auto [it, inserted] = weld.try_emplace({p.x, p.y, p.z, n.x, n.y, n.z, uv.x, uv.y}, static_cast<unsigned>(out.positions.size()));
+      auto [it, inserted] =
+          weld.try_emplace({p.x, p.y, p.z, n.x, n.y, n.z, uv.x, uv.y}, static_cast<unsigned>(out.positions.size()));
       if (inserted) {
         out.positions.push_back(p);
         out.normals.push_back(n);
@@ -176,7 +178,8 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
   std::vector<glm::vec3> faceN(nt);
   for (size_t t = 0; t < nt; ++t) {
     const auto& tri = mesh.triangles[t];
-    const glm::vec3 n = glm::cross(mesh.positions[tri.y] - mesh.positions[tri.x], mesh.positions[tri.z] - mesh.positions[tri.x]);
+    const glm::vec3 n =
+        glm::cross(mesh.positions[tri.y] - mesh.positions[tri.x], mesh.positions[tri.z] - mesh.positions[tri.x]);
     faceN[t] = n;
     const glm::vec3 a = glm::abs(n);
     const int ax = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
@@ -185,7 +188,8 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
   std::map<std::pair<unsigned, unsigned>, std::vector<int>> edges;
   for (size_t t = 0; t < nt; ++t) {
     const unsigned v[3] = {vid[mesh.triangles[t].x], vid[mesh.triangles[t].y], vid[mesh.triangles[t].z]};
-    for (int k = 0; k < 3; ++k) edges[{std::min(v[k], v[(k + 1) % 3]), std::max(v[k], v[(k + 1) % 3])}].push_back(static_cast<int>(t));
+    for (int k = 0; k < 3; ++k)
+      edges[{std::min(v[k], v[(k + 1) % 3]), std::max(v[k], v[(k + 1) % 3])}].push_back(static_cast<int>(t));
   }
   std::vector<std::vector<int>> adjacent(nt);
   for (const auto& [e, tris] : edges)
@@ -234,7 +238,8 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
       glm::vec2 uv[3];
       for (int k = 0; k < 3; ++k) uv[k] = project(p[k], axis[t]);
       const bool coloured = mesh.colors.size() == mesh.positions.size();
-      const glm::vec3 c[3] = {coloured ? mesh.colors[tri.x] : glm::vec3(1), coloured ? mesh.colors[tri.y] : glm::vec3(1),
+      const glm::vec3 c[3] = {coloured ? mesh.colors[tri.x] : glm::vec3(1),
+                              coloured ? mesh.colors[tri.y] : glm::vec3(1),
                               coloured ? mesh.colors[tri.z] : glm::vec3(1)};
       cm.addTriangle(chartIds[t], p, n, uv, coloured ? c : nullptr);
     }

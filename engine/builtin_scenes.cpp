@@ -15,7 +15,8 @@ std::string_view embeddedFile(std::string_view name);
 }
 
 std::string builtinSceneText(const std::string& name) {
-  if (name == "default" || name == "sphere-into-plate") return std::string(engine::scenes::embeddedFile("sphere-into-plate.json"));
+  if (name == "default" || name == "sphere-into-plate")
+    return std::string(engine::scenes::embeddedFile("sphere-into-plate.json"));
   if (name == "highway") return std::string(engine::scenes::embeddedFile("highway.json"));
   for (const char* asset : {"car.obj", "sedan.obj", "wbeam.obj"})
     if (name == asset) return std::string(engine::scenes::embeddedFile(asset));

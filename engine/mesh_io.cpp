@@ -69,22 +69,54 @@ class AccessorReader {
   double get(size_t i, int c) const {
     const unsigned char* p = data_ + i * stride_ + static_cast<size_t>(c * componentSize_);
     switch (acc_->componentType) {
-      case TINYGLTF_COMPONENT_TYPE_FLOAT: { float f; std::memcpy(&f, p, 4); return f; }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return acc_->normalized ? *p / 255.0 : *p;
-      case TINYGLTF_COMPONENT_TYPE_BYTE: { int8_t v; std::memcpy(&v, p, 1); return acc_->normalized ? std::max(v / 127.0, -1.0) : v; }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { uint16_t v; std::memcpy(&v, p, 2); return acc_->normalized ? v / 65535.0 : v; }
-      case TINYGLTF_COMPONENT_TYPE_SHORT: { int16_t v; std::memcpy(&v, p, 2); return acc_->normalized ? std::max(v / 32767.0, -1.0) : v; }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { uint32_t v; std::memcpy(&v, p, 4); return v; }
-      default: throw MeshError(what_ + ": unsupported component type");
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float f;
+        std::memcpy(&f, p, 4);
+        return f;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return acc_->normalized ? *p / 255.0 : *p;
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t v;
+        std::memcpy(&v, p, 1);
+        return acc_->normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return acc_->normalized ? v / 65535.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v;
+        std::memcpy(&v, p, 2);
+        return acc_->normalized ? std::max(v / 32767.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      default:
+        throw MeshError(what_ + ": unsupported component type");
     }
   }
   uint32_t index(size_t i) const {
     const unsigned char* p = data_ + i * stride_;
     switch (acc_->componentType) {
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return *p;
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { uint16_t v; std::memcpy(&v, p, 2); return v; }
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { uint32_t v; std::memcpy(&v, p, 4); return v; }
-      default: throw MeshError(what_ + ": indices must be unsigned byte, short or int");
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return *p;
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      default:
+        throw MeshError(what_ + ": indices must be unsigned byte, short or int");
     }
   }
 
@@ -103,8 +135,10 @@ glm::dmat4 nodeMatrix(const tinygltf::Node& n) {
     return m;
   }
   glm::dmat4 m(1);
-  if (n.translation.size() == 3) m = glm::translate(m, glm::dvec3(n.translation[0], n.translation[1], n.translation[2]));
-  if (n.rotation.size() == 4) m *= glm::mat4_cast(glm::dquat(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]));
+  if (n.translation.size() == 3)
+    m = glm::translate(m, glm::dvec3(n.translation[0], n.translation[1], n.translation[2]));
+  if (n.rotation.size() == 4)
+    m *= glm::mat4_cast(glm::dquat(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2]));
   if (n.scale.size() == 3) m = glm::scale(m, glm::dvec3(n.scale[0], n.scale[1], n.scale[2]));
   return m;
 }
@@ -112,7 +146,8 @@ glm::dmat4 nodeMatrix(const tinygltf::Node& n) {
 void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, const glm::dmat4& xf,
                      const std::string& what, TriangleMesh& out, bool& anyUv) {
   const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
-  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN) return;
+  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+    return;
   auto pos = prim.attributes.find("POSITION");
   if (pos == prim.attributes.end()) throw MeshError(what + ": primitive has no POSITION");
   AccessorReader p(model, pos->second, what + " POSITION");
@@ -124,7 +159,8 @@ void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& pr
   }
   if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) {
     uv = std::make_unique<AccessorReader>(model, it->second, what + " TEXCOORD_0");
-    if (uv->components() != 2 || uv->count() != p.count()) throw MeshError(what + ": TEXCOORD_0 must be VEC2 with one per vertex");
+    if (uv->components() != 2 || uv->count() != p.count())
+      throw MeshError(what + ": TEXCOORD_0 must be VEC2 with one per vertex");
   }
   const glm::dmat3 normalXf = glm::transpose(glm::inverse(glm::dmat3(xf)));
   const bool flip = glm::determinant(glm::dmat3(xf)) < 0;
@@ -157,7 +193,9 @@ void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& pr
     idx.reserve(ir.count());
     for (size_t i = 0; i < ir.count(); ++i) {
       const uint32_t k = ir.index(i);
-      if (k >= p.count()) throw MeshError(what + ": index " + std::to_string(k) + " out of range (" + std::to_string(p.count()) + " vertices)");
+      if (k >= p.count())
+        throw MeshError(what + ": index " + std::to_string(k) + " out of range (" + std::to_string(p.count()) +
+                        " vertices)");
       idx.push_back(k);
     }
   } else {
@@ -172,7 +210,8 @@ void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& pr
     if (idx.size() % 3) throw MeshError(what + ": triangle index count is not a multiple of 3");
     for (size_t i = 0; i + 2 < idx.size(); i += 3) tri(idx[i], idx[i + 1], idx[i + 2]);
   } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
-    for (size_t i = 0; i + 2 < idx.size(); ++i) i % 2 ? tri(idx[i + 1], idx[i], idx[i + 2]) : tri(idx[i], idx[i + 1], idx[i + 2]);
+    for (size_t i = 0; i + 2 < idx.size(); ++i)
+      i % 2 ? tri(idx[i + 1], idx[i], idx[i + 2]) : tri(idx[i], idx[i + 1], idx[i + 2]);
   } else {
     for (size_t i = 1; i + 1 < idx.size(); ++i) tri(idx[0], idx[i], idx[i + 1]);
   }
@@ -191,33 +230,40 @@ TriangleMesh loadGltf(const std::string& path) {
   const bool binary = lower(fs::path(path).extension().string()) == ".glb";
   bool ok = false;
   try {
-    ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path) : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+    ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
+                : loader.LoadASCIIFromFile(&model, &err, &warn, path);
   } catch (const std::exception& e) {
     throw MeshError(path + ": " + e.what());
   }
   if (!ok) {
     while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
-    throw MeshError(path + ": not a valid glTF" + std::string(binary ? " binary" : "") + " file: " + (err.empty() ? "unknown error" : err));
+    throw MeshError(path + ": not a valid glTF" + std::string(binary ? " binary" : "") +
+                    " file: " + (err.empty() ? "unknown error" : err));
   }
   if (model.scenes.empty()) throw MeshError(path + ": the file has no scene");
   const int sceneIndex = model.defaultScene >= 0 ? model.defaultScene : 0;
-  if (sceneIndex >= static_cast<int>(model.scenes.size())) throw MeshError(path + ": default scene " + std::to_string(sceneIndex) + " does not exist");
+  if (sceneIndex >= static_cast<int>(model.scenes.size()))
+    throw MeshError(path + ": default scene " + std::to_string(sceneIndex) + " does not exist");
   TriangleMesh out;
   bool anyUv = false;
   std::vector<int> onPath;
   size_t visits = 0;
   std::function<void(int, const glm::dmat4&)> visit = [&](int ni, const glm::dmat4& parent) {
-    if (ni < 0 || ni >= static_cast<int>(model.nodes.size())) throw MeshError(path + ": node " + std::to_string(ni) + " does not exist");
-    if (std::find(onPath.begin(), onPath.end(), ni) != onPath.end()) throw MeshError(path + ": node hierarchy has a cycle through node " + std::to_string(ni));
+    if (ni < 0 || ni >= static_cast<int>(model.nodes.size()))
+      throw MeshError(path + ": node " + std::to_string(ni) + " does not exist");
+    if (std::find(onPath.begin(), onPath.end(), ni) != onPath.end())
+      throw MeshError(path + ": node hierarchy has a cycle through node " + std::to_string(ni));
     if (++visits > 100000) throw MeshError(path + ": node hierarchy too large");
     onPath.push_back(ni);
     const tinygltf::Node& node = model.nodes[static_cast<size_t>(ni)];
     const glm::dmat4 xf = parent * nodeMatrix(node);
     if (node.mesh >= 0) {
-      if (node.mesh >= static_cast<int>(model.meshes.size())) throw MeshError(path + ": node " + std::to_string(ni) + " uses missing mesh " + std::to_string(node.mesh));
+      if (node.mesh >= static_cast<int>(model.meshes.size()))
+        throw MeshError(path + ": node " + std::to_string(ni) + " uses missing mesh " + std::to_string(node.mesh));
       const auto& mesh = model.meshes[static_cast<size_t>(node.mesh)];
       for (size_t pi = 0; pi < mesh.primitives.size(); ++pi)
-        appendPrimitive(model, mesh.primitives[pi], xf, path + ": mesh " + std::to_string(node.mesh) + " primitive " + std::to_string(pi), out, anyUv);
+        appendPrimitive(model, mesh.primitives[pi], xf,
+                        path + ": mesh " + std::to_string(node.mesh) + " primitive " + std::to_string(pi), out, anyUv);
     }
     for (int c : node.children) visit(c, xf);
     onPath.pop_back();
@@ -360,8 +406,8 @@ void checkDeclaredCounts(const std::string& path, const std::string& ext) {
     }
   }
   if (vertices < 0 || faces < 0 || vertices * 6 + faces * 4 > bytes * 2 + 64)
-    throw MeshError(path + ": the header announces " + std::to_string(static_cast<long long>(vertices)) + " vertices and " +
-                    std::to_string(static_cast<long long>(faces)) + " faces, more than the file's " +
+    throw MeshError(path + ": the header announces " + std::to_string(static_cast<long long>(vertices)) +
+                    " vertices and " + std::to_string(static_cast<long long>(faces)) + " faces, more than the file's " +
                     std::to_string(static_cast<long long>(bytes)) + " bytes can hold");
 }
 }  // namespace
@@ -422,10 +468,14 @@ TriangleMesh loadMeshFile(const std::string& path) {
   if (!fs::is_regular_file(path, ec)) throw MeshError(path + ": no such file");
   const std::string ext = lower(fs::path(path).extension().string());
   TriangleMesh m;
-  if (ext == ".gltf" || ext == ".glb") m = loadGltf(path);
-  else if (ext == ".obj") m = loadObj(path);
-  else if (ext == ".off" || ext == ".ply") m = loadWithOpenMesh(path);
-  else throw MeshError(path + ": unknown mesh format '" + ext + "' (expected .gltf, .glb, .obj, .off or .ply)");
+  if (ext == ".gltf" || ext == ".glb")
+    m = loadGltf(path);
+  else if (ext == ".obj")
+    m = loadObj(path);
+  else if (ext == ".off" || ext == ".ply")
+    m = loadWithOpenMesh(path);
+  else
+    throw MeshError(path + ": unknown mesh format '" + ext + "' (expected .gltf, .glb, .obj, .off or .ply)");
   if (m.normals.size() != m.positions.size()) m.computeNormals();
   return m;
 }

@@ -15,7 +15,7 @@ struct MeshError : std::runtime_error {
 
 TriangleMesh loadMeshFile(const std::string& path);
 TriangleMesh loadGltf(const std::string& path);
-TriangleMesh loadObj(const std::string& path);          // strict: errors name the line
+TriangleMesh loadObj(const std::string& path);           // strict: errors name the line
 TriangleMesh loadWithOpenMesh(const std::string& path);  // OFF and PLY
 
 }  // namespace crumple

@@ -20,7 +20,9 @@ OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexi
     if (!fs::is_directory(dir_, ec)) throw SceneError(dir, "", "output path exists and is not a folder");
     const bool empty = fs::is_empty(dir_, ec);
     if (!empty && !fs::exists(fs::path(dir_) / "summary.json", ec))
-      throw SceneError(dir, "", "output folder exists, is not empty and holds no crumple output (summary.json): refusing to overwrite it");
+      throw SceneError(
+          dir, "",
+          "output folder exists, is not empty and holds no crumple output (summary.json): refusing to overwrite it");
   }
   const fs::path parent = fs::path(dir_).parent_path();
   fs::create_directories(parent, ec);
@@ -90,7 +92,8 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   std::map<GLuint, std::string> written;
   for (const auto& b : sim.bodies()) {
     if (!b.surface) continue;
-    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"), normalPath = root / "normalmaps" / (b.name + ".png");
+    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"),
+                   normalPath = root / "normalmaps" / (b.name + ".png");
     if (auto it = written.find(b.surface->height().id()); it != written.end()) {
       fs::copy_file(root / "heightmaps" / it->second, heightPath);
       fs::copy_file(root / "normalmaps" / it->second, normalPath);
@@ -104,7 +107,8 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
     b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
     render::Image nm(n, n, 3);
     for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
-      for (int c = 0; c < 3; ++c) nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
+      for (int c = 0; c < 3; ++c)
+        nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
     render::writePng(normalPath.string(), nm, 8);
   }
   // Summary.

@@ -159,7 +159,8 @@ TriangleMesh cylinderMesh(double radius, double height, int resolution, int segm
 TriangleMesh capsuleMesh(double radius, double height, int resolution, int segments, int rings) {
   ChartMesh cm;
   const float r = static_cast<float>(radius), hh = static_cast<float>(height / 2);
-  if (height > 0) addTube(cm, 0, r, -hh, hh, segments, std::max(1, static_cast<int>(std::ceil(height / (radius * 0.5)))));
+  if (height > 0)
+    addTube(cm, 0, r, -hh, hh, segments, std::max(1, static_cast<int>(std::ceil(height / (radius * 0.5)))));
   addCap(cm, 1, r, hh, true, segments, rings);
   addCap(cm, 2, r, -hh, false, segments, rings);
   return packCharts(cm, resolution);

@@ -19,7 +19,9 @@ namespace crumple {
 struct SceneError : std::runtime_error {
   SceneError(const std::string& file, const std::string& keyPath, const std::string& what)
       : std::runtime_error(file + ": " + (keyPath.empty() ? "" : keyPath + ": ") + what),
-        file(file), keyPath(keyPath), reason(what) {}
+        file(file),
+        keyPath(keyPath),
+        reason(what) {}
   std::string file, keyPath, reason;
 };
 
@@ -28,21 +30,21 @@ struct Material {
   double density = 1000;
   double restitution = 0.5;  // the paper's epsilon
   double friction = 0.5;
-  double kappa = 0.1;        // the paper's kappa (m/s per unit impulse above Y)
-  double thickness = 0.05;   // the paper's t (m)
+  double kappa = 0.1;       // the paper's kappa (m/s per unit impulse above Y)
+  double thickness = 0.05;  // the paper's t (m)
   glm::vec3 color{0.7f, 0.7f, 0.7f};
 };
-
 
 struct DeformationSettings {
   bool enabled = true;
   double impulseFloor = 0.0;
   double bumpDepth = 0.1;          // k (m)
   double bumpDepthCollide = 0.02;  // k' (m)
-  deform::DeformOptions options;  // address map, update path, tangent correction, crater rims
+  deform::DeformOptions options;   // address map, update path, tangent correction, crater rims
   bool lazyMaps = true;
   double contactInterval = 0.05;
-  bool normalMappedNormals = false;  // contact normals from the normal maps (figure 10)  // s between contact deformations (bodies with contact_deformation)
+  bool normalMappedNormals =
+      false;  // contact normals from the normal maps (figure 10)  // s between contact deformations (bodies with contact_deformation)
 };
 
 struct ShapeDesc {
@@ -50,7 +52,7 @@ struct ShapeDesc {
   glm::dvec3 size{1};
   double radius = 0.5;
   double height = 1.0;
-  std::string file;         // mesh: absolute or resolved path
+  std::string file;  // mesh: absolute or resolved path
   glm::dvec3 scale{1};
 };
 
@@ -110,7 +112,7 @@ struct CameraDesc {
 };
 
 struct Scene {
-  std::string file;   // where it came from ("<built-in>" for defaults)
+  std::string file;  // where it came from ("<built-in>" for defaults)
   std::string name;
   glm::dvec3 gravity{0, -9.81, 0};
   double timestep = 1.0 / 240;

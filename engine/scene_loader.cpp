@@ -26,15 +26,23 @@ namespace {
 
 const char* typeName(const json& j) {
   switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::object: return "an object";
-    case json::value_t::array: return "an array";
-    case json::value_t::string: return "a string";
-    case json::value_t::boolean: return "a boolean";
+    case json::value_t::null:
+      return "null";
+    case json::value_t::object:
+      return "an object";
+    case json::value_t::array:
+      return "an array";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::boolean:
+      return "a boolean";
     case json::value_t::number_integer:
-    case json::value_t::number_unsigned: return "an integer";
-    case json::value_t::number_float: return "a number";
-    default: return "something else";
+    case json::value_t::number_unsigned:
+      return "an integer";
+    case json::value_t::number_float:
+      return "a number";
+    default:
+      return "something else";
   }
 }
 
@@ -73,7 +81,8 @@ class Node {
     }
   }
 
-  double number(const std::string& key, double def, double lo, double hi, bool loOpen = false, bool hiOpen = false) const {
+  double number(const std::string& key, double def, double lo, double hi, bool loOpen = false,
+                bool hiOpen = false) const {
     if (!has(key)) return def;
     return numberValue(j_.at(key), key, lo, hi, loOpen, hiOpen);
   }
@@ -128,7 +137,9 @@ class Node {
   glm::dvec3 vec3Value(const json& v, const std::string& key, double limit) const {
     if (!v.is_array() || v.size() != 3) fail(key, "must be an array of 3 numbers, got " + shortDump(v));
     glm::dvec3 r;
-    for (int i = 0; i < 3; ++i) r[i] = Node(v, join(key), file_).numberValue(v[static_cast<size_t>(i)], "[" + std::to_string(i) + "]", -limit, limit, false, false);
+    for (int i = 0; i < 3; ++i)
+      r[i] = Node(v, join(key), file_)
+                 .numberValue(v[static_cast<size_t>(i)], "[" + std::to_string(i) + "]", -limit, limit, false, false);
     return r;
   }
   Node child(const std::string& key) const {
@@ -221,7 +232,8 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
       } else {
         s.scale = n.vec3("scale", s.scale);
         for (int i = 0; i < 3; ++i)
-          if (!(s.scale[i] >= 1e-4 && s.scale[i] <= 1e4)) n.fail("scale", "must be in [0.0001, 10000] in every component");
+          if (!(s.scale[i] >= 1e-4 && s.scale[i] <= 1e4))
+            n.fail("scale", "must be in [0.0001, 10000] in every component");
       }
     }
   } else {
@@ -239,7 +251,8 @@ VehicleDesc parseVehicle(const Node& n) {
   if (!n.has("wheels")) n.fail("wheels", "is required (wheel attachment points in the body frame)");
   const json& w = n.raw("wheels");
   if (!w.is_array() || w.size() < 3 || w.size() > 16) n.fail("wheels", "must be an array of 3 to 16 points");
-  for (size_t i = 0; i < w.size(); ++i) v.params.wheels.push_back(n.vec3Value(w[i], "wheels[" + std::to_string(i) + "]", 1e3));
+  for (size_t i = 0; i < w.size(); ++i)
+    v.params.wheels.push_back(n.vec3Value(w[i], "wheels[" + std::to_string(i) + "]", 1e3));
   v.params.wheelRadius = n.number("wheel_radius", v.params.wheelRadius, 0, 10, true);
   v.wheelWidth = n.number("wheel_width", v.wheelWidth, 0, 10, true);
   v.params.suspensionRest = n.number("suspension_rest", v.params.suspensionRest, 0, 10, true);
@@ -284,14 +297,15 @@ VehicleDesc parseVehicle(const Node& n) {
 
 BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir) {
   n.requireObject();
-  n.checkKeys({"name", "shape", "material", "static", "position", "orientation", "velocity", "angular_velocity",
-               "mass", "bump_map", "vehicle", "contact_deformation"});
+  n.checkKeys({"name", "shape", "material", "static", "position", "orientation", "velocity", "angular_velocity", "mass",
+               "bump_map", "vehicle", "contact_deformation"});
   BodyDesc b;
   b.name = n.requiredString("name");
   if (b.name.empty()) n.fail("name", "must not be empty");
   if (b.name.size() > 128) n.fail("name", "longer than 128 characters");
   for (unsigned char c : b.name) {
-    if (c < 32 || c == '/' || c == '\\' || c == 127) n.fail("name", "must not contain '/', '\\' or control characters (it names output files)");
+    if (c < 32 || c == '/' || c == '\\' || c == 127)
+      n.fail("name", "must not contain '/', '\\' or control characters (it names output files)");
   }
   if (b.name == "." || b.name == "..") n.fail("name", "must not be '.' or '..'");
   if (!n.has("shape")) n.fail("shape", "is required");
@@ -360,15 +374,17 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   } catch (const json::parse_error& e) {
     std::string what = e.what();
     const auto pos = what.find("syntax error");
-    throw SceneError(file, "", "malformed JSON at " + lineColumn(text, e.byte ? e.byte - 1 : 0) + ": " +
-                                   (pos != std::string::npos ? what.substr(pos) : what));
+    throw SceneError(file, "",
+                     "malformed JSON at " + lineColumn(text, e.byte ? e.byte - 1 : 0) + ": " +
+                         (pos != std::string::npos ? what.substr(pos) : what));
   } catch (const json::exception& e) {
     std::string what = e.what();
     const auto pos = what.find("] ");
     throw SceneError(file, "", "malformed JSON: " + (pos != std::string::npos ? what.substr(pos + 2) : what));
   }
   Node n(root, "", file);
-  if (!root.is_object()) throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
+  if (!root.is_object())
+    throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
   n.checkKeys({"format", "name", "gravity", "timestep", "duration", "materials", "deformation", "bodies", "cameras"});
   Scene s;
   s.file = file;
@@ -393,7 +409,8 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   if (n.has("deformation")) {
     Node d = n.child("deformation");
     d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
-                 "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval", "normal_mapped_normals"});
+                 "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval",
+                 "normal_mapped_normals"});
     auto& ds = s.deformation;
     ds.enabled = d.boolean("enabled", ds.enabled);
     ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
@@ -402,15 +419,23 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     auto& o = ds.options;
     o.addressMap = d.integer("address_map", o.addressMap, 16, 4096);
     const std::string path = d.string("path", "gather");
-    if (path == "gather" || path == "gpu") o.path = deform::Path::Gather;  // "gpu": its name before the scatter had a GPU twin
-    else if (path == "scatter") o.path = deform::Path::Scatter;
-    else if (path == "readback") o.path = deform::Path::Readback;
-    else d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
+    if (path == "gather" || path == "gpu")
+      o.path = deform::Path::Gather;  // "gpu": its name before the scatter had a GPU twin
+    else if (path == "scatter")
+      o.path = deform::Path::Scatter;
+    else if (path == "readback")
+      o.path = deform::Path::Readback;
+    else
+      d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
     const std::string tc = d.string("tangent_correction", "none");
-    if (tc == "none") o.tangent = deform::TangentMode::None;
-    else if (tc == "multiply") o.tangent = deform::TangentMode::Multiply;
-    else if (tc == "divide") o.tangent = deform::TangentMode::Divide;
-    else d.fail("tangent_correction", "must be \"none\", \"multiply\" or \"divide\", got '" + tc + "'");
+    if (tc == "none")
+      o.tangent = deform::TangentMode::None;
+    else if (tc == "multiply")
+      o.tangent = deform::TangentMode::Multiply;
+    else if (tc == "divide")
+      o.tangent = deform::TangentMode::Divide;
+    else
+      d.fail("tangent_correction", "must be \"none\", \"multiply\" or \"divide\", got '" + tc + "'");
     o.tangentFloor = static_cast<float>(d.number("tangent_floor", o.tangentFloor, 0, 1, true));
     o.craterRims = d.boolean("crater_rims", o.craterRims);
     ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);

@@ -28,19 +28,17 @@ namespace {
 // The wheel mesh is a cylinder along y; wheels turn about the body's z axis.
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-
 }  // namespace
 
 SideDecision decideSide(const Material& material, double thickness, double impulse) {
   SideDecision d;
-  d.threshold = yieldThreshold(material.restitution);                   // eq. 6
+  d.threshold = yieldThreshold(material.restitution);                     // eq. 6
   d.percentDeform = percentDeform(material.kappa, impulse, d.threshold);  // eq. 5
   d.deformDepth = deformDepth(thickness, d.percentDeform);
   return d;
 }
 
-namespace {
-}  // namespace
+namespace {}  // namespace
 
 Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), assets_(scene.file) {
   world_.settings().gravity = scene.gravity;
@@ -158,8 +156,8 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   bodies_.push_back(std::move(b));
 }
 
-bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const glm::dmat4& model, const glm::dvec3& point,
-                             const glm::dvec3& normal, double push) {
+bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const glm::dmat4& model,
+                             const glm::dvec3& point, const glm::dvec3& normal, double push) {
   BodyRuntime& ground = bodies_[static_cast<size_t>(groundBody)];
   if (!ground.contactDeformation || !ground.surface) return false;
   const double depth = decideSide(*ground.material, ground.material->thickness, push).deformDepth;
@@ -194,7 +192,8 @@ glm::dmat4 Simulation::modelAt(int i, const Pose& pose) const {
          glm::translate(glm::dmat4(1), -rb.localCom);
 }
 
-deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, int b, double depthA, double depthB) const {
+deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, int b, double depthA,
+                                               double depthB) const {
   const BodyRuntime& A = bodies_[static_cast<size_t>(a)];
   const BodyRuntime& B = bodies_[static_cast<size_t>(b)];
   deform::DeformRequest rq;
@@ -256,8 +255,9 @@ bool Simulation::deformCollisions(const std::vector<int>& bodyOf) {
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
-      rec.statsHandle = deformer_->deform(eventRequest(e, bi[0], bi[1], rec.side[0].deformed ? rec.side[0].deformDepth : 0,
-                                                       rec.side[1].deformed ? rec.side[1].deformDepth : 0));
+      rec.statsHandle =
+          deformer_->deform(eventRequest(e, bi[0], bi[1], rec.side[0].deformed ? rec.side[0].deformDepth : 0,
+                                         rec.side[1].deformed ? rec.side[1].deformDepth : 0));
       ++timings_.deformations;
       deformed = true;
     }

@@ -21,9 +21,9 @@ namespace crumple {
 
 // One side of a collision at the deformation decision (eq. 5 and 6).
 struct SideDecision {
-  double threshold = 0;       // Y
+  double threshold = 0;  // Y
   double percentDeform = 0;
-  double deformDepth = 0;     // t * percentDeform (m)
+  double deformDepth = 0;  // t * percentDeform (m)
   bool deformed = false;
   deform::SideStats stats;
 };
@@ -43,7 +43,7 @@ struct BodyRuntime {
   std::string name;
   int index = -1;  // in the physics world
   const Material* material = nullptr;
-  std::shared_ptr<const TriangleMesh> mesh;       // render mesh, shape frame, one-to-one uvs
+  std::shared_ptr<const TriangleMesh> mesh;        // render mesh, shape frame, one-to-one uvs
   std::shared_ptr<const deform::GpuMesh> gpuMesh;  // null without GL
   std::unique_ptr<deform::Surface> surface;        // null without a bump map
   bool contactDeformation = false;

@@ -98,12 +98,14 @@ void addVehicleParts(const VehicleRuntime& v, const glm::dmat4& body, std::vecto
       const WheelState& w = v.vehicle.wheels()[i];
       // The wheel's centre hangs below its attachment by the spring's length.
       const glm::dvec3 centre = p.wheels[i] - glm::dvec3(0, p.suspensionRest - (w.onGround ? w.compression : 0.0), 0);
-      parts.push_back({v.wheelMesh.get(), body * glm::translate(glm::dmat4(1), centre) * kWheelToAxle, glm::vec3(0.06f)});
+      parts.push_back(
+          {v.wheelMesh.get(), body * glm::translate(glm::dmat4(1), centre) * kWheelToAxle, glm::vec3(0.06f)});
     }
   }
   for (size_t t = 0; t < v.treads.size(); ++t) {
     if (v.beltMesh) parts.push_back({v.beltMesh.get(), treadModel(v, t, false, body), glm::vec3(0.12f, 0.12f, 0.11f)});
-    if (v.grouserMesh) parts.push_back({v.grouserMesh.get(), treadModel(v, t, true, body), glm::vec3(0.2f, 0.19f, 0.17f)});
+    if (v.grouserMesh)
+      parts.push_back({v.grouserMesh.get(), treadModel(v, t, true, body), glm::vec3(0.2f, 0.19f, 0.17f)});
   }
 }
 

@@ -119,7 +119,9 @@ void findCandidates(StepContext& ctx, double h) {
     const RigidBody& B = ctx.body(pair.b);
     // What matters is B's motion relative to A: two bodies falling side by
     // side do not approach each other however fast they fall.
-    auto spin = [&](const RigidBody& b) { return b.movable() ? glm::length(b.w) * b.shape->boundingRadius + 2 * g * h : 0.0; };
+    auto spin = [&](const RigidBody& b) {
+      return b.movable() ? glm::length(b.w) * b.shape->boundingRadius + 2 * g * h : 0.0;
+    };
     const glm::dvec3 va = A.movable() ? A.v : glm::dvec3(0), vb = B.movable() ? B.v : glm::dvec3(0);
     // Twice the bound on the relative motion this step, plus a little.
     const double margin = 2 * h * (glm::length(vb - va) + spin(A) + spin(B)) + 0.005;

@@ -26,7 +26,8 @@ void groupContacts(const std::vector<Contact>& contacts, std::vector<ContactGrou
     const Contact& m = g.contact;
     PatchExtent& e = g.patch;
     const glm::dvec3& n = m.normal;
-    const glm::dvec3 axis = std::abs(n.x) < 0.57 ? glm::dvec3(1, 0, 0) : (std::abs(n.y) < 0.57 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1));
+    const glm::dvec3 axis =
+        std::abs(n.x) < 0.57 ? glm::dvec3(1, 0, 0) : (std::abs(n.y) < 0.57 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1));
     e.n = n;
     e.t1 = glm::normalize(glm::cross(n, axis));
     e.t2 = glm::cross(n, e.t1);

@@ -56,13 +56,13 @@ inline Levers levers(const Contact& c, const Pose& poseA, const Pose& poseB) {
 // impulses need: the points and inertias stay put until the geometry is found
 // again, so only the relative velocity changes between passes.
 struct ContactGroup {
-  Contact contact;           // the group's resultant (point, mean normal, deepest depth)
-  Levers levers;             // at the poses the group was found at
-  ImpulseMatrix matrix;      // K and K^-1 at those levers
-  double speed = 0;          // normal relative speed when found
-  FrictionTotals totals;     // impulses so far this contact step (Coulomb's cone bounds them)
-  PatchExtent patch;         // the members' extent about the group's point
-  PatchMatrix patchMatrix;   // and its patch impulse system
+  Contact contact;          // the group's resultant (point, mean normal, deepest depth)
+  Levers levers;            // at the poses the group was found at
+  ImpulseMatrix matrix;     // K and K^-1 at those levers
+  double speed = 0;         // normal relative speed when found
+  FrictionTotals totals;    // impulses so far this contact step (Coulomb's cone bounds them)
+  PatchExtent patch;        // the members' extent about the group's point
+  PatchMatrix patchMatrix;  // and its patch impulse system
 };
 
 // Groups `contacts` (sorted deepest first): sets each group's contact and patch

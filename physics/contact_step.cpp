@@ -39,7 +39,8 @@ namespace {
 
 // A group found again inherits the totals of the old group whose normal agrees
 // best (within kSameGroup; each old group passes its totals on once).
-void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGroup>& groups, std::vector<char>& inherited) {
+void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGroup>& groups,
+                   std::vector<char>& inherited) {
   inherited.assign(old.size(), 0);
   for (ContactGroup& group : groups) {
     const Contact& g = group.contact;
@@ -181,7 +182,8 @@ void contactStep(StepContext& ctx, double h) {
         // has touched either body since: its contacts are reused, with the
         // poses they were found at (levers must match the geometry). Fresh
         // contacts are found at the poses the current velocities predict.
-        const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)], ctx.version[static_cast<size_t>(pair.b)]};
+        const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
+                                                ctx.version[static_cast<size_t>(pair.b)]};
         reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
         pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
         pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);

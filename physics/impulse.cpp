@@ -170,7 +170,8 @@ PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impulse
                        const glm::dvec3& axis) {
   PatchMatrix p;
   const glm::dvec3 along = axis - glm::dot(axis, patch.n) * patch.n;
-  if (!k.invertible || !(glm::length(along) > 1e-9) || patch.hi1 - patch.lo1 <= 0 || patch.hi2 - patch.lo2 <= 0) return p;
+  if (!k.invertible || !(glm::length(along) > 1e-9) || patch.hi1 - patch.lo1 <= 0 || patch.hi2 - patch.lo2 <= 0)
+    return p;
   // The patch in axes along and across the line: its corners' extent.
   PatchExtent e;
   e.n = patch.n;
@@ -230,7 +231,8 @@ void limitScale(double& s, double alpha, double beta) {
 }  // namespace
 
 bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
-                  const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& jOut, glm::dvec3& tOut) {
+                  const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& jOut,
+                  glm::dvec3& tOut) {
   if (!p.valid || !m.invertible) return false;
   const double un = glm::dot(u, n);
   if (un >= 0) return false;
@@ -243,8 +245,8 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
     double y = (r1 - glm::dot(p.b[0], j0)) * p.s1;
     const double A = glm::dot(j0, n), B = glm::dot(p.kb[0], n) * y;
     double s = 1;
-    limitScale(s, y - e.hi2 * A, e.hi2 * B);     // y s <= hi2 (A - s B)
-    limitScale(s, e.lo2 * A - y, -e.lo2 * B);    // y s >= lo2 (A - s B)
+    limitScale(s, y - e.hi2 * A, e.hi2 * B);   // y s <= hi2 (A - s B)
+    limitScale(s, e.lo2 * A - y, -e.lo2 * B);  // y s >= lo2 (A - s B)
     y *= std::max(s, 0.0);
     const glm::dvec3 J = j0 - p.kb[0] * y;
     if (!(glm::dot(J, n) > 0)) return false;
@@ -268,7 +270,8 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
   }
   auto solveTilt = [&] {
     const glm::dvec3 jt = j0 - p.kb[2] * y[2];
-    const double q1 = r[0] - p.w[0][2] * y[2] - glm::dot(p.b[0], jt), q2 = r[1] - p.w[1][2] * y[2] - glm::dot(p.b[1], jt);
+    const double q1 = r[0] - p.w[0][2] * y[2] - glm::dot(p.b[0], jt),
+                 q2 = r[1] - p.w[1][2] * y[2] - glm::dot(p.b[1], jt);
     y[0] = p.s2[0][0] * q1 + p.s2[0][1] * q2;
     y[1] = p.s2[1][0] * q1 + p.s2[1][1] * q2;
   };

@@ -79,11 +79,11 @@ struct PatchExtent {
 // tips, as it should), a twist beyond its friction slides.
 struct PatchMatrix {
   bool valid = false;
-  glm::dmat3 C{0}, W{0};                    // relative angular velocity change: C J + W T
-  glm::dvec3 b[3] = {}, kb[3] = {};         // C^T e_i and K^-1 C^T e_i, e = (t1, t2, n)
-  double w[3][3] = {};                      // e_i.W e_k
-  glm::dmat3 s3{0};                         // inverse Schur complement, tilt and twist
-  double s2[2][2] = {};                     // inverse Schur complement, tilt only
+  glm::dmat3 C{0}, W{0};             // relative angular velocity change: C J + W T
+  glm::dvec3 b[3] = {}, kb[3] = {};  // C^T e_i and K^-1 C^T e_i, e = (t1, t2, n)
+  double w[3][3] = {};               // e_i.W e_k
+  glm::dmat3 s3{0};                  // inverse Schur complement, tilt and twist
+  double s2[2][2] = {};              // inverse Schur complement, tilt only
   double twistRadius = 0;
   bool hinge = false;  // only the tilt about patch.t1 (lineMatrix)
   double s1 = 0;       // its inverse Schur complement

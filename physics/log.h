@@ -12,7 +12,7 @@ enum class LogLevel { Debug = 0, Info = 1, Warning = 2, Error = 3 };
 
 using LogSink = std::function<void(LogLevel, const std::string&)>;
 
-void setLogSink(LogSink sink);   // nullptr restores the default stderr sink
+void setLogSink(LogSink sink);  // nullptr restores the default stderr sink
 void setLogLevel(LogLevel minimum);
 LogLevel logLevel();
 void logMessage(LogLevel level, const std::string& message);
@@ -24,9 +24,21 @@ void logf(LogLevel level, const Args&... args) {
   (os << ... << args);
   logMessage(level, os.str());
 }
-template <typename... Args> void logInfo(const Args&... a) { logf(LogLevel::Info, a...); }
-template <typename... Args> void logWarning(const Args&... a) { logf(LogLevel::Warning, a...); }
-template <typename... Args> void logDebug(const Args&... a) { logf(LogLevel::Debug, a...); }
-template <typename... Args> void logError(const Args&... a) { logf(LogLevel::Error, a...); }
+template <typename... Args>
+void logInfo(const Args&... a) {
+  logf(LogLevel::Info, a...);
+}
+template <typename... Args>
+void logWarning(const Args&... a) {
+  logf(LogLevel::Warning, a...);
+}
+template <typename... Args>
+void logDebug(const Args&... a) {
+  logf(LogLevel::Debug, a...);
+}
+template <typename... Args>
+void logError(const Args&... a) {
+  logf(LogLevel::Error, a...);
+}
 
 }  // namespace crumple

@@ -101,7 +101,8 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   sortContacts(out);
 }
 
-bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxDistance, int ignore, RayHit& hit) const {
+bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxDistance, int ignore,
+                    RayHit& hit) const {
   bool found = false;
   hit.distance = maxDistance;
   const glm::dvec3 end = origin + dir * maxDistance;
@@ -112,7 +113,8 @@ bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxD
     const RigidBody& b = bodies[i];
     const Pose pose{b.x, b.q};
     const Aabb box = detail::worldBounds(*b.shape, b.localCom, pose);
-    if (box.lo.x > rhi.x || box.lo.y > rhi.y || box.lo.z > rhi.z || box.hi.x < rlo.x || box.hi.y < rlo.y || box.hi.z < rlo.z)
+    if (box.lo.x > rhi.x || box.lo.y > rhi.y || box.lo.z > rhi.z || box.hi.x < rlo.x || box.hi.y < rlo.y ||
+        box.hi.z < rlo.z)
       continue;
     const glm::dmat3 rt = glm::transpose(b.rotation());
     const glm::dvec3 o = rt * (origin - b.x) + b.localCom, d = rt * dir;

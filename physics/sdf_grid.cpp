@@ -85,11 +85,10 @@ int TriangleBvh::build(int first, int count) {
   const glm::dvec3 ext = node.hi - node.lo;
   const int axis = ext.x > ext.y ? (ext.x > ext.z ? 0 : 2) : (ext.y > ext.z ? 1 : 2);
   const int mid = first + count / 2;
-  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + first + count,
-                   [&](int x, int y) {
-                     if (centroid_[x][axis] != centroid_[y][axis]) return centroid_[x][axis] < centroid_[y][axis];
-                     return x < y;  // deterministic ties
-                   });
+  std::nth_element(order_.begin() + first, order_.begin() + mid, order_.begin() + first + count, [&](int x, int y) {
+    if (centroid_[x][axis] != centroid_[y][axis]) return centroid_[x][axis] < centroid_[y][axis];
+    return x < y;  // deterministic ties
+  });
   const int left = build(first, mid - first);
   const int right = build(mid, first + count - mid);
   nodes_[index].left = left;

@@ -11,11 +11,16 @@ namespace crumple {
 
 const char* shapeTypeName(ShapeType t) {
   switch (t) {
-    case ShapeType::Box: return "box";
-    case ShapeType::Sphere: return "sphere";
-    case ShapeType::Capsule: return "capsule";
-    case ShapeType::Cylinder: return "cylinder";
-    case ShapeType::Mesh: return "mesh";
+    case ShapeType::Box:
+      return "box";
+    case ShapeType::Sphere:
+      return "sphere";
+    case ShapeType::Capsule:
+      return "capsule";
+    case ShapeType::Cylinder:
+      return "cylinder";
+    case ShapeType::Mesh:
+      return "mesh";
   }
   return "?";
 }
@@ -77,8 +82,10 @@ double cylinderDistance(const glm::dvec3& p, double r, double hh, glm::dvec3* gr
     const glm::dvec3 radialDir = radial > 1e-12 ? glm::dvec3(p.x, 0, p.z) / radial : glm::dvec3(1, 0, 0);
     const glm::dvec3 axialDir(0, p.y < 0 ? -1 : 1, 0);
     glm::dvec2 g2;
-    if (outLen > 0) g2 = outside / outLen;
-    else g2 = q.x >= q.y ? glm::dvec2(1, 0) : glm::dvec2(0, 1);
+    if (outLen > 0)
+      g2 = outside / outLen;
+    else
+      g2 = q.x >= q.y ? glm::dvec2(1, 0) : glm::dvec2(0, 1);
     *grad = glm::normalize(g2.x * radialDir + g2.y * axialDir);
   }
   return outLen + inside;
@@ -91,25 +98,32 @@ void finishBounds(Shape& s) { s.boundingRadius = glm::length(glm::max(glm::abs(s
 
 double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dvec3* hint) const {
   switch (type) {
-    case ShapeType::Box: return boxDistance(p, halfExtents, gradient, hint);
+    case ShapeType::Box:
+      return boxDistance(p, halfExtents, gradient, hint);
     case ShapeType::Sphere: {
       const double len = glm::length(p);
       if (gradient) *gradient = len > 1e-12 ? p / len : glm::dvec3(0, 1, 0);
       return len - radius;
     }
-    case ShapeType::Capsule: return capsuleDistance(p, radius, halfHeight, gradient);
-    case ShapeType::Cylinder: return cylinderDistance(p, radius, halfHeight, gradient);
-    case ShapeType::Mesh: return grid->distance(p, gradient);
+    case ShapeType::Capsule:
+      return capsuleDistance(p, radius, halfHeight, gradient);
+    case ShapeType::Cylinder:
+      return cylinderDistance(p, radius, halfHeight, gradient);
+    case ShapeType::Mesh:
+      return grid->distance(p, gradient);
   }
   return 0;
 }
 
 double Shape::halfThickness() const {
   switch (type) {
-    case ShapeType::Box: return std::min({halfExtents.x, halfExtents.y, halfExtents.z});
+    case ShapeType::Box:
+      return std::min({halfExtents.x, halfExtents.y, halfExtents.z});
     case ShapeType::Sphere:
-    case ShapeType::Capsule: return radius;
-    case ShapeType::Cylinder: return std::min(radius, halfHeight);
+    case ShapeType::Capsule:
+      return radius;
+    case ShapeType::Cylinder:
+      return std::min(radius, halfHeight);
     case ShapeType::Mesh: {
       const glm::dvec3 e = (boundsMax - boundsMin) * 0.5;
       // A conservative guess for thin-walled meshes: a tenth of the smallest extent.
@@ -167,9 +181,9 @@ std::shared_ptr<Shape> makeBox(const glm::dvec3& size) {
   s->boundsMax = h;
   const double v = size.x * size.y * size.z;
   s->unitMass.volume = v;
-  s->unitMass.inertia = glm::dmat3(v / 12 * (size.y * size.y + size.z * size.z), 0, 0, 0,
-                                   v / 12 * (size.x * size.x + size.z * size.z), 0, 0, 0,
-                                   v / 12 * (size.x * size.x + size.y * size.y));
+  s->unitMass.inertia =
+      glm::dmat3(v / 12 * (size.y * size.y + size.z * size.z), 0, 0, 0, v / 12 * (size.x * size.x + size.z * size.z), 0,
+                 0, 0, v / 12 * (size.x * size.x + size.y * size.y));
   finishBounds(*s);
   return s;
 }
@@ -191,7 +205,8 @@ std::shared_ptr<Shape> makeSphere(double radius) {
 }
 
 std::shared_ptr<Shape> makeCapsule(double radius, double height) {
-  if (!(radius > 0) || !(height >= 0)) throw std::invalid_argument("capsule radius must be positive and height non-negative");
+  if (!(radius > 0) || !(height >= 0))
+    throw std::invalid_argument("capsule radius must be positive and height non-negative");
   auto s = std::make_shared<Shape>();
   s->type = ShapeType::Capsule;
   s->radius = radius;
@@ -206,8 +221,8 @@ std::shared_ptr<Shape> makeCapsule(double radius, double height) {
   const double vc = pi * r2 * height, vh = 2.0 / 3.0 * pi * r2 * radius;  // cylinder, one hemisphere
   s->unitMass.volume = vc + 2 * vh;
   const double iy = vc * r2 / 2 + 2 * vh * 2 * r2 / 5;
-  const double ix = vc * (3 * r2 + height * height) / 12 +
-                    2 * vh * (2 * r2 / 5 + height * height / 4 + 3 * height * radius / 8);
+  const double ix =
+      vc * (3 * r2 + height * height) / 12 + 2 * vh * (2 * r2 / 5 + height * height / 4 + 3 * height * radius / 8);
   s->unitMass.inertia = glm::dmat3(ix, 0, 0, 0, iy, 0, 0, 0, ix);
   finishBounds(*s);
   return s;

@@ -72,8 +72,8 @@ int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
 
 // This level's contact groups (a pair whose upper body is on this level), with
 // K for the frozen bodies of the levels below, and each body's count of them.
-void levelContacts(const StepContext& ctx, const std::vector<size_t>& touching, int level, std::vector<LevelContact>& lc,
-                   std::vector<int>& share) {
+void levelContacts(const StepContext& ctx, const std::vector<size_t>& touching, int level,
+                   std::vector<LevelContact>& lc, std::vector<int>& share) {
   for (size_t pi : touching) {
     const Pair& pair = ctx.pairs[pi];
     const int la = ctx.level[static_cast<size_t>(pair.a)], lb = ctx.level[static_cast<size_t>(pair.b)];
@@ -102,13 +102,15 @@ void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::
   // (body, level contact) for each support from the frozen level below, by body.
   std::vector<std::pair<int, size_t>> supports;
   for (size_t k = 0; k < lc.size(); ++k) {
-    const bool fa = ctx.frozen[static_cast<size_t>(lc[k].c.a)] != 0, fb = ctx.frozen[static_cast<size_t>(lc[k].c.b)] != 0;
+    const bool fa = ctx.frozen[static_cast<size_t>(lc[k].c.a)] != 0,
+               fb = ctx.frozen[static_cast<size_t>(lc[k].c.b)] != 0;
     if (fa != fb) supports.push_back({fa ? lc[k].c.b : lc[k].c.a, k});
   }
   std::sort(supports.begin(), supports.end());
   for (size_t first = 0, last; first < supports.size(); first = last) {
     const int body = supports[first].first;
-    for (last = first; last < supports.size() && supports[last].first == body; ++last) {}
+    for (last = first; last < supports.size() && supports[last].first == body; ++last) {
+    }
     const size_t count = last - first;
     if (static_cast<size_t>(share[static_cast<size_t>(body)]) != count) continue;  // touches its own level too
     if (count == 1) {
@@ -131,7 +133,8 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
     for (size_t k = 0; k < lc.size(); ++k) {
       const Contact& c = lc[k].c;
       const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, lc[k].l);
-      if (!patchImpulse(lc[k].patch, lc[k].m, u, ctx.relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr, dj[k], dt[k])) {
+      if (!patchImpulse(lc[k].patch, lc[k].m, u, ctx.relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr, dj[k],
+                        dt[k])) {
         dj[k] = frictionImpulse(lc[k].m, u, c.normal, 0.0, lc[k].mu);
         dt[k] = glm::dvec3(0);
       }

@@ -37,7 +37,8 @@ void updateSleep(StepContext& ctx, double h) {
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
-    while (parent[static_cast<size_t>(x)] != x) x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+    while (parent[static_cast<size_t>(x)] != x)
+      x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
     return x;
   };
   for (const Pair& p : ctx.pairs) {
@@ -49,7 +50,8 @@ void updateSleep(StepContext& ctx, double h) {
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = bodies[i];
     if (b.isStatic) continue;
-    if (b.movable() && b.stillTime < settings.sleepTime) islandStill[static_cast<size_t>(find(static_cast<int>(i)))] = 0;
+    if (b.movable() && b.stillTime < settings.sleepTime)
+      islandStill[static_cast<size_t>(find(static_cast<int>(i)))] = 0;
   }
   // Only an island that rests on something (a static or sleeping body near
   // one of its bodies) sleeps: a slow body in free flight (zero gravity, say)

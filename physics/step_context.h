@@ -72,8 +72,8 @@ inline double rotationAngle(const glm::dquat& from, const glm::dquat& to) {
 // poses: the change of B's offset from A, plus each rotation angle times the
 // reach about that body's centre (A's turn moves the points near A by at most
 // its angle times ra; B's turn moves its own points by its angle times rb).
-inline double relativeDisplacementBound(const Pose& fromA, const Pose& toA, double ra, const Pose& fromB, const Pose& toB,
-                                        double rb) {
+inline double relativeDisplacementBound(const Pose& fromA, const Pose& toA, double ra, const Pose& fromB,
+                                        const Pose& toB, double rb) {
   const glm::dvec3 offsetChange = (toB.position - toA.position) - (fromB.position - fromA.position);
   return glm::length(offsetChange) + rotationAngle(fromA.orientation, toA.orientation) * ra +
          rotationAngle(fromB.orientation, toB.orientation) * rb;
@@ -85,7 +85,7 @@ struct StepContext {
   // The world's state, as the API sees it.
   WorldSettings settings;
   std::vector<RigidBody> bodies;
-  std::vector<glm::dvec3> force, torque;  // per body, applied at the next step only
+  std::vector<glm::dvec3> force, torque;          // per body, applied at the next step only
   std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
   World::NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)

@@ -49,7 +49,8 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     // Tyre frame on the ground.
     const bool front = params_.wheels[i].x > b.localCom.x;
     glm::dvec3 dir = forward;
-    if (front && steer != 0) dir = glm::dvec3(glm::dmat4(glm::rotate(glm::dmat4(1), steer, up)) * glm::dvec4(forward, 0));
+    if (front && steer != 0)
+      dir = glm::dvec3(glm::dmat4(glm::rotate(glm::dmat4(1), steer, up)) * glm::dvec4(forward, 0));
     dir = glm::normalize(dir - hit.normal * glm::dot(dir, hit.normal));
     const glm::dvec3 side = glm::normalize(glm::cross(hit.normal, dir));
     const double friction = params_.grip * w.load;

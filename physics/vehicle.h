@@ -16,13 +16,13 @@ namespace crumple {
 struct VehicleParams {
   std::vector<glm::dvec3> wheels;  // attachment points, shape frame; x > centre: steered front wheels
   double wheelRadius = 0.35;
-  double suspensionRest = 0.3;     // spring length at rest (m)
-  double stiffness = 40000;        // N/m per wheel
-  double damping = 4000;           // N s/m per wheel
-  double engineForce = 6000;       // N at full throttle, shared by the wheels on the ground
-  double brakeForce = 9000;        // N at full brake
-  double maxSteer = 0.6;           // rad
-  double grip = 1.2;               // tyre friction coefficient
+  double suspensionRest = 0.3;  // spring length at rest (m)
+  double stiffness = 40000;     // N/m per wheel
+  double damping = 4000;        // N s/m per wheel
+  double engineForce = 6000;    // N at full throttle, shared by the wheels on the ground
+  double brakeForce = 9000;     // N at full brake
+  double maxSteer = 0.6;        // rad
+  double grip = 1.2;            // tyre friction coefficient
 };
 
 struct VehicleControls {

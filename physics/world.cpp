@@ -14,7 +14,9 @@ namespace crumple {
 
 using detail::finite;
 
-World::World(const WorldSettings& settings) : ctx_(std::make_unique<detail::StepContext>()) { ctx_->settings = settings; }
+World::World(const WorldSettings& settings) : ctx_(std::make_unique<detail::StepContext>()) {
+  ctx_->settings = settings;
+}
 World::~World() = default;
 World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
@@ -88,7 +90,8 @@ void World::setAngularVelocity(int i, const glm::dvec3& w) {
 void World::setPose(int i, const Pose& pose) {
   RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
   const glm::dquat& q = pose.orientation;
-  if (!finite(pose.position) || !std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
+  if (!finite(pose.position) || !std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+      !std::isfinite(q.z))
     throw std::invalid_argument("pose is not finite");
   if (!(glm::dot(q, q) > 0)) throw std::invalid_argument("orientation is not a rotation (zero quaternion)");
   b.x = pose.position;
@@ -213,7 +216,8 @@ void World::step(double h) {
   double maxTravel = 0;
   for (const RigidBody& b : c.bodies) {
     if (!b.movable()) continue;
-    const double speed = glm::length(b.v) + glm::length(c.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
+    const double speed =
+        glm::length(b.v) + glm::length(c.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
     maxTravel = std::max(maxTravel, speed * h);
   }
   const double allowed = c.settings.substepFraction * std::max(c.minHalfThickness, 1e-4);

@@ -47,11 +47,11 @@ struct WorldSettings {
   // contact step's last geometry). With it the 10-level pyramid stands with
   // 10 contact passes, sleeping or not (tests/test_physics_stacks.cpp); 0 turns it off.
   int shockPasses = 3;
-  double penetrationSlop = 0.0005;      // m left alone by the positional projection
-  double penetrationCorrection = 0.4;   // fraction removed per projection iteration
+  double penetrationSlop = 0.0005;     // m left alone by the positional projection
+  double penetrationCorrection = 0.4;  // fraction removed per projection iteration
   int projectionIterations = 3;
   int maxSubsteps = 16;
-  double substepFraction = 0.5;         // of the thinnest half thickness per substep
+  double substepFraction = 0.5;  // of the thinnest half thickness per substep
   // Collisions approaching slower than this still get their impulse but emit no
   // event: the micro-collisions of resting contact are not hits worth a dent or a log line.
   double eventMinApproachSpeed = 0.05;  // m/s
@@ -166,7 +166,8 @@ class World {
 
   // First surface along a ray (unit direction) within maxDistance, skipping body
   // `ignore`; sphere tracing through the bodies' distance fields.
-  bool raycast(const glm::dvec3& origin, const glm::dvec3& direction, double maxDistance, int ignore, RayHit& hit) const;
+  bool raycast(const glm::dvec3& origin, const glm::dvec3& direction, double maxDistance, int ignore,
+               RayHit& hit) const;
 
   // Finds the contacts between a and b at the given poses, all penetrating
   // sample points (both directions), deepest first.

@@ -18,16 +18,15 @@ namespace crumple::render {
 
 namespace {
 
-void GLAPIENTRY debugCallback(GLenum source, GLenum type, GLuint id, GLenum severity, GLsizei,
-                              const GLchar* message, const void*) {
+void GLAPIENTRY debugCallback(GLenum source, GLenum type, GLuint id, GLenum severity, GLsizei, const GLchar* message,
+                              const void*) {
   (void)source;
   if (severity == GL_DEBUG_SEVERITY_NOTIFICATION) {
     logDebug("GL: ", message);
     return;
   }
-  LogLevel level = (type == GL_DEBUG_TYPE_ERROR || severity == GL_DEBUG_SEVERITY_HIGH)
-                       ? LogLevel::Error
-                       : LogLevel::Warning;
+  LogLevel level =
+      (type == GL_DEBUG_TYPE_ERROR || severity == GL_DEBUG_SEVERITY_HIGH) ? LogLevel::Error : LogLevel::Warning;
   if (type == GL_DEBUG_TYPE_PERFORMANCE) level = LogLevel::Debug;
   logf(level, "GL [", id, "]: ", message);
 }
@@ -43,17 +42,28 @@ bool hasExtension(const char* list, const char* name) {
 
 const char* eglErrorName(EGLint e) {
   switch (e) {
-    case EGL_SUCCESS: return "EGL_SUCCESS";
-    case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
-    case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
-    case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
-    case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
-    case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
-    case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
-    case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
-    case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
-    case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
-    default: return "EGL error";
+    case EGL_SUCCESS:
+      return "EGL_SUCCESS";
+    case EGL_NOT_INITIALIZED:
+      return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS:
+      return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC:
+      return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE:
+      return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONFIG:
+      return "EGL_BAD_CONFIG";
+    case EGL_BAD_CONTEXT:
+      return "EGL_BAD_CONTEXT";
+    case EGL_BAD_DISPLAY:
+      return "EGL_BAD_DISPLAY";
+    case EGL_BAD_MATCH:
+      return "EGL_BAD_MATCH";
+    case EGL_BAD_PARAMETER:
+      return "EGL_BAD_PARAMETER";
+    default:
+      return "EGL error";
   }
 }
 
@@ -75,9 +85,7 @@ class EglContext final : public GlContext {
       throw ContextError(std::string("eglMakeCurrent failed: ") + eglErrorName(eglGetError()));
     }
   }
-  std::string description() const override {
-    return "EGL " + platform_ + ", " + currentRendererString();
-  }
+  std::string description() const override { return "EGL " + platform_ + ", " + currentRendererString(); }
 
  private:
   EGLDisplay display_;
@@ -89,8 +97,7 @@ class EglContext final : public GlContext {
 // EGL_NO_CONTEXT with `why` filled in on failure.
 EGLContext createCoreContext(EGLDisplay display, bool debug, std::string& why) {
   const char* ext = eglQueryString(display, EGL_EXTENSIONS);
-  if (!hasExtension(ext, "EGL_KHR_no_config_context") &&
-      !hasExtension(ext, "EGL_MESA_configless_context")) {
+  if (!hasExtension(ext, "EGL_KHR_no_config_context") && !hasExtension(ext, "EGL_MESA_configless_context")) {
     why = "display lacks EGL_KHR_no_config_context";
     return EGL_NO_CONTEXT;
   }
@@ -98,10 +105,14 @@ EGLContext createCoreContext(EGLDisplay display, bool debug, std::string& why) {
     why = "eglBindAPI(EGL_OPENGL_API) failed";
     return EGL_NO_CONTEXT;
   }
-  const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4,
-                            EGL_CONTEXT_MINOR_VERSION, 5,
-                            EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                            EGL_CONTEXT_OPENGL_DEBUG, debug ? EGL_TRUE : EGL_FALSE,
+  const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION,
+                            4,
+                            EGL_CONTEXT_MINOR_VERSION,
+                            5,
+                            EGL_CONTEXT_OPENGL_PROFILE_MASK,
+                            EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                            EGL_CONTEXT_OPENGL_DEBUG,
+                            debug ? EGL_TRUE : EGL_FALSE,
                             EGL_NONE};
   EGLContext ctx = eglCreateContext(display, EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, attribs);
   if (ctx == EGL_NO_CONTEXT) {
@@ -163,8 +174,7 @@ std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options)
 
   // A real GPU through the device platform, skipping Mesa's software device.
   if (options.preferGpu && hasExtension(clientExt, "EGL_EXT_platform_device")) {
-    auto queryDevices =
-        reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    auto queryDevices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
     auto queryDeviceString =
         reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
     EGLint count = 0;
@@ -243,8 +253,6 @@ std::string WindowContext::description() const { return "GLFW window, " + curren
 bool WindowContext::shouldClose() const { return glfwWindowShouldClose(window_); }
 void WindowContext::swapBuffers() { glfwSwapBuffers(window_); }
 void WindowContext::pollEvents() { glfwPollEvents(); }
-void WindowContext::framebufferSize(int& width, int& height) const {
-  glfwGetFramebufferSize(window_, &width, &height);
-}
+void WindowContext::framebufferSize(int& width, int& height) const { glfwGetFramebufferSize(window_, &width, &height); }
 
 }  // namespace crumple::render

@@ -23,8 +23,8 @@ class GlContext {
 };
 
 struct HeadlessOptions {
-  bool preferGpu = true;    // EGL device platform with a hardware device if one exists
-  bool debug = true;        // KHR_debug messages routed to the log
+  bool preferGpu = true;  // EGL device platform with a hardware device if one exists
+  bool debug = true;      // KHR_debug messages routed to the log
 };
 
 // OpenGL 4.5 core without a window. Throws ContextError (with the reason) when

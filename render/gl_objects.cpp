@@ -39,8 +39,8 @@ Texture2D::Texture2D(int width, int height, GLenum internalFormat, int levels)
 
 void Texture2D::upload(GLenum format, GLenum type, const void* data, int level) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage2D(id(), level, 0, 0, std::max(1, width_ >> level), std::max(1, height_ >> level),
-                      format, type, data);
+  glTextureSubImage2D(id(), level, 0, 0, std::max(1, width_ >> level), std::max(1, height_ >> level), format, type,
+                      data);
 }
 
 void Texture2D::setFilter(GLenum minFilter, GLenum magFilter) {

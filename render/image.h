@@ -23,9 +23,7 @@ struct Image {
   Image(int w, int h, int c, float fill = 0.0f)
       : width(w), height(h), channels(c), pixels(static_cast<size_t>(w) * h * c, fill) {}
   float& at(int x, int y, int c = 0) { return pixels[(static_cast<size_t>(y) * width + x) * channels + c]; }
-  float at(int x, int y, int c = 0) const {
-    return pixels[(static_cast<size_t>(y) * width + x) * channels + c];
-  }
+  float at(int x, int y, int c = 0) const { return pixels[(static_cast<size_t>(y) * width + x) * channels + c]; }
 };
 
 // Writes atomically (temporary file + rename). bitDepth is 8 or 16. Values are

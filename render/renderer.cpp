@@ -10,7 +10,8 @@ namespace crumple::render {
 
 namespace {
 Program program(const char* vs, const char* fs) {
-  return Program({{GL_VERTEX_SHADER, vs, std::string(renderShader(vs))}, {GL_FRAGMENT_SHADER, fs, std::string(renderShader(fs))}});
+  return Program(
+      {{GL_VERTEX_SHADER, vs, std::string(renderShader(vs))}, {GL_FRAGMENT_SHADER, fs, std::string(renderShader(fs))}});
 }
 constexpr int kShadowSize = 2048;
 }  // namespace

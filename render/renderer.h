@@ -28,7 +28,7 @@ struct RenderItem {
   GLuint height = 0;  // R32F, 0 = flat
   GLuint normal = 0;  // RGBA8 tangent space, 0 = flat
   glm::vec3 color{0.7f};
-  float bumpDepth = 0.1f;  // k: the map's range in metres
+  float bumpDepth = 0.1f;                 // k: the map's range in metres
   glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame), to fit the sun's shadow map
 };
 
@@ -51,7 +51,7 @@ struct RendererSettings {
   bool selfShadow = true;
   int minSteps = 8, maxSteps = 48;
   float lodFadeStart = 1.5f, lodFadeEnd = 3.5f;  // texture lod where POM fades to normal mapping
-  GLuint addressMap = 0;  // RG32F: shown by DebugView::Address
+  GLuint addressMap = 0;                         // RG32F: shown by DebugView::Address
 };
 
 class Renderer {

@@ -71,8 +71,11 @@ class PhysicsTestContext {
   double stepSize() const { return 1.0 / hz_; }
   const RigidBody& body(int i) const { return world_.body(i); }
 
-  int addGround(double friction = 0.5, double restitution = 1.0) { return test::addGround(world_, friction, restitution); }
-  int addBox(const glm::dvec3& size, const glm::dvec3& origin, double friction, double restitution, double density = 1000) {
+  int addGround(double friction = 0.5, double restitution = 1.0) {
+    return test::addGround(world_, friction, restitution);
+  }
+  int addBox(const glm::dvec3& size, const glm::dvec3& origin, double friction, double restitution,
+             double density = 1000) {
     return test::addBox(world_, size, origin, friction, restitution, density);
   }
   int addSphere(double radius, const glm::dvec3& origin, double friction, double restitution, double density = 1000) {

@@ -155,8 +155,8 @@ TEST_CASE("the default (gather) path agrees with the per-texel CPU oracle, at an
       missed += oracle.pixels[i] < 0.499f && !(a.pixels[i] < 0.5f);
       worst = std::max(worst, double(std::abs(a.pixels[i] - oracle.pixels[i])));
     }
-    MESSAGE("address map " << address << ": texels changed " << changed << " (oracle " << oracleChanged
-                           << "), missed " << missed << ", max |gather - oracle| " << worst * SphereIntoPlate::k << " m");
+    MESSAGE("address map " << address << ": texels changed " << changed << " (oracle " << oracleChanged << "), missed "
+                           << missed << ", max |gather - oracle| " << worst * SphereIntoPlate::k << " m");
     CHECK(missed == 0);
     // Only texels on the cap's rim, where the dent is ~0, may differ in whether they changed.
     CHECK(std::abs(changed - oracleChanged) <= oracleChanged / 50 + 8);
@@ -168,8 +168,8 @@ TEST_CASE("the default (gather) path agrees with the per-texel CPU oracle, at an
 TEST_CASE("material asymmetry and the threshold: below Y nothing changes") {
   // Eq. 5/6 decide the depth; a zero depth leaves the map untouched.
   const double hardEps = 0.95, softEps = 0.2, j = 3.0;
-  const double hard = percentDeform(0.1, j, yieldThreshold(hardEps));   // Y = 19: nothing
-  const double soft = percentDeform(0.1, j, yieldThreshold(softEps));   // Y = 0.25
+  const double hard = percentDeform(0.1, j, yieldThreshold(hardEps));  // Y = 19: nothing
+  const double soft = percentDeform(0.1, j, yieldThreshold(softEps));  // Y = 0.25
   CHECK(hard == 0.0);
   CHECK(soft > 0.0);
   test::glContext();
@@ -275,7 +275,8 @@ TEST_CASE("a bump pattern on the striking face is printed into the other body (f
   REQUIRE(striped.size() > 100);
   const float flatSpread = flat[flat.size() * 9 / 10] - flat[flat.size() / 10];
   const float stripedSpread = striped[striped.size() * 9 / 10] - striped[striped.size() / 10];
-  MESSAGE("dent depth spread (10th-90th percentile, in map units): flat " << flatSpread << ", striped " << stripedSpread);
+  MESSAGE("dent depth spread (10th-90th percentile, in map units): flat " << flatSpread << ", striped "
+                                                                          << stripedSpread);
   CHECK(flatSpread < 0.005f);
   // The stripes stand (0.95 - 0.5) k' = 0.018 m proud: in the plate's map (k = 0.1) that is 0.18.
   CHECK(stripedSpread > 0.1f);
@@ -306,7 +307,8 @@ TEST_CASE("material asymmetry: a hard sphere dents a soft plate, the plate does 
   rq.deformB = depthBall;
   const int h = d.deform(rq);
   const SideStats a = d.stats(h, 0), b = d.stats(h, 1);
-  MESSAGE("plate: " << a.texelsChanged << " texels, " << a.maxDent << " m; ball: " << b.texelsChanged << " texels, " << b.maxDent << " m");
+  MESSAGE("plate: " << a.texelsChanged << " texels, " << a.maxDent << " m; ball: " << b.texelsChanged << " texels, "
+                    << b.maxDent << " m");
   CHECK(a.maxDent == Approx(depthPlate).epsilon(0.05));
   CHECK(b.maxDent < a.maxDent / 10);
   CHECK(a.texelsChanged > 5 * std::max(b.texelsChanged, 1));
@@ -391,11 +393,12 @@ TEST_CASE("crater rims: the volume pushed down rises in a ring around the dent, 
     MESSAGE(name << ": dent volume " << down << ", rim volume " << up << " over " << raised << " texels");
     CHECK(down == Approx(plainDown).epsilon(1e-6));  // the dent itself is unchanged
     CHECK(raised > 20);
-    CHECK(up == Approx(down).epsilon(0.01));        // volume conserved
+    CHECK(up == Approx(down).epsilon(0.01));  // volume conserved
   }
   const render::Image scatter = run(Path::Scatter, true), readback = run(Path::Readback, true);
   double diff = 0;
-  for (size_t i = 0; i < scatter.pixels.size(); ++i) diff = std::max(diff, double(std::abs(scatter.pixels[i] - readback.pixels[i])));
+  for (size_t i = 0; i < scatter.pixels.size(); ++i)
+    diff = std::max(diff, double(std::abs(scatter.pixels[i] - readback.pixels[i])));
   CHECK(diff <= 1e-5);  // the scatter's GPU and read-back twins agree
 }
 
@@ -479,7 +482,8 @@ TEST_CASE("an oblique hit: a steel ball on a 45-degree edge of a clay block, add
     differ += (coarse.pixels[i] < 0.5f) != (fine.pixels[i] < 0.5f);
     worst = std::max(worst, double(std::abs(coarse.pixels[i] - fine.pixels[i])) * 0.1);
   }
-  MESSAGE("128 vs 512: " << differ << " of " << dented << " texels differ in being dented, depth differs by at most " << worst << " m");
+  MESSAGE("128 vs 512: " << differ << " of " << dented << " texels differ in being dented, depth differs by at most "
+                         << worst << " m");
   CHECK(differ <= dented / 50);
   CHECK(worst < 0.002);
 }

@@ -74,7 +74,8 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"duration\": 1", "\"duration\": 1e300"), "duration", "must be in"},
       {mutate("\"address_map\": 256", "\"address_map\": 100000"), "deformation.address_map", "must be in [16, 4096]"},
       {mutate("\"address_map\": 256", "\"address_map\": 256.5"), "deformation.address_map", "must be an integer"},
-      {mutate("\"path\": \"gather\"", "\"path\": \"cpu\""), "deformation.path", "must be \"gather\", \"scatter\" or \"readback\""},
+      {mutate("\"path\": \"gather\"", "\"path\": \"cpu\""), "deformation.path",
+       "must be \"gather\", \"scatter\" or \"readback\""},
       {mutate("\"material\": \"clay\", \"position\": [0, 0.6", "\"material\": \"steel\", \"position\": [0, 0.6"),
        "bodies[1].material", "unknown material 'steel'"},
       {mutate("\"type\": \"sphere\"", "\"type\": \"blob\""), "bodies[1].shape.type", "unknown shape type 'blob'"},
@@ -82,8 +83,10 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"name\": \"ball\"", "\"name\": \"../x\""), "bodies[1].name", "must not contain '/'"},
       {mutate("\"size\": [2, 0.2, 2]", "\"size\": [2, 0.2]"), "bodies[0].shape.size", "array of 3 numbers"},
       {mutate("\"size\": [2, 0.2, 2]", "\"size\": [2, 0, 2]"), "bodies[0].shape.size", "must be positive"},
-      {mutate("\"position\": [0, -0.1, 0]", "\"position\": [0, 1e999, 0]"), "bb", ""},  // parsed as inf by JSON? see below
-      {mutate("\"resolution\": 128", "\"resolution\": 1000000"), "bodies[0].bump_map.resolution", "must be in [8, 4096]"},
+      {mutate("\"position\": [0, -0.1, 0]", "\"position\": [0, 1e999, 0]"), "bb",
+       ""},  // parsed as inf by JSON? see below
+      {mutate("\"resolution\": 128", "\"resolution\": 1000000"), "bodies[0].bump_map.resolution",
+       "must be in [8, 4096]"},
       {mutate("\"quat\": [1, 0, 0, 0]", "\"quat\": [0, 0, 0, 0]"), "bodies[1].orientation.quat", "must not be zero"},
       {mutate("\"velocity\": [0, -6, 0]", "\"velocity\": [0, null, 0]"), "bodies[1].velocity[1]", "must be a number"},
       {mutate("\"static\": true", "\"static\": \"yes\""), "bodies[0].static", "must be true or false"},
@@ -94,8 +97,8 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("{\"type\": \"sphere\", \"radius\": 0.25}", "{\"type\": \"mesh\", \"file\": \"nope.glb\"}"),
        "bodies[1].shape.file", "no such file"},
       {mutate("\"bodies\": [", "\"bodies\": 3, \"x\": ["), "bodies", "must be an array"},
-      {mutate("\"velocity\": [0, -6, 0]", "\"vehicle\": {\"wheels\": [[1, 0, 1], [1, 0, -1]]}"), "bodies[1].vehicle.wheels",
-       "3 to 16 points"},
+      {mutate("\"velocity\": [0, -6, 0]", "\"vehicle\": {\"wheels\": [[1, 0, 1], [1, 0, -1]]}"),
+       "bodies[1].vehicle.wheels", "3 to 16 points"},
       {mutate("\"velocity\": [0, -6, 0]",
               "\"vehicle\": {\"wheels\": [[1, 0, 1], [1, 0, -1], [-1, 0, 1]], \"treads\": {\"pitch\": 0}}"),
        "bodies[1].vehicle.treads.pitch", "must be in (0.02"},
@@ -133,12 +136,15 @@ std::string gltfWith(const std::string& patchFrom = "", const std::string& patch
   std::vector<unsigned char> bytes;
   const float pos[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
   const uint16_t idx[12] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
-  bytes.insert(bytes.end(), reinterpret_cast<const unsigned char*>(pos), reinterpret_cast<const unsigned char*>(pos) + 48);
-  bytes.insert(bytes.end(), reinterpret_cast<const unsigned char*>(idx), reinterpret_cast<const unsigned char*>(idx) + 24);
+  bytes.insert(bytes.end(), reinterpret_cast<const unsigned char*>(pos),
+               reinterpret_cast<const unsigned char*>(pos) + 48);
+  bytes.insert(bytes.end(), reinterpret_cast<const unsigned char*>(idx),
+               reinterpret_cast<const unsigned char*>(idx) + 24);
   static const char* b64 = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string enc;
   for (size_t i = 0; i < bytes.size(); i += 3) {
-    const unsigned v = bytes[i] << 16 | (i + 1 < bytes.size() ? bytes[i + 1] << 8 : 0) | (i + 2 < bytes.size() ? bytes[i + 2] : 0);
+    const unsigned v =
+        bytes[i] << 16 | (i + 1 < bytes.size() ? bytes[i + 1] << 8 : 0) | (i + 2 < bytes.size() ? bytes[i + 2] : 0);
     enc += b64[v >> 18 & 63];
     enc += b64[v >> 12 & 63];
     enc += i + 1 < bytes.size() ? b64[v >> 6 & 63] : '=';
@@ -147,7 +153,8 @@ std::string gltfWith(const std::string& patchFrom = "", const std::string& patch
   std::string s = R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
     "nodes": [{"mesh": 0, "translation": [0, 1, 0]}],
     "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
-    "buffers": [{"byteLength": 72, "uri": "data:application/octet-stream;base64,)" + enc + R"("}],
+    "buffers": [{"byteLength": 72, "uri": "data:application/octet-stream;base64,)" +
+                  enc + R"("}],
     "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 24}],
     "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0,0,0], "max": [1,1,1]},
                   {"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}]})";
@@ -198,7 +205,8 @@ TEST_CASE("indices out of range in a glTF are rejected") {
   // Index 9 in a 4-vertex mesh: patch the base64 payload is awkward, so raise count of positions down instead.
   std::string err;
   try {
-    loadMeshFile(tempFile("oor.gltf", gltfWith("\"count\": 4, \"type\": \"VEC3\"", "\"count\": 2, \"type\": \"VEC3\"")).string());
+    loadMeshFile(tempFile("oor.gltf", gltfWith("\"count\": 4, \"type\": \"VEC3\"", "\"count\": 2, \"type\": \"VEC3\""))
+                     .string());
   } catch (const MeshError& e) {
     err = e.what();
   }
@@ -210,11 +218,13 @@ TEST_CASE("OBJ, OFF and broken OBJ through OpenMesh") {
   const TriangleMesh m = loadMeshFile(tempFile("tet.off", off).string());
   CHECK(m.triangles.size() == 4);
   CHECK(polyhedralMassProperties(m).volume == doctest::Approx(1.0 / 6));
-  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 3/3 2/2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  const std::string obj =
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 3/3 2/2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
   CHECK(loadMeshFile(tempFile("tet.obj", obj).string()).triangles.size() == 4);
   CHECK_THROWS_AS(loadMeshFile(tempFile("empty.obj", "this is not a mesh\n").string()), MeshError);
   CHECK_THROWS_AS(loadMeshFile(tempFile("tet.xyz", off).string()), MeshError);
-  CHECK_THROWS_AS(loadMeshFile(tempFile("inf.off", "OFF\n3 1 0\n0 0 0\ninf 0 0\n0 1 0\n3 0 1 2\n").string()), MeshError);
+  CHECK_THROWS_AS(loadMeshFile(tempFile("inf.off", "OFF\n3 1 0\n0 0 0\ninf 0 0\n0 1 0\n3 0 1 2\n").string()),
+                  MeshError);
   CHECK_THROWS_AS(loadMeshFile(tempFile("huge.off", "OFF\n999999999 1 0\n").string()), MeshError);
   // OBJ errors name the line.
   CHECK_THROWS_WITH_AS(loadMeshFile(tempFile("oor.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n").string()),
@@ -224,6 +234,8 @@ TEST_CASE("OBJ, OFF and broken OBJ through OpenMesh") {
   CHECK_THROWS_WITH_AS(loadMeshFile(tempFile("vt.obj", "vt 0 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/4 2/1 3/1\n").string()),
                        doctest::Contains("texture coordinate index 4"), MeshError);
   // Negative (relative) indices are valid OBJ.
-  const TriangleMesh rel = loadMeshFile(tempFile("rel.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf -4 -2 -3\nf -4 -3 -1\nf -4 -1 -2\nf -3 -2 -1\n").string());
+  const TriangleMesh rel = loadMeshFile(
+      tempFile("rel.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf -4 -2 -3\nf -4 -3 -1\nf -4 -1 -2\nf -3 -2 -1\n")
+          .string());
   CHECK(polyhedralMassProperties(rel).volume == doctest::Approx(1.0 / 6));
 }

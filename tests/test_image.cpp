@@ -12,7 +12,8 @@ TEST_CASE("16-bit grey PNG round-trips to within one level") {
   Image img(37, 11, 1);
   for (int y = 0; y < img.height; ++y)
     for (int x = 0; x < img.width; ++x) img.at(x, y) = (x * 1777 + y * 31) % 65536 / 65535.0f;
-  const auto path = (std::filesystem::temp_directory_path() / ("crumple_img16_" + std::to_string(::getpid()) + ".png")).string();
+  const auto path =
+      (std::filesystem::temp_directory_path() / ("crumple_img16_" + std::to_string(::getpid()) + ".png")).string();
   writePng(path, img, 16);
   CHECK(isPng16(path));
   Image back = readPng(path);
@@ -23,7 +24,8 @@ TEST_CASE("16-bit grey PNG round-trips to within one level") {
 }
 
 TEST_CASE("reading a file that is not a PNG is an ImageError naming the file") {
-  const auto path = (std::filesystem::temp_directory_path() / ("crumple_not_png_" + std::to_string(::getpid()) + ".png")).string();
+  const auto path =
+      (std::filesystem::temp_directory_path() / ("crumple_not_png_" + std::to_string(::getpid()) + ".png")).string();
   FILE* f = std::fopen(path.c_str(), "wb");
   std::fputs("hello", f);
   std::fclose(f);

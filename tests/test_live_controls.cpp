@@ -81,7 +81,8 @@ TEST_CASE("every material and deformation control of the sandbox changes the nex
     CHECK(d.volume > base.volume * 1.5);
   }
   SUBCASE("address map") {
-    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setDeformOptions(with(sim, [](auto& o) { o.addressMap = 64; })); });
+    const Dent d = run(s, "plate", t,
+                       [&](Simulation& sim) { sim.setDeformOptions(with(sim, [](auto& o) { o.addressMap = 64; })); });
     CHECK_FALSE(sameMap(d, base));
     CHECK(d.volume == doctest::Approx(base.volume).epsilon(0.05));  // accuracy, not the dent, changes
   }
@@ -93,7 +94,8 @@ TEST_CASE("every material and deformation control of the sandbox changes the nex
   }
   SUBCASE("crater rims") {
     CHECK(base.raised == 0);
-    const Dent d = run(s, "plate", t, [&](Simulation& sim) { sim.setDeformOptions(with(sim, [](auto& o) { o.craterRims = true; })); });
+    const Dent d = run(s, "plate", t,
+                       [&](Simulation& sim) { sim.setDeformOptions(with(sim, [](auto& o) { o.craterRims = true; })); });
     CHECK(d.raised > 20);
   }
   SUBCASE("impulse floor") {

@@ -109,24 +109,24 @@ TEST_CASE("a fast box does not tunnel through a thin static rail at 40 m/s (and 
   // half thickness; with at most 16 substeps at 240 Hz a 0.2 m rail holds up to
   // 0.5 * 0.1 m * 16 * 240 /s = 192 m/s.
   for (double speed : {40.0, 150.0}) {
-  CAPTURE(speed);
-  WorldSettings s;
-  s.gravity = {0, 0, 0};
-  World w(s);
-  BodyDef rail;
-  rail.shape = makeBox({0.2, 0.8, 6});
-  rail.isStatic = true;
-  rail.restitution = 0.2;
-  w.addBody(rail);
-  BodyDef car;
-  car.shape = makeBox({4.2, 1.3, 1.8});
-  car.origin = {-4, 0, 0};
-  car.linearVelocity = {speed, 0, 0};
-  car.mass = 1200;
-  car.restitution = 0.2;
-  const int i = w.addBody(car);
-  for (int k = 0; k < 120; ++k) w.step(1.0 / 240);
-  CHECK(w.body(i).x.x < -2.1 + 0.05);   // front face never past the rail's near face (by more than 5 cm)
-  CHECK(w.body(i).v.x <= 0.0);
+    CAPTURE(speed);
+    WorldSettings s;
+    s.gravity = {0, 0, 0};
+    World w(s);
+    BodyDef rail;
+    rail.shape = makeBox({0.2, 0.8, 6});
+    rail.isStatic = true;
+    rail.restitution = 0.2;
+    w.addBody(rail);
+    BodyDef car;
+    car.shape = makeBox({4.2, 1.3, 1.8});
+    car.origin = {-4, 0, 0};
+    car.linearVelocity = {speed, 0, 0};
+    car.mass = 1200;
+    car.restitution = 0.2;
+    const int i = w.addBody(car);
+    for (int k = 0; k < 120; ++k) w.step(1.0 / 240);
+    CHECK(w.body(i).x.x < -2.1 + 0.05);  // front face never past the rail's near face (by more than 5 cm)
+    CHECK(w.body(i).v.x <= 0.0);
   }
 }

@@ -65,8 +65,9 @@ TEST_CASE("golden state hash: a pyramid with a mixed pile dropped on it, 3 s at 
   }
   const uint64_t h = w.stateHash();
   MESSAGE("reference scene: " << events << " collision events, " << w.lastStats().awake << " bodies awake at 3 s");
-  CHECK_MESSAGE(h == kGoldenHash, "state hash " << hex(h) << ", golden " << hex(kGoldenHash)
-                                                << ": the simulator's behaviour changed (update kGoldenHash only on purpose)");
+  CHECK_MESSAGE(h == kGoldenHash, "state hash "
+                                      << hex(h) << ", golden " << hex(kGoldenHash)
+                                      << ": the simulator's behaviour changed (update kGoldenHash only on purpose)");
 }
 
 TEST_CASE("the same scene twice gives bit-identical states") {

@@ -108,7 +108,7 @@ TEST_CASE("a patch impulse holds a face: no relative tilt or twist, centre of pr
     glm::dvec3 v2, w2;
     after(j, t, v2, w2);
     CHECK(glm::dot(v2 + glm::cross(w2, r), n) == Approx(0.0).epsilon(1e-9));  // the point still stops sinking
-    CHECK(glm::length(w2 - glm::dot(w2, n) * n) > 0.01);                     // but the body tips
+    CHECK(glm::length(w2 - glm::dot(w2, n) * n) > 0.01);                      // but the body tips
   }
   SUBCASE("torsional friction is bounded by mu jn times the patch's lever") {
     const double mu = 0.1;
@@ -133,9 +133,9 @@ TEST_CASE("a hinge patch (one of two supports) holds only the tilt about the lin
   glm::dvec3 j, t;
   REQUIRE(patchImpulse(p, k, v + glm::cross(w, r), w, n, 0.0, 2.0, nullptr, j, t));
   const glm::dvec3 v2 = v + j, w2 = w + invI * (glm::cross(r, j) + t);
-  CHECK(glm::length(v2 + glm::cross(w2, r)) < 1e-9);      // the point stops
-  CHECK(std::abs(glm::dot(w2, line)) < 1e-9);             // no tilt about the line
-  CHECK(glm::length(glm::cross(t, line)) < 1e-12);        // the torque is about the line only
+  CHECK(glm::length(v2 + glm::cross(w2, r)) < 1e-9);                   // the point stops
+  CHECK(std::abs(glm::dot(w2, line)) < 1e-9);                          // no tilt about the line
+  CHECK(glm::length(glm::cross(t, line)) < 1e-12);                     // the torque is about the line only
   CHECK(std::abs(glm::dot(t, line)) <= 0.3 * glm::dot(j, n) + 1e-12);  // its centre of pressure in the patch
 }
 

@@ -26,7 +26,8 @@ TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm, sleepin
     for (int row = 0; row < levels; ++row) {
       const int count = levels - row;
       for (int k = 0; k < count; ++k) {
-        ids.push_back(c.addBox({size, size, size}, {(k - (count - 1) / 2.0) * size * 1.02, size / 2 + row * size, 0}, 0.6, 0.0));
+        ids.push_back(
+            c.addBox({size, size, size}, {(k - (count - 1) / 2.0) * size * 1.02, size / 2 + row * size, 0}, 0.6, 0.0));
         start.push_back(c.body(ids.back()).x);
       }
     }
@@ -117,7 +118,8 @@ TEST_CASE("a running-bond wall (each block half on two below) of six courses sta
       const bool half = odd && (i == 0 || i == count - 1);
       const double z = !odd ? -L * 5.5 + L * i : half ? (i == 0 ? -1 : 1) * (L * 6 - L / 4) : -L * 6 + L * i;
       // Off the origin: rounding breaks the wall's symmetry, as anywhere else it would.
-      ids.push_back(addBox(w, {T, H, half ? L / 2 - 0.01 : L - 0.01}, {12, H / 2 + (H + 0.0005) * course, z}, 0.7, 0.1, 1800));
+      ids.push_back(
+          addBox(w, {T, H, half ? L / 2 - 0.01 : L - 0.01}, {12, H / 2 + (H + 0.0005) * course, z}, 0.7, 0.1, 1800));
       start.push_back(w.body(ids.back()).x);
     }
   }
@@ -140,7 +142,10 @@ TEST_CASE("100 nonconvex tori dropped in a pile come to rest with no NaN and no 
   for (int k = 0; k < 4; ++k) {
     BodyDef wall;
     wall.shape = makeBox(k < 2 ? glm::dvec3(0.2, 16, 3.4) : glm::dvec3(3.4, 16, 0.2));
-    wall.origin = k == 0 ? glm::dvec3(-1.6, 8, 0) : k == 1 ? glm::dvec3(1.6, 8, 0) : k == 2 ? glm::dvec3(0, 8, -1.6) : glm::dvec3(0, 8, 1.6);
+    wall.origin = k == 0   ? glm::dvec3(-1.6, 8, 0)
+                  : k == 1 ? glm::dvec3(1.6, 8, 0)
+                  : k == 2 ? glm::dvec3(0, 8, -1.6)
+                           : glm::dvec3(0, 8, 1.6);
     wall.isStatic = true;
     w.addBody(wall);
   }
@@ -185,5 +190,5 @@ TEST_CASE("100 nonconvex tori dropped in a pile come to rest with no NaN and no 
   CHECK(maxSpeed < fallSpeed * 1.1);  // no explosion: nothing moves faster than the fall itself
   CHECK(lowest > 0.0);                // nothing fell through the ground (tube radius 0.1)
   CHECK(released > 0);
-  CHECK(kinetic < 0.01 * released);   // the pile has come (nearly) to rest
+  CHECK(kinetic < 0.01 * released);  // the pile has come (nearly) to rest
 }

@@ -71,7 +71,8 @@ TEST_CASE("a rendered triangle reads back with the expected pixels") {
   CHECK(img.at(0, H - 1, 0) == doctest::Approx(1.0));
   CHECK(img.at(W - 1, 0, 2) == doctest::Approx(1.0));
 
-  const auto path = std::filesystem::temp_directory_path() / ("crumple_triangle_" + std::to_string(::getpid()) + ".png");
+  const auto path =
+      std::filesystem::temp_directory_path() / ("crumple_triangle_" + std::to_string(::getpid()) + ".png");
   captureToPng(fb.id(), W, H, path.string());
   Image back = readPng(path.string(), 3);
   CHECK(back.width == W);

@@ -28,7 +28,8 @@ struct Stage {
   std::unique_ptr<deform::Surface> plate;
   Stage(const Image* initial = nullptr) {
     const float texel = static_cast<float>(plateGpu->metresPerUv / 256);
-    plate = std::make_unique<deform::Surface>(plateGpu, 256, 0.1f, 0.02f, deformer.createMaps(256, initial, 0.1f, texel));
+    plate =
+        std::make_unique<deform::Surface>(plateGpu, 256, 0.1f, 0.02f, deformer.createMaps(256, initial, 0.1f, texel));
   }
   void dent(double depth, glm::dvec3 at = {0, 0, 0}) {
     deform::DeformRequest rq;
@@ -91,7 +92,8 @@ void compareGolden(const Image& img, const std::string& name) {
     MESSAGE("golden image rewritten: " << path);
     return;
   }
-  REQUIRE_MESSAGE(std::filesystem::exists(path), "missing golden image " << path << " (tools/update-golden.sh makes it)");
+  REQUIRE_MESSAGE(std::filesystem::exists(path),
+                  "missing golden image " << path << " (tools/update-golden.sh makes it)");
   const Image ref = readPng(path, 3);
   REQUIRE(ref.width == img.width);
   REQUIRE(ref.height == img.height);

@@ -23,8 +23,9 @@ TEST_CASE("sandbox: --frames 150 --autopilot --screenshot ends with a picture an
   const char* asan = std::getenv("ASAN_OPTIONS");
   const std::string options = std::string(asan ? asan : "") + (asan ? ":" : "") + "detect_leaks=0";
   setenv("ASAN_OPTIONS", options.c_str(), 1);
-  const std::string cmd = std::string(CRUMPLE_SANDBOX) + " --frames 150 --autopilot --width 480 --height 270 --screenshot " +
-                          shot.string() + " --out " + out.string() + " > " + log.string() + " 2>&1";
+  const std::string cmd = std::string(CRUMPLE_SANDBOX) +
+                          " --frames 150 --autopilot --width 480 --height 270 --screenshot " + shot.string() +
+                          " --out " + out.string() + " > " + log.string() + " 2>&1";
   const int rc = std::system(cmd.c_str());
   std::ifstream lf(log);
   std::stringstream ls;
@@ -55,7 +56,8 @@ TEST_CASE("sandbox: --frames 150 --autopilot --screenshot ends with a picture an
   CHECK(rail < 0.49f);
 }
 
-TEST_CASE("sandbox: a fixed render scale renders the view smaller and scales it to the window; bad scales are bad input") {
+TEST_CASE(
+    "sandbox: a fixed render scale renders the view smaller and scales it to the window; bad scales are bad input") {
   const fs::path dir = fs::temp_directory_path() / ("crumple_sandbox_scale_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);

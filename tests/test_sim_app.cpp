@@ -68,16 +68,19 @@ TEST_CASE("the default scene writes every output of the contract and dents the p
   const json summary = json::parse(slurp(out / "summary.json"));
   CHECK(summary["steps"].get<int>() > 0);
   CHECK(summary["bodies"].size() == 2);
-  for (const char* key : {"scene", "steps", "time", "bodies", "collisions", "deformations", "timings"}) CHECK(summary.contains(key));
+  for (const char* key : {"scene", "steps", "time", "bodies", "collisions", "deformations", "timings"})
+    CHECK(summary.contains(key));
   for (const auto& b : summary["bodies"])
-    for (const char* key : {"name", "position", "orientation", "linear_velocity", "angular_velocity"}) CHECK(b.contains(key));
+    for (const char* key : {"name", "position", "orientation", "linear_velocity", "angular_velocity"})
+      CHECK(b.contains(key));
   CHECK(summary["deformations"].get<int>() >= 1);
   std::ifstream ev(out / "events.jsonl");
   std::string line;
   int lines = 0, dented = 0;
   while (std::getline(ev, line)) {
     const json e = json::parse(line);
-    for (const char* key : {"t", "a", "b", "point", "normal", "penetration", "impulse_elastic", "impulse", "a_side", "b_side"})
+    for (const char* key :
+         {"t", "a", "b", "point", "normal", "penetration", "impulse_elastic", "impulse", "a_side", "b_side"})
       CHECK(e.contains(key));
     for (const char* key : {"threshold", "percent_deform", "deform_depth", "deformed", "texels_changed", "max_dent"})
       CHECK(e["a_side"].contains(key));
@@ -97,7 +100,8 @@ TEST_CASE("the default scene writes every output of the contract and dents the p
 TEST_CASE("bad input ends with exit 2, a message naming the key path, and no output folder") {
   const fs::path out = kTmp / "bad";
   fs::remove_all(out);
-  const fs::path scene = writeScene("bad.json", R"({"bodies": [{"name": "x", "shape": {"type": "sphere", "radius": -1}, "material": "m"}],
+  const fs::path scene =
+      writeScene("bad.json", R"({"bodies": [{"name": "x", "shape": {"type": "sphere", "radius": -1}, "material": "m"}],
       "materials": {"m": {}}})");
   std::string log;
   CHECK(runSim(scene.string() + " --out " + out.string(), &log) == 2);
@@ -188,7 +192,9 @@ TEST_CASE("every shipped scene runs headless and writes its outputs") {
   }
 }
 
-TEST_CASE("highway: the car hits the W-beam rail at ~20 degrees and 80 km/h; car and rail dented by over 1 cm, the car's dent has no gaps") {
+TEST_CASE(
+    "highway: the car hits the W-beam rail at ~20 degrees and 80 km/h; car and rail dented by over 1 cm, the car's "
+    "dent has no gaps") {
   const fs::path out = kTmp / "highway_full";
   fs::remove_all(out);
   std::string log;
@@ -229,19 +235,22 @@ TEST_CASE("highway: the car hits the W-beam rail at ~20 degrees and 80 km/h; car
   CHECK(c.holeFraction() < 0.01);
 }
 
-TEST_CASE("brick-wall: a running-bond wall stands until the car hits it; the car breaks through, is dented, the ends stand") {
+TEST_CASE(
+    "brick-wall: a running-bond wall stands until the car hits it; the car breaks through, is dented, the ends stand") {
   // Each block rests half on two blocks below: a face resting off-centre on
   // its supports. Before patch impulses such walls sagged by themselves.
   const std::string scene = std::string(CRUMPLE_SCENES) + "/brick-wall.json";
   const json spec = json::parse(slurp(scene));
   std::map<std::string, glm::dvec3> start;
   for (const auto& b : spec["bodies"])
-    start[b["name"].get<std::string>()] = {b["position"][0].get<double>(), b["position"][1].get<double>(), b["position"][2].get<double>()};
+    start[b["name"].get<std::string>()] = {b["position"][0].get<double>(), b["position"][1].get<double>(),
+                                           b["position"][2].get<double>()};
   auto positions = [&](const fs::path& out) {
     std::map<std::string, glm::dvec3> at;
     const json s = json::parse(slurp(out / "summary.json"));
     for (const auto& b : s["bodies"])
-      at[b["name"].get<std::string>()] = {b["position"][0].get<double>(), b["position"][1].get<double>(), b["position"][2].get<double>()};
+      at[b["name"].get<std::string>()] = {b["position"][0].get<double>(), b["position"][1].get<double>(),
+                                          b["position"][2].get<double>()};
     return at;
   };
   const fs::path before = kTmp / "brick_wall_before", after = kTmp / "brick_wall_after";
@@ -320,7 +329,8 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   int regular = 0;
   for (int gap : gaps) regular += std::abs(gap - median) <= 2;
   MESSAGE("grouser prints: " << starts.size() << ", median spacing " << median << " texels, " << regular << " of "
-                             << gaps.size() << " within 2 texels of it, row fill " << bestCount << " of " << x1 - x0 + 1);
+                             << gaps.size() << " within 2 texels of it, row fill " << bestCount << " of "
+                             << x1 - x0 + 1);
   CHECK(regular >= 0.8 * static_cast<double>(gaps.size()));
   CHECK(bestCount < 0.8 * (x1 - x0 + 1));
   // One spacing is one pitch (0.3 m): the track is the tank's path (start at
@@ -329,8 +339,8 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   for (const auto& body : s["bodies"])
     if (body["name"] == "tank") tankX = body["position"][0].get<double>();
   const double texelsPerMetre = along / (tankX + 2 + 5.1);
-  MESSAGE("tank ended at x = " << tankX << ": " << texelsPerMetre << " texels per metre, pitch "
-                               << 0.3 * texelsPerMetre << " texels");
+  MESSAGE("tank ended at x = " << tankX << ": " << texelsPerMetre << " texels per metre, pitch " << 0.3 * texelsPerMetre
+                               << " texels");
   CHECK(std::abs(median - 0.3 * texelsPerMetre) < 0.15 * 0.3 * texelsPerMetre);
   const crumple::render::Image b = crumple::render::readPng((out / "heightmaps" / "bunker.png").string());
   float lowest = 1;
@@ -384,15 +394,18 @@ TEST_CASE("cow-drop: the cow lands on its four hooves and leaves four prints in 
   for (size_t i = 0; i < 4; ++i)
     for (size_t j = i + 1; j < 4; ++j) d.push_back(glm::length(prints[i] - prints[j]));
   std::sort(d.begin(), d.end());
-  MESSAGE("print distances (texels): " << d[0] << " " << d[1] << " " << d[2] << " " << d[3] << " " << d[4] << " " << d[5]);
-  CHECK(std::abs(d[0] - d[1]) < 0.1 * d[0]);  // the two short sides
-  CHECK(std::abs(d[2] - d[3]) < 0.05 * d[2]); // the two long sides
-  CHECK(std::abs(d[4] - d[5]) < 0.05 * d[4]); // the diagonals
+  MESSAGE("print distances (texels): " << d[0] << " " << d[1] << " " << d[2] << " " << d[3] << " " << d[4] << " "
+                                       << d[5]);
+  CHECK(std::abs(d[0] - d[1]) < 0.1 * d[0]);   // the two short sides
+  CHECK(std::abs(d[2] - d[3]) < 0.05 * d[2]);  // the two long sides
+  CHECK(std::abs(d[4] - d[5]) < 0.05 * d[4]);  // the diagonals
   CHECK(d[2] / d[0] == doctest::Approx(0.98 / 0.34).epsilon(0.15));
   CHECK(d[4] == doctest::Approx(std::hypot(d[0], d[2])).epsilon(0.03));  // a rectangle
 }
 
-TEST_CASE("bump-ramp: with normal-mapped collision normals a ball rolls down a slope that exists only in the bump map (figure 10)") {
+TEST_CASE(
+    "bump-ramp: with normal-mapped collision normals a ball rolls down a slope that exists only in the bump map "
+    "(figure 10)") {
   auto horizontalTravel = [&](bool on) {
     std::ifstream in(std::string(CRUMPLE_SCENES) + "/bump-ramp.json");
     std::stringstream ss;
@@ -400,7 +413,8 @@ TEST_CASE("bump-ramp: with normal-mapped collision normals a ball rolls down a s
     std::string text = ss.str();
     if (!on) text.replace(text.find("\"normal_mapped_normals\": true"), 29, "\"normal_mapped_normals\": false");
     fs::create_directories(kTmp / "assets");
-    fs::copy_file(fs::path(CRUMPLE_SCENES) / "assets" / "ramp.png", kTmp / "assets" / "ramp.png", fs::copy_options::overwrite_existing);
+    fs::copy_file(fs::path(CRUMPLE_SCENES) / "assets" / "ramp.png", kTmp / "assets" / "ramp.png",
+                  fs::copy_options::overwrite_existing);
     const fs::path scene = kTmp / ("bump_ramp_" + std::to_string(on) + ".json");
     std::ofstream(scene) << text;
     const fs::path out = kTmp / ("ramp_" + std::to_string(on));
@@ -421,7 +435,8 @@ TEST_CASE("bump-ramp: with normal-mapped collision normals a ball rolls down a s
 TEST_CASE("a user's glTF model (binary buffer, node transform, no uvs) works end to end as a mesh body") {
   // A closed cube as glTF with an external .bin, translated by its node.
   const float p[24] = {-1, -1, -1, 1, -1, -1, 1, 1, -1, -1, 1, -1, -1, -1, 1, 1, -1, 1, 1, 1, 1, -1, 1, 1};
-  const uint16_t idx[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4, 3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+  const uint16_t idx[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                            3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
   {
     std::ofstream bin(kTmp / "cube.bin", std::ios::binary);
     bin.write(reinterpret_cast<const char*>(p), sizeof p);

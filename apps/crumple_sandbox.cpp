@@ -22,7 +22,7 @@
 #include "engine/builtin_scenes.h"
 #include "engine/output_writer.h"
 #include "engine/simulation.h"
-#include "physics/log.h"
+#include "core/log.h"
 #include "render/capture.h"
 #include "render/gl_context.h"
 #include "render/renderer.h"

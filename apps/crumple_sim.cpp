@@ -12,7 +12,7 @@
 #include "engine/builtin_scenes.h"
 #include "engine/output_writer.h"
 #include "engine/simulation.h"
-#include "physics/log.h"
+#include "core/log.h"
 #include "render/gl_context.h"
 #include "engine/scene_view.h"
 #include "render/renderer.h"

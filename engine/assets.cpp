@@ -6,7 +6,7 @@
 #include "engine/atlas.h"
 #include "engine/mesh_io.h"
 #include "engine/primitives.h"
-#include "physics/log.h"
+#include "core/log.h"
 
 namespace crumple {
 

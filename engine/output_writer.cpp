@@ -6,7 +6,7 @@
 #include <random>
 #include <unistd.h>
 
-#include "physics/log.h"
+#include "core/log.h"
 #include "render/image.h"
 
 namespace crumple {

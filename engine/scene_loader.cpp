@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "engine/scene.h"
-#include "physics/log.h"
+#include "core/log.h"
 
 namespace crumple {
 

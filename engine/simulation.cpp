@@ -15,8 +15,8 @@
 #include "engine/atlas.h"
 #include "engine/mesh_io.h"
 #include "engine/primitives.h"
-#include "physics/log.h"
-#include "physics/stress_strain.h"
+#include "core/log.h"
+#include "deform/model/stress_strain.h"
 #include "render/image.h"
 
 namespace crumple {

@@ -12,7 +12,7 @@
 #include <cstring>
 #include <vector>
 
-#include "physics/log.h"
+#include "core/log.h"
 
 namespace crumple::render {
 

@@ -14,7 +14,7 @@
 #include "engine/primitives.h"
 #include "dent_metrics.h"
 #include "gl_fixture.h"
-#include "physics/stress_strain.h"
+#include "deform/model/stress_strain.h"
 
 using namespace crumple;
 using namespace crumple::deform;

@@ -7,7 +7,7 @@
 #include <initializer_list>
 
 #include "physics/impulse.h"
-#include "physics/stress_strain.h"
+#include "deform/model/stress_strain.h"
 
 using namespace crumple;
 using doctest::Approx;

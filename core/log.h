@@ -1,6 +1,6 @@
-// A tiny levelled logger shared by every layer (physics is the bottom layer and
-// has no dependencies, so the logger lives here). Messages go to stderr unless a
-// sink is installed; apps install one that honours --quiet.
+// A tiny levelled logger shared by every layer (crumple_core: no dependencies,
+// below physics and render alike). Messages go to stderr unless a sink is
+// installed; apps install one that honours --quiet.
 #pragma once
 #include <functional>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "physics/stress_strain.h"
+#include "deform/model/stress_strain.h"
 
 #include <algorithm>
 #include <cmath>

@@ -90,10 +90,6 @@ def cow_sdf():
             parts.append((capsule((x + 0.02, -0.62, z), (x + 0.03, -0.8, z), 0.072, 0.07), 0.02))  # shins, hooves
     parts.append((capsule((-0.72, 0.24, 0.0), (-0.8, -0.3, 0.0), 0.04, 0.032), 0.04))  # tail
     parts.append((ellipsoid((-0.8, -0.36, 0.0), (0.05, 0.08, 0.05)), 0.02))            # tuft
-    def smin(a, b, k):
-        # Polynomial smooth minimum: blends shapes within k of each other.
-        h = max(k - abs(a - b), 0.0) / k
-        return min(a, b) - h * h * k * 0.25
     def f(p):
         d = 1e9
         for g, k in parts:

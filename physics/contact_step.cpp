@@ -75,14 +75,12 @@ void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, 
   const Pair& pair = ctx.pairs[pi];
   const std::vector<Contact>* contacts = &s.fresh;
   ctx.lookPoses[pi] = {pa, pb};
-  // NB: a fresh look counts `fresh` before pairContacts refills it (the count
-  // of the previous fresh look); kept as it was to keep runs bit-identical.
-  ctx.lookCount[pi] = static_cast<int>((reuse ? ctx.found[pi] : s.fresh).size());
   if (reuse) {
     contacts = &ctx.found[pi];
   } else {
     pairContacts(ctx, pair, pa, pb, s.fresh);
   }
+  ctx.lookCount[pi] = static_cast<int>(contacts->size());  // this look's points (StepStats::contacts)
   std::vector<ContactGroup>& groups = ctx.groups[pi];
   s.old.swap(groups);
   groupContacts(*contacts, groups);

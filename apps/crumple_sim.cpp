@@ -1,7 +1,9 @@
 // crumple-sim: batch runs of scene files. Writes the outputs of the contract in
-// shared/design/scene-format.md. Exit status: 0 success, 2 bad input, 1 failure.
+// shared/design/scene-format.md. Exit status: 0 success, 2 bad input, 1 failure,
+// 130 interrupted (SIGINT or SIGTERM: the partial output is removed, nothing is replaced).
 #include <unistd.h>
 
+#include <csignal>
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
@@ -19,6 +21,11 @@
 
 using namespace crumple;
 namespace fs = std::filesystem;
+
+namespace {
+volatile std::sig_atomic_t gInterrupted = 0;
+extern "C" void onSignal(int) { gInterrupted = 1; }
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -118,7 +125,14 @@ int main(int argc, char** argv) {
       ++sim.timings().frames;
     };
     if (renderer) renderFrame();
+    std::signal(SIGINT, onSignal);
+    std::signal(SIGTERM, onSignal);
     for (long s = 1; s <= totalSteps; ++s) {
+      if (gInterrupted) {
+        writer.abandon();
+        std::cerr << "\ncrumple-sim: interrupted at step " << s - 1 << ": nothing written\n";
+        return 130;
+      }
       sim.step();
       if (renderer && s % frameEvery == 0) renderFrame();
       if (traceFile.is_open()) {

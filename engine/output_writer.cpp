@@ -1,9 +1,11 @@
 #include "engine/output_writer.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <set>
 #include <unistd.h>
 
 #include "core/log.h"
@@ -18,11 +20,7 @@ OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexi
   std::error_code ec;
   if (fs::exists(dir_, ec)) {
     if (!fs::is_directory(dir_, ec)) throw SceneError(dir, "", "output path exists and is not a folder");
-    const bool empty = fs::is_empty(dir_, ec);
-    if (!empty && !fs::exists(fs::path(dir_) / "summary.json", ec))
-      throw SceneError(
-          dir, "",
-          "output folder exists, is not empty and holds no crumple output (summary.json): refusing to overwrite it");
+    if (!fs::is_empty(dir_, ec)) checkReplaceable(dir);
   }
   const fs::path parent = fs::path(dir_).parent_path();
   fs::create_directories(parent, ec);
@@ -33,12 +31,41 @@ OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexi
   if (ec) throw SceneError(dir, "", "cannot create a folder next to it: " + ec.message());
 }
 
-OutputWriter::~OutputWriter() {
-  if (!committed_) {
-    std::error_code ec;
-    fs::remove_all(staging_, ec);
+void OutputWriter::checkReplaceable(const std::string& dir) const {
+  const fs::path root(dir_);
+  std::ifstream in(root / kMarker);
+  if (!in)
+    throw SceneError(dir, "",
+                     "output folder exists, is not empty and was not written by crumple (no " + std::string(kMarker) +
+                         "): refusing to replace it; choose another --out or empty it");
+  std::set<std::string> ours;
+  try {
+    const nlohmann::json marker = nlohmann::json::parse(in);
+    for (const auto& f : marker.at("files")) ours.insert(f.get<std::string>());
+  } catch (const std::exception& e) {
+    throw SceneError(dir, kMarker, std::string("unreadable (") + e.what() + "): refusing to replace the folder");
   }
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(root, ec); !ec && it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
+    if (it->is_directory(ec)) continue;
+    const std::string rel = fs::relative(it->path(), root, ec).generic_string();
+    if (rel != kMarker && !ours.count(rel))
+      throw SceneError(
+          dir, "",
+          "holds '" + rel + "', which crumple did not write: refusing to replace the folder (move it away first)");
+  }
+  if (ec) throw SceneError(dir, "", "cannot list the folder: " + ec.message());
 }
+
+void OutputWriter::abandon() {
+  if (committed_ || staging_.empty()) return;
+  std::error_code ec;
+  fs::remove_all(staging_, ec);
+  staging_.clear();
+}
+
+OutputWriter::~OutputWriter() { abandon(); }
 
 namespace {
 nlohmann::ordered_json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
@@ -155,6 +182,16 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
 
 void OutputWriter::commit() {
   std::error_code ec;
+  if (fs::exists(dir_, ec) && !fs::is_empty(dir_, ec)) checkReplaceable(dir_);  // again: a file may have come since
+  // The marker: every file this run wrote, so that the next run replaces only what crumple wrote.
+  {
+    nlohmann::json files = nlohmann::json::array();
+    const fs::path root(staging_);
+    for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator(); ++it)
+      if (!it->is_directory()) files.push_back(fs::relative(it->path(), root).generic_string());
+    std::sort(files.begin(), files.end());
+    std::ofstream(root / kMarker) << nlohmann::json{{"format", "crumple-output/1"}, {"files", files}}.dump(1) << "\n";
+  }
   if (fs::exists(dir_, ec)) {
     const std::string old = staging_ + ".old";
     fs::rename(dir_, old, ec);

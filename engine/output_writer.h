@@ -12,15 +12,22 @@ namespace crumple {
 // heightmaps/ and normalmaps/ (and whatever is already in `staging`, e.g. frames/).
 // Everything goes to a temporary sibling folder first and is renamed into place
 // at the end, so a failed run never leaves a folder that looks complete.
+// A folder is replaced only when crumple wrote it and nothing else is in it: its
+// marker file (kMarker) lists every file crumple wrote there; a folder with any
+// other file, or without the marker, is refused before the run starts.
 class OutputWriter {
  public:
+  static constexpr const char* kMarker = ".crumple-output";
   explicit OutputWriter(const std::string& dir);  // throws SceneError(dir) if dir is unusable
   ~OutputWriter();                                // removes the staging folder if not committed
   const std::string& staging() const { return staging_; }
   void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
   void commit();
+  // Removes the staging folder now (e.g. on SIGINT/SIGTERM; the destructor does the same).
+  void abandon();
 
  private:
+  void checkReplaceable(const std::string& dir) const;
   std::string dir_, staging_;
   bool committed_ = false;
 };

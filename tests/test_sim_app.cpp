@@ -490,3 +490,47 @@ TEST_CASE("bad command lines and unusable output folders are bad input (exit 2),
   CHECK(runSim("--out " + (kTmp / "someone_elses").string(), &log) == 2);
   CHECK(slurp(kTmp / "someone_elses" / "thesis.tex") == "precious");
 }
+
+TEST_CASE("an output folder is replaced only when crumple wrote everything in it; a user's file is never deleted") {
+  std::string log;
+  // The issue's case: any summary.json beside a user's file.
+  const fs::path d = kTmp / "looks_like_output";
+  fs::remove_all(d);
+  fs::create_directories(d);
+  std::ofstream(d / "summary.json") << "{}";
+  std::ofstream(d / "keep.txt") << "x";
+  CHECK(runSim("--steps 5 --out " + d.string(), &log) == 2);
+  CHECK(log.find(".crumple-output") != std::string::npos);
+  CHECK(slurp(d / "keep.txt") == "x");
+  CHECK(slurp(d / "summary.json") == "{}");
+  // crumple's own output is replaced; with a file of the user's added, it is not.
+  const fs::path out = kTmp / "own_output";
+  fs::remove_all(out);
+  REQUIRE(runSim("--steps 5 --quiet --out " + out.string(), &log) == 0);
+  const json marker = json::parse(slurp(out / ".crumple-output"));
+  CHECK(std::find(marker["files"].begin(), marker["files"].end(), "heightmaps/plate.png") != marker["files"].end());
+  CHECK(runSim("--steps 5 --quiet --out " + out.string(), &log) == 0);
+  std::ofstream(out / "heightmaps" / "notes.txt") << "mine";
+  CHECK(runSim("--steps 5 --quiet --out " + out.string(), &log) == 2);
+  CHECK(log.find("heightmaps/notes.txt") != std::string::npos);
+  CHECK(slurp(out / "heightmaps" / "notes.txt") == "mine");
+  CHECK(noPartialFolders());
+}
+
+TEST_CASE("SIGTERM during a run removes the partial output and replaces nothing") {
+  const fs::path out = kTmp / "interrupted";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim("--steps 5 --quiet --out " + out.string(), &log) == 0);
+  const std::string before = slurp(out / "summary.json");
+  // A long run, terminated after a second: exit 130, the previous output untouched, no staging folder left.
+  const std::string cmd = "timeout --preserve-status -s TERM 3 " + std::string(CRUMPLE_SIM) + " " +
+                          std::string(CRUMPLE_SCENES) + "/highway.json --duration 1000 --quiet --out " + out.string() +
+                          " > " + (kTmp / "term.txt").string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  CAPTURE(slurp(kTmp / "term.txt"));
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 130);
+  CHECK(slurp(out / "summary.json") == before);
+  CHECK(noPartialFolders());
+}

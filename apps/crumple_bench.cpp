@@ -378,7 +378,10 @@ int main(int argc, char** argv) {
   int n = static_cast<int>(args.size());
   benchmark::Initialize(&n, args.data());
   Collector collector;
-  benchmark::RunSpecifiedBenchmarks(&collector);
+  if (benchmark::RunSpecifiedBenchmarks(&collector) == 0) {
+    std::fprintf(stderr, "crumple-bench: --filter '%s' matches no benchmark\n", filter.c_str());
+    return 2;
+  }
 
   auto ms = [&](const std::string& k) { return collector.ms.count(k) ? collector.ms[k] : NAN; };
   std::printf("\n== ratios ==\n");

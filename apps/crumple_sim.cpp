@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
     std::ofstream traceFile;
     if (!trace.empty()) {
       traceFile.open(trace);
-      if (!traceFile) throw std::runtime_error("cannot write the trace file " + trace);
+      if (!traceFile) throw SceneError(trace, "", "--trace: cannot be opened for writing");
       traceFile << "step,time,body,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz\n";
       traceFile.precision(10);
     }

@@ -16,3 +16,9 @@ expect 3 '^ +at the end: crumple +[0-9]+ awake, top centre [0-9.]+ m; bullet +[0
 expect 4 '^deform +address map +[0-9]+ +gather +[0-9.]+ ms +scatter +[0-9.]+ ms +readback +[0-9.]+ ms +gather/scatter +[0-9.]+x +readback/scatter +[0-9.]+x$' "deform ratio"
 expect 1 '^render +1280x720 +pom +[0-9.]+ ms/frame +no parallax +[0-9.]+ ms/frame +pom/none +[0-9.]+x$' "render ratio"
 if echo "$out" | grep -qi nan; then echo "bench_smoke: a figure is NaN" >&2; exit 1; fi
+# A filter that matches nothing is an error (exit 2), not a table of NaN.
+set +e
+"$bench" --quick --no-gl --filter 'no-such-benchmark' >/dev/null 2>&1
+rc=$?
+set -e
+if [ "$rc" -ne 2 ]; then echo "bench_smoke: --filter with no match exited $rc, expected 2" >&2; exit 1; fi

@@ -481,6 +481,10 @@ TEST_CASE("bad command lines and unusable output folders are bad input (exit 2),
   CHECK(runSim("--no-such-flag", &log) == 2);
   CHECK(runSim("--help", &log) == 0);
   CHECK(log.find("--deform-path") != std::string::npos);
+  // A trace file that cannot be written is bad input too, and leaves no output behind.
+  CHECK(runSim("--steps 5 --trace /nonexistent-dir/trace.csv --out " + (kTmp / "traced").string(), &log) == 2);
+  CHECK(log.find("--trace") != std::string::npos);
+  CHECK_FALSE(fs::exists(kTmp / "traced"));
   // An output path that is a file, or a folder of someone else's files, is refused untouched.
   std::ofstream(kTmp / "a_file") << "keep me";
   CHECK(runSim("--out " + (kTmp / "a_file").string(), &log) == 2);

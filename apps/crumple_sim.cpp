@@ -28,6 +28,9 @@ extern "C" void onSignal(int) { gInterrupted = 1; }
 }  // namespace
 
 int main(int argc, char** argv) {
+  // From the start: a signal while the scene loads must not leave a staging folder behind either.
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
   CLI::App app{
       "crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
       "heightmaps/, normalmaps/, frames/)."};
@@ -99,6 +102,11 @@ int main(int argc, char** argv) {
       renderer = std::make_unique<render::Renderer>(width, height);
       fs::create_directories(framesDir);
     }
+    auto interrupted = [&](long step) {
+      writer.abandon();
+      std::cerr << "\ncrumple-sim: interrupted at step " << step << ": nothing written\n";
+      return 130;
+    };
     std::ofstream traceFile;
     if (!trace.empty()) {
       traceFile.open(trace);
@@ -125,14 +133,8 @@ int main(int argc, char** argv) {
       ++sim.timings().frames;
     };
     if (renderer) renderFrame();
-    std::signal(SIGINT, onSignal);
-    std::signal(SIGTERM, onSignal);
     for (long s = 1; s <= totalSteps; ++s) {
-      if (gInterrupted) {
-        writer.abandon();
-        std::cerr << "\ncrumple-sim: interrupted at step " << s - 1 << ": nothing written\n";
-        return 130;
-      }
+      if (gInterrupted) return interrupted(s - 1);
       sim.step();
       if (renderer && s % frameEvery == 0) renderFrame();
       if (traceFile.is_open()) {
@@ -152,6 +154,7 @@ int main(int argc, char** argv) {
         if (s == totalSteps) std::fprintf(stderr, "\n");
       }
     }
+    if (gInterrupted) return interrupted(totalSteps);
     writer.write(sim);
     writer.commit();
     if (!quiet) {

@@ -24,11 +24,11 @@ inline int addGround(World& w, double friction = 0.5, double restitution = 1.0) 
   return w.addBody(g);
 }
 
-// A dynamic box of the given size whose shape frame (its centre) is at `origin`.
-inline int addBox(World& w, const glm::dvec3& size, const glm::dvec3& origin, double friction, double restitution,
-                  double density = 1000) {
+// A dynamic body of `shape` whose shape frame is at `origin`.
+inline int addShape(World& w, std::shared_ptr<const Shape> shape, const glm::dvec3& origin, double friction,
+                    double restitution, double density = 1000) {
   BodyDef d;
-  d.shape = makeBox(size);
+  d.shape = std::move(shape);
   d.origin = origin;
   d.friction = friction;
   d.restitution = restitution;
@@ -36,16 +36,16 @@ inline int addBox(World& w, const glm::dvec3& size, const glm::dvec3& origin, do
   return w.addBody(d);
 }
 
+// A dynamic box of the given size whose shape frame (its centre) is at `origin`.
+inline int addBox(World& w, const glm::dvec3& size, const glm::dvec3& origin, double friction, double restitution,
+                  double density = 1000) {
+  return addShape(w, makeBox(size), origin, friction, restitution, density);
+}
+
 // A dynamic sphere centred at `origin`.
 inline int addSphere(World& w, double radius, const glm::dvec3& origin, double friction, double restitution,
                      double density = 1000) {
-  BodyDef d;
-  d.shape = makeSphere(radius);
-  d.origin = origin;
-  d.friction = friction;
-  d.restitution = restitution;
-  d.density = density;
-  return w.addBody(d);
+  return addShape(w, makeSphere(radius), origin, friction, restitution, density);
 }
 
 // A static slab whose top face is a plane through the origin tilted by `rot`.

@@ -15,10 +15,20 @@
 
 namespace crumple {
 
-// Bad input: names the file, the key path and what is wrong. Apps exit with 2.
+// `text` kept to at most `limit` characters: its start and end, with what was left out counted between.
+inline std::string capText(const std::string& text, size_t limit) {
+  if (text.size() <= limit) return text;
+  const size_t keep = limit / 2;
+  return text.substr(0, keep) + "...(" + std::to_string(text.size() - 2 * keep) + " characters)..." +
+         text.substr(text.size() - keep);
+}
+
+// Bad input: names the file, the key path and what is wrong. Apps exit with 2. Each part is capped
+// (a 100000-character path or an echoed value must not make a 100 KB message).
 struct SceneError : std::runtime_error {
   SceneError(const std::string& file, const std::string& keyPath, const std::string& what)
-      : std::runtime_error(file + ": " + (keyPath.empty() ? "" : keyPath + ": ") + what),
+      : std::runtime_error(capText(file, 300) + ": " + (keyPath.empty() ? "" : capText(keyPath, 300) + ": ") +
+                           capText(what, 600)),
         file(file),
         keyPath(keyPath),
         reason(what) {}

@@ -47,6 +47,9 @@ const char* typeName(const json& j) {
 }
 
 std::string shortDump(const json& j) {
+  // Arrays and objects are counted, never dumped: a value nested 100000 deep would overflow the stack.
+  if (j.is_array()) return "an array of " + std::to_string(j.size()) + (j.size() == 1 ? " item" : " items");
+  if (j.is_object()) return "an object of " + std::to_string(j.size()) + (j.size() == 1 ? " key" : " keys");
   std::string s = j.dump();
   if (s.size() > 40) s = s.substr(0, 37) + "...";
   return s;
@@ -352,6 +355,7 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
       if (img.empty()) bm.fail("image", "must not be empty");
       b.bumpMap.image = resolvePath(baseDir, img);
       std::error_code ec;
+      if (fs::is_directory(b.bumpMap.image, ec)) bm.fail("image", "is a folder, not an image file: " + b.bumpMap.image);
       if (!fs::is_regular_file(b.bumpMap.image, ec)) bm.fail("image", "no such file: " + b.bumpMap.image);
     }
     if (bm.has("bump_depth")) b.bumpMap.bumpDepth = bm.number("bump_depth", 0.1, 0, 10, true);

@@ -117,6 +117,23 @@ TEST_CASE("malformed scenes name the key path and the reason") {
   }
 }
 
+TEST_CASE("hostile values make short messages: a 100000-deep array, a 100000-character string, a folder as an image") {
+  std::string deep(100000, '[');
+  deep += std::string(100000, ']');
+  const std::string nested = errorOf(mutate("\"fov\": 45", "\"fov\": " + deep));
+  CAPTURE(nested.substr(0, 300));
+  CHECK(nested.find("cameras[0].fov") != std::string::npos);
+  CHECK(nested.find("an array of 1 item") != std::string::npos);
+  CHECK(nested.size() < 1200);
+  const std::string longName = errorOf(mutate("\"name\": \"main\"", "\"name\": \"" + std::string(100000, 'x') + "/\""));
+  CHECK(longName.find("cameras[0].name") != std::string::npos);
+  CHECK(longName.size() < 1200);
+  const std::string folder =
+      errorOf(mutate("\"resolution\": 128", "\"image\": \"" + fs::temp_directory_path().string() + "\""));
+  CHECK(folder.find("bodies[0].bump_map.image") != std::string::npos);
+  CHECK(folder.find("is a folder") != std::string::npos);
+}
+
 TEST_CASE("numbers too large for a double are rejected, not turned into infinity") {
   const std::string err = errorOf(mutate("\"position\": [0, -0.1, 0]", "\"position\": [0, 1e999, 0]"));
   CHECK(!err.empty());

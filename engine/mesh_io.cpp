@@ -1,7 +1,9 @@
 #include "engine/mesh_io.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -228,6 +230,20 @@ TriangleMesh loadGltf(const std::string& path) {
                            void*) { return true; },
                         nullptr);
   const bool binary = lower(fs::path(path).extension().string()) == ".glb";
+  {
+    // The format's own first bytes, before the whole file is read: binary glTF starts with "glTF", JSON with '{'.
+    std::ifstream in(path, std::ios::binary);
+    char head[4] = {0, 0, 0, 0};
+    in.read(head, 4);
+    if (binary && std::string(head, 4) != "glTF") throw MeshError(path + ": not a glTF binary (no 'glTF' magic)");
+    if (!binary) {
+      in.seekg(0);
+      char c = ' ';
+      while (in.get(c) && std::isspace(static_cast<unsigned char>(c))) {
+      }
+      if (c != '{') throw MeshError(path + ": not a glTF file (JSON must start with '{')");
+    }
+  }
   bool ok = false;
   try {
     ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
@@ -310,9 +326,19 @@ TriangleMesh loadObj(const std::string& path) {
       fail(std::string(what) + " index " + tok + " out of range (" + std::to_string(count) + " defined so far)");
     return resolved;
   };
-  while (std::getline(in, line)) {
+  // Lines are read with a bound: a 2 GB file of NUL bytes is refused at its first 100000 bytes.
+  auto nextLine = [&]() {
+    line.clear();
     ++lineNo;
-    if (line.size() > 100000) fail("line too long");
+    for (int c; (c = in.get()) != EOF;) {
+      if (c == '\n') return true;
+      if (c == '\0') fail("binary data (a NUL byte): not an OBJ text file");
+      if (line.size() >= 100000) fail("line too long");
+      line.push_back(static_cast<char>(c));
+    }
+    return !line.empty();
+  };
+  while (nextLine()) {
     const auto hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
     std::istringstream ls(line);
@@ -465,7 +491,12 @@ TriangleMesh loadWithOpenMesh(const std::string& path) {
 
 TriangleMesh loadMeshFile(const std::string& path) {
   std::error_code ec;
+  if (fs::is_directory(path, ec)) throw MeshError(path + ": is a folder, not a mesh file");
   if (!fs::is_regular_file(path, ec)) throw MeshError(path + ": no such file");
+  // The largest mesh crumple reads: larger files are refused before any is read (a body's mesh is drawn and
+  // deformed every step; gigabytes of it are a mistake, not a model).
+  constexpr std::uintmax_t kMaxBytes = std::uintmax_t(1) << 30;
+  if (fs::file_size(path, ec) > kMaxBytes) throw MeshError(path + ": larger than 1 GiB: refusing to load it");
   const std::string ext = lower(fs::path(path).extension().string());
   TriangleMesh m;
   if (ext == ".gltf" || ext == ".glb")

@@ -256,3 +256,25 @@ TEST_CASE("OBJ, OFF and broken OBJ through OpenMesh") {
           .string());
   CHECK(polyhedralMassProperties(rel).volume == doctest::Approx(1.0 / 6));
 }
+
+TEST_CASE("mesh files that are not what they claim are refused at once: NUL bytes, no glTF magic, over 1 GiB") {
+  auto errorOfMesh = [](const fs::path& p) {
+    try {
+      loadMeshFile(p.string());
+    } catch (const MeshError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string nul(1 << 20, '\0');  // 1 MB of NUL bytes
+  CHECK(errorOfMesh(tempFile("nul.obj", nul)).find("NUL byte") != std::string::npos);
+  CHECK(errorOfMesh(tempFile("nul.glb", nul)).find("no 'glTF' magic") != std::string::npos);
+  CHECK(errorOfMesh(tempFile("nul.gltf", nul)).find("not a glTF file") != std::string::npos);
+  CHECK(errorOfMesh(tempFile("long.obj", std::string(200000, 'v'))).find("line too long") != std::string::npos);
+  // A 2 GB file (sparse: no disk used) is refused by its size before anything is read.
+  const fs::path big = tempFile("big.obj", "v 0 0 0\n");
+  fs::resize_file(big, std::uintmax_t(2) << 30);
+  CHECK(errorOfMesh(big).find("larger than 1 GiB") != std::string::npos);
+  fs::remove(big);
+  CHECK(errorOfMesh(fs::temp_directory_path()).find("is a folder") != std::string::npos);
+}

@@ -1,5 +1,7 @@
 #include "engine/mesh_io.h"
 
+#include "engine/scene.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -422,14 +424,63 @@ void checkDeclaredCounts(const std::string& path, const std::string& ext) {
       }
     }
   } else {
+    // PLY: the whole header is checked here, strictly: OpenMesh's reader loops or crashes on a corrupted
+    // keyword or a missing end_header.
     std::string line;
-    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
+    bool ended = false;
+    auto bad = [&](int n, const std::string& why) {
+      throw MeshError(path + ": header line " + std::to_string(n) + ": " + why);
+    };
+    static const std::set<std::string> kTypes = {"char",  "uchar",  "short",   "ushort", "int",   "uint",
+                                                 "float", "double", "int8",    "uint8",  "int16", "uint16",
+                                                 "int32", "uint32", "float32", "float64"};
+    for (int n = 1; n <= 1000; ++n) {
+      if (!std::getline(in, line) || line.size() > 1000) bad(n, "unreadable or too long (a PLY header is text)");
+      if (!line.empty() && line.back() == '\r') line.pop_back();
       std::istringstream ls(line);
-      std::string tag, kind;
-      double count = 0;
-      if (ls >> tag >> kind >> count && tag == "element") (kind == "vertex" ? vertices : faces) += count;
-      if (line.rfind("end_header", 0) == 0) break;
+      std::string tag;
+      ls >> tag;
+      if (n == 1) {
+        if (tag != "ply") bad(n, "a PLY file starts with 'ply'");
+        continue;
+      }
+      if (tag == "end_header") {
+        ended = true;
+        break;
+      }
+      if (tag == "comment" || tag == "obj_info") continue;
+      if (tag == "format") {
+        std::string kind, version;
+        ls >> kind >> version;
+        if ((kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") || version != "1.0")
+          bad(n, "unknown format '" + capText(line, 60) + "'");
+      } else if (tag == "element") {
+        std::string kind, countText;
+        ls >> kind >> countText;
+        char* end = nullptr;
+        const double count = std::strtod(countText.c_str(), &end);
+        if (kind.empty() || countText.empty() || *end != '\0' || !(count >= 0) || count != std::floor(count))
+          bad(n, "an element needs a name and a count, got '" + capText(line, 60) + "'");
+        if (kind == "vertex")
+          vertices += count;
+        else if (kind == "face")
+          faces += count;
+      } else if (tag == "property") {
+        std::string type, a, b, name;
+        ls >> type;
+        if (type == "list") {
+          ls >> a >> b >> name;
+          if (!kTypes.count(a) || !kTypes.count(b) || name.empty())
+            bad(n, "bad list property '" + capText(line, 60) + "'");
+        } else {
+          ls >> name;
+          if (!kTypes.count(type) || name.empty()) bad(n, "bad property '" + capText(line, 60) + "'");
+        }
+      } else {
+        bad(n, "unknown keyword '" + capText(tag, 40) + "'");
+      }
     }
+    if (!ended) throw MeshError(path + ": no end_header in the first 1000 lines");
   }
   if (vertices < 0 || faces < 0 || vertices * 6 + faces * 4 > bytes * 2 + 64)
     throw MeshError(path + ": the header announces " + std::to_string(static_cast<long long>(vertices)) +

@@ -278,3 +278,27 @@ TEST_CASE("mesh files that are not what they claim are refused at once: NUL byte
   fs::remove(big);
   CHECK(errorOfMesh(fs::temp_directory_path()).find("is a folder") != std::string::npos);
 }
+
+TEST_CASE("PLY headers are checked strictly before OpenMesh reads them: corrupted keywords, no end_header") {
+  const std::string good =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 4\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  CHECK(loadMeshFile(tempFile("tet.ply", good).string()).triangles.size() == 4);
+  auto errorOfPly = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = good;
+    text.replace(text.find(from), from.size(), to);
+    try {
+      loadMeshFile(tempFile(name, text).string());
+    } catch (const MeshError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(errorOfPly("kw.ply", "element face", "elemXnt face").find("header line 7: unknown keyword") !=
+        std::string::npos);
+  CHECK(errorOfPly("end.ply", "end_header", "end_hXader").find("header line 9: unknown keyword") != std::string::npos);
+  CHECK(errorOfPly("noend.ply", "end_header\n", "").find("header line") != std::string::npos);
+  CHECK(errorOfPly("count.ply", "vertex 4", "vertex -4").find("needs a name and a count") != std::string::npos);
+  CHECK(errorOfPly("type.ply", "property float x", "property flaot x").find("bad property") != std::string::npos);
+}

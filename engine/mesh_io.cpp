@@ -1,8 +1,10 @@
 #include "engine/mesh_io.h"
 
+#include "core/log.h"
 #include "engine/scene.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -13,6 +15,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <unordered_set>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -540,6 +543,43 @@ TriangleMesh loadWithOpenMesh(const std::string& path) {
   return out;
 }
 
+namespace {
+// A face listed again (the same three corner positions, in any order) adds no surface: it is dropped, with a
+// warning. A million copies of one face made the atlas quadratic (every copy shares every edge).
+void removeDuplicateFaces(TriangleMesh& m, const std::string& path) {
+  struct Key {
+    std::array<float, 9> v;
+    bool operator==(const Key& o) const { return v == o.v; }
+  };
+  struct Hash {
+    size_t operator()(const Key& k) const {
+      size_t h = 1469598103934665603ull;
+      for (float f : k.v) {
+        uint32_t bits;
+        std::memcpy(&bits, &f, sizeof bits);
+        h = (h ^ bits) * 1099511628211ull;
+      }
+      return h;
+    }
+  };
+  std::unordered_set<Key, Hash> seen;
+  seen.reserve(m.triangles.size());
+  std::vector<glm::uvec3> kept;
+  kept.reserve(m.triangles.size());
+  for (const glm::uvec3& t : m.triangles) {
+    std::array<glm::vec3, 3> p = {m.positions[t.x], m.positions[t.y], m.positions[t.z]};
+    std::sort(p.begin(), p.end(), [](const glm::vec3& a, const glm::vec3& b) {
+      return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+    });
+    Key k{{p[0].x, p[0].y, p[0].z, p[1].x, p[1].y, p[1].z, p[2].x, p[2].y, p[2].z}};
+    if (seen.insert(k).second) kept.push_back(t);
+  }
+  if (kept.size() == m.triangles.size()) return;
+  logWarning(path, ": dropped ", m.triangles.size() - kept.size(), " duplicate faces");
+  m.triangles = std::move(kept);
+}
+}  // namespace
+
 TriangleMesh loadMeshFile(const std::string& path) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw MeshError(path + ": is a folder, not a mesh file");
@@ -558,6 +598,7 @@ TriangleMesh loadMeshFile(const std::string& path) {
     m = loadWithOpenMesh(path);
   else
     throw MeshError(path + ": unknown mesh format '" + ext + "' (expected .gltf, .glb, .obj, .off or .ply)");
+  removeDuplicateFaces(m, path);
   if (m.normals.size() != m.positions.size()) m.computeNormals();
   return m;
 }

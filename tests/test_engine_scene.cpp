@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 
@@ -301,4 +302,15 @@ TEST_CASE("PLY headers are checked strictly before OpenMesh reads them: corrupte
   CHECK(errorOfPly("noend.ply", "end_header\n", "").find("header line") != std::string::npos);
   CHECK(errorOfPly("count.ply", "vertex 4", "vertex -4").find("needs a name and a count") != std::string::npos);
   CHECK(errorOfPly("type.ply", "property float x", "property flaot x").find("bad property") != std::string::npos);
+}
+
+TEST_CASE("a mesh with a face repeated 200000 times loads at once, its copies dropped") {
+  std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  for (int i = 0; i < 200000; ++i) obj += i % 2 ? "f 1 3 2\n" : "f 3 2 1\n";
+  const auto t0 = std::chrono::steady_clock::now();
+  const TriangleMesh m = loadMeshFile(tempFile("dups.obj", obj).string());
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  CHECK(m.triangles.size() == 4);
+  CHECK(polyhedralMassProperties(m).volume == doctest::Approx(1.0 / 6));
+  MESSAGE("loaded in " << s << " s");
 }

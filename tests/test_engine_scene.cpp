@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "engine/atlas.h"
 #include "engine/mesh_io.h"
 #include "engine/scene.h"
 
@@ -313,4 +314,31 @@ TEST_CASE("a mesh with a face repeated 200000 times loads at once, its copies dr
   CHECK(m.triangles.size() == 4);
   CHECK(polyhedralMassProperties(m).volume == doctest::Approx(1.0 / 6));
   MESSAGE("loaded in " << s << " s");
+}
+
+TEST_CASE("OBJ vertex colours ('v x y z r g b') load and survive the automatic atlas") {
+  const std::string obj =
+      "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 0 0 1 0.5 0.5 0.5\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  const TriangleMesh m = loadMeshFile(tempFile("coloured.obj", obj).string());
+  REQUIRE(m.colors.size() == m.positions.size());
+  const TriangleMesh atlas = generateAtlas(m, 64);
+  REQUIRE(atlas.colors.size() == atlas.positions.size());
+  CHECK(checkAtlas(atlas, 64).oneToOne);
+  // Every corner keeps the colour of its position.
+  for (size_t i = 0; i < atlas.positions.size(); ++i) {
+    const glm::vec3 p = atlas.positions[i], c = atlas.colors[i];
+    const glm::vec3 expected = p == glm::vec3(1, 0, 0)   ? glm::vec3(0, 1, 0)
+                               : p == glm::vec3(0, 1, 0) ? glm::vec3(0, 0, 1)
+                               : p == glm::vec3(0, 0, 1) ? glm::vec3(0.5f)
+                                                         : glm::vec3(1, 0, 0);
+    CHECK(c == expected);
+  }
+  // Without colours there are none; a colour outside [0, 1] is an error naming the line.
+  CHECK(loadMeshFile(tempFile("plain.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").string()).colors.empty());
+  try {
+    loadMeshFile(tempFile("badcolour.obj", "v 0 0 0 2 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").string());
+    FAIL("expected a MeshError");
+  } catch (const MeshError& e) {
+    CHECK(std::string(e.what()).find("line 1: vertex colour outside [0, 1]") != std::string::npos);
+  }
 }

@@ -30,6 +30,10 @@ struct BodyDef {
   double restitution = 0.5;
   double friction = 0.5;
   bool isStatic = false;
+  // Moved, never pushed: keeps its velocities (or follows World::setKinematicTarget), infinite mass in
+  // every impulse, no gravity; it carries and pushes what it touches. Its mass properties are ignored.
+  bool kinematic = false;
+  int group = 0;  // collision group, 0..63 (World::setGroupsCollide)
 };
 
 struct RigidBody {
@@ -42,6 +46,9 @@ struct RigidBody {
   glm::dvec3 v{0}, w{0};
   double restitution = 0.5, friction = 0.5;
   bool isStatic = false;
+  bool kinematic = false;  // invMass and invInertiaBody are 0; never sleeps
+  bool removed = false;    // World::removeBody: takes part in nothing any more
+  int group = 0;
   bool asleep = false;
   double stillTime = 0;
 
@@ -53,6 +60,8 @@ struct RigidBody {
   }
   glm::dvec3 velocityAt(const glm::dvec3& p) const { return v + glm::cross(w, p - x); }
   bool movable() const { return !isStatic && !asleep; }
+  // Moved by impulses (not static, kinematic or asleep).
+  bool dynamic() const { return movable() && !kinematic; }
 };
 
 // Shape-frame point to world for a body at pose (x, q) with centre localCom.

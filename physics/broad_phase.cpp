@@ -2,7 +2,9 @@
 // samples may.
 //
 // Guarantees, after findPairs and findCandidates:
-// - ctx.pairs holds every pair of bodies (at least one movable) whose bounds,
+// - ctx.pairs holds every pair of bodies (at least one dynamic, or a moving
+//   kinematic body and a sleeping one) that may collide (mayCollide: groups,
+//   joints, the user's filter) and whose bounds,
 //   swept from the current pose to the predicted one and widened by a margin,
 //   overlap; sorted by (a, b), a < b, with no duplicates. A sleeping body in
 //   such a pair is woken.
@@ -19,6 +21,10 @@
 #include "physics/step_context.h"
 
 namespace crumple::detail {
+
+namespace {
+bool moving(const RigidBody& b) { return glm::dot(b.v, b.v) > 0 || glm::dot(b.w, b.w) > 0; }
+}  // namespace
 
 void findPairs(StepContext& ctx, double h) {
   const std::vector<RigidBody>& bodies = ctx.bodies;
@@ -77,7 +83,13 @@ void findPairs(StepContext& ctx, double h) {
       if (bj.lo.x > bi.hi.x) break;
       if (bj.lo.y > bi.hi.y || bi.lo.y > bj.hi.y || bj.lo.z > bi.hi.z || bi.lo.z > bj.hi.z) continue;
       const RigidBody& B = bodies[static_cast<size_t>(j)];
-      if (!A.movable() && !B.movable()) continue;
+      if (!A.dynamic() && !B.dynamic()) {
+        // Neither is pushed by anything: only a moving kinematic body reaching a sleeping one makes a pair (waking it).
+        const bool wakes = (A.kinematic && moving(A) && B.asleep && !B.kinematic) ||
+                           (B.kinematic && moving(B) && A.asleep && !A.kinematic);
+        if (!wakes) continue;
+      }
+      if (!mayCollide(ctx, i, j)) continue;
       if (A.asleep) wakeList.push_back(i);
       if (B.asleep) wakeList.push_back(j);
       pairKeys.push_back(static_cast<uint64_t>(std::min(i, j)) << 32 | static_cast<uint64_t>(std::max(i, j)));

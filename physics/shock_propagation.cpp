@@ -2,10 +2,12 @@
 // step's last groups.
 //
 // Guarantees:
-// - Levels: static and sleeping bodies are level 0; every other body touching
+// - Levels: static, kinematic and sleeping bodies are level 0; every other body touching
 //   one (through a pair with groups) is one more than the lowest level it
 //   touches (breadth-first, so cycles collapse into one level and it never
-//   loops); bodies touching nothing stay unlevelled and untouched.
+//   loops); bodies touching nothing stay unlevelled and untouched. Bodies
+//   joined by a joint (both dynamic) always share a level: an articulated
+//   body is one unit in the contact graph (Weinstein et al. 2006).
 // - Level by level from 1 up, with every lower level frozen (infinite mass):
 //   `shockPasses` Jacobi passes over the level's groups, each group's impulse
 //   computed from the same velocities and each body taking the mean of its
@@ -51,21 +53,44 @@ int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
   level.assign(n, -1);
   std::vector<int> queue;
   for (size_t i = 0; i < n; ++i) {
-    if (!ctx.bodies[i].movable()) {
+    if (!ctx.bodies[i].dynamic()) {
       level[i] = 0;
       queue.push_back(static_cast<int>(i));
     }
   }
+  // Articulated bodies (joined, both dynamic) act as one unit: a body's level
+  // goes at once to every body joined to it.
+  std::vector<std::vector<int>> joined;
+  for (const Joint& jt : ctx.joints) {
+    if (jt.removed || jt.broken || jt.def.a < 0) continue;
+    if (!ctx.body(jt.def.a).dynamic() || !ctx.body(jt.def.b).dynamic()) continue;
+    if (joined.empty()) joined.resize(n);
+    joined[static_cast<size_t>(jt.def.a)].push_back(jt.def.b);
+    joined[static_cast<size_t>(jt.def.b)].push_back(jt.def.a);
+  }
   int maxLevel = 0;
-  for (size_t head = 0; head < queue.size(); ++head) {
-    const int i = queue[head];
-    for (int j : adjacency[static_cast<size_t>(i)]) {
-      if (level[static_cast<size_t>(j)] < 0) {
-        level[static_cast<size_t>(j)] = level[static_cast<size_t>(i)] + 1;
-        maxLevel = std::max(maxLevel, level[static_cast<size_t>(j)]);
-        queue.push_back(j);
+  auto assign = [&](int j, int l) {
+    level[static_cast<size_t>(j)] = l;
+    maxLevel = std::max(maxLevel, l);
+    queue.push_back(j);
+    if (joined.empty()) return;
+    // The joined unit, depth first, all at level l.
+    std::vector<int> stack{j};
+    while (!stack.empty()) {
+      const int k = stack.back();
+      stack.pop_back();
+      for (int m : joined[static_cast<size_t>(k)]) {
+        if (level[static_cast<size_t>(m)] >= 0) continue;
+        level[static_cast<size_t>(m)] = l;
+        queue.push_back(m);
+        stack.push_back(m);
       }
     }
+  };
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int i = queue[head];
+    for (int j : adjacency[static_cast<size_t>(i)])
+      if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
   }
   return maxLevel;
 }

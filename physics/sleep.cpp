@@ -8,7 +8,8 @@
 //   pairs not involving a static body) fall asleep together, velocities
 //   zeroed, when every one has been still for sleepTime and the island rests
 //   on something (a pair with a static or sleeping body). A body in free
-//   flight never sleeps. Bodies wake in the broad phase (a pair with a
+//   flight never sleeps. Joined bodies are one island; kinematic bodies never
+//   sleep and join no island (one at rest supports like a static body). Bodies wake in the broad phase (a pair with a
 //   movable body) or through World::wake and the forces.
 #include <algorithm>
 #include <numeric>
@@ -16,6 +17,10 @@
 #include "physics/step_context.h"
 
 namespace crumple::detail {
+
+namespace {
+bool moving(const RigidBody& b) { return glm::dot(b.v, b.v) > 0 || glm::dot(b.w, b.w) > 0; }
+}  // namespace
 
 void updateSleep(StepContext& ctx, double h) {
   const WorldSettings& settings = ctx.settings;
@@ -41,15 +46,24 @@ void updateSleep(StepContext& ctx, double h) {
       x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
     return x;
   };
-  for (const Pair& p : ctx.pairs) {
-    if (bodies[static_cast<size_t>(p.a)].isStatic || bodies[static_cast<size_t>(p.b)].isStatic) continue;
-    const int ra = find(p.a), rb = find(p.b);
+  auto unite = [&](int a, int b) {
+    const int ra = find(a), rb = find(b);
     if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
+  };
+  auto fixedBody = [&](int i) { return bodies[static_cast<size_t>(i)].isStatic || bodies[static_cast<size_t>(i)].kinematic; };
+  for (const Pair& p : ctx.pairs) {
+    if (fixedBody(p.a) || fixedBody(p.b)) continue;
+    unite(p.a, p.b);
+  }
+  // Joined bodies sleep and wake together.
+  for (const Joint& jt : ctx.joints) {
+    if (jt.removed || jt.broken || jt.def.a < 0 || fixedBody(jt.def.a) || fixedBody(jt.def.b)) continue;
+    unite(jt.def.a, jt.def.b);
   }
   std::vector<char> islandStill(n, 1), supported(n, 0);
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = bodies[i];
-    if (b.isStatic) continue;
+    if (b.isStatic || b.kinematic) continue;
     if (b.movable() && b.stillTime < settings.sleepTime)
       islandStill[static_cast<size_t>(find(static_cast<int>(i)))] = 0;
   }
@@ -59,13 +73,13 @@ void updateSleep(StepContext& ctx, double h) {
   for (const Pair& p : ctx.pairs) {
     const RigidBody& A = bodies[static_cast<size_t>(p.a)];
     const RigidBody& B = bodies[static_cast<size_t>(p.b)];
-    if (!A.movable()) supported[static_cast<size_t>(find(p.b))] = 1;
-    if (!B.movable()) supported[static_cast<size_t>(find(p.a))] = 1;
+    if (!A.movable() || (A.kinematic && !moving(A))) supported[static_cast<size_t>(find(p.b))] = 1;
+    if (!B.movable() || (B.kinematic && !moving(B))) supported[static_cast<size_t>(find(p.a))] = 1;
   }
   for (size_t i = 0; i < n; ++i) {
     RigidBody& b = bodies[i];
     const size_t root = static_cast<size_t>(find(static_cast<int>(i)));
-    if (!b.movable() || !islandStill[root] || !supported[root]) continue;
+    if (!b.movable() || b.kinematic || !islandStill[root] || !supported[root]) continue;
     b.asleep = true;
     b.v = glm::dvec3(0);
     b.w = glm::dvec3(0);

@@ -8,9 +8,13 @@
 // The stages, one file each, in the order World::substep runs them:
 //   broad_phase.cpp        findPairs, findCandidates
 //   collision_step.cpp     collide           (narrow_phase.cpp finds the contacts)
-//   contact_step.cpp       integrateVelocities, contactStep
+//   contact_step.cpp       integrateVelocities
+//   joint_step.cpp         preStabilize      (joints: motors, limits, end-of-step targets)
+//   contact_step.cpp       contactStep
 //   shock_propagation.cpp  shockPropagation
+//   joint_step.cpp         preStabilize again (what the contacts moved)
 //   position_step.cpp      endOfStepDepths, integratePositions, projectPositions
+//   joint_step.cpp         postStabilize, breakJoints
 //   sleep.cpp              updateSleep
 // Each file opens with what its stage guarantees.
 #pragma once
@@ -25,6 +29,7 @@
 #include "physics/body.h"
 #include "physics/contact_groups.h"
 #include "physics/impulse.h"
+#include "physics/joint.h"
 #include "physics/world.h"
 
 namespace crumple::detail {
@@ -40,6 +45,22 @@ struct Pair {
   std::vector<uint32_t> bInA, aInB;
   Pose builtA, builtB;
   double builtMargin = -1;  // < 0: no lists yet
+};
+
+// A joint as the solver keeps it: its definition and what it keeps in the
+// bodies' frames (body axes about the centre of mass; for the world, a = -1,
+// world coordinates).
+struct Joint {
+  JointDef def;
+  bool removed = false, broken = false;
+  glm::dvec3 rA{0}, rB{0};        // anchors
+  glm::dvec3 axisA{0}, axisB{0};  // the axis (hinge, slider)
+  glm::dvec3 refA{0}, refB{0};    // a direction normal to the axis: the hinge angle's zero
+  glm::dquat rel0{1, 0, 0, 0};    // conj(qA) qB when added (fixed, slider)
+  double angle = 0;               // hinge: unwrapped angle at the end of the last substep
+  double length = 0, minLength = 0, maxLength = 0;  // distance
+  glm::dvec3 stepImpulse{0};      // linear impulse at the anchor over the step so far
+  double motorImpulse = 0;        // this substep's motor impulse (clamped to maxForce h)
 };
 
 // ---- helpers the stages share ------------------------------------------------
@@ -90,8 +111,15 @@ struct StepContext {
   World::NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
   double time = 0;
+  // Joints (index = id; removed ones stay as holes), what the filter keeps apart.
+  std::vector<Joint> joints;
+  std::vector<uint64_t> groupMasks = std::vector<uint64_t>(64, ~0ull);  // bit g of groupMasks[f]: f and g collide
+  std::vector<uint64_t> jointExcluded;  // sorted pair keys of bodies joined without collideConnected
+  bool jointExcludedDirty = false;
+  World::CollisionFilter filter;
   // What the last step produced (all its substeps).
   std::vector<CollisionEvent> events, contactReports;
+  std::vector<JointBreak> jointBreaks;
   StepStats stats;
 
   // Broad phase, kept between substeps: bounds per body, the sweep order, pair
@@ -136,12 +164,14 @@ struct StepContext {
 
   glm::dvec3 acceleration(int i) const {
     const RigidBody& b = bodies[static_cast<size_t>(i)];
+    if (b.kinematic) return glm::dvec3(0);
     return settings.gravity + force[static_cast<size_t>(i)] * b.invMass;
   }
   // Within a substep: the world inverse inertia is invInertia (orientations
   // stay put until the position update).
   glm::dvec3 angularAcceleration(int i) const {
     const RigidBody& b = bodies[static_cast<size_t>(i)];
+    if (b.kinematic) return glm::dvec3(0);
     const glm::dmat3 r = b.rotation();
     const glm::dvec3 l = r * (b.inertiaBody * (glm::transpose(r) * b.w));  // angular momentum
     return invInertia[static_cast<size_t>(i)] * (torque[static_cast<size_t>(i)] - glm::cross(b.w, l));
@@ -239,6 +269,12 @@ void integrateVelocities(StepContext& ctx, double h);
 void contactStep(StepContext& ctx, double h);
 // shock_propagation.cpp
 void shockPropagation(StepContext& ctx);
+// joint_step.cpp
+void preStabilize(StepContext& ctx, double h, int sweeps);
+void postStabilize(StepContext& ctx, double h);
+void breakJoints(StepContext& ctx, double h);
+// Whether bodies a and b may collide (groups, joints, the user's filter).
+bool mayCollide(StepContext& ctx, int a, int b);
 // position_step.cpp
 void endOfStepDepths(StepContext& ctx, double h);
 void integratePositions(StepContext& ctx, double h);

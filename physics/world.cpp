@@ -35,6 +35,9 @@ int World::addBody(const BodyDef& def) {
   b.restitution = def.restitution;
   b.friction = def.friction;
   b.isStatic = def.isStatic;
+  b.kinematic = def.kinematic && !def.isStatic;
+  if (def.group < 0 || def.group > 63) throw std::invalid_argument("collision group outside 0..63");
+  b.group = def.group;
   b.q = glm::normalize(def.orientation);
   const MassProperties& mp = def.shape->unitMass;
   b.localCom = mp.centerOfMass;
@@ -55,6 +58,11 @@ int World::addBody(const BodyDef& def) {
         throw std::invalid_argument("inertia is degenerate (a body too thin or too light)");
     b.v = def.linearVelocity;
     b.w = def.angularVelocity;
+    if (b.kinematic) {
+      // Infinite mass in every impulse; the mass stays for what reads it (reports).
+      b.invMass = 0;
+      b.invInertiaBody = glm::dmat3(0);
+    }
   }
   detail::StepContext& c = *ctx_;
   c.bodies.push_back(b);
@@ -75,20 +83,28 @@ const std::vector<CollisionEvent>& World::contactReports() const { return ctx_->
 const StepStats& World::lastStats() const { return ctx_->stats; }
 void World::setNormalModifier(NormalModifier modifier) { ctx_->normalModifier = std::move(modifier); }
 
+namespace {
+RigidBody& liveBody(detail::StepContext& c, int i) {
+  RigidBody& b = c.bodies.at(static_cast<size_t>(i));
+  if (b.removed) throw std::invalid_argument("body " + std::to_string(i) + " was removed");
+  return b;
+}
+}  // namespace
+
 void World::setVelocity(int i, const glm::dvec3& v) {
-  RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
+  RigidBody& b = liveBody(*ctx_, i);
   if (!finite(v)) throw std::invalid_argument("velocity is not finite");
   b.v = v;
   if (glm::dot(v, v) > 0) wake(i);
 }
 void World::setAngularVelocity(int i, const glm::dvec3& w) {
-  RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
+  RigidBody& b = liveBody(*ctx_, i);
   if (!finite(w)) throw std::invalid_argument("angular velocity is not finite");
   b.w = w;
   if (glm::dot(w, w) > 0) wake(i);
 }
 void World::setPose(int i, const Pose& pose) {
-  RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
+  RigidBody& b = liveBody(*ctx_, i);
   const glm::dquat& q = pose.orientation;
   if (!finite(pose.position) || !std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
       !std::isfinite(q.z))
@@ -99,12 +115,12 @@ void World::setPose(int i, const Pose& pose) {
   wake(i);
 }
 void World::setRestitution(int i, double restitution) {
-  RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
+  RigidBody& b = liveBody(*ctx_, i);
   if (!(restitution >= 0 && restitution <= 1)) throw std::invalid_argument("restitution outside [0, 1]");
   b.restitution = restitution;
 }
 void World::setFriction(int i, double friction) {
-  RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
+  RigidBody& b = liveBody(*ctx_, i);
   if (!(friction >= 0) || !std::isfinite(friction)) throw std::invalid_argument("friction must be >= 0");
   b.friction = friction;
 }
@@ -120,6 +136,198 @@ void World::setBumpNormals(int body, bool on) {
 }
 
 void World::wake(int i) { ctx_->wake(i); }
+
+void World::removeBody(int i) {
+  detail::StepContext& c = *ctx_;
+  RigidBody& b = liveBody(c, i);
+  b.removed = true;
+  b.isStatic = true;  // nothing moves it, it moves nothing
+  b.kinematic = false;
+  b.invMass = 0;
+  b.invInertiaBody = glm::dmat3(0);
+  b.v = b.w = glm::dvec3(0);
+  for (size_t j = 0; j < c.joints.size(); ++j)
+    if (!c.joints[j].removed && (c.joints[j].def.a == i || c.joints[j].def.b == i)) removeJoint(static_cast<int>(j));
+}
+
+// ---- joints -----------------------------------------------------------------
+
+const char* jointTypeName(JointType t) {
+  switch (t) {
+    case JointType::Ball:
+      return "ball";
+    case JointType::Hinge:
+      return "hinge";
+    case JointType::Slider:
+      return "slider";
+    case JointType::Fixed:
+      return "fixed";
+    case JointType::Distance:
+      return "distance";
+  }
+  return "?";
+}
+
+int World::addJoint(const JointDef& in) {
+  detail::StepContext& c = *ctx_;
+  JointDef d = in;
+  const int n = static_cast<int>(c.bodies.size());
+  auto bad = [](const std::string& why) { throw std::invalid_argument("joint: " + why); };
+  if (d.b < 0 || d.b >= n) bad("body b " + std::to_string(d.b) + " does not exist");
+  if (d.a < -1 || d.a >= n) bad("body a " + std::to_string(d.a) + " does not exist (-1 is the world)");
+  if (d.a == d.b) bad("a body cannot be joined to itself");
+  if ((d.a >= 0 && c.body(d.a).removed) || c.body(d.b).removed) bad("a joined body was removed");
+  if (!finite(d.anchor) || !finite(d.anchorA) || !finite(d.anchorB) || !finite(d.axis)) bad("a point or axis is not finite");
+  if (d.type == JointType::Hinge || d.type == JointType::Slider) {
+    if (!(glm::length(d.axis) > 1e-9)) bad("the axis is zero");
+    d.axis = glm::normalize(d.axis);
+  }
+  if (d.limited && !(d.lower <= d.upper)) bad("limits: lower is above upper");
+  if (!(d.breakImpulse >= 0)) bad("break impulse must be >= 0");
+  if (d.motor.enabled && (!(d.motor.maxForce >= 0) || !std::isfinite(d.motor.maxForce) || !std::isfinite(d.motor.speed)))
+    bad("motor: max force must be >= 0 and the speed finite");
+  detail::Joint jt;
+  const Pose pa = d.a < 0 ? Pose{} : Pose{c.body(d.a).x, c.body(d.a).q};
+  const Pose pb{c.body(d.b).x, c.body(d.b).q};
+  // World points and directions into each body's frame (about its centre of mass).
+  auto local = [](const Pose& p, int idx, const glm::dvec3& world) {
+    return idx < 0 ? world : glm::transpose(glm::mat3_cast(p.orientation)) * (world - p.position);
+  };
+  auto localDir = [](const Pose& p, int idx, const glm::dvec3& world) {
+    return idx < 0 ? world : glm::transpose(glm::mat3_cast(p.orientation)) * world;
+  };
+  if (d.type == JointType::Distance) {
+    jt.rA = local(pa, d.a, d.anchorA);
+    jt.rB = local(pb, d.b, d.anchorB);
+    const double start = glm::length(d.anchorB - d.anchorA);
+    if (d.minLength >= 0 || d.maxLength >= 0) {
+      if (!(d.minLength >= 0) || !(d.maxLength >= d.minLength) || !std::isfinite(d.maxLength))
+        bad("distance range needs 0 <= min <= max");
+      jt.minLength = d.minLength;
+      jt.maxLength = d.maxLength;
+      jt.length = std::clamp(start, d.minLength, d.maxLength);
+    } else {
+      if (d.length < 0) d.length = start;
+      if (!std::isfinite(d.length)) bad("length is not finite");
+      jt.length = jt.minLength = jt.maxLength = d.length;
+    }
+  } else {
+    jt.rA = local(pa, d.a, d.anchor);
+    jt.rB = local(pb, d.b, d.anchor);
+  }
+  const glm::dvec3 axis = glm::length(d.axis) > 1e-9 ? glm::normalize(d.axis) : glm::dvec3(0, 1, 0);
+  jt.axisA = localDir(pa, d.a, axis);
+  jt.axisB = localDir(pb, d.b, axis);
+  const glm::dvec3 helper = std::abs(axis.x) < 0.57 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+  const glm::dvec3 ref = glm::normalize(glm::cross(axis, helper));
+  jt.refA = localDir(pa, d.a, ref);
+  jt.refB = localDir(pb, d.b, ref);
+  jt.rel0 = glm::conjugate(pa.orientation) * pb.orientation;
+  jt.def = d;
+  c.joints.push_back(jt);
+  c.jointExcludedDirty = true;
+  if (d.a >= 0) c.wake(d.a);
+  c.wake(d.b);
+  return static_cast<int>(c.joints.size() - 1);
+}
+
+namespace {
+detail::Joint& jointAt(detail::StepContext& c, int j) {
+  detail::Joint& jt = c.joints.at(static_cast<size_t>(j));
+  if (jt.removed) throw std::invalid_argument("joint " + std::to_string(j) + " was removed");
+  return jt;
+}
+}  // namespace
+
+void World::removeJoint(int j) {
+  detail::Joint& jt = jointAt(*ctx_, j);
+  jt.removed = true;
+  ctx_->jointExcludedDirty = true;
+  if (jt.def.a >= 0) ctx_->wake(jt.def.a);
+  ctx_->wake(jt.def.b);
+}
+size_t World::jointCount() const { return ctx_->joints.size(); }
+bool World::jointRemoved(int j) const { return ctx_->joints.at(static_cast<size_t>(j)).removed; }
+const JointDef& World::jointDef(int j) const { return ctx_->joints.at(static_cast<size_t>(j)).def; }
+JointState World::jointState(int j) const {
+  const detail::Joint& jt = ctx_->joints.at(static_cast<size_t>(j));
+  JointState s;
+  s.broken = jt.broken;
+  s.impulse = glm::length(jt.stepImpulse);
+  s.angle = jt.angle;
+  const detail::StepContext& c = *ctx_;
+  const Pose pa = jt.def.a < 0 ? Pose{} : Pose{c.body(jt.def.a).x, c.body(jt.def.a).q};
+  const Pose pb{c.body(jt.def.b).x, c.body(jt.def.b).q};
+  const glm::dvec3 wa = jt.def.a < 0 ? jt.rA : pa.position + glm::mat3_cast(pa.orientation) * jt.rA;
+  const glm::dvec3 wb = pb.position + glm::mat3_cast(pb.orientation) * jt.rB;
+  if (jt.def.type == JointType::Slider) {
+    const glm::dvec3 axis = jt.def.a < 0 ? jt.axisA : glm::mat3_cast(pa.orientation) * jt.axisA;
+    s.offset = glm::dot(wb - wa, axis);
+  } else if (jt.def.type == JointType::Distance) {
+    s.offset = glm::length(wb - wa);
+  }
+  return s;
+}
+void World::setJointMotor(int j, const JointMotor& motor) {
+  detail::Joint& jt = jointAt(*ctx_, j);
+  if (motor.enabled && (!(motor.maxForce >= 0) || !std::isfinite(motor.maxForce) || !std::isfinite(motor.speed)))
+    throw std::invalid_argument("joint motor: max force must be >= 0 and the speed finite");
+  jt.def.motor = motor;
+  if (jt.def.a >= 0) ctx_->wake(jt.def.a);
+  ctx_->wake(jt.def.b);
+}
+const std::vector<JointBreak>& World::jointBreaks() const { return ctx_->jointBreaks; }
+
+// ---- kinematic bodies, filters, snapshots -----------------------------------
+
+void World::setKinematicTarget(int i, const Pose& target, double h) {
+  RigidBody& b = liveBody(*ctx_, i);
+  if (!b.kinematic) throw std::invalid_argument("body " + std::to_string(i) + " is not kinematic");
+  const glm::dquat& q = target.orientation;
+  if (!finite(target.position) || !std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+      !std::isfinite(q.z) || !(glm::dot(q, q) > 0))
+    throw std::invalid_argument("kinematic target is not a finite pose");
+  if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
+  b.v = (target.position - b.x) / h;
+  glm::dquat d = glm::normalize(q) * glm::conjugate(b.q);
+  if (d.w < 0) d = -d;
+  const glm::dvec3 axis(d.x, d.y, d.z);
+  const double s = glm::length(axis);
+  b.w = s < 1e-15 ? glm::dvec3(0) : axis * (2 * std::atan2(s, d.w) / (s * h));
+}
+
+void World::setGroup(int i, int group) {
+  RigidBody& b = liveBody(*ctx_, i);
+  if (group < 0 || group > 63) throw std::invalid_argument("collision group outside 0..63");
+  b.group = group;
+}
+void World::setGroupsCollide(int ga, int gb, bool collide) {
+  if (ga < 0 || ga > 63 || gb < 0 || gb > 63) throw std::invalid_argument("collision group outside 0..63");
+  std::vector<uint64_t>& m = ctx_->groupMasks;
+  if (collide) {
+    m[static_cast<size_t>(ga)] |= 1ull << gb;
+    m[static_cast<size_t>(gb)] |= 1ull << ga;
+  } else {
+    m[static_cast<size_t>(ga)] &= ~(1ull << gb);
+    m[static_cast<size_t>(gb)] &= ~(1ull << ga);
+  }
+}
+void World::setCollisionFilter(CollisionFilter filter) { ctx_->filter = std::move(filter); }
+
+WorldSnapshot::WorldSnapshot() = default;
+WorldSnapshot::~WorldSnapshot() = default;
+WorldSnapshot::WorldSnapshot(const WorldSnapshot&) = default;
+WorldSnapshot& WorldSnapshot::operator=(const WorldSnapshot&) = default;
+
+WorldSnapshot World::snapshot() const {
+  WorldSnapshot s;
+  s.state_ = std::make_shared<const detail::StepContext>(*ctx_);
+  return s;
+}
+void World::restore(const WorldSnapshot& s) {
+  if (!s.state_) throw std::invalid_argument("empty snapshot");
+  *ctx_ = *s.state_;
+}
 
 void World::addForce(int i, const glm::dvec3& f) {
   if (!finite(f)) throw std::invalid_argument("force is not finite");
@@ -148,6 +356,11 @@ uint64_t World::stateHash() const {
     mix(&b.q, sizeof b.q);
     mix(&b.v, sizeof b.v);
     mix(&b.w, sizeof b.w);
+  }
+  for (const auto& j : ctx_->joints) {
+    mix(&j.broken, sizeof j.broken);
+    mix(&j.removed, sizeof j.removed);
+    mix(&j.angle, sizeof j.angle);
   }
   return h;
 }
@@ -184,11 +397,17 @@ void World::substep(double h) {
   clock.lap(ms.collide);
   // 2. velocities, 3. contact with the restitution ramp
   detail::integrateVelocities(c, h);
+  clock.lap(ms.contact);
+  detail::preStabilize(c, h, c.settings.jointIterations);
+  clock.lap(ms.joints);
   detail::contactStep(c, h);
   clock.lap(ms.contact);
   // 4. shock propagation
   detail::shockPropagation(c);
   clock.lap(ms.shockPropagation);
+  // Joints again: the contacts and shock propagation moved the velocities.
+  detail::preStabilize(c, h, c.settings.jointIterations);
+  clock.lap(ms.joints);
   // 5. positions, then the positional projection
   c.stepStart.resize(c.bodies.size());
   for (size_t i = 0; i < c.bodies.size(); ++i) c.stepStart[i] = {c.bodies[i].x, c.bodies[i].q};
@@ -196,6 +415,9 @@ void World::substep(double h) {
   detail::integratePositions(c, h);
   detail::projectPositions(c);
   clock.lap(ms.positions);
+  detail::postStabilize(c, h);
+  detail::breakJoints(c, h);
+  clock.lap(ms.joints);
   // 6. sleeping
   detail::updateSleep(c, h);
   clock.lap(ms.sleep);
@@ -208,6 +430,8 @@ void World::step(double h) {
   detail::StepContext& c = *ctx_;
   c.events.clear();
   c.contactReports.clear();
+  c.jointBreaks.clear();
+  for (detail::Joint& jt : c.joints) jt.stepImpulse = glm::dvec3(0);
   c.reportContacts.resize(c.bodies.size(), 0);
   if (!c.bumpNormals.empty()) c.bumpNormals.resize(c.bodies.size(), 0);
   c.stats = {};

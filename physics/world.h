@@ -13,6 +13,15 @@
 //                  projection removes what penetration is left (no velocity change)
 //   6. sleeping:   islands whose bodies all stayed still for `sleepTime` freeze
 //
+// Joints (physics/joint.h; Weinstein, Teran & Fedkiw 2006) join the step as
+// impulses: after 2, pre-stabilisation finds for each joint the impulse that
+// makes it hold at the end of the step (motors and limits first), swept
+// Gauss-Seidel until the largest violation is under `jointTolerance`; again
+// after 4 for what the contacts moved; after 5, post-stabilisation removes the
+// relative velocity each joint forbids. A joint whose linear impulse over a
+// step passes its breakImpulse breaks. Kinematic bodies move with their
+// velocities and weigh infinitely much in every impulse.
+//
 // Steps are split into substeps when a body would move more than a fraction of
 // the thinnest body's half thickness (no tunnelling; see `maxSubsteps`).
 // Everything runs single-threaded in a fixed order: the same input gives
@@ -30,6 +39,7 @@
 
 #include "physics/body.h"
 #include "physics/impulse.h"
+#include "physics/joint.h"
 
 namespace crumple {
 
@@ -59,6 +69,12 @@ struct WorldSettings {
   double sleepLinear = 0.05;   // m/s
   double sleepAngular = 0.08;  // rad/s
   double sleepTime = 0.5;      // s
+  // Joints: pre-stabilisation sweeps at most (each a Newton step per joint),
+  // until every joint's predicted violation is under the tolerance; then
+  // post-stabilisation sweeps over the velocities.
+  int jointIterations = 30;
+  double jointTolerance = 1e-6;  // m, and rad for the angular parts
+  int jointPostIterations = 8;
 };
 
 struct CollisionEvent {
@@ -99,6 +115,7 @@ struct StepProfile {
   double shockPropagation = 0;  // levels from the static bodies up
   double positions = 0;         // position update and positional projection
   double sleep = 0;             // stillness and islands
+  double joints = 0;            // pre- and post-stabilisation
   double total = 0;             // the whole step
 };
 
@@ -108,12 +125,27 @@ struct StepStats {
   int collisions = 0;
   int contacts = 0;
   int awake = 0;
+  int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
   StepProfile ms;
 };
 
 namespace detail {
 struct StepContext;
 }
+
+// The whole state of a World (bodies, joints, filters, the caches kept between
+// steps): World::restore(snapshot) and the same steps give bit-identical states.
+class WorldSnapshot {
+ public:
+  WorldSnapshot();
+  ~WorldSnapshot();
+  WorldSnapshot(const WorldSnapshot&);
+  WorldSnapshot& operator=(const WorldSnapshot&);
+
+ private:
+  friend class World;
+  std::shared_ptr<const detail::StepContext> state_;
+};
 
 class World {
  public:
@@ -122,7 +154,43 @@ class World {
   World(World&&) noexcept;
   World& operator=(World&&) noexcept;
   int addBody(const BodyDef& def);  // throws std::invalid_argument on bad input (NaN, non-positive mass)
+  // The body stops taking part in anything (no motion, no collisions) and its
+  // joints are removed. Its index stays taken (other indices do not move) and
+  // bodies()[i].removed says so; body setters on it throw std::invalid_argument.
+  void removeBody(int i);
   void step(double h);
+
+  // Joints (physics/joint.h). addJoint throws std::invalid_argument on bad
+  // input (an unknown body, a = b, a zero axis, lower > upper, a negative
+  // breakImpulse or minLength > maxLength, a motor with negative maxForce) and
+  // returns the joint's id. removeJoint frees it for good (ids are not reused).
+  int addJoint(const JointDef& def);
+  void removeJoint(int joint);
+  size_t jointCount() const;  // ids handed out, removed ones included
+  bool jointRemoved(int joint) const;
+  const JointDef& jointDef(int joint) const;  // as added (axis normalised; a distance joint's length filled in)
+  JointState jointState(int joint) const;
+  void setJointMotor(int joint, const JointMotor& motor);
+  // Joints that broke in the last step.
+  const std::vector<JointBreak>& jointBreaks() const;
+
+  // Kinematic bodies (BodyDef::kinematic): sets the velocities that take body i
+  // to `target` (centre of mass) over the next step of h; keyframed paths call
+  // it every step.
+  void setKinematicTarget(int i, const Pose& target, double h);
+
+  // Collision filtering: two bodies collide unless their groups (0..63) are
+  // set apart, a joint without collideConnected joins them, or the filter
+  // (when set) returns false for them. The filter is asked once per pair whose
+  // bounds overlap in a substep; it must be a pure function of (a, b).
+  void setGroup(int i, int group);
+  void setGroupsCollide(int groupA, int groupB, bool collide);
+  using CollisionFilter = std::function<bool(int a, int b)>;
+  void setCollisionFilter(CollisionFilter filter);
+
+  // Save and restore everything (WorldSnapshot).
+  WorldSnapshot snapshot() const;
+  void restore(const WorldSnapshot& snapshot);
 
   const std::vector<RigidBody>& bodies() const;
   const RigidBody& body(int i) const;  // throws std::out_of_range for a bad index

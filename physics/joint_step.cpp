@@ -17,7 +17,7 @@
 //
 // Guarantees:
 // - preStabilize: motors first (velocity targets; the impulse over a substep is
-//   at most maxForce h), then each joint's rows are solved for the impulse that
+//   at most maxForce h, over both calls of the substep), then each joint's rows are solved for the impulse that
 //   makes the joint hold at the end of the substep, at the poses the position
 //   update will reach with the velocities (x + h v, q integrated from omega):
 //   a Newton step on the linearisation per joint and sweep, Gauss-Seidel over
@@ -28,6 +28,9 @@
 // - postStabilize (after the positions): the relative velocity each joint
 //   forbids is removed (limits: only the part that leaves the range),
 //   `jointPostIterations` sweeps; then every hinge's unwrapped angle is updated.
+// - projectJoints (in the position step's projection, after each iteration over
+//   the contacts): one Gauss-Seidel sweep that translates each joint's bodies,
+//   split by inverse mass, to close its anchor gap (the part the joint forbids).
 // - breakJoints: a joint whose linear impulse summed over the step so far passes
 //   its breakImpulse is broken (one JointBreak) and enforces nothing from the
 //   next substep on.
@@ -374,10 +377,12 @@ void wakeJoined(StepContext& ctx) {
 
 }  // namespace
 
-void preStabilize(StepContext& ctx, double h, int sweeps) {
+void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
   if (ctx.joints.empty()) return;
-  wakeJoined(ctx);
-  for (Joint& jt : ctx.joints) jt.motorImpulse = 0;
+  if (first) {
+    wakeJoined(ctx);
+    for (Joint& jt : ctx.joints) jt.motorImpulse = 0;  // the motor's budget is per substep
+  }
   for (int s = 0; s < sweeps; ++s) {
     double worst = 0;
     for (Joint& jt : ctx.joints) {
@@ -402,6 +407,36 @@ void postStabilize(StepContext& ctx, double h) {
     if (jt.removed || jt.broken || jt.def.type != JointType::Hinge) continue;
     const Side a = sideOf(ctx, jt.def.a, h), b = sideOf(ctx, jt.def.b, h);
     jt.angle += wrapAngle(hingeAngle(jt, a.pose, b.pose) - wrapAngle(jt.angle));
+  }
+}
+
+void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved) {
+  for (Joint& jt : ctx.joints) {
+    if (!active(ctx, jt)) continue;
+    const JointDef& d = jt.def;
+    const double wa = d.a >= 0 && ctx.body(d.a).dynamic() ? ctx.body(d.a).invMass : 0;
+    const double wb = ctx.body(d.b).dynamic() ? ctx.body(d.b).invMass : 0;
+    if (wa + wb <= 0) continue;
+    const Side a = sideOf(ctx, d.a, 0), b = sideOf(ctx, d.b, 0);
+    glm::dvec3 e = pointOf(b.pose, jt.rB, d.b) - pointOf(a.pose, jt.rA, d.a);
+    if (d.type == JointType::Slider) {
+      const glm::dvec3 axis = glm::normalize(dirOf(a.pose, jt.axisA, d.a));
+      e -= glm::dot(e, axis) * axis;
+    } else if (d.type == JointType::Distance) {
+      const double len = glm::length(e);
+      if (len < 1e-9) continue;
+      const double target = std::clamp(len, jt.minLength, jt.maxLength);
+      e *= (len - target) / len;
+    }
+    const glm::dvec3 da = e * (wa / (wa + wb)), db = -e * (wb / (wa + wb));
+    if (wa > 0) {
+      ctx.body(d.a).x += da;
+      moved[static_cast<size_t>(d.a)] += da;
+    }
+    if (wb > 0) {
+      ctx.body(d.b).x += db;
+      moved[static_cast<size_t>(d.b)] += db;
+    }
   }
 }
 

@@ -13,7 +13,8 @@
 //   depth beyond `penetrationSlop`, split by inverse mass. Translations only:
 //   no velocity changes, except that a group still approaching at the first
 //   iteration loses its approach (an inelastic, frictionless normal impulse;
-//   it never adds energy).
+//   it never adds energy). Each iteration ends with projectJoints: what it
+//   moved apart, the joints' anchors, is brought together again (translations).
 #include "physics/step_context.h"
 
 namespace crumple::detail {
@@ -73,6 +74,9 @@ void projectPositions(StepContext& ctx) {
         moved[ib] += c.normal * corr * wb;
       }
     }
+    // The translations above pulled joined bodies apart: the joints' anchors
+    // are brought together again, translations only (joint_step.cpp).
+    projectJoints(ctx, moved);
   }
 }
 

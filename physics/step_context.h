@@ -270,9 +270,10 @@ void contactStep(StepContext& ctx, double h);
 // shock_propagation.cpp
 void shockPropagation(StepContext& ctx);
 // joint_step.cpp
-void preStabilize(StepContext& ctx, double h, int sweeps);
+void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
 void breakJoints(StepContext& ctx, double h);
+void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved);
 // Whether bodies a and b may collide (groups, joints, the user's filter).
 bool mayCollide(StepContext& ctx, int a, int b);
 // position_step.cpp

@@ -398,7 +398,7 @@ void World::substep(double h) {
   // 2. velocities, 3. contact with the restitution ramp
   detail::integrateVelocities(c, h);
   clock.lap(ms.contact);
-  detail::preStabilize(c, h, c.settings.jointIterations);
+  detail::preStabilize(c, h, c.settings.jointIterations, true);
   clock.lap(ms.joints);
   detail::contactStep(c, h);
   clock.lap(ms.contact);
@@ -406,7 +406,7 @@ void World::substep(double h) {
   detail::shockPropagation(c);
   clock.lap(ms.shockPropagation);
   // Joints again: the contacts and shock propagation moved the velocities.
-  detail::preStabilize(c, h, c.settings.jointIterations);
+  detail::preStabilize(c, h, c.settings.jointIterations, false);
   clock.lap(ms.joints);
   // 5. positions, then the positional projection
   c.stepStart.resize(c.bodies.size());

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
+#include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "physics/world.h"
@@ -18,13 +20,6 @@ using namespace crumple::test;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-double anchorGap(const World& w, int joint) {
-  // The distance between the two bodies' copies of the anchor.
-  const JointDef& d = w.jointDef(joint);
-  (void)d;
-  return w.jointState(joint).offset;
-}
 
 // World position of a body-frame point given relative to the centre of mass at creation.
 glm::dvec3 pointOnBody(const World& w, int body, const glm::dvec3& localFromCom) {
@@ -136,4 +131,497 @@ TEST_CASE("joints: a chain of 20 links hanging from one end stays joined, and so
     CHECK(worst < 0.005);
     CHECK(std::isfinite(t.body(body.back()).x.y));
   }
+}
+
+namespace {
+
+// A door: a 1 x 2 x 0.05 m box hinged to the world about y along its left edge (x = 0).
+struct Door {
+  int body, joint;
+};
+Door addDoor(PhysicsTestContext& t, bool limited, double lo, double hi) {
+  BodyDef d;
+  d.shape = makeBox({1, 2, 0.05});
+  d.origin = {0.5, 1.5, 0};
+  d.mass = 20;
+  Door door;
+  door.body = t.world().addBody(d);
+  JointDef j;
+  j.type = JointType::Hinge;
+  j.b = door.body;
+  j.anchor = {0, 1.5, 0};
+  j.axis = {0, 1, 0};
+  j.limited = limited;
+  j.lower = lo;
+  j.upper = hi;
+  door.joint = t.world().addJoint(j);
+  return door;
+}
+
+}  // namespace
+
+TEST_CASE("joints: hinge limits hold against a push, and the door turns only about its axis") {
+  PhysicsTestContext t;
+  const double lo = -30 * kPi / 180, hi = 45 * kPi / 180;
+  const Door door = addDoor(t, true, lo, hi);
+  double maxAngle = -1e9, minAngle = 1e9, maxTilt = 0;
+  for (int s = 0; s < 4 * 240; ++s) {
+    const double push = s < 2 * 240 ? 200.0 : -200.0;  // N m about y: open, then close
+    t.world().addTorque(door.body, {0, push, 0});
+    t.world().step(t.stepSize());
+    const double a = t.world().jointState(door.joint).angle;
+    maxAngle = std::max(maxAngle, a);
+    minAngle = std::min(minAngle, a);
+    const glm::dvec3 up = t.body(door.body).rotation() * glm::dvec3(0, 1, 0);
+    maxTilt = std::max(maxTilt, std::acos(std::min(1.0, up.y)));
+  }
+  MESSAGE("hinge angle in [" << minAngle * 180 / kPi << ", " << maxAngle * 180 / kPi << "] degrees, tilt "
+                             << maxTilt * 180 / kPi);
+  CHECK(maxAngle > hi - 0.01);  // it did reach the stops
+  CHECK(minAngle < lo + 0.01);
+  CHECK(maxAngle < hi + 0.5 * kPi / 180);
+  CHECK(minAngle > lo - 0.5 * kPi / 180);
+  CHECK(maxTilt < 0.1 * kPi / 180);
+  // The hinge pin stays where it was (the door's edge at the anchor).
+  const glm::dvec3 pin = pointOnBody(t.world(), door.body, {-0.5, 0, 0});
+  CHECK(glm::length(pin - glm::dvec3(0, 1.5, 0)) < 0.001);
+}
+
+TEST_CASE("joints: a hinge motor reaches its speed within its torque") {
+  PhysicsTestContext t;
+  // A flywheel (box 0.6 x 0.6 x 0.1) on a horizontal axle through its centre.
+  BodyDef d;
+  d.shape = makeBox({0.6, 0.6, 0.1});
+  d.origin = {0, 2, 0};
+  d.mass = 10;
+  const int wheel = t.world().addBody(d);
+  JointDef j;
+  j.type = JointType::Hinge;
+  j.b = wheel;
+  j.anchor = {0, 2, 0};
+  j.axis = {0, 0, 1};
+  j.motor = {true, 2 * kPi, 3.0};  // one turn a second, at most 3 N m
+  const int joint = t.world().addJoint(j);
+  const double I = t.body(wheel).inertiaBody[2][2];
+  const double alpha = 3.0 / I, rampTime = 2 * kPi / alpha;
+  MESSAGE("I = " << I << " kg m^2, the motor needs " << rampTime << " s to reach its speed");
+  const int rampSteps = static_cast<int>(0.5 * rampTime * 240);
+  for (int s = 0; s < rampSteps; ++s) t.world().step(t.stepSize());
+  // Halfway, the spin is what the maximum torque gives (not more).
+  const double halfway = t.body(wheel).w.z;
+  CHECK(halfway == doctest::Approx(alpha * rampSteps * t.stepSize()).epsilon(0.02));
+  for (int s = 0; s < 2 * rampSteps + 240; ++s) t.world().step(t.stepSize());
+  CHECK(t.body(wheel).w.z == doctest::Approx(2 * kPi).epsilon(0.01));
+  CHECK(t.world().jointState(joint).angle > 2 * kPi);  // the angle unwraps past a turn
+  CHECK(glm::length(t.body(wheel).x - glm::dvec3(0, 2, 0)) < 0.001);
+}
+
+TEST_CASE("joints: slider limits hold and the slider does not turn") {
+  PhysicsTestContext t;
+  BodyDef d;
+  d.shape = makeBox({0.3, 0.3, 0.3});
+  d.origin = {0, 1, 0};
+  d.mass = 5;
+  const int box = t.world().addBody(d);
+  JointDef j;
+  j.type = JointType::Slider;
+  j.b = box;
+  j.anchor = {0, 1, 0};
+  j.axis = {1, 0, 0};
+  j.limited = true;
+  j.lower = -0.2;
+  j.upper = 0.3;
+  const int joint = t.world().addJoint(j);
+  double maxOffset = -1, minOffset = 1, maxOff = 0, maxTurn = 0;
+  for (int s = 0; s < 3 * 240; ++s) {
+    t.world().addForceAtPoint(box, {s < 360 ? 100.0 : -100.0, 0, 30}, t.body(box).x + glm::dvec3(0, 0.15, 0));
+    t.world().step(t.stepSize());
+    const double o = t.world().jointState(joint).offset;
+    maxOffset = std::max(maxOffset, o);
+    minOffset = std::min(minOffset, o);
+    maxOff = std::max(maxOff, std::hypot(t.body(box).x.y - 1, t.body(box).x.z));
+    maxTurn = std::max(maxTurn, 2 * std::acos(std::min(1.0, std::abs(t.body(box).q.w))));
+  }
+  MESSAGE("slider offset in [" << minOffset << ", " << maxOffset << "] m, off axis " << maxOff << " m");
+  CHECK(maxOffset > 0.29);
+  CHECK(minOffset < -0.19);
+  CHECK(maxOffset < 0.301);
+  CHECK(minOffset > -0.201);
+  CHECK(maxOff < 0.001);
+  CHECK(maxTurn < 0.001);
+}
+
+TEST_CASE("joints: a distance joint with min 0 is a rope: slack when pushed in, taut at its length") {
+  PhysicsTestContext t;
+  const int ball = t.addSphere(0.1, {0.5, 3, 0}, 0.5, 0.5);
+  JointDef j;
+  j.type = JointType::Distance;
+  j.b = ball;
+  j.anchorA = {0, 3, 0};
+  j.anchorB = {0.5, 3, 0};
+  j.minLength = 0;
+  j.maxLength = 1.0;
+  const int joint = t.world().addJoint(j);
+  t.world().setVelocity(ball, {0, 3, 0});  // thrown up: the rope goes slack
+  double maxLen = 0, minLen = 10;
+  for (int s = 0; s < 3 * 240; ++s) {
+    t.world().step(t.stepSize());
+    const double l = t.world().jointState(joint).offset;
+    maxLen = std::max(maxLen, l);
+    minLen = std::min(minLen, l);
+  }
+  CHECK(minLen < 0.6);  // it came closer than its start: slack
+  CHECK(maxLen < 1.0 + 0.002);
+  CHECK(maxLen > 0.999);  // and then hung from it
+}
+
+TEST_CASE("joints: a weld breaks in the step whose impulse passes its threshold, and holds below it") {
+  // A sign welded to the world is hit by a ball. A first run with an unbreakable
+  // weld records the joint's impulse step by step.
+  auto build = [](PhysicsTestContext& t, double breakImpulse, int& joint) {
+    BodyDef d;
+    d.shape = makeBox({0.6, 0.4, 0.05});
+    d.origin = {0, 2, 0};
+    d.mass = 4;
+    const int sign = t.world().addBody(d);
+    JointDef j;
+    j.type = JointType::Fixed;
+    j.b = sign;
+    j.anchor = {0, 2.2, 0};
+    j.breakImpulse = breakImpulse;
+    joint = t.world().addJoint(j);
+    const int ball = t.addSphere(0.1, {0, 2, -1}, 0.5, 0.8, 7800);
+    t.world().setVelocity(ball, {0, 4.9 * 0.2, 6});  // arrives at the sign
+    return sign;
+  };
+  std::vector<double> impulses;
+  {
+    PhysicsTestContext t;
+    int joint;
+    build(t, std::numeric_limits<double>::infinity(), joint);
+    for (int s = 0; s < 240; ++s) {
+      t.world().step(t.stepSize());
+      impulses.push_back(t.world().jointState(joint).impulse);
+      CHECK(t.world().jointBreaks().empty());
+    }
+  }
+  const auto peak = std::max_element(impulses.begin(), impulses.end());
+  const double holding = 4 * 9.81 / 240;
+  MESSAGE("peak joint impulse " << *peak << " N s (holding the sign: " << holding << " N s a step)");
+  REQUIRE(*peak > 20 * holding);  // the hit, far above the sign's weight
+  for (double fraction : {1.001, 0.9, 0.5}) {
+    CAPTURE(fraction);
+    const double threshold = *peak * fraction;
+    int firstOver = -1;
+    for (size_t s = 0; s < impulses.size() && firstOver < 0; ++s)
+      if (impulses[s] > threshold) firstOver = static_cast<int>(s);
+    PhysicsTestContext t;
+    int joint;
+    build(t, threshold, joint);
+    int brokeAt = -1;
+    for (int s = 0; s < 240; ++s) {
+      t.world().step(t.stepSize());
+      if (!t.world().jointBreaks().empty()) {
+        CHECK(brokeAt < 0);
+        brokeAt = s;
+        CHECK(t.world().jointBreaks()[0].joint == joint);
+        // The break comes at the substep that passes the threshold: the impulse so far in the step.
+        CHECK(t.world().jointBreaks()[0].impulse > threshold);
+        CHECK(t.world().jointBreaks()[0].impulse <= impulses[static_cast<size_t>(s)] * (1 + 1e-12));
+      }
+    }
+    CHECK(brokeAt == firstOver);
+    CHECK(t.world().jointState(joint).broken == (firstOver >= 0));
+  }
+}
+
+TEST_CASE("kinematic: a moving platform carries a box by friction and is never pushed") {
+  PhysicsTestContext t;
+  t.addGround();
+  BodyDef p;
+  p.shape = makeBox({6, 0.2, 2});
+  p.origin = {0, 0.5, 0};
+  p.kinematic = true;
+  p.linearVelocity = {1, 0, 0};
+  p.friction = 0.8;
+  const int platform = t.world().addBody(p);
+  const int box = t.addBox({0.4, 0.4, 0.4}, {-1, 0.8, 0}, 0.8, 0.0, 500);
+  for (int s = 0; s < 2 * 240; ++s) t.world().step(t.stepSize());
+  CHECK(t.body(platform).v == glm::dvec3(1, 0, 0));
+  CHECK(t.body(platform).x.y == doctest::Approx(0.5));
+  CHECK(t.body(platform).x.x == doctest::Approx(2.0).epsilon(1e-9));
+  CHECK(t.body(box).v.x == doctest::Approx(1.0).epsilon(0.02));
+  CHECK(t.body(box).x.x - (-1) == doctest::Approx(2.0).epsilon(0.05));  // it rode along
+  CHECK(t.body(box).x.y == doctest::Approx(0.8).epsilon(0.01));         // on top, not through
+}
+
+TEST_CASE("kinematic: a turning paddle pushes boxes and is not pushed back; a keyframed target is reached") {
+  PhysicsTestContext t;
+  t.addGround();
+  BodyDef p;
+  p.shape = makeBox({3, 0.5, 0.1});
+  p.origin = {1.5, 0.25, 0};
+  p.kinematic = true;
+  const int paddle = t.world().addBody(p);
+  std::vector<int> boxes;
+  std::vector<glm::dvec3> start;
+  for (int i = 0; i < 3; ++i) {
+    boxes.push_back(t.addBox({0.3, 0.3, 0.3}, {0.8 + 0.7 * i, 0.15, 0.4}, 0.4, 0.0));
+    start.push_back(t.body(boxes.back()).x);
+  }
+  // A quarter turn about y in one second (a keyframed path as the engine drives it: one target per step).
+  const double h = t.stepSize();
+  const glm::dvec3 pivot(0, 0.25, 0);
+  for (int s = 0; s < 240; ++s) {
+    const double angle = -0.5 * kPi * (s + 1) / 240.0;
+    const glm::dquat q = glm::angleAxis(angle, glm::dvec3(0, 1, 0));
+    t.world().setKinematicTarget(paddle, {pivot + q * glm::dvec3(1.5, 0, 0), q}, h);
+    t.world().step(h);
+  }
+  const glm::dquat end = glm::angleAxis(-0.5 * kPi, glm::dvec3(0, 1, 0));
+  CHECK(glm::length(t.body(paddle).x - (pivot + end * glm::dvec3(1.5, 0, 0))) < 1e-6);
+  CHECK(std::abs(glm::dot(t.body(paddle).q, end)) > 1 - 1e-9);
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    CAPTURE(i);
+    CHECK(glm::length(t.body(boxes[i]).x - start[i]) > 0.5);  // swept along by the paddle
+  }
+}
+
+TEST_CASE("groups: bodies in groups set apart pass through each other, others collide") {
+  for (int apart = 0; apart < 2; ++apart) {
+    CAPTURE(apart);
+    PhysicsTestContext t;
+    t.settings().gravity = glm::dvec3(0);
+    const int a = t.addSphere(0.2, {-1, 0, 0}, 0.5, 1.0);
+    const int b = t.addSphere(0.2, {1, 0, 0}, 0.5, 1.0);
+    t.world().setVelocity(a, {2, 0, 0});
+    t.world().setVelocity(b, {-2, 0, 0});
+    t.world().setGroup(a, 3);
+    t.world().setGroup(b, 5);
+    if (apart) t.world().setGroupsCollide(3, 5, false);
+    for (int s = 0; s < 240; ++s) t.world().step(t.stepSize());
+    if (apart) {
+      CHECK(t.body(a).x.x == doctest::Approx(1.0));
+      CHECK(t.body(b).x.x == doctest::Approx(-1.0));
+    } else {
+      CHECK(t.body(a).x.x < -0.2);
+      CHECK(t.body(b).x.x > 0.2);
+    }
+  }
+  // The user's filter, and joined bodies without collideConnected.
+  PhysicsTestContext t;
+  t.settings().gravity = glm::dvec3(0);
+  const int a = t.addSphere(0.2, {-1, 0, 0}, 0.5, 1.0);
+  const int b = t.addSphere(0.2, {1, 0, 0}, 0.5, 1.0);
+  t.world().setVelocity(a, {2, 0, 0});
+  t.world().setVelocity(b, {-2, 0, 0});
+  t.world().setCollisionFilter([&](int x, int y) { return !(x == a && y == b); });
+  for (int s = 0; s < 240; ++s) t.world().step(t.stepSize());
+  CHECK(t.body(a).x.x == doctest::Approx(1.0));
+}
+
+TEST_CASE("joints: Newton's cradle on strings: after the hit the last ball swings out and the others nearly stop") {
+  PhysicsTestContext t;
+  const int n = 5;
+  const double r = 0.05, L = 0.5, top = 1.0;
+  std::vector<int> ball;
+  for (int i = 0; i < n; ++i) {
+    const double x = 2 * r * i;
+    // The first ball is pulled out 30 degrees.
+    glm::dvec3 c(x, top - L, 0);
+    if (i == 0) c = glm::dvec3(x - L * std::sin(kPi / 6), top - L * std::cos(kPi / 6), 0);
+    ball.push_back(t.addSphere(r, c, 0.0, 1.0, 7800));
+    JointDef j;
+    j.type = JointType::Distance;
+    j.b = ball.back();
+    j.anchorA = {x, top, 0};
+    j.anchorB = c;
+    t.world().addJoint(j);
+  }
+  const double vHit = std::sqrt(2 * 9.81 * L * (1 - std::cos(kPi / 6)));
+  // Step until the first ball has stopped and the last one leaves.
+  int hitStep = -1;
+  for (int s = 0; s < 240 && hitStep < 0; ++s) {
+    t.world().step(t.stepSize());
+    if (t.body(ball[n - 1]).v.x > 0.5 * vHit) hitStep = s;
+  }
+  REQUIRE(hitStep >= 0);
+  for (int s = 0; s < 5; ++s) t.world().step(t.stepSize());
+  const double vLast = glm::length(t.body(ball[n - 1]).v);
+  double vOthers = 0;
+  for (int i = 0; i < n - 1; ++i) vOthers = std::max(vOthers, glm::length(t.body(ball[i]).v));
+  MESSAGE("incoming " << vHit << " m/s; last ball " << vLast << " m/s, fastest other " << vOthers << " m/s");
+  CHECK(vLast > 0.9 * vHit);
+  CHECK(vOthers < 0.1 * vHit);
+  // It swings out to nearly the first ball's height.
+  double highest = 0;
+  for (int s = 0; s < 120; ++s) {
+    t.world().step(t.stepSize());
+    highest = std::max(highest, t.body(ball[n - 1]).x.y - (top - L));
+  }
+  CHECK(highest > 0.85 * L * (1 - std::cos(kPi / 6)));
+}
+
+namespace {
+
+// A ragdoll of 10 boxes: pelvis, torso, head, two upper and lower arms, two
+// upper and lower legs; ball joints at the neck, shoulders and hips, hinges
+// with limits at the waist, elbows and knees. Returns its joints.
+std::vector<int> addRagdoll(World& w, const glm::dvec3& at, std::vector<int>& parts) {
+  auto box = [&](const glm::dvec3& size, const glm::dvec3& centre) {
+    BodyDef d;
+    d.shape = makeBox(size);
+    d.origin = at + centre;
+    d.density = 1000;
+    d.friction = 0.6;
+    d.restitution = 0.1;
+    parts.push_back(w.addBody(d));
+    return parts.back();
+  };
+  const int pelvis = box({0.35, 0.2, 0.2}, {0, 1.0, 0});
+  const int torso = box({0.4, 0.45, 0.22}, {0, 1.33, 0});
+  const int head = box({0.2, 0.22, 0.2}, {0, 1.7, 0});
+  const int uarmL = box({0.3, 0.1, 0.1}, {-0.38, 1.48, 0});
+  const int larmL = box({0.3, 0.09, 0.09}, {-0.7, 1.48, 0});
+  const int uarmR = box({0.3, 0.1, 0.1}, {0.38, 1.48, 0});
+  const int larmR = box({0.3, 0.09, 0.09}, {0.7, 1.48, 0});
+  const int ulegL = box({0.14, 0.4, 0.14}, {-0.1, 0.68, 0});
+  const int llegL = box({0.12, 0.4, 0.12}, {-0.1, 0.26, 0});
+  const int ulegR = box({0.14, 0.4, 0.14}, {0.1, 0.68, 0});
+  const int llegR = box({0.12, 0.4, 0.12}, {0.1, 0.26, 0});
+  std::vector<int> joints;
+  auto joint = [&](JointType type, int a, int b, const glm::dvec3& anchor, const glm::dvec3& axis, double lo,
+                   double hi) {
+    JointDef j;
+    j.type = type;
+    j.a = a;
+    j.b = b;
+    j.anchor = at + anchor;
+    j.axis = axis;
+    j.limited = type == JointType::Hinge;
+    j.lower = lo * kPi / 180;
+    j.upper = hi * kPi / 180;
+    joints.push_back(w.addJoint(j));
+  };
+  joint(JointType::Hinge, pelvis, torso, {0, 1.1, 0}, {1, 0, 0}, -30, 60);
+  joint(JointType::Ball, torso, head, {0, 1.58, 0}, {0, 1, 0}, 0, 0);
+  joint(JointType::Ball, torso, uarmL, {-0.22, 1.48, 0}, {0, 1, 0}, 0, 0);
+  joint(JointType::Hinge, uarmL, larmL, {-0.54, 1.48, 0}, {0, 1, 0}, 0, 140);
+  joint(JointType::Ball, torso, uarmR, {0.22, 1.48, 0}, {0, 1, 0}, 0, 0);
+  joint(JointType::Hinge, uarmR, larmR, {0.54, 1.48, 0}, {0, 1, 0}, -140, 0);
+  joint(JointType::Ball, pelvis, ulegL, {-0.1, 0.9, 0}, {0, 1, 0}, 0, 0);
+  joint(JointType::Hinge, ulegL, llegL, {-0.1, 0.47, 0}, {1, 0, 0}, 0, 150);
+  joint(JointType::Ball, pelvis, ulegR, {0.1, 0.9, 0}, {0, 1, 0}, 0, 0);
+  joint(JointType::Hinge, ulegR, llegR, {0.1, 0.47, 0}, {1, 0, 0}, 0, 150);
+  return joints;
+}
+
+// The largest distance between a joint's two copies of its anchor.
+double worstGap(const World& w, const std::vector<int>& joints, const std::vector<glm::dvec3>& anchorsA,
+                const std::vector<glm::dvec3>& anchorsB) {
+  double worst = 0;
+  for (size_t k = 0; k < joints.size(); ++k) {
+    const JointDef& d = w.jointDef(joints[k]);
+    worst = std::max(worst, glm::length(pointOnBody(w, d.a, anchorsA[k]) - pointOnBody(w, d.b, anchorsB[k])));
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("joints: a ragdoll dropped on the ground lands with no joint apart and no energy gained") {
+  PhysicsTestContext t;
+  t.addGround(0.6, 0.1);
+  std::vector<int> parts;
+  const std::vector<int> joints = addRagdoll(t.world(), {0, 1.0, 0}, parts);
+  // A tumble: it falls turning.
+  for (int p : parts) t.world().setAngularVelocity(p, {1.5, 0, 0.8});
+  std::vector<glm::dvec3> ra, rb;
+  for (int j : joints) {
+    const JointDef& d = t.world().jointDef(j);
+    ra.push_back(glm::transpose(t.body(d.a).rotation()) * (d.anchor - t.body(d.a).x));
+    rb.push_back(glm::transpose(t.body(d.b).rotation()) * (d.anchor - t.body(d.b).x));
+  }
+  const double e0 = kineticEnergy(t.world()) + potentialEnergy(t.world());
+  double worst = 0, maxGain = -1e9;
+  for (int s = 0; s < 3 * 240; ++s) {
+    t.world().step(t.stepSize());
+    worst = std::max(worst, worstGap(t.world(), joints, ra, rb));
+    maxGain = std::max(maxGain, kineticEnergy(t.world()) + potentialEnergy(t.world()) - e0);
+  }
+  double lowest = 1e9;
+  for (int p : parts) lowest = std::min(lowest, t.body(p).x.y);
+  MESSAGE("ragdoll: largest joint gap " << worst * 1000 << " mm, largest energy gain " << maxGain << " J of "
+                                        << e0 << " J");
+  CHECK(worst < 0.01);
+  CHECK(maxGain < 0.01 * e0);
+  CHECK(lowest > 0);  // on the ground, not through it
+  CHECK(lowest < 0.3);
+}
+
+TEST_CASE("joints: runs are deterministic, and snapshot/restore gives bit-identical states") {
+  auto build = [](PhysicsTestContext& t) {
+    t.addGround(0.6, 0.1);
+    std::vector<int> parts;
+    addRagdoll(t.world(), {0, 1.5, 0}, parts);
+    for (int p : parts) t.world().setAngularVelocity(p, {2, 0.5, 0.8});
+  };
+  PhysicsTestContext a, b;
+  build(a);
+  build(b);
+  for (int s = 0; s < 120; ++s) {
+    a.world().step(a.stepSize());
+    b.world().step(b.stepSize());
+  }
+  CHECK(a.world().stateHash() == b.world().stateHash());
+  const WorldSnapshot snap = a.world().snapshot();
+  for (int s = 0; s < 120; ++s) a.world().step(a.stepSize());
+  const uint64_t h1 = a.world().stateHash();
+  const double t1 = a.world().time();
+  a.world().restore(snap);
+  CHECK(a.world().time() == doctest::Approx(0.5));
+  for (int s = 0; s < 120; ++s) a.world().step(a.stepSize());
+  CHECK(a.world().stateHash() == h1);
+  CHECK(a.world().time() == t1);
+  // The snapshot is the whole world: restoring into another world gives the same again.
+  b.world().restore(snap);
+  for (int s = 0; s < 120; ++s) b.world().step(b.stepSize());
+  CHECK(b.world().stateHash() == h1);
+}
+
+TEST_CASE("joints: bad definitions are refused with a reason; removed bodies take their joints along") {
+  PhysicsTestContext t;
+  const int a = t.addSphere(0.1, {0, 1, 0}, 0.5, 0.5);
+  const int b = t.addSphere(0.1, {0, 2, 0}, 0.5, 0.5);
+  JointDef j;
+  j.a = a;
+  j.b = 7;
+  CHECK_THROWS_WITH_AS(t.world().addJoint(j), doctest::Contains("does not exist"), std::invalid_argument);
+  j.b = a;
+  CHECK_THROWS_WITH_AS(t.world().addJoint(j), doctest::Contains("itself"), std::invalid_argument);
+  j.b = b;
+  j.type = JointType::Hinge;
+  j.axis = glm::dvec3(0);
+  CHECK_THROWS_WITH_AS(t.world().addJoint(j), doctest::Contains("axis is zero"), std::invalid_argument);
+  j.axis = {0, 1, 0};
+  j.limited = true;
+  j.lower = 1;
+  j.upper = 0;
+  CHECK_THROWS_WITH_AS(t.world().addJoint(j), doctest::Contains("lower is above upper"), std::invalid_argument);
+  j.limited = false;
+  j.breakImpulse = -1;
+  CHECK_THROWS_WITH_AS(t.world().addJoint(j), doctest::Contains("break impulse"), std::invalid_argument);
+  j.breakImpulse = 10;
+  const int id = t.world().addJoint(j);
+  CHECK(t.world().jointCount() == 1);
+  t.world().removeBody(b);
+  CHECK(t.world().jointRemoved(id));
+  CHECK(t.world().body(b).removed);
+  CHECK_THROWS_AS(t.world().setVelocity(b, {1, 0, 0}), std::invalid_argument);
+  CHECK_THROWS_AS(t.world().removeJoint(id), std::invalid_argument);
+  // The removed body collides with nothing: a falling ball passes through where it is.
+  const glm::dvec3 where = t.body(b).x;
+  for (int s = 0; s < 240; ++s) t.world().step(t.stepSize());
+  CHECK(t.body(b).x == where);
+  CHECK(t.body(a).x.y < 1 - 4);
 }

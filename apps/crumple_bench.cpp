@@ -21,6 +21,7 @@
 #include <memory>
 #include <string>
 
+#include "core/version.h"
 #include "deform/deformer.h"
 #include "engine/primitives.h"
 #include "engine/scene_view.h"
@@ -326,6 +327,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-gl", noGl, "Physics only");
   app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, every path");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
+  app.set_version_flag("--version", std::string("crumple-bench ") + versionString());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -23,6 +23,7 @@
 #include "engine/output_writer.h"
 #include "engine/simulation.h"
 #include "core/log.h"
+#include "core/version.h"
 #include "render/capture.h"
 #include "render/gl_context.h"
 #include "render/renderer.h"
@@ -222,6 +223,7 @@ int main(int argc, char** argv) {
                  "The 3D view's resolution as a fraction of the window's (0.25 to 1), or 'auto': lowered while "
                  "rendering takes over 25 ms a frame (software GL), raised again below 10 ms")
       ->capture_default_str();
+  cli.set_version_flag("--version", std::string("crumple-sandbox ") + versionString());
   try {
     cli.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -15,6 +15,7 @@
 #include "engine/output_writer.h"
 #include "engine/simulation.h"
 #include "core/log.h"
+#include "core/version.h"
 #include "render/gl_context.h"
 #include "engine/scene_view.h"
 #include "render/renderer.h"
@@ -56,6 +57,7 @@ int main(int argc, char** argv) {
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
   app.add_flag("--quiet,-q", quiet, "Only errors");
   app.add_flag("--verbose,-v", verbose, "Debug messages (GL debug output included)");
+  app.set_version_flag("--version", std::string("crumple-sim ") + versionString());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -5,7 +5,9 @@
 #define GLFW_INCLUDE_NONE
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
+#if CRUMPLE_WITH_GLFW
 #include <GLFW/glfw3.h>
+#endif
 
 #include <dlfcn.h>
 
@@ -200,6 +202,8 @@ std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options)
 
 // ---- GLFW window -----------------------------------------------------------
 
+#if CRUMPLE_WITH_GLFW
+
 namespace {
 int gGlfwUsers = 0;
 void glfwErrorCallback(int code, const char* message) { logError("GLFW error ", code, ": ", message); }
@@ -254,5 +258,20 @@ bool WindowContext::shouldClose() const { return glfwWindowShouldClose(window_);
 void WindowContext::swapBuffers() { glfwSwapBuffers(window_); }
 void WindowContext::pollEvents() { glfwPollEvents(); }
 void WindowContext::framebufferSize(int& width, int& height) const { glfwGetFramebufferSize(window_, &width, &height); }
+
+#else  // built with CRUMPLE_WITH_GLFW=OFF: no windows, headless contexts only
+
+WindowContext::WindowContext(const WindowOptions&) {
+  throw ContextError("crumple was built without GLFW (CRUMPLE_WITH_GLFW=OFF): no window contexts");
+}
+WindowContext::~WindowContext() = default;
+void WindowContext::makeCurrent() {}
+std::string WindowContext::description() const { return "no window (built without GLFW)"; }
+bool WindowContext::shouldClose() const { return true; }
+void WindowContext::swapBuffers() {}
+void WindowContext::pollEvents() {}
+void WindowContext::framebufferSize(int& width, int& height) const { width = height = 0; }
+
+#endif
 
 }  // namespace crumple::render

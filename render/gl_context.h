@@ -40,6 +40,8 @@ struct WindowOptions {
   bool vsync = true;
 };
 
+// A GLFW window with an OpenGL 4.5 core context. Throws ContextError when none can be made, and always
+// when crumple was built without GLFW (CRUMPLE_WITH_GLFW=OFF).
 class WindowContext : public GlContext {
  public:
   explicit WindowContext(const WindowOptions& options);

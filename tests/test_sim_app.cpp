@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/version.h"
 #include "dent_metrics.h"
 #include "render/image.h"
 
@@ -493,6 +494,14 @@ TEST_CASE("bad command lines and unusable output folders are bad input (exit 2),
   std::ofstream(kTmp / "someone_elses" / "thesis.tex") << "precious";
   CHECK(runSim("--out " + (kTmp / "someone_elses").string(), &log) == 2);
   CHECK(slurp(kTmp / "someone_elses" / "thesis.tex") == "precious");
+}
+
+TEST_CASE("--version prints the library's version, the same as the headers'") {
+  CHECK(std::string(crumple::versionString()) == CRUMPLE_VERSION_STRING);
+  CHECK(crumple::version() == CRUMPLE_VERSION);
+  std::string log;
+  CHECK(runSim("--version", &log) == 0);
+  CHECK(log == std::string("crumple-sim ") + CRUMPLE_VERSION_STRING + "\n");
 }
 
 TEST_CASE("an output folder is replaced only when crumple wrote everything in it; a user's file is never deleted") {

@@ -6,7 +6,8 @@ usage() {
   cat <<'USAGE'
 Usage: tools/test.sh [--sanitize]
 Installs the Debian packages (tools/setup-deps.sh), builds into build/ and runs every test suite with
-ctest under Xvfb. --sanitize builds into build-asan/ with address and undefined-behaviour sanitizers.
+ctest under Xvfb, then builds and runs apps/examples against an install of it (tools/test-package.sh).
+--sanitize builds into build-asan/ with address and undefined-behaviour sanitizers (no package check).
 USAGE
 }
 . "$(dirname "$0")/args.sh"
@@ -27,3 +28,8 @@ cmake --build "$build" -j"$(nproc)"
 # Tests that need a window run under a virtual X server.
 cd "$build"
 xvfb-run -a -s "-screen 0 1280x720x24" ctest --output-on-failure -j"$(nproc)"
+# The installed package, as another project uses it (apps/examples built against a temporary install).
+if [ "$build" = build ]; then
+  cd ..
+  tools/test-package.sh "$build"
+fi

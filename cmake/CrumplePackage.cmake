@@ -1,0 +1,86 @@
+# crumple as a package: the crumple::<layer> target names, the install rules and the files that let
+# other projects find the installed libraries (crumpleConfig.cmake for CMake, crumple.pc for pkg-config).
+#
+#   cmake --install build --prefix /opt/crumple
+#   # in a project: find_package(crumple 0.2 REQUIRED) ... target_link_libraries(app PRIVATE crumple::engine)
+#
+# Installed: lib/libcrumple_*.a (or .so with BUILD_SHARED_LIBS), the layers' headers under
+# include/crumple/<layer>/ (so `#include "physics/world.h"` works with -I<prefix>/include/crumple),
+# lib/cmake/crumple/ and lib/pkgconfig/crumple.pc; with the apps, bin/crumple-sim and bin/crumple-sandbox
+# (apps/CMakeLists.txt).
+
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+# The libraries, lowest layer first, as folder:target. A target's exported name is its folder's last part
+# (crumple::core, crumple::physics, crumple::deform_model, crumple::render, crumple::deform, crumple::engine).
+set(CRUMPLE_LIBRARIES core:crumple_core physics:crumple_physics deform/model:crumple_deform_model
+  render:crumple_render deform:crumple_deform engine:crumple_engine)
+set(CRUMPLE_LIBRARY_TARGETS)
+foreach(entry ${CRUMPLE_LIBRARIES})
+  string(REPLACE ":" ";" parts "${entry}")
+  list(GET parts 1 target)
+  string(REPLACE "crumple_" "" name "${target}")
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
+  # The headers need C++20; say so to whoever links them.
+  target_compile_features(${target} PUBLIC cxx_std_20)
+  # The same names inside a build that adds crumple with add_subdirectory or FetchContent.
+  add_library(crumple::${name} ALIAS ${target})
+  list(APPEND CRUMPLE_LIBRARY_TARGETS ${target})
+endforeach()
+
+if(NOT CRUMPLE_INSTALL)
+  return()
+endif()
+
+set(CRUMPLE_CMAKE_DIR "${CMAKE_INSTALL_LIBDIR}/cmake/crumple")
+
+install(TARGETS ${CRUMPLE_LIBRARY_TARGETS} EXPORT crumpleTargets
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+
+# Headers, each layer's under include/crumple/<folder>/. Internal headers (shared only between a layer's
+# own sources) stay out.
+foreach(entry ${CRUMPLE_LIBRARIES})
+  string(REPLACE ":" ";" parts "${entry}")
+  list(GET parts 0 folder)
+  file(GLOB headers RELATIVE "${PROJECT_SOURCE_DIR}" CONFIGURE_DEPENDS "${PROJECT_SOURCE_DIR}/${folder}/*.h")
+  list(REMOVE_ITEM headers physics/step_context.h deform/passes.h)
+  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/${folder})
+endforeach()
+# Generated headers.
+install(FILES "${PROJECT_BINARY_DIR}/generated/core/version.h" DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/core)
+
+install(EXPORT crumpleTargets NAMESPACE crumple:: DESTINATION ${CRUMPLE_CMAKE_DIR})
+configure_package_config_file(cmake/crumpleConfig.cmake.in "${PROJECT_BINARY_DIR}/crumpleConfig.cmake"
+  INSTALL_DESTINATION ${CRUMPLE_CMAKE_DIR})
+# 0.x: a minor version may break the API, so only the same minor version is compatible.
+write_basic_package_version_file("${PROJECT_BINARY_DIR}/crumpleConfigVersion.cmake"
+  COMPATIBILITY SameMinorVersion)
+install(FILES "${PROJECT_BINARY_DIR}/crumpleConfig.cmake" "${PROJECT_BINARY_DIR}/crumpleConfigVersion.cmake"
+  DESTINATION ${CRUMPLE_CMAKE_DIR})
+
+# pkg-config: one module, every layer (C++20: compile with -std=c++20 or later). Static libraries need their dependencies on the consumer's link
+# line, so they are Requires there; shared ones keep them private.
+set(CRUMPLE_PC_REQUIRES "glm epoxy egl opengl zlib nlohmann_json tinygltf openmesh")
+if(CRUMPLE_WITH_GLFW)
+  string(APPEND CRUMPLE_PC_REQUIRES " glfw3")
+endif()
+if(BUILD_SHARED_LIBS)
+  set(CRUMPLE_PC_REQUIRES_PUBLIC "glm epoxy")
+  set(CRUMPLE_PC_REQUIRES_PRIVATE "${CRUMPLE_PC_REQUIRES}")
+else()
+  set(CRUMPLE_PC_REQUIRES_PUBLIC "${CRUMPLE_PC_REQUIRES}")
+  set(CRUMPLE_PC_REQUIRES_PRIVATE "")
+endif()
+# Link order: each library before those it uses.
+set(CRUMPLE_PC_LIBS "-lcrumple_engine -lcrumple_deform -lcrumple_render -lcrumple_deform_model -lcrumple_physics -lcrumple_core")
+foreach(lib ${CMAKE_DL_LIBS})
+  string(APPEND CRUMPLE_PC_LIBS " -l${lib}")
+endforeach()
+file(RELATIVE_PATH CRUMPLE_PC_TO_PREFIX "/prefix/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/prefix")
+string(REGEX REPLACE "/$" "" CRUMPLE_PC_TO_PREFIX "${CRUMPLE_PC_TO_PREFIX}")
+configure_file(cmake/crumple.pc.in "${PROJECT_BINARY_DIR}/crumple.pc" @ONLY)
+install(FILES "${PROJECT_BINARY_DIR}/crumple.pc" DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+install(FILES LICENSE DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/crumple)

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <set>
@@ -80,10 +81,25 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   // Events.
   {
     std::ofstream ev(root / "events.jsonl");
+    // Collisions and joint breaks, in time order (a collision first at equal times).
+    const std::vector<JointBreakRecord>& breaks = sim.jointBreaks();
+    size_t nextBreak = 0;
+    auto writeBreaks = [&](double until) {
+      for (; nextBreak < breaks.size() && breaks[nextBreak].time <= until; ++nextBreak) {
+        json line;
+        line["t"] = breaks[nextBreak].time;
+        line["type"] = "joint_break";
+        line["joint"] = breaks[nextBreak].joint;
+        line["impulse"] = breaks[nextBreak].impulse;
+        ev << line.dump() << "\n";
+      }
+    };
     for (const EventRecord& r : sim.events()) {
       const auto& e = r.event;
+      writeBreaks(std::nextafter(e.time, -1.0));
       json line;
       line["t"] = e.time;
+      line["type"] = "collision";
       const std::string* names[2] = {nullptr, nullptr};
       for (const auto& b : sim.bodies()) {
         if (b.index == e.a) names[0] = &b.name;
@@ -110,6 +126,7 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
       }
       ev << line.dump() << "\n";
     }
+    writeBreaks(std::numeric_limits<double>::infinity());
     if (!ev) throw std::runtime_error("writing events.jsonl failed");
   }
   // Maps.
@@ -156,10 +173,28 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
     jb["center_of_mass"] = vec(rb.x);
     jb["mass"] = rb.isStatic ? json(nullptr) : json(rb.mass);
     jb["static"] = rb.isStatic;
+    if (rb.kinematic) jb["kinematic"] = true;
     jb["asleep"] = rb.asleep;
     bodies.push_back(jb);
   }
   s["bodies"] = bodies;
+  if (!sim.scene().joints.empty()) {
+    json joints = json::array();
+    for (size_t i = 0; i < sim.scene().joints.size() && i < sim.joints().size(); ++i) {
+      const JointDesc& d = sim.scene().joints[i];
+      const JointState st = sim.world().jointState(sim.joints()[i]);
+      json jj;
+      jj["name"] = d.name;
+      jj["type"] = jointTypeName(d.type);
+      jj["broken"] = st.broken;
+      if (d.type == JointType::Hinge) jj["angle"] = st.angle * 180.0 / 3.14159265358979323846;
+      if (d.type == JointType::Slider) jj["offset"] = st.offset;
+      if (d.type == JointType::Distance) jj["distance"] = st.offset;
+      joints.push_back(jj);
+    }
+    s["joints"] = joints;
+    s["joint_breaks"] = sim.jointBreaks().size();
+  }
   s["collisions"] = sim.events().size();
   s["deformations"] = sim.timings().deformations;
   s["deformed_sides"] = deformedSides;

@@ -4,6 +4,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include <limits>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "deform/options.h"
+#include "physics/joint.h"
 #include "physics/vehicle.h"
 
 namespace crumple {
@@ -93,6 +95,14 @@ struct VehicleDesc {
   double grouserHeight = 0.05;
 };
 
+// A kinematic body's keyframe: the shape frame's pose at time t (linear in
+// position, slerped in orientation; held after the last key).
+struct PathKey {
+  double time = 0;
+  glm::dvec3 position{0};
+  glm::dquat orientation{1, 0, 0, 0};
+};
+
 struct BodyDesc {
   std::string name;
   ShapeDesc shape;
@@ -106,6 +116,23 @@ struct BodyDesc {
   BumpMapDesc bumpMap;
   bool contactDeformation = false;
   VehicleDesc vehicle;
+  bool kinematic = false;      // moved by its velocities or its path, never pushed
+  std::vector<PathKey> path;   // kinematic: keyframes (empty: its velocities)
+  std::string group = "default";
+};
+
+// A joint (physics/joint.h) between two bodies named in the scene; `a` empty is the static world.
+struct JointDesc {
+  std::string name;
+  JointType type = JointType::Ball;
+  std::string a, b;
+  glm::dvec3 anchor{0}, anchorA{0}, anchorB{0}, axis{0, 1, 0};
+  bool limited = false;
+  double lower = 0, upper = 0;  // radians (hinge) or m (slider)
+  double length = -1, minLength = -1, maxLength = -1;
+  JointMotor motor;  // speed in rad/s or m/s
+  double breakImpulse = std::numeric_limits<double>::infinity();
+  bool collideConnected = false;
 };
 
 struct CameraDesc {
@@ -130,6 +157,8 @@ struct Scene {
   std::map<std::string, Material> materials;
   DeformationSettings deformation;
   std::vector<BodyDesc> bodies;
+  std::vector<JointDesc> joints;
+  std::vector<std::pair<std::string, std::string>> noCollide;  // pairs of groups that pass through each other
   std::vector<CameraDesc> cameras;
 };
 

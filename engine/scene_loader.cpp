@@ -298,10 +298,33 @@ VehicleDesc parseVehicle(const Node& n) {
   return v;
 }
 
+// Euler degrees [x, y, z] or {"quat": [w, x, y, z]} at n's key.
+glm::dquat parseOrientation(const Node& n, const std::string& key) {
+    const json& o = n.raw(key);
+    if (o.is_array()) {
+      return eulerDegreesToQuat(n.vec3(key, glm::dvec3(0), 1e5));
+    } else if (o.is_object()) {
+      Node on = n.child(key);
+      on.checkKeys({"quat"});
+      if (!on.has("quat")) on.fail("quat", "is required ([w, x, y, z])");
+      const json& q = on.raw("quat");
+      if (!q.is_array() || q.size() != 4) on.fail("quat", "must be [w, x, y, z]");
+      double c[4];
+      for (int i = 0; i < 4; ++i)
+        c[i] = on.numberValue(q[static_cast<size_t>(i)], "quat[" + std::to_string(i) + "]", -1e6, 1e6, false, false);
+      const glm::dquat r(c[0], c[1], c[2], c[3]);  // glm's constructor takes w first
+      const double len = std::sqrt(r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z);
+      if (!(len > 1e-9)) on.fail("quat", "must not be zero");
+      return glm::normalize(r);
+    } else {
+      n.fail(key, "must be Euler degrees [x, y, z] or {\"quat\": [w, x, y, z]}");
+    }
+}
+
 BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir) {
   n.requireObject();
   n.checkKeys({"name", "shape", "material", "static", "position", "orientation", "velocity", "angular_velocity", "mass",
-               "bump_map", "vehicle", "contact_deformation"});
+               "bump_map", "vehicle", "contact_deformation", "kinematic", "path", "group"});
   BodyDesc b;
   b.name = n.requiredString("name");
   if (b.name.empty()) n.fail("name", "must not be empty");
@@ -321,27 +344,7 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
   }
   b.isStatic = n.boolean("static", false);
   b.position = n.vec3("position", b.position);
-  if (n.has("orientation")) {
-    const json& o = n.raw("orientation");
-    if (o.is_array()) {
-      b.orientation = eulerDegreesToQuat(n.vec3("orientation", glm::dvec3(0), 1e5));
-    } else if (o.is_object()) {
-      Node on = n.child("orientation");
-      on.checkKeys({"quat"});
-      if (!on.has("quat")) on.fail("quat", "is required ([w, x, y, z])");
-      const json& q = on.raw("quat");
-      if (!q.is_array() || q.size() != 4) on.fail("quat", "must be [w, x, y, z]");
-      double c[4];
-      for (int i = 0; i < 4; ++i)
-        c[i] = on.numberValue(q[static_cast<size_t>(i)], "quat[" + std::to_string(i) + "]", -1e6, 1e6, false, false);
-      const glm::dquat r(c[0], c[1], c[2], c[3]);  // glm's constructor takes w first
-      const double len = std::sqrt(r.w * r.w + r.x * r.x + r.y * r.y + r.z * r.z);
-      if (!(len > 1e-9)) on.fail("quat", "must not be zero");
-      b.orientation = glm::normalize(r);
-    } else {
-      n.fail("orientation", "must be Euler degrees [x, y, z] or {\"quat\": [w, x, y, z]}");
-    }
-  }
+  if (n.has("orientation")) b.orientation = parseOrientation(n, "orientation");
   b.velocity = n.vec3("velocity", b.velocity, 1e4);
   b.angularVelocity = n.vec3("angular_velocity", b.angularVelocity, 1e4);
   if (n.has("mass")) b.mass = n.number("mass", 1, 0, 1e9, true);
@@ -366,7 +369,120 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
     b.vehicle = parseVehicle(n.child("vehicle"));
     if (b.isStatic) n.fail("vehicle", "a static body cannot be a vehicle");
   }
+  b.kinematic = n.boolean("kinematic", false);
+  if (b.kinematic && b.isStatic) n.fail("kinematic", "a body cannot be both static and kinematic");
+  if (b.kinematic && b.vehicle.present) n.fail("kinematic", "a vehicle cannot be kinematic");
+  if (n.has("path")) {
+    if (!b.kinematic) n.fail("path", "only a kinematic body follows a path (add \"kinematic\": true)");
+    const json& p = n.raw("path");
+    if (!p.is_array() || p.empty()) n.fail("path", "must be a non-empty array of keyframes");
+    if (p.size() > 1000000) n.fail("path", "more than 10^6 keyframes");
+    double last = -1;
+    for (size_t i = 0; i < p.size(); ++i) {
+      Node k(p[i], n.join("path[" + std::to_string(i) + "]"), n.file());
+      k.requireObject();
+      k.checkKeys({"t", "position", "orientation"});
+      PathKey key;
+      key.time = k.requiredNumber("t", 0, 1e6);
+      if (key.time <= last) k.fail("t", "keyframe times must increase");
+      last = key.time;
+      if (!k.has("position")) k.fail("position", "is required");
+      key.position = k.vec3("position", key.position);
+      key.orientation = k.has("orientation") ? parseOrientation(k, "orientation") : b.orientation;
+      b.path.push_back(key);
+    }
+  }
+  b.group = n.string("group", b.group);
+  if (b.group.empty()) n.fail("group", "must not be empty");
   return b;
+}
+
+JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& bodies) {
+  n.requireObject();
+  n.checkKeys({"name", "type", "a", "b", "anchor", "anchor_a", "anchor_b", "axis", "limits", "motor", "break_impulse",
+               "collide_connected", "length", "min", "max"});
+  JointDesc j;
+  j.name = n.string("name", "joint" + std::to_string(index));
+  if (j.name.empty()) n.fail("name", "must not be empty");
+  const std::string type = n.requiredString("type");
+  if (type == "ball")
+    j.type = JointType::Ball;
+  else if (type == "hinge")
+    j.type = JointType::Hinge;
+  else if (type == "slider")
+    j.type = JointType::Slider;
+  else if (type == "fixed")
+    j.type = JointType::Fixed;
+  else if (type == "distance")
+    j.type = JointType::Distance;
+  else
+    n.fail("type", "unknown joint type '" + type + "' (expected ball, hinge, slider, fixed or distance)");
+  auto bodyName = [&](const char* key, bool optional) {
+    if (!n.has(key) || (optional && n.raw(key).is_null())) {
+      if (!optional) n.fail(key, "is required (a body name)");
+      return std::string();
+    }
+    const std::string name = n.string(key, "");
+    if (!bodies.count(name)) n.fail(key, "no body is named '" + name + "'");
+    return name;
+  };
+  j.a = bodyName("a", true);
+  j.b = bodyName("b", false);
+  if (j.a == j.b) n.fail("b", "a joint needs two different bodies");
+  const bool axial = j.type == JointType::Hinge || j.type == JointType::Slider;
+  if (j.type == JointType::Distance) {
+    if (n.has("anchor")) n.fail("anchor", "a distance joint takes anchor_a and anchor_b");
+    if (!n.has("anchor_a")) n.fail("anchor_a", "is required for a distance joint");
+    if (!n.has("anchor_b")) n.fail("anchor_b", "is required for a distance joint");
+    j.anchorA = n.vec3("anchor_a", j.anchorA);
+    j.anchorB = n.vec3("anchor_b", j.anchorB);
+    if (n.has("length") && (n.has("min") || n.has("max"))) n.fail("length", "give either length or min and max");
+    if (n.has("length")) j.length = n.number("length", 0, 0, 1e6);
+    if (n.has("min") || n.has("max")) {
+      if (!n.has("max")) n.fail("max", "is required with min");
+      j.minLength = n.number("min", 0, 0, 1e6);
+      j.maxLength = n.number("max", 0, 0, 1e6);
+      if (j.minLength > j.maxLength) n.fail("min", "is above max");
+    }
+  } else {
+    for (const char* k : {"anchor_a", "anchor_b", "length", "min", "max"})
+      if (n.has(k)) n.fail(k, "only for distance joints");
+    if (!n.has("anchor")) n.fail("anchor", "is required (a world point at the start)");
+    j.anchor = n.vec3("anchor", j.anchor);
+  }
+  if (axial) {
+    if (!n.has("axis")) n.fail("axis", "is required for a " + type + " joint");
+    j.axis = n.vec3("axis", j.axis);
+    if (!(glm::length(j.axis) > 1e-9)) n.fail("axis", "must not be zero");
+  } else if (n.has("axis")) {
+    n.fail("axis", "only for hinge and slider joints");
+  }
+  const bool hinge = j.type == JointType::Hinge;
+  if (n.has("limits")) {
+    if (!axial) n.fail("limits", "only for hinge and slider joints");
+    const json& l = n.raw("limits");
+    if (!l.is_array() || l.size() != 2) n.fail("limits", "must be [lo, hi]");
+    const double bound = hinge ? 360 : 1e6;
+    const double lo = n.numberValue(l[0], "limits[0]", -bound, bound, false, false);
+    const double hi = n.numberValue(l[1], "limits[1]", -bound, bound, false, false);
+    if (lo > hi) n.fail("limits", "lo is above hi");
+    j.limited = true;
+    j.lower = hinge ? glm::radians(lo) : lo;
+    j.upper = hinge ? glm::radians(hi) : hi;
+  }
+  if (n.has("motor")) {
+    if (!axial) n.fail("motor", "only for hinge and slider joints");
+    Node m = n.child("motor");
+    const char* effort = hinge ? "max_torque" : "max_force";
+    m.checkKeys({"speed", effort});
+    j.motor.enabled = true;
+    const double speed = m.requiredNumber("speed", -1e6, 1e6);
+    j.motor.speed = hinge ? glm::radians(speed) : speed;
+    j.motor.maxForce = m.requiredNumber(effort, 0, 1e12);
+  }
+  if (n.has("break_impulse")) j.breakImpulse = n.number("break_impulse", 0, 0, 1e15);
+  j.collideConnected = n.boolean("collide_connected", false);
+  return j;
 }
 
 }  // namespace
@@ -389,7 +505,8 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   Node n(root, "", file);
   if (!root.is_object())
     throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
-  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "materials", "deformation", "bodies", "cameras"});
+  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "materials", "deformation", "bodies", "joints",
+               "no_collide", "cameras"});
   Scene s;
   s.file = file;
   if (n.has("format")) {
@@ -456,6 +573,39 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     BodyDesc b = parseBody(Node(bodies[i], path, file), s, baseDir);
     if (!names.insert(b.name).second) throw SceneError(file, path + ".name", "duplicate body name '" + b.name + "'");
     s.bodies.push_back(std::move(b));
+  }
+  std::set<std::string> groups;
+  for (const BodyDesc& b : s.bodies) groups.insert(b.group);
+  if (groups.size() > 64) {
+    for (size_t i = 0; i < s.bodies.size(); ++i)
+      if (std::distance(groups.begin(), groups.find(s.bodies[i].group)) >= 64)
+        throw SceneError(file, "bodies[" + std::to_string(i) + "].group", "more than 64 collision groups");
+  }
+  if (n.has("joints")) {
+    const json& js = n.raw("joints");
+    if (!js.is_array()) n.fail("joints", std::string("must be an array, got ") + typeName(js));
+    if (js.size() > 100000) n.fail("joints", "more than 100000 joints");
+    std::set<std::string> jointNames;
+    for (size_t i = 0; i < js.size(); ++i) {
+      const std::string path = "joints[" + std::to_string(i) + "]";
+      JointDesc j = parseJoint(Node(js[i], path, file), i, names);
+      if (!jointNames.insert(j.name).second) throw SceneError(file, path + ".name", "duplicate joint name '" + j.name + "'");
+      s.joints.push_back(std::move(j));
+    }
+  }
+  if (n.has("no_collide")) {
+    const json& nc = n.raw("no_collide");
+    if (!nc.is_array()) n.fail("no_collide", "must be an array of [group, group] pairs");
+    for (size_t i = 0; i < nc.size(); ++i) {
+      const std::string path = "no_collide[" + std::to_string(i) + "]";
+      if (!nc[i].is_array() || nc[i].size() != 2 || !nc[i][0].is_string() || !nc[i][1].is_string())
+        throw SceneError(file, path, "must be a pair of group names [\"a\", \"b\"]");
+      for (size_t k = 0; k < 2; ++k)
+        if (!groups.count(nc[i][k].get<std::string>()))
+          throw SceneError(file, path + "[" + std::to_string(k) + "]",
+                           "no body is in group '" + nc[i][k].get<std::string>() + "'");
+      s.noCollide.push_back({nc[i][0].get<std::string>(), nc[i][1].get<std::string>()});
+    }
   }
   if (n.has("cameras")) {
     const json& cams = n.raw("cameras");

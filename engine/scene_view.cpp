@@ -23,7 +23,9 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     }
     items.push_back(it);
   }
-  for (const VehiclePart& part : sim.vehicleParts()) {
+  std::vector<VehiclePart> parts = sim.vehicleParts();
+  for (const VehiclePart& part : sim.jointParts()) parts.push_back(part);
+  for (const VehiclePart& part : parts) {
     render::RenderItem it;
     it.vao = part.mesh->vao.id();
     it.indexCount = part.mesh->indexCount;

@@ -46,11 +46,105 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
     deformer_ = std::make_unique<deform::Deformer>(scene.deformation.options);
   }
   bodies_.reserve(scene.bodies.size());
+  groups_["default"] = 0;
+  for (const BodyDesc& b : scene.bodies) groups_.emplace(b.group, static_cast<int>(groups_.size()));
   for (size_t i = 0; i < scene.bodies.size(); ++i) buildBody(scene.bodies[i], i);
+  for (const auto& [ga, gb] : scene.noCollide) world_.setGroupsCollide(groups_.at(ga), groups_.at(gb), false);
+  buildJoints();
   if (gl_ && scene.deformation.normalMappedNormals) setNormalMappedNormals(true);
 }
 
 Simulation::~Simulation() = default;
+
+std::vector<VehiclePart> Simulation::jointParts() const {
+  std::vector<VehiclePart> parts;
+  if (!cableMesh_) return parts;
+  for (int id : joints_) {
+    const JointDef& d = world_.jointDef(id);
+    if (d.type != JointType::Distance || world_.jointState(id).broken || world_.jointRemoved(id)) continue;
+    // The anchors now: each body keeps its anchor where it was at the start, relative to itself.
+    auto now = [&](int body, const glm::dvec3& start) {
+      if (body < 0) return start;
+      const RigidBody& rb = world_.body(body);
+      const Pose& p0 = initialPoses_[static_cast<size_t>(body)];
+      return rb.x + rb.rotation() * (glm::transpose(glm::mat3_cast(p0.orientation)) * (start - p0.position));
+    };
+    const glm::dvec3 pa = now(d.a, d.anchorA), pb = now(d.b, d.anchorB);
+    const double len = glm::length(pb - pa);
+    if (len < 1e-6) continue;
+    const glm::dvec3 y = (pb - pa) / len;
+    const glm::dvec3 helper = std::abs(y.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 0, 1);
+    const glm::dvec3 x = glm::normalize(glm::cross(helper, y)), z = glm::cross(x, y);
+    const double r = 0.035;
+    glm::dmat4 m(1);
+    m[0] = glm::dvec4(x * r, 0);
+    m[1] = glm::dvec4(y * len, 0);
+    m[2] = glm::dvec4(z * r, 0);
+    m[3] = glm::dvec4((pa + pb) * 0.5, 1);
+    parts.push_back({cableMesh_.get(), m, glm::vec3(0.12f, 0.12f, 0.13f)});
+  }
+  return parts;
+}
+
+void Simulation::buildJoints() {
+  initialPoses_.clear();
+  for (const RigidBody& rb : world_.bodies()) initialPoses_.push_back({rb.x, rb.q});
+  bool cables = false;
+  for (const JointDesc& d : scene_.joints) cables = cables || d.type == JointType::Distance;
+  if (gl_ && cables) cableMesh_ = std::make_shared<deform::GpuMesh>(cylinderMesh(1.0, 1.0, 64, 12));
+  std::map<std::string, int> index;
+  for (const BodyRuntime& b : bodies_) index[b.name] = b.index;
+  for (size_t i = 0; i < scene_.joints.size(); ++i) {
+    const JointDesc& d = scene_.joints[i];
+    JointDef j;
+    j.type = d.type;
+    j.a = d.a.empty() ? -1 : index.at(d.a);
+    j.b = index.at(d.b);
+    j.anchor = d.anchor;
+    j.anchorA = d.anchorA;
+    j.anchorB = d.anchorB;
+    j.axis = d.axis;
+    j.limited = d.limited;
+    j.lower = d.lower;
+    j.upper = d.upper;
+    j.length = d.length;
+    j.minLength = d.minLength;
+    j.maxLength = d.maxLength;
+    j.motor = d.motor;
+    j.breakImpulse = d.breakImpulse;
+    j.collideConnected = d.collideConnected;
+    try {
+      joints_.push_back(world_.addJoint(j));
+    } catch (const std::invalid_argument& e) {
+      throw SceneError(scene_.file, "joints[" + std::to_string(i) + "]", e.what());
+    }
+  }
+}
+
+namespace {
+// The pose of a keyframed path at time t: linear between keys, slerped; held at the ends.
+Pose pathPose(const std::vector<PathKey>& path, double t) {
+  if (t <= path.front().time) return {path.front().position, path.front().orientation};
+  for (size_t k = 1; k < path.size(); ++k) {
+    if (t > path[k].time) continue;
+    const PathKey &p0 = path[k - 1], &p1 = path[k];
+    const double u = (t - p0.time) / (p1.time - p0.time);
+    return {glm::mix(p0.position, p1.position, u), glm::slerp(p0.orientation, p1.orientation, u)};
+  }
+  return {path.back().position, path.back().orientation};
+}
+}  // namespace
+
+void Simulation::driveKinematic(double h) {
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    const BodyDesc& d = scene_.bodies[i];
+    if (!d.kinematic || d.path.empty()) continue;
+    const Pose frame = pathPose(d.path, world_.time() + h);  // the shape frame's pose
+    const RigidBody& rb = world_.body(bodies_[i].index);
+    const Pose com{frame.position + glm::mat3_cast(frame.orientation) * rb.localCom, frame.orientation};
+    world_.setKinematicTarget(bodies_[i].index, com, h);
+  }
+}
 
 void Simulation::setDeformOptions(const deform::DeformOptions& o) {
   scene_.deformation.options = o;
@@ -136,6 +230,13 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
   def.restitution = b.material->restitution;
   def.friction = b.material->friction;
   def.isStatic = d.isStatic;
+  def.kinematic = d.kinematic;
+  def.group = groups_.at(d.group);
+  if (d.kinematic && !d.path.empty()) {
+    // It starts where its path starts.
+    def.origin = d.path.front().position;
+    def.orientation = d.path.front().orientation;
+  }
   try {
     b.index = world_.addBody(def);
   } catch (const std::invalid_argument& e) {
@@ -234,7 +335,13 @@ void Simulation::stepPhysics(double h) {
     world_.wake(v.vehicle.body());
     v.vehicle.apply(world_, c, h);
   }
+  driveKinematic(h);
   world_.step(h);
+  for (const JointBreak& b : world_.jointBreaks()) {
+    const size_t k = static_cast<size_t>(std::find(joints_.begin(), joints_.end(), b.joint) - joints_.begin());
+    jointBreaks_.push_back({b.time, k < scene_.joints.size() ? scene_.joints[k].name : std::to_string(b.joint),
+                            b.impulse});
+  }
   for (VehicleRuntime& v : vehicles_) {
     const RigidBody& car = world_.body(v.vehicle.body());
     v.travel += glm::dot(car.v, car.rotation() * glm::dvec3(1, 0, 0)) * h;

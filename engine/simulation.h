@@ -49,6 +49,13 @@ struct BodyRuntime {
   bool contactDeformation = false;
 };
 
+// A joint that broke (events.jsonl's joint_break line).
+struct JointBreakRecord {
+  double time = 0;
+  std::string joint;  // its name in the scene
+  double impulse = 0;
+};
+
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
   long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;
@@ -67,6 +74,9 @@ class Simulation {
   const std::vector<BodyRuntime>& bodies() const { return bodies_; }
   std::vector<BodyRuntime>& bodies() { return bodies_; }
   const std::vector<EventRecord>& events() const { return events_; }
+  const std::vector<JointBreakRecord>& jointBreaks() const { return jointBreaks_; }
+  // The scene's joints, in its order: world joint ids.
+  const std::vector<int>& joints() const { return joints_; }
   long steps() const { return steps_; }
   Timings& timings() { return timings_; }
   deform::Deformer* deformer() { return deformer_.get(); }
@@ -88,6 +98,8 @@ class Simulation {
   glm::dmat4 modelAt(int i, const Pose& pose) const;
   // Wheels, belts and grousers of the vehicles at their current poses.
   std::vector<VehiclePart> vehicleParts() const;
+  // Cables drawn along the distance joints that hold (ropes, chains' strings), at the current poses.
+  std::vector<VehiclePart> jointParts() const;
   // Tread frame to world for tread t of vehicle v; `grousers` adds their shift along the belt.
   glm::dmat4 treadModel(const VehicleRuntime& v, size_t t, bool grousers) const {
     return crumple::treadModel(v, t, grousers, model(v.body));
@@ -101,6 +113,9 @@ class Simulation {
 
  private:
   void buildBody(const BodyDesc& desc, size_t index);
+  void buildJoints();
+  // Kinematic bodies on a path: the velocities that reach the path's pose at time t + h.
+  void driveKinematic(double h);
   // The stages of step(): physics with the vehicles' forces; the decision and
   // deformation of this step's collisions; contact deformation. `bodyOf` maps
   // world body indices to bodies_. The last two return whether anything deformed.
@@ -119,6 +134,11 @@ class Simulation {
   World world_;
   std::vector<BodyRuntime> bodies_;
   std::vector<EventRecord> events_;
+  std::vector<JointBreakRecord> jointBreaks_;
+  std::vector<int> joints_;
+  std::vector<Pose> initialPoses_;  // world bodies' poses when the joints were added
+  std::map<std::string, int> groups_;  // collision group names to world groups
+  std::shared_ptr<deform::GpuMesh> cableMesh_;  // unit cylinder (radius 1, height 1, along y); null without GL
   std::vector<VehicleRuntime> vehicles_;
   std::map<std::pair<int, int>, CollisionEvent> pendingContacts_;
   struct NormalLookup {

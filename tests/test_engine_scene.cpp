@@ -119,6 +119,65 @@ TEST_CASE("malformed scenes name the key path and the reason") {
   }
 }
 
+TEST_CASE("joints, kinematic bodies and groups load, and their errors name the key path") {
+  const std::string joints = R"("joints": [{"name": "h", "type": "hinge", "a": "plate", "b": "ball", "anchor": [0, 0, 0],
+    "axis": [0, 0, 1], "limits": [-45, 30], "motor": {"speed": 90, "max_torque": 5}, "break_impulse": 100},
+    {"type": "distance", "b": "ball", "anchor_a": [0, 2, 0], "anchor_b": [0, 0.6, 0], "min": 0, "max": 1.5}],
+    "no_collide": [["default", "default"]],
+    "cameras")";
+  const std::string good = mutate("\"cameras\"", joints);
+  const Scene s = parseScene(good, "good.json", ".");
+  REQUIRE(s.joints.size() == 2);
+  CHECK(s.joints[0].type == JointType::Hinge);
+  CHECK(s.joints[0].lower == doctest::Approx(-0.25 * 3.14159265358979));
+  CHECK(s.joints[0].motor.enabled);
+  CHECK(s.joints[0].motor.speed == doctest::Approx(0.5 * 3.14159265358979));
+  CHECK(s.joints[0].breakImpulse == 100);
+  CHECK(s.joints[1].name == "joint1");
+  CHECK(s.joints[1].a.empty());
+  CHECK(s.joints[1].maxLength == 1.5);
+  CHECK(s.noCollide.size() == 1);
+  auto jointMutate = [&](const std::string& from, const std::string& to) {
+    std::string t = good;
+    const auto pos = t.find(from);
+    REQUIRE(pos != std::string::npos);
+    t.replace(pos, from.size(), to);
+    return t;
+  };
+  struct Case {
+    std::string text, path, reason;
+  };
+  const std::vector<Case> corpus = {
+      {jointMutate("\"b\": \"ball\", \"anchor\"", "\"b\": \"bal\", \"anchor\""), "joints[0].b", "no body is named 'bal'"},
+      {jointMutate("\"axis\": [0, 0, 1]", "\"axis\": [0, 0, 0]"), "joints[0].axis", "must not be zero"},
+      {jointMutate("\"limits\": [-45, 30]", "\"limits\": [45, 30]"), "joints[0].limits", "lo is above hi"},
+      {jointMutate("\"break_impulse\": 100", "\"break_impulse\": -1"), "joints[0].break_impulse", "must be in [0"},
+      {jointMutate("\"type\": \"hinge\"", "\"type\": \"weld\""), "joints[0].type", "unknown joint type 'weld'"},
+      {jointMutate("\"max_torque\": 5", "\"max_force\": 5"), "joints[0].motor.max_torque", "is required"},
+      {jointMutate("\"min\": 0, \"max\": 1.5", "\"min\": 2, \"max\": 1.5"), "joints[1].min", "is above max"},
+      {jointMutate("\"anchor_a\"", "\"anchor\": [0, 0, 0], \"anchor_a\""), "joints[1].anchor", "anchor_a and anchor_b"},
+      {jointMutate("\"a\": \"plate\", \"b\": \"ball\"", "\"a\": \"ball\", \"b\": \"ball\""), "joints[0].b",
+       "two different bodies"},
+      {jointMutate("[[\"default\", \"default\"]]", "[[\"default\", \"debris\"]]"), "no_collide[0][1]",
+       "no body is in group 'debris'"},
+      {jointMutate("\"velocity\": [0, -6, 0]", "\"velocity\": [0, -6, 0], \"path\": [{\"t\": 0, \"position\": [0, 0, 0]}]"),
+       "bodies[1].path", "only a kinematic body"},
+      {jointMutate("\"velocity\": [0, -6, 0]",
+                   "\"kinematic\": true, \"path\": [{\"t\": 1, \"position\": [0, 0, 0]}, {\"t\": 1, \"position\": [0, 1, 0]}]"),
+       "bodies[1].path[1].t", "must increase"},
+      {jointMutate("\"static\": true", "\"static\": true, \"kinematic\": true"), "bodies[0].kinematic",
+       "both static and kinematic"},
+  };
+  for (const Case& c : corpus) {
+    CAPTURE(c.text);
+    const std::string err = errorOf(c.text);
+    CAPTURE(err);
+    CHECK(err.find("bad.json") == 0);
+    CHECK(err.find(c.path) != std::string::npos);
+    CHECK(err.find(c.reason) != std::string::npos);
+  }
+}
+
 TEST_CASE("hostile values make short messages: a 100000-deep array, a 100000-character string, a folder as an image") {
   std::string deep(100000, '[');
   deep += std::string(100000, ']');

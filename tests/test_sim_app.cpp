@@ -547,3 +547,106 @@ TEST_CASE("SIGTERM during a run removes the partial output and replaces nothing"
   CHECK(slurp(out / "summary.json") == before);
   CHECK(noPartialFolders());
 }
+
+TEST_CASE("wrecking-ball: the ball on its cable dents the clay wall; the cable never stretches; runs are identical") {
+  const fs::path a = kTmp / "wrecking_a", b = kTmp / "wrecking_b";
+  fs::remove_all(a);
+  fs::remove_all(b);
+  const std::string scene = std::string(CRUMPLE_SCENES) + "/wrecking-ball.json";
+  std::string log;
+  REQUIRE(runSim(scene + " --out " + a.string() + " --duration 1.6 --quiet --trace " + (kTmp / "wb.csv").string(),
+                 &log) == 0);
+  REQUIRE(runSim(scene + " --out " + b.string() + " --duration 1.6 --quiet") == 0);
+  const json s = json::parse(slurp(a / "summary.json"));
+  REQUIRE(s["joints"].size() == 1);
+  CHECK(s["joints"][0]["name"] == "cable");
+  CHECK(s["joints"][0]["type"] == "distance");
+  CHECK(s["joints"][0]["broken"] == false);
+  CHECK(s["joints"][0]["distance"].get<double>() <= 6.0 + 1e-3);
+  // The swing's hit on the wall: one collision line, typed, with a dent of several centimetres in the wall.
+  std::istringstream ev(slurp(a / "events.jsonl"));
+  std::string line;
+  double wallDent = 0;
+  int collisions = 0;
+  while (std::getline(ev, line)) {
+    const json e = json::parse(line);
+    CHECK(e["type"] == "collision");
+    ++collisions;
+    if (e["a"] == "wall") wallDent = std::max(wallDent, e["a_side"]["max_dent"].get<double>());
+    if (e["b"] == "wall") wallDent = std::max(wallDent, e["b_side"]["max_dent"].get<double>());
+  }
+  CHECK(collisions >= 1);
+  MESSAGE("wall dent " << wallDent * 100 << " cm");
+  CHECK(wallDent > 0.03);
+  json sa = s, sb = json::parse(slurp(b / "summary.json"));
+  sa.erase("timings");
+  sb.erase("timings");
+  CHECK(sa.dump() == sb.dump());
+  CHECK(slurp(a / "events.jsonl") == slurp(b / "events.jsonl"));
+  CHECK(slurp(a / "heightmaps" / "wall.png") == slurp(b / "heightmaps" / "wall.png"));
+}
+
+TEST_CASE("a breakable weld breaks under a hit: a joint_break line in events.jsonl; a keyframed body ends on its path") {
+  const fs::path scene = writeScene("weld.json", R"({
+  "format": "crumple-scene/1", "name": "weld", "timestep": 0.0041666667, "duration": 1.0,
+  "materials": {"steel": {"density": 7800, "restitution": 0.5, "friction": 0.4, "kappa": 0, "thickness": 0.01}},
+  "deformation": {"enabled": false},
+  "bodies": [
+    {"name": "sign", "shape": {"type": "box", "size": [0.6, 0.4, 0.05]}, "material": "steel", "position": [0, 2, 0],
+     "mass": 4},
+    {"name": "ball", "shape": {"type": "sphere", "radius": 0.1}, "material": "steel", "position": [0, 2, -1],
+     "velocity": [0, 0.98, 6]},
+    {"name": "strong", "shape": {"type": "box", "size": [0.6, 0.4, 0.05]}, "material": "steel",
+     "position": [3, 2, 0], "mass": 4},
+    {"name": "lift", "shape": {"type": "box", "size": [1, 0.1, 1]}, "material": "steel", "position": [6, 0, 0],
+     "kinematic": true, "group": "machines",
+     "path": [{"t": 0, "position": [6, 0, 0]}, {"t": 0.5, "position": [6, 1, 0], "orientation": [0, 90, 0]}]},
+    {"name": "ghost", "shape": {"type": "sphere", "radius": 0.2}, "material": "steel", "position": [6, 2, 0],
+     "group": "ghosts"}
+  ],
+  "joints": [
+    {"name": "weak_weld", "type": "fixed", "b": "sign", "anchor": [0, 2.2, 0], "break_impulse": 20},
+    {"name": "strong_weld", "type": "fixed", "a": null, "b": "strong", "anchor": [3, 2.2, 0], "break_impulse": 1e6}
+  ],
+  "no_collide": [["machines", "ghosts"]]
+})");
+  const fs::path out = kTmp / "weld_out";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(scene.string() + " --out " + out.string() + " --quiet", &log) == 0);
+  CAPTURE(log);
+  std::istringstream ev(slurp(out / "events.jsonl"));
+  std::string line;
+  int breaks = 0;
+  double hitTime = -1, breakTime = -1;
+  while (std::getline(ev, line)) {
+    const json e = json::parse(line);
+    if (e["type"] == "joint_break") {
+      ++breaks;
+      CHECK(e["joint"] == "weak_weld");
+      CHECK(e["impulse"].get<double>() > 20);
+      breakTime = e["t"].get<double>();
+    } else {
+      CHECK(e["type"] == "collision");
+      if (hitTime < 0 && (e["a"] == "sign" || e["b"] == "sign")) hitTime = e["t"].get<double>();
+    }
+  }
+  CHECK(breaks == 1);
+  CHECK(breakTime >= hitTime);
+  CHECK(breakTime < hitTime + 0.01);  // in the hit's step
+  const json s = json::parse(slurp(out / "summary.json"));
+  CHECK(s["joint_breaks"] == 1);
+  std::map<std::string, json> joints, bodies;
+  for (const json& j : s["joints"]) joints[j["name"]] = j;
+  for (const json& b : s["bodies"]) bodies[b["name"]] = b;
+  CHECK(joints["weak_weld"]["broken"] == true);
+  CHECK(joints["strong_weld"]["broken"] == false);
+  CHECK(bodies["sign"]["position"][1].get<double>() < 1.0);          // it fell once free
+  CHECK(bodies["strong"]["position"][1].get<double>() == doctest::Approx(2.0).epsilon(0.001));  // held
+  // The lift followed its path to the last key and stays there (held after it).
+  CHECK(bodies["lift"]["kinematic"] == true);
+  CHECK(bodies["lift"]["position"][1].get<double>() == doctest::Approx(1.0).epsilon(1e-6));
+  CHECK(std::abs(bodies["lift"]["orientation"][2].get<double>()) == doctest::Approx(std::sqrt(0.5)).epsilon(1e-6));
+  // The ghost, in a group that does not collide with the lift's, fell through it.
+  CHECK(bodies["ghost"]["position"][1].get<double>() < 0);
+}

@@ -88,3 +88,33 @@ TEST_CASE(
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("sandbox: the scenes with joints load and run (ragdoll, wrecking ball, chain bridge)") {
+  const fs::path dir = fs::temp_directory_path() / ("crumple_sandbox_joints_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const char* asan = std::getenv("ASAN_OPTIONS");
+  const std::string options = std::string(asan ? asan : "") + (asan ? ":" : "") + "detect_leaks=0";
+  setenv("ASAN_OPTIONS", options.c_str(), 1);
+  for (const char* name : {"ragdoll", "wrecking-ball", "chain-bridge"}) {
+    CAPTURE(name);
+    const fs::path out = dir / name, log = dir / "log.txt", shot = dir / (std::string(name) + ".png");
+    const std::string cmd = std::string(CRUMPLE_SANDBOX) + " " + CRUMPLE_SCENES + "/" + name +
+                            ".json --frames 40 --width 320 --height 180 --screenshot " + shot.string() + " --out " +
+                            out.string() + " > " + log.string() + " 2>&1";
+    const int rc = std::system(cmd.c_str());
+    std::ifstream lf(log);
+    std::stringstream ls;
+    ls << lf.rdbuf();
+    CAPTURE(ls.str());
+    REQUIRE(WIFEXITED(rc));
+    CHECK(WEXITSTATUS(rc) == 0);
+    std::ifstream sf(out / "summary.json");
+    std::stringstream ss;
+    ss << sf.rdbuf();
+    CHECK(ss.str().find("\"joints\"") != std::string::npos);
+    CHECK(ss.str().find("\"broken\": false") != std::string::npos);
+    CHECK(crumple::render::readPng(shot.string(), 3).width == 320);
+  }
+  fs::remove_all(dir);
+}

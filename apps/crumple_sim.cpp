@@ -13,6 +13,7 @@
 
 #include "engine/builtin_scenes.h"
 #include "engine/output_writer.h"
+#include "engine/overrides.h"
 #include "engine/simulation.h"
 #include "core/log.h"
 #include "core/version.h"
@@ -38,6 +39,8 @@ int main(int argc, char** argv) {
   std::string scenePath, outDir, deformPath, trace, size = "960x540";
   double duration = -1, fps = 30;
   long steps = -1;
+  int gpu = -1;
+  std::vector<std::string> sets;
   bool renderFrames = false, quiet = false, verbose = false;
   app.add_option("scene", scenePath,
                  "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
@@ -54,6 +57,14 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps, "Frames per simulated second for --render")
       ->check(CLI::Range(0.01, 1000.0))
       ->default_val(30);
+  app.add_option("--set", sets,
+                 "KEY=VALUE: change a value of the scene before it is checked (repeatable). KEY is a key path as "
+                 "the errors write it (materials.clay.kappa, bodies[ball].velocity), VALUE is JSON")
+      ->allow_extra_args(false);
+  app.add_option("--gpu", gpu,
+                 "Use this EGL device (0 = the first hardware GPU; default: CRUMPLE_EGL_DEVICE, else the first GPU, "
+                 "else software)")
+      ->check(CLI::Range(0, 1023));
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
   app.add_flag("--quiet,-q", quiet, "Only errors");
   app.add_flag("--verbose,-v", verbose, "Debug messages (GL debug output included)");
@@ -73,9 +84,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    Scene scene = scenePath.empty()
-                      ? parseScene(builtinSceneText(), "<built-in default scene>", fs::current_path().string())
-                      : loadScene(scenePath);
+    Overrides overrides;
+    for (const std::string& s : sets) overrides.push_back(parseOverride(s));
+    Scene scene = scenePath.empty() ? parseScene(builtinSceneText(), "<built-in default scene>",
+                                                 fs::current_path().string(), overrides)
+                                    : loadScene(scenePath, overrides);
     if (deformPath == "gather" || deformPath == "gpu") scene.deformation.options.path = deform::Path::Gather;
     if (deformPath == "scatter") scene.deformation.options.path = deform::Path::Scatter;
     if (deformPath == "readback") scene.deformation.options.path = deform::Path::Readback;
@@ -89,7 +102,10 @@ int main(int argc, char** argv) {
     std::unique_ptr<render::GlContext> gl;
     if (needGl) {
       try {
-        gl = render::createHeadlessContext({true, verbose});
+        render::HeadlessOptions glOptions;
+        glOptions.debug = verbose;
+        glOptions.device = gpu;
+        gl = render::createHeadlessContext(glOptions);
       } catch (const render::ContextError& e) {
         std::cerr << "crumple-sim: " << e.what() << "\n";
         return 1;

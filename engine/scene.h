@@ -164,6 +164,9 @@ struct Scene {
 
 // Parses and validates. Throws SceneError for every problem, naming the key path.
 Scene loadScene(const std::string& path);
+// The same with overrides (KEY path, VALUE as JSON text) applied to the document before it is checked
+// (engine/overrides.h): a path that does not exist is a SceneError naming it.
+Scene loadScene(const std::string& path, const std::vector<std::pair<std::string, std::string>>& overrides);
 Scene parseScene(const std::string& jsonText, const std::string& fileName, const std::string& baseDir);
 
 // Euler degrees [x, y, z]: rotate about x, then y, then z (extrinsic), q = qz qy qx.

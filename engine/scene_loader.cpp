@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "engine/scene.h"
+#include "engine/overrides.h"
 #include "core/log.h"
 
 namespace crumple {
@@ -80,6 +81,7 @@ class Node {
     for (auto it = j_.begin(); it != j_.end(); ++it) {
       bool ok = false;
       for (const char* k : known) ok = ok || it.key() == k;
+      if (!ok && isOverriddenPath(join(it.key()))) fail(it.key(), "unknown key");  // set by an override
       if (!ok) logWarning(file_, ": ", join(it.key()), ": unknown key, ignored");
     }
   }
@@ -638,7 +640,9 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   return s;
 }
 
-Scene loadScene(const std::string& path) {
+Scene loadScene(const std::string& path) { return loadScene(path, {}); }
+
+Scene loadScene(const std::string& path, const std::vector<std::pair<std::string, std::string>>& overrides) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw SceneError(path, "", "no such file");
   if (fs::is_directory(path, ec)) throw SceneError(path, "", "is a directory, not a scene file");
@@ -647,7 +651,7 @@ Scene loadScene(const std::string& path) {
   std::ostringstream os;
   os << f.rdbuf();
   const std::string base = fs::absolute(path, ec).parent_path().string();
-  return parseScene(os.str(), path, base);
+  return parseScene(os.str(), path, base, overrides);
 }
 
 }  // namespace crumple

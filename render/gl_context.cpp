@@ -11,6 +11,7 @@
 
 #include <dlfcn.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <vector>
 
@@ -173,6 +174,44 @@ std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options)
     if (options.debug) installDebugOutput();
     return context;
   };
+
+  // The device asked for: the option, else CRUMPLE_EGL_DEVICE (one GPU per worker process of a sweep).
+  int wanted = options.device;
+  if (wanted < 0) {
+    if (const char* env = std::getenv("CRUMPLE_EGL_DEVICE"); env && *env) {
+      char* end = nullptr;
+      const long v = std::strtol(env, &end, 10);
+      if (*end != '\0' || v < 0 || v > 1023)
+        throw ContextError(std::string("CRUMPLE_EGL_DEVICE must be a device number (0, 1, ...), got '") + env + "'");
+      wanted = static_cast<int>(v);
+    }
+  }
+  if (wanted >= 0) {
+    if (!hasExtension(clientExt, "EGL_EXT_platform_device"))
+      throw ContextError("EGL device " + std::to_string(wanted) + " asked for, but EGL_EXT_platform_device is missing");
+    auto queryDevices = reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
+    auto queryDeviceString =
+        reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(eglGetProcAddress("eglQueryDeviceStringEXT"));
+    EGLint count = 0;
+    std::vector<EGLDeviceEXT> devices;
+    if (queryDevices && queryDevices(0, nullptr, &count) && count > 0) {
+      devices.resize(static_cast<size_t>(count));
+      queryDevices(count, devices.data(), &count);
+    }
+    int hardware = 0;
+    for (EGLint i = 0; i < count; ++i) {
+      const char* devExt = queryDeviceString ? queryDeviceString(devices[static_cast<size_t>(i)], EGL_EXTENSIONS) : nullptr;
+      if (hasExtension(devExt, "EGL_MESA_device_software")) continue;
+      if (hardware++ != wanted) continue;
+      EGLDisplay display = getPlatformDisplay(EGL_PLATFORM_DEVICE_EXT, devices[static_cast<size_t>(i)], nullptr);
+      if (auto c = tryDisplay(display, "device " + std::to_string(i) + " (GPU " + std::to_string(wanted) + ")"))
+        return c;
+      throw ContextError("EGL device " + std::to_string(wanted) + " gave no OpenGL 4.5 core context:" + reasons);
+    }
+    throw ContextError("EGL device " + std::to_string(wanted) + " asked for, but there " +
+                       (hardware == 1 ? "is 1 hardware EGL device" : "are " + std::to_string(hardware) + " hardware EGL devices") +
+                       " (counting from 0)");
+  }
 
   // A real GPU through the device platform, skipping Mesa's software device.
   if (options.preferGpu && hasExtension(clientExt, "EGL_EXT_platform_device")) {

@@ -25,10 +25,14 @@ class GlContext {
 struct HeadlessOptions {
   bool preferGpu = true;  // EGL device platform with a hardware device if one exists
   bool debug = true;      // KHR_debug messages routed to the log
+  // Which GPU: -1 takes the environment's CRUMPLE_EGL_DEVICE when set, else the first hardware EGL device that
+  // works, else Mesa's surfaceless platform (software). N >= 0 asks for the N-th hardware EGL device (software
+  // devices not counted) and nothing else: there is no fallback when it is missing or fails.
+  int device = -1;
 };
 
 // OpenGL 4.5 core without a window. Throws ContextError (with the reason) when
-// no context can be made; never crashes.
+// no context can be made (or the device asked for is missing); never crashes.
 std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options = {});
 
 struct WindowOptions {

@@ -187,6 +187,7 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
       jj["name"] = d.name;
       jj["type"] = jointTypeName(d.type);
       jj["broken"] = st.broken;
+      jj["peak_impulse"] = i < sim.jointPeaks().size() ? sim.jointPeaks()[i] : 0.0;
       if (d.type == JointType::Hinge) jj["angle"] = st.angle * 180.0 / 3.14159265358979323846;
       if (d.type == JointType::Slider) jj["offset"] = st.offset;
       if (d.type == JointType::Distance) jj["distance"] = st.offset;

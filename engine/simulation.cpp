@@ -337,6 +337,9 @@ void Simulation::stepPhysics(double h) {
   }
   driveKinematic(h);
   world_.step(h);
+  jointPeaks_.resize(joints_.size(), 0.0);
+  for (size_t k = 0; k < joints_.size(); ++k)
+    jointPeaks_[k] = std::max(jointPeaks_[k], world_.jointState(joints_[k]).impulse);
   for (const JointBreak& b : world_.jointBreaks()) {
     const size_t k = static_cast<size_t>(std::find(joints_.begin(), joints_.end(), b.joint) - joints_.begin());
     jointBreaks_.push_back({b.time, k < scene_.joints.size() ? scene_.joints[k].name : std::to_string(b.joint),

@@ -77,6 +77,8 @@ class Simulation {
   const std::vector<JointBreakRecord>& jointBreaks() const { return jointBreaks_; }
   // The scene's joints, in its order: world joint ids.
   const std::vector<int>& joints() const { return joints_; }
+  // The largest impulse (N s) each joint carried in one step so far: what its break_impulse is compared with.
+  const std::vector<double>& jointPeaks() const { return jointPeaks_; }
   long steps() const { return steps_; }
   Timings& timings() { return timings_; }
   deform::Deformer* deformer() { return deformer_.get(); }
@@ -136,6 +138,7 @@ class Simulation {
   std::vector<EventRecord> events_;
   std::vector<JointBreakRecord> jointBreaks_;
   std::vector<int> joints_;
+  std::vector<double> jointPeaks_;
   std::vector<Pose> initialPoses_;  // world bodies' poses when the joints were added
   std::map<std::string, int> groups_;  // collision group names to world groups
   std::shared_ptr<deform::GpuMesh> cableMesh_;  // unit cylinder (radius 1, height 1, along y); null without GL

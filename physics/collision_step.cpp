@@ -11,6 +11,8 @@
 // - At most one CollisionEvent per pair and substep, for a hit approaching at
 //   eventMinApproachSpeed or faster, carrying the first hit's geometry, the
 //   elastic impulse and the sum of the pair's impulses; stats.collisions counts them.
+//   The elastic impulse treats a body welded to the world (ctx.anchored) as
+//   immovable: while its welds hold it is part of what it is welded to.
 // - ctx.found / ctx.foundVersion: each pair's last contacts and the impulse
 //   counts they were found at; ctx.predicted stays valid for bodies whose
 //   version has not moved (the contact step's first pass reuses both).
@@ -91,6 +93,15 @@ bool collide(StepContext& ctx, double h) {
         double elastic = 0;
         const Levers hitLevers = leversOf(at);
         const glm::dvec3 j = ctx.contactImpulse(at.a, at.b, at, hitLevers, eps, false, false, &elastic);
+        if (!ctx.anchored.empty()) {
+          // A body welded to the world is, while its welds hold, part of it: the
+          // elastic impulse (the deformation's |j_eps=1|) sees it as immovable.
+          const bool fa = ctx.anchored[static_cast<size_t>(at.a)] != 0, fb = ctx.anchored[static_cast<size_t>(at.b)] != 0;
+          if (fa != fb) {
+            const glm::dmat3 K = ctx.collisionMatrixAt(at.a, at.b, hitLevers, fa, fb);
+            elastic = glm::length(frictionlessImpulse(K, ctx.relativeVelocity(at.a, at.b, hitLevers), at.normal, 1.0));
+          }
+        }
         if (glm::dot(j, j) == 0) break;
         ctx.applyImpulse(at.a, at.b, hitLevers, j);
         ++version[static_cast<size_t>(ia)];

@@ -43,7 +43,9 @@ struct JointDef {
   double length = -1;                  // distance: < 0 takes the anchors' distance when added
   double minLength = -1, maxLength = -1;  // distance: both >= 0 make a range instead of a fixed length
   JointMotor motor;                    // hinge and slider
-  double breakImpulse = std::numeric_limits<double>::infinity();  // N s (see JointState::impulse)
+  // N s (see JointState::impulse). A joint asked for more in a step yields: it passes on only its
+  // breakImpulse, breaks, and the rest of the push stays with the bodies.
+  double breakImpulse = std::numeric_limits<double>::infinity();
   bool collideConnected = false;       // whether a and b still collide with each other
 };
 
@@ -61,7 +63,7 @@ struct JointState {
 struct JointBreak {
   double time = 0;  // the world's time at the end of the step in which it broke
   int joint = -1;
-  double impulse = 0;  // the step's impulse that passed breakImpulse
+  double impulse = 0;  // the impulse the step asked of it (over breakImpulse; it passed on only breakImpulse)
 };
 
 }  // namespace crumple

@@ -31,9 +31,14 @@
 // - projectJoints (in the position step's projection, after each iteration over
 //   the contacts): one Gauss-Seidel sweep that translates each joint's bodies,
 //   split by inverse mass, to close its anchor gap (the part the joint forbids).
-// - breakJoints: a joint whose linear impulse summed over the step so far passes
-//   its breakImpulse is broken (one JointBreak) and enforces nothing from the
-//   next substep on.
+// - findAnchored: ctx.anchored marks the bodies welded to the world or to a
+//   static body through fixed joints that hold (the collision step's elastic
+//   impulse treats them as part of what they are welded to).
+// - Breaking (at the end of each pre- and post-stabilisation call): a joint
+//   whose linear impulse summed over the step so far passes its breakImpulse
+//   yields: of that call's impulse it keeps only what takes it to its strength
+//   (the rest is taken back from the bodies), breaks (one JointBreak, with the
+//   impulse it was asked for) and enforces nothing from then on.
 // - A joint between two bodies that cannot move (static, kinematic, asleep) does
 //   nothing; a sleeping body joined to an awake one is woken first.
 #include <algorithm>
@@ -166,14 +171,9 @@ void solveRows(const Mobility& m, const Row* rows, int n, const double* rhs, dou
   }
 }
 
-// Applies sum lambda_k row_k on B (its opposite on A); returns the linear part.
-glm::dvec3 applyRows(StepContext& ctx, const Mobility& m, const Side& a, const Side& b, const Row* rows, int n,
-                     const double* lambda) {
-  glm::dvec3 j(0), t(0);
-  for (int k = 0; k < n; ++k) {
-    j += lambda[k] * rows[k].lin;
-    t += lambda[k] * rows[k].ang;
-  }
+// Applies a linear impulse j at the anchors and a torque impulse t on B (their opposites on A).
+void applyImpulse(StepContext& ctx, const Mobility& m, const Side& a, const Side& b, const glm::dvec3& j,
+                  const glm::dvec3& t) {
   if (a.index >= 0 && (a.invMass > 0)) {
     RigidBody& A = ctx.body(a.index);
     A.v -= j * a.invMass;
@@ -184,7 +184,20 @@ glm::dvec3 applyRows(StepContext& ctx, const Mobility& m, const Side& a, const S
     B.v += j * b.invMass;
     B.w += b.invInertia * (glm::cross(m.rb, j) + t);
   }
-  return j;
+}
+
+// Applies sum lambda_k row_k on B (its opposite on A) and books it on the joint.
+void applyRows(StepContext& ctx, Joint& jt, const Mobility& m, const Side& a, const Side& b, const Row* rows, int n,
+               const double* lambda) {
+  glm::dvec3 j(0), t(0);
+  for (int k = 0; k < n; ++k) {
+    j += lambda[k] * rows[k].lin;
+    t += lambda[k] * rows[k].ang;
+  }
+  applyImpulse(ctx, m, a, b, j, t);
+  jt.stepImpulse += j;
+  jt.callLinear += j;
+  jt.callAngular += t;
 }
 
 // A rotation vector of the small rotation q (angle times axis).
@@ -295,7 +308,7 @@ double solveJoint(StepContext& ctx, Joint& jt, double h, bool pre) {
       rhs[k] = pre ? -err[k] / h : -err[k];
     }
     solveRows(m, rows, n, rhs, lambda);
-    jt.stepImpulse += applyRows(ctx, m, a, b, rows, n, lambda);
+    applyRows(ctx, jt, m, a, b, rows, n, lambda);
   }
   return worst;
 }
@@ -324,7 +337,7 @@ double solveAxis(StepContext& ctx, Joint& jt, double h, bool pre) {
     const double total = std::clamp(jt.motorImpulse + l, -cap, cap);
     lambda = total - jt.motorImpulse;
     jt.motorImpulse = total;
-    if (lambda != 0) jt.stepImpulse += applyRows(ctx, m, a, b, &row, 1, &lambda);
+    if (lambda != 0) applyRows(ctx, jt, m, a, b, &row, 1, &lambda);
   }
   if (!d.limited) return 0;
   // The angle or offset: predicted (pre) or now (post).
@@ -361,8 +374,42 @@ double solveAxis(StepContext& ctx, Joint& jt, double h, bool pre) {
     }
   }
   solveRows(m, &row, 1, &rhs, &lambda);
-  if (lambda != 0) jt.stepImpulse += applyRows(ctx, m, a2, b2, &row, 1, &lambda);
+  if (lambda != 0) applyRows(ctx, jt, m, a2, b2, &row, 1, &lambda);
   return worst;
+}
+
+// Before a call's sweeps: what each joint applies in the call is booked from zero.
+void startCall(StepContext& ctx) {
+  for (Joint& jt : ctx.joints) {
+    jt.callLinear = jt.callAngular = glm::dvec3(0);
+    jt.callStart = jt.stepImpulse;
+  }
+}
+
+// After a call's sweeps: a joint whose impulse over the step now passes its
+// breakImpulse yields. It keeps only the part of this call's impulse that
+// takes it to its strength (the rest is taken back) and breaks: a weld never
+// passes on more than it can bear.
+void yieldJoints(StepContext& ctx, double h) {
+  for (size_t i = 0; i < ctx.joints.size(); ++i) {
+    Joint& jt = ctx.joints[i];
+    if (jt.removed || jt.broken) continue;
+    const double demand = glm::length(jt.stepImpulse);
+    if (!(demand > jt.def.breakImpulse)) continue;
+    // f in [0, 1] with |callStart + f callLinear| = breakImpulse (|callStart| <= breakImpulse).
+    const glm::dvec3 p = jt.callStart, j = jt.callLinear;
+    const double jj = glm::dot(j, j), pj = glm::dot(p, j), B = jt.def.breakImpulse;
+    double f = 0;
+    if (jj > 0) f = std::clamp((-pj + std::sqrt(std::max(0.0, pj * pj - jj * (glm::dot(p, p) - B * B)))) / jj, 0.0, 1.0);
+    const Side a = sideOf(ctx, jt.def.a, h), b = sideOf(ctx, jt.def.b, h);
+    const glm::dvec3 ra = jt.def.a < 0 ? glm::dvec3(0) : dirOf(a.pose, jt.rA, jt.def.a);
+    const Mobility m = mobility(a, b, ra, dirOf(b.pose, jt.rB, jt.def.b));
+    applyImpulse(ctx, m, a, b, -(1 - f) * j, -(1 - f) * jt.callAngular);
+    jt.stepImpulse = p + f * j;
+    jt.broken = true;
+    ctx.jointExcludedDirty = true;
+    ctx.jointBreaks.push_back({ctx.time + h, static_cast<int>(i), demand});
+  }
 }
 
 void wakeJoined(StepContext& ctx) {
@@ -383,6 +430,7 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     wakeJoined(ctx);
     for (Joint& jt : ctx.joints) jt.motorImpulse = 0;  // the motor's budget is per substep
   }
+  startCall(ctx);
   for (int s = 0; s < sweeps; ++s) {
     double worst = 0;
     for (Joint& jt : ctx.joints) {
@@ -393,16 +441,19 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     ++ctx.stats.jointSweeps;
     if (worst < ctx.settings.jointTolerance) break;
   }
+  yieldJoints(ctx, h);
 }
 
 void postStabilize(StepContext& ctx, double h) {
   if (ctx.joints.empty()) return;
+  startCall(ctx);
   for (int s = 0; s < ctx.settings.jointPostIterations; ++s)
     for (Joint& jt : ctx.joints) {
       if (!active(ctx, jt)) continue;
       solveJoint(ctx, jt, h, false);
       solveAxis(ctx, jt, h, false);
     }
+  yieldJoints(ctx, h);
   for (Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.type != JointType::Hinge) continue;
     const Side a = sideOf(ctx, jt.def.a, h), b = sideOf(ctx, jt.def.b, h);
@@ -440,18 +491,34 @@ void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved) {
   }
 }
 
-void breakJoints(StepContext& ctx, double h) {
-  for (size_t i = 0; i < ctx.joints.size(); ++i) {
-    Joint& jt = ctx.joints[i];
-    if (jt.removed || jt.broken) continue;
-    const double impulse = glm::length(jt.stepImpulse);
-    if (impulse > jt.def.breakImpulse) {
-      jt.broken = true;
-      ctx.jointExcludedDirty = true;
-      ctx.jointBreaks.push_back({ctx.time + h, static_cast<int>(i), impulse});
+void findAnchored(StepContext& ctx) {
+  ctx.anchored.clear();
+  if (ctx.joints.empty()) return;
+  const size_t n = ctx.bodies.size();
+  ctx.anchored.assign(n, 0);
+  // Flood from the welds to the world or to bodies that cannot move.
+  std::vector<std::vector<int>> welded(n);
+  std::vector<int> stack;
+  for (const Joint& jt : ctx.joints) {
+    if (jt.removed || jt.broken || jt.def.type != JointType::Fixed) continue;
+    const int a = jt.def.a, b = jt.def.b;
+    const bool fixedA = a < 0 || ctx.body(a).isStatic, fixedB = ctx.body(b).isStatic;
+    if (fixedA && !fixedB) stack.push_back(b);
+    if (fixedB && !fixedA) stack.push_back(a);
+    if (!fixedA && !fixedB) {
+      welded[static_cast<size_t>(a)].push_back(b);
+      welded[static_cast<size_t>(b)].push_back(a);
     }
   }
+  while (!stack.empty()) {
+    const int i = stack.back();
+    stack.pop_back();
+    if (ctx.anchored[static_cast<size_t>(i)]) continue;
+    ctx.anchored[static_cast<size_t>(i)] = 1;
+    for (int k : welded[static_cast<size_t>(i)]) stack.push_back(k);
+  }
 }
+
 
 bool mayCollide(StepContext& ctx, int a, int b) {
   const RigidBody& A = ctx.body(a);

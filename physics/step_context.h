@@ -14,7 +14,7 @@
 //   shock_propagation.cpp  shockPropagation
 //   joint_step.cpp         preStabilize again (what the contacts moved)
 //   position_step.cpp      endOfStepDepths, integratePositions, projectPositions
-//   joint_step.cpp         postStabilize, breakJoints
+//   joint_step.cpp         postStabilize
 //   sleep.cpp              updateSleep
 // Each file opens with what its stage guarantees.
 #pragma once
@@ -60,6 +60,7 @@ struct Joint {
   double angle = 0;               // hinge: unwrapped angle at the end of the last substep
   double length = 0, minLength = 0, maxLength = 0;  // distance
   glm::dvec3 stepImpulse{0};      // linear impulse at the anchor over the step so far
+  glm::dvec3 callStart{0}, callLinear{0}, callAngular{0};  // this pre- or post-stabilisation call's share
   double motorImpulse = 0;        // this substep's motor impulse (clamped to maxForce h)
 };
 
@@ -120,6 +121,9 @@ struct StepContext {
   // What the last step produced (all its substeps).
   std::vector<CollisionEvent> events, contactReports;
   std::vector<JointBreak> jointBreaks;
+  // Per body, this substep (empty without joints): welded (fixed joints that
+  // hold) to a static body or the world, through any chain of welds.
+  std::vector<char> anchored;
   StepStats stats;
 
   // Broad phase, kept between substeps: bounds per body, the sweep order, pair
@@ -272,8 +276,8 @@ void shockPropagation(StepContext& ctx);
 // joint_step.cpp
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
-void breakJoints(StepContext& ctx, double h);
 void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved);
+void findAnchored(StepContext& ctx);
 // Whether bodies a and b may collide (groups, joints, the user's filter).
 bool mayCollide(StepContext& ctx, int a, int b);
 // position_step.cpp

@@ -392,6 +392,7 @@ void World::substep(double h) {
   clock.lap(ms.broadPhase);
   detail::findCandidates(c, h);
   clock.lap(ms.candidates);
+  detail::findAnchored(c);
   // 1. collision with restitution on predicted positions (emits events)
   detail::collide(c, h);
   clock.lap(ms.collide);
@@ -416,7 +417,6 @@ void World::substep(double h) {
   detail::projectPositions(c);
   clock.lap(ms.positions);
   detail::postStabilize(c, h);
-  detail::breakJoints(c, h);
   clock.lap(ms.joints);
   // 6. sleeping
   detail::updateSleep(c, h);

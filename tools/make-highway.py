@@ -4,7 +4,9 @@
 The rails are W-beam segments (scenes/assets/wbeam.obj, 4 m) on steel posts
 every 2 m, on both sides of the road; the car is scenes/assets/sedan.obj, a
 smooth procedural body with glass and lights in its vertex colours (both from
-tools/make-assets.py). Cameras: a chase camera that follows the car, a close
+tools/make-assets.py). Around the impact the left rail is held by joints:
+its segments are bolted (welded) to their posts and the posts are welded to the
+ground by welds that break, so a hard enough hit tears posts out. Cameras: a chase camera that follows the car, a close
 camera at the impact, and one that follows the car's dented side.
 Rerun on purpose after changing it; the scene file is committed."""
 import argparse, json, os
@@ -17,24 +19,45 @@ SEGMENTS = 25      # per side: 100 m of rail
 RAIL_Z = 5.0       # the beams' traffic faces stand at |z| = RAIL_Z - 0.09
 BEAM_Y = 0.6       # centre height of the beam (its top at ~0.76 m)
 POST_EVERY = 2.0
+# Around the impact the left rail is held by joints instead of being static: its
+# segments are welded to their posts and each post is welded to the ground by a
+# weld that breaks above POST_BREAK N s in one step (a post torn out of the soil).
+LOOSE_SEGMENTS = range(9, 10)   # rail_left_09 (x = 36 .. 40 m), where the car hits
+POST_BREAK = 1000.0             # N s
+RAIL_MASS, POST_MASS = 60.0, 25.0
 
 
 def scene():
+    joints = []
     bodies = [{"name": "road", "shape": {"type": "box", "size": [240, 0.4, 14]}, "material": "asphalt",
                "static": True, "position": [100, -0.2, 0]}]
     for side, z, yaw in (("left", -RAIL_Z, 180), ("right", RAIL_Z, 0)):
         # wbeam.obj's traffic face looks along -z: the right rail as it is, the left one turned about y.
+        loose = LOOSE_SEGMENTS if side == "left" else []
         for i in range(SEGMENTS):
             x = RAIL_START + SEGMENT * (i + 0.5)
-            bodies.append({"name": "rail_%s_%02d" % (side, i), "shape": {"type": "mesh", "file": "assets/wbeam.obj"},
-                           "material": "rail", "static": True, "position": [x, BEAM_Y, z],
-                           "orientation": [0, yaw, 0], "bump_map": {"resolution": 1024}})
+            rail = {"name": "rail_%s_%02d" % (side, i), "shape": {"type": "mesh", "file": "assets/wbeam.obj"},
+                    "material": "rail", "static": i not in loose, "position": [x, BEAM_Y, z],
+                    "orientation": [0, yaw, 0], "bump_map": {"resolution": 1024}, "group": "rail"}
+            if i in loose:
+                rail["mass"] = RAIL_MASS
+            bodies.append(rail)
         posts = int(SEGMENTS * SEGMENT / POST_EVERY) + 1
         for i in range(posts):
             x = RAIL_START + POST_EVERY * i
             pz = z + (0.17 if z > 0 else -0.17)
-            bodies.append({"name": "post_%s_%02d" % (side, i), "shape": {"type": "box", "size": [0.1, 0.8, 0.12]},
-                           "material": "post", "static": True, "position": [x, 0.4, pz]})
+            # A post under a loose segment is loose too (the ones at its ends included).
+            held = [k for k in loose if SEGMENT * k <= x - RAIL_START <= SEGMENT * (k + 1)]
+            post = {"name": "post_%s_%02d" % (side, i), "shape": {"type": "box", "size": [0.1, 0.8, 0.12]},
+                    "material": "post", "static": not held, "position": [x, 0.4, pz]}
+            if held:
+                post.update({"mass": POST_MASS, "group": "rail"})
+                joints.append({"name": "footing_%s_%02d" % (side, i), "type": "fixed", "b": post["name"],
+                               "anchor": [x, 0.0, pz], "break_impulse": POST_BREAK})
+                for k in held:
+                    joints.append({"name": "bolt_%s_%02d_%02d" % (side, k, i), "type": "fixed",
+                                   "a": post["name"], "b": "rail_%s_%02d" % (side, k), "anchor": [x, BEAM_Y, pz]})
+            bodies.append(post)
     car = {"name": "car", "shape": {"type": "mesh", "file": "assets/sedan.obj"}, "material": "car_body",
            "mass": 1300, "position": [0, 0.68, 3.0], "velocity": [22.2, 0, 0], "bump_map": {"resolution": 2048, "bump_depth": 0.2},
            "vehicle": {"wheels": [[1.3, -0.17, 0.8], [1.3, -0.17, -0.8], [-1.3, -0.17, 0.8], [-1.3, -0.17, -0.8]],
@@ -67,6 +90,9 @@ def scene():
         "deformation": {"enabled": True, "impulse_floor": 300, "bump_depth": 0.1, "bump_depth_collide": 0.02,
                         "address_map": 512, "path": "gather"},
         "bodies": bodies,
+        "joints": joints,
+        # Rail segments abut: a loose one swings out past its neighbours' ends.
+        "no_collide": [["rail", "rail"]],
         "cameras": [
             {"name": "chase", "follow": "car", "follow_heading": True, "position": [-8.5, 3.2, 2.5],
              "target": [2.5, 0.4, 0], "fov": 50},

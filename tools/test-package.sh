@@ -33,4 +33,11 @@ export PKG_CONFIG_PATH="$(dirname "$(find "$prefix" -name crumple.pc)")"
 # shellcheck disable=SC2046
 g++ -std=c++20 -O1 apps/examples/hello_physics.cpp -o "$tmp/hello-physics-pc" $(pkg-config --cflags --libs crumple)
 "$tmp/hello-physics-pc" | tail -1
+if [ -x "$prefix/bin/crumple-sweep" ]; then
+  echo "== the Python module and crumple-sweep, installed"
+  python="$(head -1 "$prefix/bin/crumple-sweep" | cut -c3-)"
+  PYTHONPATH="$(dirname "$(dirname "$(find "$prefix" -name '_crumple*.so')")")" "$python" -c \
+    'import crumple; s = crumple.Simulation(overrides={"duration": 0.1}); s.run(); print("dent", 0.5 - s.height_map("plate").min())'
+  "$prefix/bin/crumple-sweep" --help >/dev/null
+fi
 echo "test-package: the installed package builds and runs the examples"

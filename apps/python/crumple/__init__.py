@@ -1,0 +1,100 @@
+"""crumple: rigid bodies whose strong collisions dent their bump maps, from Python.
+
+    import crumple
+    sim = crumple.Simulation("scenes/sphere-into-plate.json",
+                             overrides={"bodies[ball].velocity": [0, -8, 0]})
+    sim.run()
+    dent = 0.5 - sim.height_map("plate").min()   # in units of the plate's bump_depth
+
+The full API is in docs/python.md; scene files in docs/scene-format.md.
+"""
+
+import json as _json
+
+from . import _crumple
+
+__all__ = ["Simulation", "SceneError", "load_scene", "__version__"]
+
+__version__ = _crumple.__version__
+
+SceneError = _crumple.SceneError
+SceneError.__module__ = "crumple"
+SceneError.__doc__ = (
+    "Bad input: the scene file, a file it names, or an override. str(e) is the message crumple-sim prints "
+    "after 'crumple-sim: error: ' (file, key path, reason); e.file, e.key_path and e.reason hold the parts.")
+
+
+def _json_default(value):
+    # numpy arrays and scalars
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _overrides(overrides):
+    """{key path: value} (or (key path, value) pairs) as (key, JSON text) pairs, in order."""
+    if overrides is None:
+        return []
+    items = overrides.items() if hasattr(overrides, "items") else overrides
+    out = []
+    for item in items:
+        try:
+            key, value = item
+        except (TypeError, ValueError):
+            raise TypeError(f"overrides: expected a dict or (key, value) pairs, got {item!r}") from None
+        if not isinstance(key, str):
+            raise TypeError(f"overrides: a key path must be a str, got {key!r}")
+        try:
+            text = _json.dumps(value, default=_json_default, allow_nan=False)
+        except (TypeError, ValueError) as e:
+            raise TypeError(f"overrides: {key}: the value is not JSON: {e}") from None
+        out.append((key, text))
+    return out
+
+
+def load_scene(path=None, overrides=None):
+    """Loads and checks a scene without running it (no OpenGL). Returns a dict: name, file, timestep,
+    duration, steps (the run's step count), bodies ([{name, static, bump_map: resolution or None}]),
+    cameras and joints (names). Raises SceneError as Simulation does. path None: the built-in default scene."""
+    return _json.loads(_crumple._load_scene(None if path is None else str(path), _overrides(overrides)))
+
+
+class Simulation(_crumple._Simulation):
+    """A scene loaded, checked and ready to step (docs/python.md).
+
+    path: a scene file (str or os.PathLike); None runs the built-in default scene (a steel ball thrown
+    onto a clay plate). overrides: {key path: value}, the key paths of crumple-sim's --set
+    ("bodies[ball].velocity", "materials.clay.kappa"), values as Python objects (lists, numbers, str...).
+    gpu: the EGL device, as crumple-sim --gpu (None: CRUMPLE_EGL_DEVICE, else the first GPU, else software).
+
+    Raises SceneError for bad input, RuntimeError when no OpenGL context can be made for a scene with bump
+    maps.
+    """
+
+    def __init__(self, path=None, overrides=None, *, gpu=None):
+        if gpu is not None and (not isinstance(gpu, int) or gpu < 0):
+            raise ValueError(f"gpu must be a device number >= 0, got {gpu!r}")
+        super().__init__(None if path is None else str(path), _overrides(overrides), -1 if gpu is None else gpu)
+        self._scene = _json.loads(self._scene_json)
+
+    @property
+    def name(self):
+        """The scene's name."""
+        return self._scene["name"]
+
+    @property
+    def timestep(self):
+        """Seconds per step."""
+        return self._scene["timestep"]
+
+    @property
+    def duration(self):
+        """The scene's duration in seconds (run() runs to it)."""
+        return self._scene["duration"]
+
+    def cameras(self):
+        """The scene's camera names ("default" for a scene without cameras), as render() takes them."""
+        return list(self._scene["cameras"]) or ["default"]
+
+    def __repr__(self):
+        return f"<crumple.Simulation {self.name!r} t={self.time:.4f} s, {self.steps} steps>"

@@ -1,0 +1,211 @@
+"""The Python module `crumple` (docs/python.md) and crumple-sim --set, on a small scene (drop.json).
+
+Run by ctest with PYTHONPATH=build/python; by hand:
+    PYTHONPATH=build/python CRUMPLE_SIM=build/apps/crumple-sim python3 -m unittest -v test_python
+(from apps/python/tests/)."""
+
+import json
+import os
+import subprocess
+import tempfile
+import unittest
+
+import numpy as np
+
+import crumple
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DROP = os.path.join(HERE, "drop.json")
+SIM = os.environ.get("CRUMPLE_SIM", "crumple-sim")
+
+
+class LoadAndStep(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.sim = crumple.Simulation(DROP)
+        cls.sim.run()
+
+    def test_runs_to_the_scene_duration(self):
+        self.assertEqual(self.sim.steps, round(0.1 / self.sim.timestep))
+        self.assertAlmostEqual(self.sim.time, 0.1, places=6)
+        self.assertEqual(self.sim.name, "drop")
+        self.assertEqual(self.sim.run(), 0)  # already there
+
+    def test_height_map_holds_the_dent(self):
+        h = self.sim.height_map("plate")
+        self.assertIsInstance(h, np.ndarray)
+        self.assertEqual(h.dtype, np.float32)
+        self.assertEqual(h.shape, (128, 128))
+        # 0.5 is flat: most of the plate is untouched, and the ball pressed in below it.
+        self.assertAlmostEqual(float(np.median(h)), 0.5, places=6)
+        depth_m = (0.5 - float(h.min())) * 0.1  # bump_depth k = 0.1 m
+        self.assertGreater(depth_m, 0.005)
+        dented = np.count_nonzero(h < 0.5 - 1e-4)
+        self.assertGreater(dented, 20)
+        self.assertLess(dented, h.size // 4)
+        # The deepest texel matches the deepest dent the events report (to float precision).
+        plate_dents = [e["a_side"]["max_dent"] if e["a"] == "plate" else e["b_side"]["max_dent"]
+                       for e in self.sim.events() if e["type"] == "collision" and "plate" in (e["a"], e["b"])]
+        self.assertAlmostEqual(depth_m, max(plate_dents), delta=1e-5)
+
+    def test_normal_map_is_tilted_in_the_dent_only(self):
+        n = self.sim.normal_map("plate")
+        self.assertEqual(n.dtype, np.float32)
+        self.assertEqual(n.shape, (128, 128, 3))
+        h = self.sim.height_map("plate")
+        # Texels whose neighbours are all undented too (a normal is the height map's slope around a texel).
+        far = h == 0.5
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                far &= np.roll(np.roll(h, dy, 0), dx, 1) == 0.5
+        flat = n[far]
+        self.assertGreater(len(flat), h.size // 2)
+        self.assertTrue(np.all(np.abs(flat[:, :2]) < 0.01))
+        self.assertTrue(np.all(flat[:, 2] > 0.99))
+        self.assertGreater(float(np.abs(n[..., :2]).max()), 0.1)
+
+    def test_bodies_and_events(self):
+        bodies = self.sim.bodies()
+        self.assertEqual([b["name"] for b in bodies], ["plate", "ball", "pebble"])
+        self.assertEqual(set(bodies[1]), {"name", "position", "orientation", "linear_velocity", "angular_velocity",
+                                          "center_of_mass", "mass", "static", "asleep"})
+        self.assertIsNone(bodies[0]["mass"])
+        self.assertTrue(bodies[0]["static"])
+        self.assertGreater(bodies[1]["position"][1], 0.2)  # bounced, above the plate
+        events = self.sim.events()
+        self.assertGreaterEqual(len(events), 1)
+        first = events[0]
+        self.assertEqual(first["type"], "collision")
+        self.assertEqual({first["a"], first["b"]}, {"plate", "ball"})
+        self.assertTrue(first["a_side"]["deformed"] and first["b_side"]["deformed"])
+
+    def test_errors_for_names(self):
+        with self.assertRaisesRegex(ValueError, r"no body is named 'nope'"):
+            self.sim.height_map("nope")
+        with self.assertRaisesRegex(ValueError, r"'pebble' has no bump_map"):
+            self.sim.normal_map("pebble")
+        with self.assertRaisesRegex(ValueError, r"no camera is named 'side' \(cameras: main\)"):
+            self.sim.render("side")
+
+    def test_render_returns_an_image(self):
+        img = self.sim.render("main", width=160, height=90)
+        self.assertEqual(img.dtype, np.uint8)
+        self.assertEqual(img.shape, (90, 160, 3))
+        self.assertGreater(int(img.std()), 3)  # a picture, not a blank
+        self.assertEqual(self.sim.render().shape, (540, 960, 3))  # the first camera, crumple-sim's size
+
+
+class Outputs(unittest.TestCase):
+    def test_write_outputs_is_what_crumple_sim_writes(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            sim = crumple.Simulation(DROP)
+            sim.step(12)
+            self.assertEqual(sim.steps, 12)
+            out = os.path.join(tmp, "out")
+            sim.write_outputs(out)
+            with open(os.path.join(out, "summary.json")) as f:
+                summary = json.load(f)
+            self.assertEqual(summary["steps"], 12)
+            self.assertEqual(summary["bodies"], sim.bodies())
+            with open(os.path.join(out, "events.jsonl")) as f:
+                lines = [json.loads(line) for line in f]
+            self.assertEqual(lines, sim.events())
+            for f in ("heightmaps/plate.png", "normalmaps/ball.png", ".crumple-output"):
+                self.assertTrue(os.path.isfile(os.path.join(out, f)), f)
+            # crumple-sim's run of the same steps writes the same state.
+            cli = os.path.join(tmp, "cli")
+            subprocess.run([SIM, DROP, "--out", cli, "--steps", "12", "-q"], check=True)
+            with open(os.path.join(cli, "summary.json")) as f:
+                self.assertEqual(json.load(f)["bodies"], summary["bodies"])
+            # A folder crumple did not write is refused, as crumple-sim refuses it.
+            foreign = os.path.join(tmp, "foreign")
+            os.makedirs(foreign)
+            open(os.path.join(foreign, "notes.txt"), "w").close()
+            with self.assertRaisesRegex(crumple.SceneError, "not written by crumple"):
+                sim.write_outputs(foreign)
+
+
+class Overrides(unittest.TestCase):
+    def test_overrides_change_the_run(self):
+        slow = crumple.Simulation(DROP, overrides={"bodies[ball].velocity": [0, -3, 0]})
+        fast = crumple.Simulation(DROP, overrides={"bodies[ball].velocity": np.array([0.0, -9.0, 0.0]),
+                                                   "deformation.path": "scatter"})
+        for s in (slow, fast):
+            s.run()
+        self.assertLess(slow.height_map("plate").min(), 0.5)
+        self.assertLess(fast.height_map("plate").min(), slow.height_map("plate").min())
+
+    def test_load_scene(self):
+        info = crumple.load_scene(DROP, {"bodies[pebble].bump_map": {"resolution": 32}, "duration": 0.5})
+        self.assertEqual(info["name"], "drop")
+        self.assertEqual(info["steps"], 120)
+        self.assertEqual([(b["name"], b["bump_map"]) for b in info["bodies"]],
+                         [("plate", 128), ("ball", 64), ("pebble", 32)])
+        self.assertEqual(info["cameras"], ["main"])
+
+    def test_bad_input_raises_scene_error_with_crumple_sim_message(self):
+        cases = [
+            ({"bodies[bal].velocity": [0, -8, 0]}, "bodies[bal].velocity", "no body is named 'bal'"),
+            ({"bodies[ball].velocty": [0, -8, 0]}, "bodies[1].velocty", "unknown key"),
+            ({"materials.clay.restitution": 1.5}, "materials.clay.restitution", "must be in [0, 1], got 1.5"),
+            ({"materials.iron.kappa": 0.1}, "materials.iron.kappa", "no material is named 'iron'"),
+        ]
+        for overrides, key_path, reason in cases:
+            with self.subTest(overrides=overrides):
+                with self.assertRaises(crumple.SceneError) as cm:
+                    crumple.Simulation(DROP, overrides=overrides)
+                e = cm.exception
+                self.assertIsInstance(e, ValueError)
+                self.assertEqual(e.key_path, key_path)
+                self.assertIn(reason, e.reason)
+                self.assertEqual(e.file, DROP)
+                # crumple-sim prints the same message, with exit status 2.
+                (key, value), = overrides.items()
+                r = subprocess.run([SIM, DROP, "--out", os.devnull + "-never", "--set", f"{key}={json.dumps(value)}"],
+                                   capture_output=True, text=True)
+                self.assertEqual(r.returncode, 2)
+                self.assertEqual(r.stderr.strip(), f"crumple-sim: error: {e}")
+
+    def test_bad_scene_file(self):
+        with self.assertRaises(crumple.SceneError) as cm:
+            crumple.Simulation(os.path.join(HERE, "no-such-scene.json"))
+        self.assertIn("no such file", str(cm.exception))
+        with tempfile.NamedTemporaryFile("w", suffix=".json") as f:
+            f.write('{"bodies": [{"name": "b", "shape": {"type": "sphere", "radius": -1}}]}')
+            f.flush()
+            with self.assertRaises(crumple.SceneError) as cm:
+                crumple.Simulation(f.name)
+            self.assertEqual(cm.exception.key_path, "bodies[0].shape.radius")
+
+    def test_override_types(self):
+        with self.assertRaisesRegex(TypeError, "key path must be a str"):
+            crumple.Simulation(DROP, overrides={3: 1})
+        with self.assertRaisesRegex(TypeError, "not JSON"):
+            crumple.Simulation(DROP, overrides={"duration": object()})
+
+    def test_crumple_sim_set(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            runs = {}
+            for v in (-3, -9):
+                out = os.path.join(tmp, str(v))
+                subprocess.run([SIM, DROP, "--out", out, "-q", "--set", f"bodies[ball].velocity=[0,{v},0]",
+                                "--set", "deformation.path=scatter", "--set", "duration=0.05"], check=True)
+                with open(os.path.join(out, "summary.json")) as f:
+                    runs[v] = json.load(f)
+                with open(os.path.join(out, "events.jsonl")) as f:
+                    runs[v]["dent"] = max(json.loads(line)["a_side"]["max_dent"] for line in f)
+            self.assertEqual(runs[-3]["steps"], 12)
+            self.assertGreater(runs[-9]["dent"], runs[-3]["dent"])
+
+
+class Default(unittest.TestCase):
+    def test_builtin_scene_and_version(self):
+        sim = crumple.Simulation(overrides={"duration": 0.01})
+        self.assertEqual(sim.name, "sphere-into-plate")
+        self.assertEqual(sim.run(), 2)
+        self.assertRegex(crumple.__version__, r"^\d+\.\d+\.\d+")
+        self.assertIn("sphere-into-plate", repr(sim))
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -7,6 +7,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -17,6 +18,15 @@ namespace crumple {
 struct Pose {
   glm::dvec3 position{0};  // centre of mass, world
   glm::dquat orientation{1, 0, 0, 0};
+};
+
+// A handle to a body: its slot and the slot's generation. Once the body is
+// removed and World::add reuses the slot for another, the old handle is stale:
+// World::index refuses it, so it can never reach the new body (Box2D's b2BodyId).
+struct BodyId {
+  int32_t index = -1;
+  uint32_t generation = 0;
+  bool operator==(const BodyId&) const = default;
 };
 
 struct BodyDef {
@@ -48,6 +58,7 @@ struct RigidBody {
   bool isStatic = false;
   bool kinematic = false;  // invMass and invInertiaBody are 0; never sleeps
   bool removed = false;    // World::removeBody: takes part in nothing any more
+  uint32_t generation = 0;  // bumped each time World::add reuses this slot (BodyId)
   int group = 0;
   bool asleep = false;
   double stillTime = 0;

@@ -60,6 +60,13 @@ struct JointState {
   double impulse = 0;
 };
 
+// A handle to a joint (see BodyId): stale once the joint is removed and its slot reused.
+struct JointId {
+  int32_t index = -1;
+  uint32_t generation = 0;
+  bool operator==(const JointId&) const = default;
+};
+
 struct JointBreak {
   double time = 0;  // the world's time at the end of the step in which it broke
   int joint = -1;

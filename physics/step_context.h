@@ -53,6 +53,7 @@ struct Pair {
 struct Joint {
   JointDef def;
   bool removed = false, broken = false;
+  uint32_t generation = 0;        // JointId
   glm::dvec3 rA{0}, rB{0};        // anchors
   glm::dvec3 axisA{0}, axisB{0};  // the axis (hinge, slider)
   glm::dvec3 refA{0}, refB{0};    // a direction normal to the axis: the hinge angle's zero

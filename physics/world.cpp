@@ -21,7 +21,9 @@ World::~World() = default;
 World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
-int World::addBody(const BodyDef& def) {
+namespace {
+// The body that `def` describes, checked (std::invalid_argument on bad input).
+RigidBody makeBody(const BodyDef& def) {
   if (!def.shape) throw std::invalid_argument("body has no shape");
   if (!finite(def.origin) || !finite(def.linearVelocity) || !finite(def.angularVelocity) ||
       !std::isfinite(def.orientation.w) || !std::isfinite(def.orientation.x) || !std::isfinite(def.orientation.y) ||
@@ -64,12 +66,86 @@ int World::addBody(const BodyDef& def) {
       b.invInertiaBody = glm::dmat3(0);
     }
   }
+  return b;
+}
+}  // namespace
+
+int World::addBody(const BodyDef& def) {
+  RigidBody b = makeBody(def);
   detail::StepContext& c = *ctx_;
   c.bodies.push_back(b);
   c.force.emplace_back(0);
   c.torque.emplace_back(0);
   c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
   return static_cast<int>(c.bodies.size() - 1);
+}
+
+BodyId World::add(const BodyDef& def) {
+  detail::StepContext& c = *ctx_;
+  size_t slot = 0;
+  while (slot < c.bodies.size() && !c.bodies[slot].removed) ++slot;
+  if (slot == c.bodies.size()) return bodyId(addBody(def));
+  RigidBody b = makeBody(def);
+  b.generation = c.bodies[slot].generation + 1;
+  c.bodies[slot] = b;
+  c.force[slot] = c.torque[slot] = glm::dvec3(0);
+  if (slot < c.reportContacts.size()) c.reportContacts[slot] = 0;
+  if (slot < c.bumpNormals.size()) c.bumpNormals[slot] = 0;
+  c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
+  // The kept pairs' candidate lists were built for the old body in this slot.
+  c.pairs.clear();
+  c.previousPairs.clear();
+  return {static_cast<int32_t>(slot), b.generation};
+}
+
+void World::remove(BodyId id) { removeBody(index(id)); }
+
+bool World::valid(BodyId id) const {
+  const detail::StepContext& c = *ctx_;
+  return id.index >= 0 && static_cast<size_t>(id.index) < c.bodies.size() &&
+         c.bodies[static_cast<size_t>(id.index)].generation == id.generation &&
+         !c.bodies[static_cast<size_t>(id.index)].removed;
+}
+
+int World::index(BodyId id) const {
+  if (!valid(id))
+    throw std::invalid_argument("stale body id (index " + std::to_string(id.index) + ", generation " +
+                                std::to_string(id.generation) + "): the body was removed");
+  return id.index;
+}
+
+BodyId World::bodyId(int i) const {
+  const RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
+  return {i, b.generation};
+}
+
+JointId World::add(const JointDef& def) {
+  detail::StepContext& c = *ctx_;
+  size_t slot = 0;
+  while (slot < c.joints.size() && !c.joints[slot].removed) ++slot;
+  const int appended = addJoint(def);  // checks and builds it at the end
+  if (slot == c.joints.size() - 1) return {appended, c.joints.back().generation};
+  detail::Joint jt = c.joints.back();
+  c.joints.pop_back();
+  jt.generation = c.joints[slot].generation + 1;
+  c.joints[slot] = jt;
+  return {static_cast<int32_t>(slot), jt.generation};
+}
+
+void World::remove(JointId id) { removeJoint(index(id)); }
+
+bool World::valid(JointId id) const {
+  const detail::StepContext& c = *ctx_;
+  return id.index >= 0 && static_cast<size_t>(id.index) < c.joints.size() &&
+         c.joints[static_cast<size_t>(id.index)].generation == id.generation &&
+         !c.joints[static_cast<size_t>(id.index)].removed;
+}
+
+int World::index(JointId id) const {
+  if (!valid(id))
+    throw std::invalid_argument("stale joint id (index " + std::to_string(id.index) + ", generation " +
+                                std::to_string(id.generation) + "): the joint was removed");
+  return id.index;
 }
 
 const std::vector<RigidBody>& World::bodies() const { return ctx_->bodies; }

@@ -158,6 +158,21 @@ class World {
   // joints are removed. Its index stays taken (other indices do not move) and
   // bodies()[i].removed says so; body setters on it throw std::invalid_argument.
   void removeBody(int i);
+
+  // Handles (BodyId, JointId): add() may reuse a removed body's or joint's slot
+  // (a game that spawns and removes debris keeps its arrays small) and bumps the
+  // slot's generation, so a handle to what was removed stays stale: index()
+  // throws std::invalid_argument for it and valid() is false. addBody and
+  // addJoint never reuse a slot: their plain indices stay unique forever.
+  BodyId add(const BodyDef& def);
+  void remove(BodyId body);
+  bool valid(BodyId body) const;
+  int index(BodyId body) const;
+  BodyId bodyId(int index) const;  // the handle of the body now in slot `index`
+  JointId add(const JointDef& def);
+  void remove(JointId joint);
+  bool valid(JointId joint) const;
+  int index(JointId joint) const;
   void step(double h);
 
   // Joints (physics/joint.h). addJoint throws std::invalid_argument on bad

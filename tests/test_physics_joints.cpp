@@ -625,3 +625,78 @@ TEST_CASE("joints: bad definitions are refused with a reason; removed bodies tak
   CHECK(t.body(b).x == where);
   CHECK(t.body(a).x.y < 1 - 4);
 }
+
+TEST_CASE("handles: a removed body's or joint's id is stale and never reaches the body or joint that reuses its slot") {
+  PhysicsTestContext t;
+  t.addGround();
+  BodyDef d;
+  d.shape = makeSphere(0.1);
+  d.origin = {0, 1, 0};
+  const BodyId first = t.world().add(d);
+  const BodyId second = t.world().add(d);
+  CHECK(t.world().valid(first));
+  CHECK(t.world().index(second) == second.index);
+  JointDef j;
+  j.a = t.world().index(first);
+  j.b = t.world().index(second);
+  j.anchor = {0, 1, 0};
+  const JointId joint = t.world().add(j);
+  CHECK(t.world().valid(joint));
+  t.world().remove(first);  // takes its joint along
+  CHECK_FALSE(t.world().valid(first));
+  CHECK_FALSE(t.world().valid(joint));
+  CHECK_THROWS_WITH_AS(t.world().index(first), doctest::Contains("stale body id"), std::invalid_argument);
+  CHECK_THROWS_AS(t.world().remove(joint), std::invalid_argument);
+  // A new body takes the freed slot with the next generation: the old handle still refuses.
+  d.origin = {3, 1, 0};
+  const BodyId third = t.world().add(d);
+  CHECK(third.index == first.index);
+  CHECK(third.generation == first.generation + 1);
+  CHECK_FALSE(t.world().valid(first));
+  CHECK(t.world().valid(third));
+  CHECK(t.world().bodyId(third.index) == third);
+  // So does a joint in a freed joint slot.
+  j.a = t.world().index(third);
+  const JointId again = t.world().add(j);
+  CHECK(again.index == joint.index);
+  CHECK_FALSE(t.world().valid(joint));
+  CHECK(t.world().valid(again));
+  // The reused slot is a working body: it falls and lands on the ground.
+  for (int s = 0; s < 480; ++s) t.world().step(t.stepSize());
+  CHECK(t.body(third.index).x.y == doctest::Approx(0.1).epsilon(0.05));
+}
+
+TEST_CASE("joints: a ragdoll lying on a box stack does not tear, and the stack stands") {
+  PhysicsTestContext t;
+  t.addGround(0.6, 0.1);
+  std::vector<int> stack;
+  for (int i = 0; i < 3; ++i) stack.push_back(t.addBox({2.0, 0.4, 2.2}, {0, 0.2 + 0.4 * i, 0}, 0.6, 0.1, 500));
+  // Lying down on top of the stack: the ragdoll built upright, turned 90 degrees about x, dropped from 20 cm.
+  std::vector<int> parts;
+  const std::vector<int> joints = addRagdoll(t.world(), {0, 0, 0}, parts);
+  const glm::dquat lie = glm::angleAxis(-0.5 * kPi, glm::dvec3(1, 0, 0));
+  const glm::dvec3 shift(0, 1.2 + 0.2 + 0.11, 0.88);
+  for (int p : parts) t.world().setPose(p, {shift + lie * t.body(p).x, lie * t.body(p).q});
+  std::vector<glm::dvec3> ra, rb;
+  for (int j : joints) {
+    const JointDef& d = t.world().jointDef(j);
+    // The joints were added upright (every body unturned): each body keeps its anchor at anchor - x then.
+    ra.push_back(d.anchor - glm::inverse(lie) * (t.body(d.a).x - shift));
+    rb.push_back(d.anchor - glm::inverse(lie) * (t.body(d.b).x - shift));
+  }
+  double worst = 0;
+  for (int s = 0; s < 3 * 240; ++s) {
+    t.world().step(t.stepSize());
+    worst = std::max(worst, worstGap(t.world(), joints, ra, rb));
+  }
+  MESSAGE("ragdoll on a stack: largest joint gap " << worst * 1000 << " mm");
+  CHECK(worst < 0.01);
+  for (size_t i = 0; i < stack.size(); ++i) {
+    CAPTURE(i);
+    CHECK(std::abs(t.body(stack[i]).x.x) < 0.02);
+    CHECK(t.body(stack[i]).x.y == doctest::Approx(0.2 + 0.4 * static_cast<double>(i)).epsilon(0.02));
+  }
+  double lowest = 1e9;
+  for (int p : parts) lowest = std::min(lowest, t.body(p).x.y);
+  CHECK(lowest > 1.2);  // still on the stack
+}

@@ -49,7 +49,7 @@ def wrecking_ball():
     s["joints"] = [{"name": "cable", "type": "distance", "a": "jib", "b": "ball", "anchor_a": pivot, "anchor_b": top,
                     "min": 0, "max": L}]
     s["cameras"] = [{"name": "main", "position": [-2.5, 5.0, 11.0], "target": [-0.8, 4.6, 0], "fov": 50},
-                    {"name": "wall", "position": [-2.2, 3.2, 2.2], "target": [0.45, 2.5, 0], "fov": 45}]
+                    {"name": "wall", "position": [-1.6, 2.9, -2.6], "target": [0.45, 2.45, 0.15], "fov": 40}]
     return s
 
 

@@ -22,7 +22,7 @@ shoot() {  # scene camera frame-seconds [picture name]
   rm -rf "$tmp/$scene"
 }
 shoot highway side 3.5
-shoot highway impact 4.5 highway-rail
+shoot highway torn 4.5 highway-rail
 # The car's crease in its height map: the per-texel gather (left) and the paper's scatter (right).
 for path in gather scatter; do
   build/apps/crumple-sim scenes/highway.json --out "$tmp/dent-$path" --duration 2.5 --deform-path $path -q
@@ -37,5 +37,9 @@ shoot mixed-pile main 3
 shoot tank-tracks side 4
 shoot bump-ramp main 1.5
 shoot cow-drop main 2
+shoot wrecking-ball main 1.3
+shoot wrecking-ball wall 2.4 wrecking-ball-dent
+shoot ragdoll main 0.4
+shoot chain-bridge main 1.5
 rm -rf "$tmp"
 ls -la docs/images

@@ -321,6 +321,8 @@ def main(argv=None, default_sim="crumple-sim"):
         scene, axes, mode, fixed = load_sweep(args.sweep)
         scheduler = parse_scheduler(args.scheduler)
         gpus = parse_gpus(args.gpu)
+        if args.timeout is not None and not args.timeout > 0:
+            raise SweepError(f"--timeout must be a positive number of seconds, got {args.timeout}")
         if gpus and len(gpus) > 1 and scheduler[0] != "local":
             raise SweepError("--gpu N,M,...: one GPU per worker needs --scheduler local[:N]; on a cluster, start "
                              "each dask-worker with CRUMPLE_EGL_DEVICE=N in its environment")

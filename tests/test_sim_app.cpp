@@ -676,3 +676,125 @@ TEST_CASE("a breakable weld breaks under a hit: a joint_break line in events.jso
   // The ghost, in a group that does not collide with the lift's, fell through it.
   CHECK(bodies["ghost"]["position"][1].get<double>() < 0);
 }
+
+TEST_CASE(
+    "car-doors: the sedan hits a post; both door latches break in the hit's step, the doors swing open on their "
+    "hinges within their limits, stay above the ground, and the car is dented") {
+  const fs::path out = kTmp / "car_doors";
+  const fs::path trace = kTmp / "car_doors.csv";
+  fs::remove_all(out);
+  const std::string scene = std::string(CRUMPLE_SCENES) + "/car-doors.json";
+  std::string log;
+  REQUIRE(runSim(scene + " --out " + out.string() + " --duration 2 --quiet --trace " + trace.string(), &log) == 0);
+  CAPTURE(log);
+  const json spec = json::parse(slurp(scene));
+  std::map<std::string, json> specJoints;
+  for (const json& j : spec["joints"]) specJoints[j["name"]] = j;
+  // The hit on the post, then a break of each latch in that step, each asked for more than its break impulse.
+  std::istringstream ev(slurp(out / "events.jsonl"));
+  std::string line;
+  double hitTime = -1;
+  std::map<std::string, double> breakTime, asked;
+  while (std::getline(ev, line)) {
+    const json e = json::parse(line);
+    if (e["type"] == "collision") {
+      if (hitTime < 0 && (e["a"] == "post" || e["b"] == "post")) {
+        hitTime = e["t"].get<double>();
+        const json& carSide = e["a"] == "car" ? e["a_side"] : e["b_side"];
+        CHECK(carSide["deformed"] == true);
+      }
+    } else {
+      REQUIRE(e["type"] == "joint_break");
+      const std::string joint = e["joint"];
+      CAPTURE(joint);
+      CHECK(joint.rfind("latch_", 0) == 0);  // never a hinge
+      CHECK(e["impulse"].get<double>() > specJoints[joint]["break_impulse"].get<double>());
+      breakTime[joint] = e["t"].get<double>();
+      asked[joint] = e["impulse"].get<double>();
+    }
+  }
+  REQUIRE(hitTime > 0);
+  REQUIRE(breakTime.size() == 2);
+  for (const auto& [joint, t] : breakTime) {
+    CAPTURE(joint);
+    CHECK(t >= hitTime);
+    CHECK(t < hitTime + 0.01);
+  }
+  // Every step: each door's turn relative to the car about its hinge axis stays within the limits [0, 75]
+  // degrees (a hair of slack: limits are enforced by impulses), and its lowest point (the sill, 0.2 m below
+  // the door's origin on the hinge) stays above the ground.
+  struct Pose {
+    double y = 0;
+    double q[4] = {1, 0, 0, 0};  // w, x, y, z
+  };
+  std::ifstream tr(trace);
+  REQUIRE(std::getline(tr, line));  // header
+  std::map<std::string, Pose> pose;
+  std::map<std::string, double> lo{{"left", 1e9}, {"right", 1e9}}, hi{{"left", -1e9}, {"right", -1e9}}, last;
+  double lowestDoor = 1e9;
+  int steps = 0;
+  auto hingeAngle = [](const Pose& car, const Pose& door, double axisY) {
+    // q_rel = conj(q_car) q_door; its turn about the car-frame axis (0, axisY, 0).
+    const double aw = car.q[0], ax = -car.q[1], ay = -car.q[2], az = -car.q[3];
+    const double bw = door.q[0], bx = door.q[1], by = door.q[2], bz = door.q[3];
+    const double w = aw * bw - ax * bx - ay * by - az * bz;
+    const double y = aw * by - ax * bz + ay * bw + az * bx;
+    return 2 * std::atan2(y * axisY, w) * 180 / M_PI;
+  };
+  auto endOfStep = [&] {
+    for (const auto& [side, axisY] : {std::pair<std::string, double>{"left", 1.0}, {"right", -1.0}}) {
+      const double a = hingeAngle(pose["car"], pose["door_" + side], axisY);
+      lo[side] = std::min(lo[side], a);
+      hi[side] = std::max(hi[side], a);
+      last[side] = a;
+      lowestDoor = std::min(lowestDoor, pose["door_" + side].y - 0.2);
+    }
+    ++steps;
+  };
+  std::string step;
+  int badRows = 0;
+  while (std::getline(tr, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    if (f.size() != 16) {
+      ++badRows;
+      continue;
+    }
+    if (!step.empty() && f[0] != step) endOfStep();
+    step = f[0];
+    Pose& p = pose[f[2]];
+    p.y = std::stod(f[4]);
+    for (int i = 0; i < 4; ++i) p.q[i] = std::stod(f[6 + i]);
+  }
+  endOfStep();
+  CHECK(badRows == 0);
+  CHECK(steps == 480);
+  const json s = json::parse(slurp(out / "summary.json"));
+  std::map<std::string, json> joints;
+  for (const json& j : s["joints"]) joints[j["name"]] = j;
+  for (const std::string side : {"left", "right"}) {
+    CAPTURE(side);
+    const json& hinge = joints["hinge_" + side];
+    const json& latch = joints["latch_" + side];
+    MESSAGE("door " << side << ": hinge angle in [" << lo[side] << ", " << hi[side] << "] deg, ends at " << last[side]
+                    << " (summary " << hinge["angle"] << "); the hit asked " << asked["latch_" + side]
+                    << " N s of its latch");
+    CHECK(lo[side] > -0.5);
+    CHECK(hi[side] < 75.5);
+    CHECK(last[side] > 40);  // swung open, not ajar
+    CHECK(hinge["broken"] == false);
+    CHECK(hinge["angle"].get<double>() == doctest::Approx(last[side]).epsilon(0.01));
+    CHECK(latch["broken"] == true);
+  }
+  CHECK(lowestDoor > 0.1);
+  // The car's front is dented by the post: several centimetres deep.
+  double kCar = spec["deformation"]["bump_depth"].get<double>();
+  for (const auto& b : spec["bodies"])
+    if (b["name"] == "car") kCar = b["bump_map"]["bump_depth"].get<double>();
+  const crumple::render::Image car = crumple::render::readPng((out / "heightmaps" / "car.png").string());
+  float lowest = 1;
+  for (float v : car.pixels) lowest = std::min(lowest, v);
+  MESSAGE("car dent " << (0.5 - lowest) * kCar << " m");
+  CHECK((0.5 - lowest) * kCar > 0.03);
+}

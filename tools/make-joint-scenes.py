@@ -7,6 +7,9 @@
                       against a dentable wall; it folds up and drops
   chain-bridge.json   16 planks hinged edge to edge, sagging between two piers;
                       crates dropped on it make it swing
+  car-doors.json      the sedan with its front doors as bodies of their own, on
+                      hinges, held shut by breakable latches, hits a concrete post:
+                      the latches break, the doors swing open, the front is dented
 
 Rerun on purpose after changing it; the scene files are committed."""
 import argparse, json, math, os
@@ -177,12 +180,104 @@ def chain_bridge():
     return s
 
 
+def load_assets_module():
+    """tools/make-assets.py, for the sedan's door geometry (its hinge point and outline)."""
+    import importlib.util
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "make-assets.py")
+    spec = importlib.util.spec_from_file_location("make_assets", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def car_doors():
+    # The sedan with its front doors as bodies of their own (sedan-body.obj, sedan-door-*.obj
+    # from tools/make-assets.py). Each door hangs on a hinge at its front edge: a vertical axis
+    # inboard of the door's centre of mass, 0 to 75 degrees outwards, a little friction (a motor
+    # holding speed 0 with a small torque); a latch at its rear edge, a weld that breaks, holds
+    # it shut. The car hits a concrete post with the front, a little left of centre. Stopped in
+    # one step, it asks more of the latches than they bear; unlatched, each door's momentum turns
+    # it about its inboard hinge and it swings open to its stop.
+    c = CAR_DOORS
+    ma = load_assets_module()
+    hx, hy, hz = ma.DOOR_HINGE
+    a = math.radians(c["heading"])  # to the left of +x
+    head, left = (math.cos(a), 0.0, math.sin(a)), (-math.sin(a), 0.0, math.cos(a))
+    post = c["post"]
+    # The car's centre line passes the post's centre `offset` to its right; its centre starts
+    # `run` metres before the post.
+    car_pos = [post[0] - c["run"] * head[0] - c["offset"] * left[0], 0.68,
+               post[2] - c["run"] * head[2] - c["offset"] * left[2]]
+
+    def at(local):  # a point of the car's frame, in the world at the start
+        return [round(car_pos[i] + local[0] * head[i] + local[1] * (i == 1) + local[2] * left[i], 6)
+                for i in range(3)]
+    velocity = [round(c["speed"] * head[0], 6), 0, round(c["speed"] * head[2], 6)]
+    yaw = [0, -c["heading"] + 0.0, 0]
+    s = base("car-doors", c["duration"], {
+        "asphalt": {"density": 2400, "restitution": 0.1, "friction": 1.0, "kappa": 0.0, "thickness": 0.2,
+                    "color": [0.23, 0.23, 0.25]},
+        "concrete": {"density": 2400, "restitution": 0.2, "friction": 0.7, "kappa": 0.0, "thickness": 0.3,
+                     "color": [0.62, 0.61, 0.58]},
+        "car_body": {"density": 300, "restitution": 0.05, "friction": 0.5, "kappa": 0.0002, "thickness": 0.12,
+                     "color": [1.0, 1.0, 1.0]}})
+    s["deformation"] = {"enabled": True, "impulse_floor": 200, "bump_depth": 0.1, "bump_depth_collide": 0.02,
+                        "address_map": 512, "path": "gather"}
+    car = {"name": "car", "shape": {"type": "mesh", "file": "assets/sedan-body.obj"}, "material": "car_body",
+           "mass": c["car_mass"], "position": [round(v, 6) for v in car_pos], "orientation": yaw,
+           "velocity": velocity, "bump_map": {"resolution": 2048, "bump_depth": 0.2},
+           "vehicle": {"wheels": [[1.3, -0.17, 0.8], [1.3, -0.17, -0.8], [-1.3, -0.17, 0.8], [-1.3, -0.17, -0.8]],
+                       "wheel_radius": 0.33, "wheel_width": 0.22, "suspension_rest": 0.25,
+                       "suspension_stiffness": 45000, "suspension_damping": 4500, "engine_force": 6000,
+                       "brake_force": 9000, "max_steer": 30, "tyre_grip": 0.9, "script": c["script"]}}
+    bodies = [
+        {"name": "ground", "shape": {"type": "box", "size": [60, 0.4, 30]}, "material": "asphalt", "static": True,
+         "position": [5, -0.2, 0]},
+        {"name": "post", "shape": {"type": "cylinder", "radius": c["post_radius"], "height": 1.2},
+         "material": "concrete", "static": True, "position": post},
+        car]
+    joints = []
+    for side, sign in (("left", 1), ("right", -1)):
+        door = "door_" + side
+        hinge = at((hx, hy, sign * hz))
+        bodies.append({"name": door, "shape": {"type": "mesh", "file": "assets/sedan-door-%s.obj" % side},
+                       "material": "car_body", "mass": c["door_mass"], "position": hinge, "orientation": yaw,
+                       "velocity": velocity, "bump_map": {"resolution": 1024, "bump_depth": 0.2}})
+        # Positive angles swing the door's rear edge outwards: B (the door) turns right-handed
+        # about the axis relative to A (the car), up on the left side, down on the right.
+        joints.append({"name": "hinge_" + side, "type": "hinge", "a": "car", "b": door, "anchor": hinge,
+                       "axis": [0, sign, 0], "limits": [0, 75],
+                       "motor": {"speed": 0, "max_torque": c["hinge_friction"]}})
+        joints.append({"name": "latch_" + side, "type": "fixed", "a": "car", "b": door,
+                       "anchor": at((ma.DOOR_REAR + 0.03, 0.1, sign * c["latch_z"])),
+                       "break_impulse": c["latch_break"]})
+    s["bodies"] = bodies
+    s["joints"] = joints
+    s["cameras"] = c["cameras"]
+    return s
+
+
+CAR_DOORS = {
+    "speed": 18.0, "heading": 0.0, "post": [0.0, 0.6, 0.0], "post_radius": 0.3, "offset": 0.2, "run": 7.0,
+    "duration": 3.0, "car_mass": 1250, "door_mass": 25, "hinge_friction": 10.0,
+    "latch_z": 0.85,  # the latch: in the door's rear edge, mid thickness
+    # N s. Driving and braking ask at most 0.1 of a latch; the crash 64 (left) and 18 (right) in its step.
+    "latch_break": 8.0,
+    # The driver brakes a moment too late.
+    "script": [{"t": 0.0, "throttle": 0.2}, {"t": 0.12, "throttle": 0.0, "brake": 1.0}],
+    "cameras": [
+        {"name": "main", "position": [1.6, 2.7, 3.4], "target": [-2.1, 0.35, -0.5], "fov": 50},
+        {"name": "side", "position": [-3.0, 1.7, 5.5], "target": [-2.6, 0.4, -0.2], "fov": 50},
+        {"name": "chase", "follow": "car", "position": [-6.0, 2.4, 3.0], "target": [1.0, 0.3, 0], "fov": 55},
+    ]}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default=HERE, help="folder to write the scenes into (default: scenes/)")
     args = ap.parse_args()
     for fn, scene in (("wrecking-ball.json", wrecking_ball()), ("ragdoll.json", ragdoll()),
-                      ("chain-bridge.json", chain_bridge())):
+                      ("chain-bridge.json", chain_bridge()), ("car-doors.json", car_doors())):
         path = os.path.join(args.out, fn)
         with open(path, "w") as f:
             f.write(json.dumps(scene, indent=1) + "\n")

@@ -37,6 +37,7 @@ shoot mixed-pile main 3
 shoot tank-tracks side 4
 shoot bump-ramp main 1.5
 shoot cow-drop main 2
+shoot car-doors main 3
 shoot wrecking-ball main 1.3
 shoot wrecking-ball wall 2.4 wrecking-ball-dent
 shoot ragdoll main 0.4

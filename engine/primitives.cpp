@@ -147,10 +147,17 @@ void addCap(ChartMesh& cm, int chart, float r, float yc, bool up, int segments, 
 }
 }  // namespace
 
+namespace {
+// Rows of a tube: one per half radius along it, at most 1024 (a tube 10^8 radii long would take gigabytes).
+int tubeRows(double radius, double height) {
+  return std::max(1, static_cast<int>(std::ceil(std::min(height / (radius * 0.5), 1024.0))));
+}
+}  // namespace
+
 TriangleMesh cylinderMesh(double radius, double height, int resolution, int segments) {
   ChartMesh cm;
   const float r = static_cast<float>(radius), hh = static_cast<float>(height / 2);
-  addTube(cm, 0, r, -hh, hh, segments, std::max(1, static_cast<int>(std::ceil(height / (radius * 0.5)))));
+  addTube(cm, 0, r, -hh, hh, segments, tubeRows(radius, height));
   addDisc(cm, 1, r, hh, true, segments);
   addDisc(cm, 2, r, -hh, false, segments);
   return packCharts(cm, resolution);
@@ -160,7 +167,7 @@ TriangleMesh capsuleMesh(double radius, double height, int resolution, int segme
   ChartMesh cm;
   const float r = static_cast<float>(radius), hh = static_cast<float>(height / 2);
   if (height > 0)
-    addTube(cm, 0, r, -hh, hh, segments, std::max(1, static_cast<int>(std::ceil(height / (radius * 0.5)))));
+    addTube(cm, 0, r, -hh, hh, segments, tubeRows(radius, height));
   addCap(cm, 1, r, hh, true, segments, rings);
   addCap(cm, 2, r, -hh, false, segments, rings);
   return packCharts(cm, resolution);

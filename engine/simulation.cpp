@@ -46,8 +46,10 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
     deformer_ = std::make_unique<deform::Deformer>(scene.deformation.options);
   }
   bodies_.reserve(scene.bodies.size());
-  groups_["default"] = 0;
-  for (const BodyDesc& b : scene.bodies) groups_.emplace(b.group, static_cast<int>(groups_.size()));
+  // Collision groups: the names the bodies use, numbered in name order (the loader allows at most 64).
+  for (const BodyDesc& b : scene.bodies) groups_.emplace(b.group, 0);
+  int g = 0;
+  for (auto& [name, number] : groups_) number = g++;
   for (size_t i = 0; i < scene.bodies.size(); ++i) buildBody(scene.bodies[i], i);
   for (const auto& [ga, gb] : scene.noCollide) world_.setGroupsCollide(groups_.at(ga), groups_.at(gb), false);
   buildJoints();
@@ -337,6 +339,11 @@ void Simulation::stepPhysics(double h) {
   }
   driveKinematic(h);
   world_.step(h);
+  if (world_.lastStats().droppedPairs > 0 && !warnedPairs_) {
+    warnedPairs_ = true;
+    logWarning(scene_.file, ": more than ", world_.settings().maxPairs,
+               " pairs of touching bodies at t = ", world_.time(), " s: the rest pass through each other");
+  }
   jointPeaks_.resize(joints_.size(), 0.0);
   for (size_t k = 0; k < joints_.size(); ++k)
     jointPeaks_[k] = std::max(jointPeaks_[k], world_.jointState(joints_[k]).impulse);

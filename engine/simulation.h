@@ -139,6 +139,7 @@ class Simulation {
   std::vector<JointBreakRecord> jointBreaks_;
   std::vector<int> joints_;
   std::vector<double> jointPeaks_;
+  bool warnedPairs_ = false;
   std::vector<Pose> initialPoses_;  // world bodies' poses when the joints were added
   std::map<std::string, int> groups_;  // collision group names to world groups
   std::shared_ptr<deform::GpuMesh> cableMesh_;  // unit cylinder (radius 1, height 1, along y); null without GL

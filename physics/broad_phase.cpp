@@ -97,6 +97,19 @@ void findPairs(StepContext& ctx, double h) {
   }
   for (int i : wakeList) ctx.wake(i);
   std::sort(pairKeys.begin(), pairKeys.end());
+  // Too many pairs (thousands of bodies piled into one spot): keep maxPairs of
+  // them, those with a body that nothing pushes (the ground) first, then in key
+  // order; the rest pass through each other this substep (StepStats::droppedPairs).
+  const size_t maxPairs = static_cast<size_t>(std::max(0, ctx.settings.maxPairs));
+  if (pairKeys.size() > maxPairs) {
+    ctx.stats.droppedPairs += static_cast<int>(pairKeys.size() - maxPairs);
+    auto anchoredPair = [&](uint64_t key) {
+      return !bodies[static_cast<size_t>(key >> 32)].dynamic() || !bodies[static_cast<size_t>(key & 0xffffffffu)].dynamic();
+    };
+    std::stable_partition(pairKeys.begin(), pairKeys.end(), anchoredPair);
+    pairKeys.resize(maxPairs);
+    std::sort(pairKeys.begin(), pairKeys.end());
+  }
   // Pairs that already existed keep their candidate lists (both sorted by a, b).
   std::vector<Pair>& pairs = ctx.pairs;
   std::vector<Pair>& previousPairs = ctx.previousPairs;

@@ -97,7 +97,9 @@ bool collide(StepContext& ctx, double h) {
           // A body welded to the world is, while its welds hold, part of it: the
           // elastic impulse (the deformation's |j_eps=1|) sees it as immovable.
           const bool fa = ctx.anchored[static_cast<size_t>(at.a)] != 0, fb = ctx.anchored[static_cast<size_t>(at.b)] != 0;
-          if (fa != fb) {
+          // (Only against a body that impulses move: a kinematic hammer meeting a welded block keeps its own.)
+          const bool otherMoves = fa ? ctx.body(at.b).dynamic() : ctx.body(at.a).dynamic();
+          if (fa != fb && otherMoves) {
             const glm::dmat3 K = ctx.collisionMatrixAt(at.a, at.b, hitLevers, fa, fb);
             elastic = glm::length(frictionlessImpulse(K, ctx.relativeVelocity(at.a, at.b, hitLevers), at.normal, 1.0));
           }

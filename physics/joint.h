@@ -41,7 +41,7 @@ struct JointDef {
   bool limited = false;                // hinge: angle in [lower, upper] (rad); slider: offset (m)
   double lower = 0, upper = 0;
   double length = -1;                  // distance: < 0 takes the anchors' distance when added
-  double minLength = -1, maxLength = -1;  // distance: both >= 0 make a range instead of a fixed length
+  double minLength = -1, maxLength = -1;  // distance: maxLength >= 0 makes a range [minLength (0 when < 0), maxLength]
   JointMotor motor;                    // hinge and slider
   // N s (see JointState::impulse). A joint asked for more in a step yields: it passes on only its
   // breakImpulse, breaks, and the rest of the push stays with the bodies.
@@ -51,7 +51,7 @@ struct JointDef {
 
 // A joint's state as the API reads it back.
 struct JointState {
-  bool broken = false;   // broke under its breakImpulse: enforces nothing from the step after
+  bool broken = false;   // broke under its breakImpulse: enforces nothing from then on (the same step included)
   double angle = 0;      // hinge: B's turn relative to A about the axis since creation (rad, not wrapped)
   double offset = 0;     // slider: B's anchor along the axis relative to A's (m); distance: the anchors' distance
   // N s: the size of the linear impulse the joint applied at its anchor over the last step (pre- and
@@ -68,7 +68,7 @@ struct JointId {
 };
 
 struct JointBreak {
-  double time = 0;  // the world's time at the end of the step in which it broke
+  double time = 0;  // the world's time at the end of the substep in which it broke
   int joint = -1;
   double impulse = 0;  // the impulse the step asked of it (over breakImpulse; it passed on only breakImpulse)
 };

@@ -6,6 +6,13 @@
 //   subtracted): point on the sampled body's surface, unit normal out of the
 //   field's owner (a), depth phi. pairContacts tests only the pair's candidate
 //   samples (broad_phase.cpp guarantees they hold every sample that can touch).
+// - Where one body moves, relative to the other, by more than the other's half
+//   thickness within the substep (a plate thinner than the substeps can
+//   cover), each of its samples not penetrating at the end is also marched
+//   along its path from the substep's start (conservative advancement through
+//   the other's field): one that crosses the surface is a contact on the side
+//   it came from, as deep as its path went past the surface (continuous
+//   collision against thin bodies, no tunnelling).
 // - The list is sorted deepest first; equal depths keep the order found
 //   (samples of b in a first, then of a in b, each in sample order).
 // - On a body flagged with setBumpNormals (and with a normal modifier set), the
@@ -22,7 +29,8 @@ namespace {
 // Tests samples of `other` (all, or the listed ones) against the field of `owner`.
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
                     const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
-                    const World::NormalModifier* modifier = nullptr) {
+                    const World::NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
+                    const Pose* startOther = nullptr) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
   const double r = st.sampleRadius;
@@ -39,18 +47,59 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   // One rigid map from the other's shape frame to the owner's: local = M s + t.
   const glm::dmat3 otherToOwner = rot * rt;
   const glm::dvec3 offset = rot * (pother.position - po.position - rt * other.localCom) + owner.localCom;
+  // Swept test (thin owners): the same map at the substep's start. A sample whose path from there crosses more
+  // than the owner's half thickness is marched along it through the owner's field (conservative advancement).
+  const bool swept = startOwner && startOther;
+  glm::dmat3 otherToOwner0(1);
+  glm::dvec3 offset0(0);
+  if (swept) {
+    const glm::dmat3 rot0 = glm::transpose(glm::mat3_cast(startOwner->orientation));
+    const glm::dmat3 rt0 = glm::mat3_cast(startOther->orientation);
+    otherToOwner0 = rot0 * rt0;
+    offset0 = rot0 * (startOther->position - startOwner->position - rt0 * other.localCom) + owner.localCom;
+  }
+  const double thin = so.halfThickness();
+  const double tol = std::min(1e-4, 0.25 * thin);
   for (size_t k = 0; k < n; ++k) {
     const size_t index = list ? (*list)[k] : k;
     const glm::dvec3& s = st.samples[index];
     const glm::dvec3 local = otherToOwner * s + offset;
-    if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
-      continue;
+    if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z) {
+      if (!swept) continue;
+      // Outside the owner's bounds at the end: the path may still have crossed it.
+      const glm::dvec3 local0 = otherToOwner0 * s + offset0;
+      const glm::dvec3 plo = glm::min(local0, local), phi_ = glm::max(local0, local);
+      if (plo.x > hi.x || plo.y > hi.y || plo.z > hi.z || phi_.x < lo.x || phi_.y < lo.y || phi_.z < lo.z) continue;
+    }
     glm::dvec3 g;
     glm::dvec3 sampleHint = hint;
     if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
       sampleHint = -(otherToOwner * st.sampleNormals[index]);
-    const double phi = so.distance(local, &g, &sampleHint) - r;
-    if (phi >= 0) continue;
+    double phi = so.distance(local, &g, &sampleHint) - r;
+    if (phi >= 0 && swept) {
+      // Did the sample pass through the owner during the substep?
+      const glm::dvec3 local0 = otherToOwner0 * s + offset0, path = local - local0;
+      const double len = glm::length(path);
+      if (!(len > thin)) continue;
+      double t = 0, phiT = so.distance(local0) - r;
+      if (phiT <= 0) continue;  // touching at the start: the discrete test's business
+      bool hit = false;
+      for (int it = 0; it < 256 && t < 1; ++it) {
+        if (phiT < tol) {
+          hit = true;
+          break;
+        }
+        t += std::max(phiT, tol) / len;
+        phiT = so.distance(local0 + path * std::min(t, 1.0)) - r;
+      }
+      if (!hit) continue;
+      // A contact at the end pose, on the side it came from, as deep as the path went past the surface.
+      const glm::dvec3 at = local0 + path * std::min(t, 1.0);
+      so.distance(at, &g);
+      phi = std::min(glm::dot(local - at, g), -tol);
+    } else if (phi >= 0) {
+      continue;
+    }
     if (modifier) g = glm::normalize((*modifier)(iOwner, local - (phi + r) * g, g));
     Contact c;
     c.a = iOwner;
@@ -84,10 +133,17 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
   const bool bump = ctx.normalModifier && !ctx.bumpNormals.empty();
+  // The poses at the substep's start (the bodies have not moved yet): swept tests where a body moves past more
+  // than the other's half thickness in the substep (a thin plate the substeps cannot cover).
+  const Pose sa{A.x, A.q}, sb{B.x, B.q};
+  const double moved = relativeDisplacementBound(sa, pa, A.shape->boundingRadius, sb, pb, B.shape->boundingRadius);
+  const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
-                 bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr);
+                 bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr,
+                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr);
   contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out,
-                 bump && ctx.bumpNormals[static_cast<size_t>(pair.b)] ? &ctx.normalModifier : nullptr);
+                 bump && ctx.bumpNormals[static_cast<size_t>(pair.b)] ? &ctx.normalModifier : nullptr,
+                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr);
   sortContacts(out);
 }
 }  // namespace detail

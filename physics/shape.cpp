@@ -211,7 +211,11 @@ std::shared_ptr<Shape> makeCapsule(double radius, double height) {
   s->type = ShapeType::Capsule;
   s->radius = radius;
   s->halfHeight = height * 0.5;
-  const int n = std::max(2, static_cast<int>(std::ceil(height / radius)) + 1);
+  // Sphere samples along the axis, one radius apart; at most 4097 of them (a capsule 10^8 radii long would
+  // otherwise take gigabytes): beyond 4096 radii the samples stand further apart than a radius, and the
+  // capsule's exact distance function (which the other body's samples meet) keeps its surface whole.
+  const double perRadius = std::ceil(std::min(height / radius, 4096.0));
+  const int n = std::max(2, static_cast<int>(perRadius) + 1);
   for (int i = 0; i < n; ++i) s->samples.push_back({0, -s->halfHeight + height * i / (n - 1), 0});
   s->sampleRadius = radius;
   s->boundsMin = glm::dvec3(-radius, -s->halfHeight - radius, -radius);

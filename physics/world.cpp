@@ -114,6 +114,11 @@ int World::index(BodyId id) const {
   return id.index;
 }
 
+JointId World::jointId(int j) const {
+  const detail::Joint& jt = ctx_->joints.at(static_cast<size_t>(j));
+  return {j, jt.generation};
+}
+
 BodyId World::bodyId(int i) const {
   const RigidBody& b = ctx_->bodies.at(static_cast<size_t>(i));
   return {i, b.generation};
@@ -277,6 +282,7 @@ int World::addJoint(const JointDef& in) {
     jt.rB = local(pb, d.b, d.anchorB);
     const double start = glm::length(d.anchorB - d.anchorA);
     if (d.minLength >= 0 || d.maxLength >= 0) {
+      if (d.minLength < 0) d.minLength = 0;  // max alone: a rope
       if (!(d.minLength >= 0) || !(d.maxLength >= d.minLength) || !std::isfinite(d.maxLength))
         bad("distance range needs 0 <= min <= max");
       jt.minLength = d.minLength;

@@ -61,6 +61,10 @@ struct WorldSettings {
   double penetrationCorrection = 0.4;  // fraction removed per projection iteration
   int projectionIterations = 3;
   int maxSubsteps = 16;
+  // At most this many pairs of bodies per substep (Jolt's maxBodyPairs): pairs
+  // with a static or kinematic body are kept first. Only a pathological pile
+  // (thousands of bodies in one spot) reaches it; StepStats::droppedPairs says so.
+  int maxPairs = 65536;
   double substepFraction = 0.5;  // of the thinnest half thickness per substep
   // Collisions approaching slower than this still get their impulse but emit no
   // event: the micro-collisions of resting contact are not hits worth a dent or a log line.
@@ -126,6 +130,7 @@ struct StepStats {
   int contacts = 0;
   int awake = 0;
   int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
+  int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
   StepProfile ms;
 };
 
@@ -173,6 +178,7 @@ class World {
   void remove(JointId joint);
   bool valid(JointId joint) const;
   int index(JointId joint) const;
+  JointId jointId(int index) const;  // the handle of the joint now in slot `index`
   void step(double h);
 
   // Joints (physics/joint.h). addJoint throws std::invalid_argument on bad

@@ -209,6 +209,13 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   tj["render_ms"] = t.renderMs;
   tj["render_ms_per_frame"] = t.frames ? t.renderMs / static_cast<double>(t.frames) : 0.0;
   tj["frames"] = t.frames;
+  // The process's peak resident memory so far (Linux), for soak checks: it must not grow with the steps.
+  {
+    std::ifstream status("/proc/self/status");
+    std::string line;
+    while (std::getline(status, line))
+      if (line.rfind("VmHWM:", 0) == 0) tj["peak_rss_mb"] = std::stod(line.substr(6)) / 1024.0;
+  }
   s["timings"] = tj;
   for (const auto& [k, v] : extra) s[k] = v;
   std::ofstream f(root / "summary.json");

@@ -188,11 +188,21 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
     sum.shockPropagation += p.shockPropagation;
     sum.positions += p.positions;
     sum.sleep += p.sleep;
+    sum.joints += p.joints;
     sum.total += p.total;
   }
   const double n = std::max<double>(1, static_cast<double>(state.iterations()));
-  gStageMs[name] = {sum.broadPhase / n,       sum.candidates / n, sum.collide / n, sum.contact / n,
-                    sum.shockPropagation / n, sum.positions / n,  sum.sleep / n,   sum.total / n};
+  StepProfile mean;
+  mean.broadPhase = sum.broadPhase / n;
+  mean.candidates = sum.candidates / n;
+  mean.collide = sum.collide / n;
+  mean.contact = sum.contact / n;
+  mean.shockPropagation = sum.shockPropagation / n;
+  mean.positions = sum.positions / n;
+  mean.sleep = sum.sleep / n;
+  mean.joints = sum.joints / n;
+  mean.total = sum.total / n;
+  gStageMs[name] = mean;
   double top = 0;
   for (const RigidBody& b : w->bodies())
     if (!b.isStatic) top = std::max(top, b.x.y);
@@ -400,8 +410,8 @@ int main(int argc, char** argv) {
       const StepProfile& p = gStageMs[c.name];
       std::printf(
           "        crumple stages, ms/step: broad phase %.3f  candidates %.3f  collide %.3f  contact %.3f  shock %.3f  "
-          "positions %.3f  sleep %.3f  (total %.3f)\n",
-          p.broadPhase, p.candidates, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep, p.total);
+          "positions %.3f  sleep %.3f  joints %.3f  (total %.3f)\n",
+          p.broadPhase, p.candidates, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep, p.joints, p.total);
     }
   }
   for (int size : {256, 512, 1024, 2048}) {

@@ -135,8 +135,11 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   const bool bump = ctx.normalModifier && !ctx.bumpNormals.empty();
   // The poses at the substep's start (the bodies have not moved yet): swept tests where a body moves past more
   // than the other's half thickness in the substep (a thin plate the substeps cannot cover).
+  // Uncapped substeps keep every body's travel under half the thinnest half thickness: no sweep is needed then.
   const Pose sa{A.x, A.q}, sb{B.x, B.q};
-  const double moved = relativeDisplacementBound(sa, pa, A.shape->boundingRadius, sb, pb, B.shape->boundingRadius);
+  const double moved = ctx.substepsCapped ? relativeDisplacementBound(sa, pa, A.shape->boundingRadius, sb, pb,
+                                                                      B.shape->boundingRadius)
+                                          : 0.0;
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
                  bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr,

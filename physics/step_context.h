@@ -122,6 +122,9 @@ struct StepContext {
   // What the last step produced (all its substeps).
   std::vector<CollisionEvent> events, contactReports;
   std::vector<JointBreak> jointBreaks;
+  // This step's substeps are capped (maxSubsteps): a body may move past a thin
+  // one within a substep, so the narrow phase sweeps (narrow_phase.cpp).
+  bool substepsCapped = false;
   // Per body, this substep (empty without joints): welded (fixed joints that
   // hold) to a static body or the world, through any chain of welds.
   std::vector<char> anchored;

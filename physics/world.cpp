@@ -528,6 +528,7 @@ void World::step(double h) {
   }
   const double allowed = c.settings.substepFraction * std::max(c.minHalfThickness, 1e-4);
   const int n = std::clamp(static_cast<int>(std::ceil(maxTravel / allowed)), 1, std::max(1, c.settings.maxSubsteps));
+  c.substepsCapped = maxTravel / n > allowed;
   for (int s = 0; s < n; ++s) substep(h / n);
   c.stats.substeps = n;
   for (size_t i = 0; i < c.bodies.size(); ++i) {

@@ -6,10 +6,14 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
 
 #include <epoxy/gl.h>
 #define GLFW_INCLUDE_NONE
@@ -21,6 +25,7 @@
 #include "engine/scene_view.h"
 #include "engine/builtin_scenes.h"
 #include "engine/output_writer.h"
+#include "engine/overrides.h"
 #include "engine/simulation.h"
 #include "core/log.h"
 #include "core/version.h"
@@ -36,6 +41,11 @@ namespace {
 
 struct App {
   Scene scene;
+  std::string scenePath;  // empty: the built-in highway
+  Overrides overrides;    // --set, applied to every scene loaded
+  std::vector<std::string> sceneChoices;  // the picker: scene files beside the current one
+  std::string status;     // the panel's last message (a scene loaded or saved, or why not)
+  char saveAs[512] = "";
   std::unique_ptr<Simulation> sim;
   std::unique_ptr<render::Renderer> renderer;
   bool paused = false, stepOnce = false, follow = true, autopilot = false;
@@ -71,6 +81,10 @@ struct App {
     for (auto& v : sim->vehicles()) v.manual = !autopilot;
   }
 
+  // The scene picker: loads another scene (the --set overrides applied) and starts it; a bad one is reported
+  // in the panel and the current scene stays.
+  void load(const std::string& path);
+
   int carBody() { return sim->vehicles().empty() ? -1 : sim->vehicles().front().body; }
 
   render::View view() {
@@ -96,6 +110,98 @@ struct App {
     return v;
   }
 };
+
+
+// Loads `path` (empty: the built-in highway) with the --set overrides.
+Scene loadAppScene(const std::string& path, const Overrides& overrides) {
+  if (!path.empty()) return loadScene(path, overrides);
+  if (!overrides.empty())
+    throw SceneError("<built-in>", "", "--set needs a scene file (the built-in highway takes no overrides)");
+  return builtinHighway();
+}
+
+// The scene files in the current scene's folder (the shipped scenes/ when the sandbox was started on one).
+std::vector<std::string> sceneChoices(const std::string& current) {
+  std::vector<std::string> out;
+  if (current.empty()) return out;
+  std::error_code ec;
+  const fs::path dir = fs::absolute(current, ec).parent_path();
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.path().extension() == ".json") out.push_back(e.path().string());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The scene as the panel has it now: its file (or the built-in text) with every value the panel edits set, mesh
+// and image paths made to work from the new file's folder (the built-in's meshes are copied beside it). Written
+// to a temporary file and renamed: a failed save leaves no half-written file.
+void saveScene(const App& app, const std::string& target) {
+  const std::string text = app.scenePath.empty() ? builtinSceneText("highway") : [&] {
+    std::ifstream f(app.scenePath, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+  }();
+  nlohmann::json doc = nlohmann::json::parse(text);
+  const std::string file = app.scenePath.empty() ? "<built-in>" : app.scenePath;
+  applyOverrides(doc, app.overrides, file);
+  Overrides edits;
+  auto num = [](double v) {
+    std::ostringstream os;
+    os.precision(17);
+    os << v;
+    return os.str();
+  };
+  for (const auto& [name, m] : app.sim->sceneMaterials()) {
+    const std::string key = "materials[" + nlohmann::json(name).dump() + "].";
+    edits.push_back({key + "kappa", num(m.kappa)});
+    edits.push_back({key + "restitution", num(m.restitution)});
+    edits.push_back({key + "thickness", num(m.thickness)});
+  }
+  const DeformationSettings& d = app.sim->scene().deformation;
+  edits.push_back({"deformation.bump_depth", num(d.bumpDepth)});
+  edits.push_back({"deformation.bump_depth_collide", num(d.bumpDepthCollide)});
+  edits.push_back({"deformation.address_map", std::to_string(d.options.addressMap)});
+  edits.push_back({"deformation.path", nlohmann::json(deform::pathName(d.options.path)).dump()});
+  edits.push_back({"deformation.crater_rims", d.options.craterRims ? "true" : "false"});
+  edits.push_back({"deformation.impulse_floor", num(d.impulseFloor)});
+  edits.push_back({"deformation.normal_mapped_normals", d.normalMappedNormals ? "true" : "false"});
+  applyOverrides(doc, edits, file);
+  const fs::path out = fs::absolute(target);
+  const fs::path dir = out.parent_path();
+  fs::create_directories(dir);
+  for (size_t i = 0; i < app.scene.bodies.size() && i < doc["bodies"].size(); ++i) {
+    const BodyDesc& b = app.scene.bodies[i];
+    auto relocate = [&](const std::string& resolved) {
+      if (!app.scenePath.empty()) return fs::relative(resolved, dir).string();
+      fs::create_directories(dir / "assets");
+      const fs::path copy = dir / "assets" / fs::path(resolved).filename();
+      fs::copy_file(resolved, copy, fs::copy_options::overwrite_existing);
+      return ("assets" / fs::path(resolved).filename()).string();
+    };
+    if (b.shape.type == "mesh") doc["bodies"][i]["shape"]["file"] = relocate(b.shape.file);
+    if (!b.bumpMap.image.empty()) doc["bodies"][i]["bump_map"]["image"] = relocate(b.bumpMap.image);
+  }
+  const fs::path tmp = out.string() + ".partial";
+  {
+    std::ofstream f(tmp);
+    f << doc.dump(1) << "\n";
+    if (!f) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, out);
+}
+
+void App::load(const std::string& path) {
+  try {
+    Scene next = loadAppScene(path, overrides);
+    scene = std::move(next);
+    scenePath = path;
+    reset();
+    status = "loaded " + (path.empty() ? std::string("the built-in highway") : path);
+  } catch (const std::exception& e) {
+    status = std::string("not loaded: ") + e.what();
+  }
+}
 
 void drive(App& app, GLFWwindow* w) {
   if (app.autopilot) return;
@@ -137,6 +243,25 @@ void panel(App& app) {
   ImGui::SameLine();
   if (ImGui::Button("Reset")) app.reset();
   ImGui::SameLine();
+  if (ImGui::CollapsingHeader("Scene")) {
+    const std::string current = app.scenePath.empty() ? "highway (built-in)" : fs::path(app.scenePath).filename().string();
+    if (ImGui::BeginCombo("scene", current.c_str())) {
+      if (ImGui::Selectable("highway (built-in)", app.scenePath.empty())) app.load("");
+      for (const std::string& choice : app.sceneChoices)
+        if (ImGui::Selectable(fs::path(choice).filename().string().c_str(), choice == app.scenePath)) app.load(choice);
+      ImGui::EndCombo();
+    }
+    ImGui::InputText("save as", app.saveAs, sizeof app.saveAs);
+    if (ImGui::Button("Save scene") && app.saveAs[0]) {
+      try {
+        saveScene(app, app.saveAs);
+        app.status = std::string("saved ") + app.saveAs;
+      } catch (const std::exception& e) {
+        app.status = std::string("not saved: ") + e.what();
+      }
+    }
+    if (!app.status.empty()) ImGui::TextWrapped("%s", app.status.c_str());
+  }
   ImGui::Checkbox("Autopilot", &app.autopilot);
   ImGui::Checkbox("Follow camera (C)", &app.follow);
   if (ImGui::CollapsingHeader("Materials", ImGuiTreeNodeFlags_DefaultOpen)) {
@@ -209,7 +334,12 @@ int main(int argc, char** argv) {
   long frames = 0;
   int width = 1280, height = 720;
   bool autopilot = false, quiet = false;
+  std::vector<std::string> sets;
+  std::string saveScenePath;
   cli.add_option("scene", scenePath, "Scene file; without one, the built-in highway scene");
+  cli.add_option("--set", sets, "KEY=VALUE: change one value of the scene before it runs (as crumple-sim --set)");
+  cli.add_option("--save-scene", saveScenePath,
+                 "On exit, write the scene as the panel has it (materials, deformation settings) to this file");
   cli.add_option("--frames", frames, "Run this many frames (1/60 s of simulation each), then exit")
       ->check(CLI::Range(0L, 10000000L));
   cli.add_flag("--autopilot", autopilot, "Drive by the scene's vehicle script (a drive into the rails)");
@@ -245,7 +375,10 @@ int main(int argc, char** argv) {
     app.autoScale = false;
   }
   try {
-    app.scene = scenePath.empty() ? builtinHighway() : loadScene(scenePath);
+    for (const std::string& a : sets) app.overrides.push_back(parseOverride(a));
+    app.scene = loadAppScene(scenePath, app.overrides);
+    app.scenePath = scenePath;
+    app.sceneChoices = sceneChoices(scenePath);
   } catch (const SceneError& e) {
     std::cerr << "crumple-sandbox: error: " << e.what() << "\n";
     return 2;
@@ -359,6 +492,10 @@ int main(int argc, char** argv) {
       }
       window.swapBuffers();
       ++frame;
+    }
+    if (!saveScenePath.empty()) {
+      saveScene(app, saveScenePath);
+      logInfo("scene saved: ", saveScenePath);
     }
     if (writer) {
       writer->write(*app.sim);

@@ -63,7 +63,7 @@ install(FILES "${PROJECT_BINARY_DIR}/crumpleConfig.cmake" "${PROJECT_BINARY_DIR}
 
 # pkg-config: one module, every layer (C++20: compile with -std=c++20 or later). Static libraries need their dependencies on the consumer's link
 # line, so they are Requires there; shared ones keep them private.
-set(CRUMPLE_PC_REQUIRES "glm epoxy egl opengl zlib nlohmann_json tinygltf openmesh")
+set(CRUMPLE_PC_REQUIRES "glm epoxy egl opengl zlib nlohmann_json tinygltf")
 if(CRUMPLE_WITH_GLFW)
   string(APPEND CRUMPLE_PC_REQUIRES " glfw3")
 endif()

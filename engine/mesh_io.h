@@ -1,6 +1,7 @@
 // Mesh files: glTF 2.0 / GLB through tinygltf (all primitives of the default
-// scene, node transforms applied, merged into one mesh), OBJ by our own strict
-// reader, OFF / PLY through OpenMesh. Broken files are MeshError, never a crash.
+// scene, node transforms applied, merged into one mesh), OBJ, OFF and PLY by our own
+// strict readers. Broken files are MeshError, never a crash.
+// Every format refuses coordinates beyond 1e30 and meshes of over 4194304 triangles (engine/mesh_io_detail.h).
 #pragma once
 #include <stdexcept>
 #include <string>
@@ -15,7 +16,8 @@ struct MeshError : std::runtime_error {
 
 TriangleMesh loadMeshFile(const std::string& path);
 TriangleMesh loadGltf(const std::string& path);
-TriangleMesh loadObj(const std::string& path);           // strict: errors name the line
-TriangleMesh loadWithOpenMesh(const std::string& path);  // OFF and PLY
+TriangleMesh loadObj(const std::string& path);  // strict: errors name the line
+TriangleMesh loadOff(const std::string& path);  // strict: errors name the line or the byte
+TriangleMesh loadPly(const std::string& path);  // strict: errors name the header line or the record
 
 }  // namespace crumple

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs every Debian package crumple needs to build, test, benchmark and run.
+# Installs every Debian package crumple needs to build, test, benchmark, fuzz (clang, its libFuzzer and
+# sanitizer runtimes, llvm-symbolizer) and run.
 # Idempotent: packages already present are skipped; `apt-get update` runs once
 # only when something is missing.
 set -euo pipefail
@@ -15,13 +16,14 @@ tool_args "" "$@"
 
 PACKAGES=(
   build-essential cmake pkg-config git
-  zlib1g-dev libglm-dev libopenmesh-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
+  zlib1g-dev libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
   libglfw3-dev libepoxy-dev libegl-dev libopengl-dev libgl-dev
   libegl-mesa0 libgl1-mesa-dri mesa-utils
   doctest-dev libcli11-dev libimgui-dev
   libbullet-dev libbenchmark-dev
   python3-dev pybind11-dev python3-numpy python3-distributed
   xvfb xauth
+  clang libclang-rt-dev llvm
 )
 
 missing=()

@@ -1,0 +1,533 @@
+// glTF 2.0 and GLB through tinygltf: every primitive of the default scene with its node transforms, merged into
+// one mesh. The document is checked first (nlohmann::json) for what tinygltf lets through silently: a negative
+// byteOffset read as 0, a zero rotation, a scale of 1e30, a transform of the wrong length, nesting deep enough to
+// overflow the stack. Errors name the file and the document's key path.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <sstream>
+
+#include <glm/glm.hpp>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <stb/stb_image.h>
+#include <tiny_gltf.h>
+
+#include "engine/mesh_io.h"
+#include "engine/mesh_io_detail.h"
+
+namespace crumple {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// Bounds-checked reads from glTF accessors.
+class AccessorReader {
+ public:
+  AccessorReader(const tinygltf::Model& m, int index, const std::string& what) : what_(what) {
+    if (index < 0 || index >= static_cast<int>(m.accessors.size()))
+      throw MeshError(what + ": accessor " + std::to_string(index) + " does not exist");
+    acc_ = &m.accessors[static_cast<size_t>(index)];
+    if (acc_->sparse.isSparse) throw MeshError(what + ": sparse accessors are not supported");
+    if (acc_->bufferView < 0 || acc_->bufferView >= static_cast<int>(m.bufferViews.size()))
+      throw MeshError(what + ": accessor " + std::to_string(index) + " has no valid bufferView");
+    const auto& view = m.bufferViews[static_cast<size_t>(acc_->bufferView)];
+    if (view.buffer < 0 || view.buffer >= static_cast<int>(m.buffers.size()))
+      throw MeshError(what + ": bufferView " + std::to_string(acc_->bufferView) + " points at a missing buffer");
+    const auto& buffer = m.buffers[static_cast<size_t>(view.buffer)];
+    components_ = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(acc_->type));
+    componentSize_ = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc_->componentType));
+    if (components_ <= 0 || componentSize_ <= 0) throw MeshError(what + ": unknown accessor type");
+    const size_t elementSize = static_cast<size_t>(components_ * componentSize_);
+    stride_ = view.byteStride ? view.byteStride : elementSize;
+    if (stride_ < elementSize) throw MeshError(what + ": byteStride smaller than the element");
+    const size_t start = view.byteOffset + acc_->byteOffset;
+    count_ = acc_->count;
+    if (view.byteOffset + view.byteLength > buffer.data.size())
+      throw MeshError(what + ": bufferView runs past the end of its buffer (missing or short .bin?)");
+    if (count_ > 0 && (acc_->byteOffset + (count_ - 1) * stride_ + elementSize > view.byteLength))
+      throw MeshError(what + ": accessor runs past the end of its bufferView");
+    data_ = buffer.data.data() + start;
+  }
+  size_t count() const { return count_; }
+  int components() const { return components_; }
+  double get(size_t i, int c) const {
+    const unsigned char* p = data_ + i * stride_ + static_cast<size_t>(c * componentSize_);
+    switch (acc_->componentType) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float f;
+        std::memcpy(&f, p, 4);
+        return f;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return acc_->normalized ? *p / 255.0 : *p;
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t v;
+        std::memcpy(&v, p, 1);
+        return acc_->normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return acc_->normalized ? v / 65535.0 : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t v;
+        std::memcpy(&v, p, 2);
+        return acc_->normalized ? std::max(v / 32767.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      default:
+        throw MeshError(what_ + ": unsupported component type");
+    }
+  }
+  uint32_t index(size_t i) const {
+    const unsigned char* p = data_ + i * stride_;
+    switch (acc_->componentType) {
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return *p;
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      default:
+        throw MeshError(what_ + ": indices must be unsigned byte, short or int");
+    }
+  }
+
+ private:
+  const tinygltf::Accessor* acc_ = nullptr;
+  const unsigned char* data_ = nullptr;
+  size_t stride_ = 0, count_ = 0;
+  int components_ = 0, componentSize_ = 0;
+  std::string what_;
+};
+
+// The JSON's nesting and its number of values, counted on the text before anything parses it: tinygltf copies
+// "extras" recursively, so a document nested 100000 deep would overflow the stack; a flat array of a hundred
+// million zeros would take gigabytes as a parsed document (twice: once here, once in tinygltf).
+constexpr int kMaxNesting = 64;
+constexpr size_t kMaxValues = size_t(1) << 22;
+void checkJsonShape(const char* text, size_t size, const std::string& path) {
+  int depth = 0;
+  size_t values = 0;
+  bool inString = false, escaped = false;
+  for (size_t i = 0; i < size; ++i) {
+    const char c = text[i];
+    if (inString) {
+      if (escaped)
+        escaped = false;
+      else if (c == '\\')
+        escaped = true;
+      else if (c == '"')
+        inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{' || c == ',') {
+      if (c != ',' && ++depth > kMaxNesting)
+        throw MeshError(path + ": the JSON nests deeper than " + std::to_string(kMaxNesting) + " levels");
+      if (++values > kMaxValues)
+        throw MeshError(path + ": the JSON holds more than " + std::to_string(kMaxValues) + " values");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+}
+
+std::string shown(const json& v) { return capText(v.dump(), 60); }
+
+// What tinygltf reads without a word: counts, offsets and indices it takes as 0 or -1 when they are negative or
+// not integers, transforms of the wrong length it ignores, and transforms that make a body of no size or of 1e30.
+class DocumentCheck {
+ public:
+  DocumentCheck(const json& doc, const std::string& path) : doc_(doc), path_(path) {}
+
+  void run() {
+    index(doc_, "", "scene");
+    forEach("scenes", [&](const json& s, const std::string& at) { indexArray(s, at, "nodes"); });
+    forEach("nodes", [&](const json& n, const std::string& at) { node(n, at); });
+    forEach("meshes", [&](const json& m, const std::string& at) {
+      if (!m.contains("primitives") || !m["primitives"].is_array()) return;
+      for (size_t p = 0; p < m["primitives"].size(); ++p) {
+        const json& prim = m["primitives"][p];
+        if (!prim.is_object()) continue;
+        const std::string pat = at + ".primitives[" + std::to_string(p) + "]";
+        index(prim, pat, "indices");
+        index(prim, pat, "mode");
+        if (prim.contains("attributes") && prim["attributes"].is_object())
+          for (const auto& [name, value] : prim["attributes"].items())
+            if (!isIndex(value))
+              fail(pat + ".attributes." + capText(name, 40), "must be an accessor index, got " + shown(value));
+      }
+    });
+    forEach("accessors", [&](const json& a, const std::string& at) {
+      for (const char* k : {"bufferView", "byteOffset", "count", "componentType"}) index(a, at, k);
+    });
+    forEach("bufferViews", [&](const json& v, const std::string& at) {
+      for (const char* k : {"buffer", "byteOffset", "byteLength", "byteStride"}) index(v, at, k);
+    });
+    forEach("buffers", [&](const json& b, const std::string& at) { index(b, at, "byteLength"); });
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& key, const std::string& why) const {
+    throw MeshError(path_ + ": " + key + ": " + why);
+  }
+  static std::string join(const std::string& at, const std::string& key) { return at.empty() ? key : at + "." + key; }
+
+  // A count, offset or index: a whole number in [0, 2^32] (nothing in a file of at most 1 GiB is larger).
+  static bool isIndex(const json& v) {
+    if (!v.is_number()) return false;
+    const double d = v.get<double>();
+    return d >= 0 && d <= 4294967296.0 && d == std::floor(d);
+  }
+  void index(const json& obj, const std::string& at, const char* key) const {
+    if (!obj.is_object() || !obj.contains(key)) return;
+    const json& v = obj[key];
+    if (!isIndex(v)) fail(join(at, key), "must be a whole number from 0 to 2^32, got " + shown(v));
+  }
+  void indexArray(const json& obj, const std::string& at, const char* key) const {
+    if (!obj.is_object() || !obj.contains(key)) return;
+    const json& a = obj[key];
+    if (!a.is_array()) fail(join(at, key), "must be an array of indices");
+    for (size_t i = 0; i < a.size(); ++i)
+      if (!isIndex(a[i]))
+        fail(join(at, key) + "[" + std::to_string(i) + "]",
+             "must be a whole number from 0 to 2^32, got " + shown(a[i]));
+  }
+  void forEach(const char* key, const std::function<void(const json&, const std::string&)>& f) const {
+    if (!doc_.contains(key)) return;
+    const json& a = doc_[key];
+    if (!a.is_array()) fail(key, "must be an array");
+    for (size_t i = 0; i < a.size(); ++i) {
+      if (!a[i].is_object()) fail(std::string(key) + "[" + std::to_string(i) + "]", "must be an object");
+      f(a[i], std::string(key) + "[" + std::to_string(i) + "]");
+    }
+  }
+  std::vector<double> numbers(const json& n, const std::string& at, const char* key, size_t count) const {
+    const json& a = n[key];
+    if (!a.is_array() || a.size() != count)
+      fail(join(at, key), "must be an array of " + std::to_string(count) + " numbers, got " + shown(a));
+    std::vector<double> v;
+    for (size_t i = 0; i < count; ++i) {
+      if (!a[i].is_number() || !std::isfinite(a[i].get<double>()))
+        fail(join(at, key) + "[" + std::to_string(i) + "]", "must be a finite number, got " + shown(a[i]));
+      v.push_back(a[i].get<double>());
+    }
+    return v;
+  }
+  void scaleWithin(const std::string& key, double s) const {
+    if (!(std::abs(s) >= meshio::kMinNodeScale && std::abs(s) <= meshio::kMaxNodeScale)) {
+      std::ostringstream os;
+      os << s << " is outside [1e-6, 1e6] in magnitude";
+      fail(key, os.str());
+    }
+  }
+  void translationWithin(const std::string& key, double t) const {
+    if (!(std::abs(t) <= meshio::kMaxCoordinate)) {
+      std::ostringstream os;
+      os << t << " is beyond 1e30 in magnitude";
+      fail(key, os.str());
+    }
+  }
+  void node(const json& n, const std::string& at) {
+    index(n, at, "mesh");
+    indexArray(n, at, "children");
+    if (n.contains("translation")) {
+      const auto t = numbers(n, at, "translation", 3);
+      for (int i = 0; i < 3; ++i) translationWithin(at + ".translation[" + std::to_string(i) + "]", t[size_t(i)]);
+    }
+    if (n.contains("rotation")) {
+      const auto q = numbers(n, at, "rotation", 4);
+      const double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (!(std::abs(len - 1) <= 1e-3)) {
+        std::ostringstream os;
+        os << "must be a unit quaternion [x, y, z, w], got " << shown(n["rotation"]) << " (length " << len << ")";
+        fail(at + ".rotation", os.str());
+      }
+    }
+    if (n.contains("scale")) {
+      const auto s = numbers(n, at, "scale", 3);
+      for (int i = 0; i < 3; ++i) scaleWithin(at + ".scale[" + std::to_string(i) + "]", s[size_t(i)]);
+    }
+    if (n.contains("matrix")) {
+      const auto m = numbers(n, at, "matrix", 16);  // column-major
+      if (m[3] != 0 || m[7] != 0 || m[11] != 0 || m[15] != 1)
+        fail(at + ".matrix", "must be affine (its last row 0, 0, 0, 1)");
+      for (int c = 0; c < 3; ++c) {
+        const double len = std::sqrt(m[size_t(4 * c)] * m[size_t(4 * c)] + m[size_t(4 * c + 1)] * m[size_t(4 * c + 1)] +
+                                     m[size_t(4 * c + 2)] * m[size_t(4 * c + 2)]);
+        scaleWithin(at + ".matrix: the scale of axis " + std::to_string(c), len);
+      }
+      for (int i = 12; i < 15; ++i) translationWithin(at + ".matrix[" + std::to_string(i) + "]", m[size_t(i)]);
+    }
+  }
+
+  const json& doc_;
+  std::string path_;
+};
+
+// The JSON of a .gltf, or of a .glb's first chunk, checked before tinygltf reads it.
+void checkDocument(const std::vector<unsigned char>& bytes, bool binary, const std::string& path) {
+  const char* text = reinterpret_cast<const char*>(bytes.data());
+  size_t size = bytes.size();
+  if (binary) {
+    // 12-byte header ("glTF", version, length), then the JSON chunk: its length and type, then its bytes.
+    if (bytes.size() < 20) return;  // tinygltf says what is short
+    uint32_t chunk = 0;
+    std::memcpy(&chunk, bytes.data() + 12, 4);
+    if (std::memcmp(bytes.data() + 16, "JSON", 4) != 0 || chunk > bytes.size() - 20) return;
+    text += 20;
+    size = chunk;
+  }
+  checkJsonShape(text, size, path);
+  const json doc = json::parse(text, text + size, nullptr, false);
+  if (doc.is_discarded() || !doc.is_object()) return;  // tinygltf names the JSON error
+  DocumentCheck(doc, path).run();
+}
+
+glm::dmat4 nodeMatrix(const tinygltf::Node& n) {
+  if (n.matrix.size() == 16) {
+    glm::dmat4 m;
+    for (int i = 0; i < 16; ++i) glm::value_ptr(m)[i] = n.matrix[static_cast<size_t>(i)];
+    return m;
+  }
+  glm::dmat4 m(1);
+  if (n.translation.size() == 3)
+    m = glm::translate(m, glm::dvec3(n.translation[0], n.translation[1], n.translation[2]));
+  if (n.rotation.size() == 4)
+    m *= glm::mat4_cast(glm::normalize(glm::dquat(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2])));
+  if (n.scale.size() == 3) m = glm::scale(m, glm::dvec3(n.scale[0], n.scale[1], n.scale[2]));
+  return m;
+}
+
+// External buffers (a .gltf's "uri": "x.bin") are read only when they are regular files of at most 1 GiB: not a
+// folder, a FIFO or /dev/zero.
+bool readBuffer(std::vector<unsigned char>* out, std::string* err, const std::string& file, void*) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec) || fs::file_size(file, ec) > meshio::kMaxFileBytes) {
+    if (err) *err += "buffer " + capText(file, 200) + " is not a regular file of at most 1 GiB\n";
+    return false;
+  }
+  std::ifstream in(file, std::ios::binary);
+  out->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  if (!in.good() && !in.eof()) {
+    if (err) *err += "cannot read " + capText(file, 200) + "\n";
+    return false;
+  }
+  return true;
+}
+
+void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, const glm::dmat4& xf,
+                     const std::string& what, TriangleMesh& out, bool& anyUv) {
+  const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+  if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+    return;
+  auto pos = prim.attributes.find("POSITION");
+  if (pos == prim.attributes.end()) throw MeshError(what + ": primitive has no POSITION");
+  AccessorReader p(model, pos->second, what + ".attributes.POSITION");
+  if (p.components() != 3) throw MeshError(what + ": POSITION must be VEC3");
+  std::unique_ptr<AccessorReader> nrm, uv;
+  if (auto it = prim.attributes.find("NORMAL"); it != prim.attributes.end()) {
+    nrm = std::make_unique<AccessorReader>(model, it->second, what + ".attributes.NORMAL");
+    if (nrm->components() != 3 || nrm->count() != p.count()) nrm.reset();
+  }
+  if (auto it = prim.attributes.find("TEXCOORD_0"); it != prim.attributes.end()) {
+    uv = std::make_unique<AccessorReader>(model, it->second, what + ".attributes.TEXCOORD_0");
+    if (uv->components() != 2 || uv->count() != p.count())
+      throw MeshError(what + ": TEXCOORD_0 must be VEC2 with one per vertex");
+  }
+  const glm::dmat3 normalXf = glm::transpose(glm::inverse(glm::dmat3(xf)));
+  const bool flip = glm::determinant(glm::dmat3(xf)) < 0;
+  if (out.positions.size() + p.count() > 3 * meshio::kMaxTriangles)
+    throw MeshError(what + ": the default scene makes more than " + std::to_string(3 * meshio::kMaxTriangles) +
+                    " vertices");
+  const auto base = static_cast<uint32_t>(out.positions.size());
+  for (size_t i = 0; i < p.count(); ++i) {
+    const glm::dvec4 v = xf * glm::dvec4(p.get(i, 0), p.get(i, 1), p.get(i, 2), 1.0);
+    for (int c = 0; c < 3; ++c)
+      if (!(std::abs(v[c]) <= meshio::kMaxCoordinate))
+        throw MeshError(what + ".attributes.POSITION: vertex " + std::to_string(i) + " (in the scene's frame) " +
+                        (std::isfinite(v[c]) ? "is beyond 1e30 in magnitude" : "is not finite"));
+    out.positions.push_back(glm::vec3(v));
+    glm::vec3 n(0, 1, 0);
+    if (nrm) {
+      const glm::dvec3 nn = normalXf * glm::dvec3(nrm->get(i, 0), nrm->get(i, 1), nrm->get(i, 2));
+      const double len = glm::length(nn);
+      if (len > 0 && std::isfinite(len)) n = glm::vec3(nn / len);
+    }
+    out.normals.push_back(n);
+    if (uv) {
+      // glTF's v runs down the image; ours runs with the image rows too (row 0 = v 0).
+      glm::vec2 t(static_cast<float>(uv->get(i, 0)), static_cast<float>(uv->get(i, 1)));
+      if (!std::isfinite(t.x) || !std::isfinite(t.y)) t = glm::vec2(-1);
+      out.uvs.push_back(t);
+    } else {
+      out.uvs.push_back(glm::vec2(-1));  // marks "no uv"
+    }
+  }
+  anyUv = anyUv || uv != nullptr;
+  std::vector<uint32_t> idx;
+  if (prim.indices >= 0) {
+    AccessorReader ir(model, prim.indices, what + ".indices");
+    idx.reserve(ir.count());
+    for (size_t i = 0; i < ir.count(); ++i) {
+      const uint32_t k = ir.index(i);
+      if (k >= p.count())
+        throw MeshError(what + ": index " + std::to_string(k) + " out of range (" + std::to_string(p.count()) +
+                        " vertices)");
+      idx.push_back(k);
+    }
+  } else {
+    for (uint32_t i = 0; i < p.count(); ++i) idx.push_back(i);
+  }
+  auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+    if (a == b || b == c || a == c) return;
+    if (out.triangles.size() >= meshio::kMaxTriangles)
+      throw MeshError(what + ": the default scene makes more than " + std::to_string(meshio::kMaxTriangles) +
+                      " triangles");
+    if (flip) std::swap(b, c);
+    out.triangles.push_back({base + a, base + b, base + c});
+  };
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    if (idx.size() % 3) throw MeshError(what + ": triangle index count is not a multiple of 3");
+    for (size_t i = 0; i + 2 < idx.size(); i += 3) tri(idx[i], idx[i + 1], idx[i + 2]);
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    for (size_t i = 0; i + 2 < idx.size(); ++i)
+      i % 2 ? tri(idx[i + 1], idx[i], idx[i + 2]) : tri(idx[i], idx[i + 1], idx[i + 2]);
+  } else {
+    for (size_t i = 1; i + 1 < idx.size(); ++i) tri(idx[0], idx[i], idx[i + 1]);
+  }
+}
+
+}  // namespace
+
+TriangleMesh loadGltf(const std::string& path) {
+  tinygltf::TinyGLTF loader;
+  tinygltf::Model model;
+  std::string err, warn;
+  // Images are not needed for geometry: skip decoding them.
+  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
+                           void*) { return true; },
+                        nullptr);
+  loader.SetFsCallbacks(
+      {&tinygltf::FileExists, &tinygltf::ExpandFilePath, &readBuffer, &tinygltf::WriteWholeFile, nullptr});
+  const bool binary = meshio::lower(fs::path(path).extension().string()) == ".glb";
+  std::error_code ec;
+  if (fs::file_size(path, ec) > meshio::kMaxFileBytes)
+    throw MeshError(path + ": larger than 1 GiB: refusing to load it");
+  {
+    // The format's own first bytes, before the whole file is read: binary glTF starts with "glTF", JSON with '{'.
+    std::ifstream in(path, std::ios::binary);
+    char head[4] = {0, 0, 0, 0};
+    in.read(head, 4);
+    if (binary && std::string(head, 4) != "glTF") throw MeshError(path + ": not a glTF binary (no 'glTF' magic)");
+    if (binary) {
+      // Version 2 and a length that is the file's, before the whole file is read.
+      unsigned char words[8] = {};
+      in.read(reinterpret_cast<char*>(words), 8);
+      const uint32_t version = words[0] | words[1] << 8 | words[2] << 16 | uint32_t(words[3]) << 24;
+      const uint32_t length = words[4] | words[5] << 8 | words[6] << 16 | uint32_t(words[7]) << 24;
+      if (version != 2) throw MeshError(path + ": a glTF binary of version " + std::to_string(version) + ", not 2");
+      if (length != fs::file_size(path, ec))
+        throw MeshError(path + ": the glTF binary's header gives its length as " + std::to_string(length) +
+                        " bytes, the file has " + std::to_string(fs::file_size(path, ec)));
+    }
+    if (!binary) {
+      in.clear();
+      in.seekg(0);
+      char c = ' ';
+      while (in.get(c) && std::isspace(static_cast<unsigned char>(c))) {
+      }
+      if (c != '{') throw MeshError(path + ": not a glTF file (JSON must start with '{')");
+    }
+  }
+  std::vector<unsigned char> bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw MeshError(path + ": cannot be opened");
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  checkDocument(bytes, binary, path);
+  std::string baseDir = fs::path(path).parent_path().string();
+  if (baseDir.empty()) baseDir = ".";
+  bool ok = false;
+  try {
+    ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(), static_cast<unsigned>(bytes.size()),
+                                              baseDir)
+                : loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes.data()),
+                                             static_cast<unsigned>(bytes.size()), baseDir);
+  } catch (const std::exception& e) {
+    throw MeshError(path + ": " + e.what());
+  }
+  if (!ok) {
+    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+    throw MeshError(path + ": not a valid glTF" + std::string(binary ? " binary" : "") +
+                    " file: " + (err.empty() ? "unknown error" : err));
+  }
+  if (model.scenes.empty()) throw MeshError(path + ": the file has no scene");
+  const int sceneIndex = model.defaultScene >= 0 ? model.defaultScene : 0;
+  if (sceneIndex >= static_cast<int>(model.scenes.size()))
+    throw MeshError(path + ": scene: default scene " + std::to_string(sceneIndex) + " does not exist");
+  TriangleMesh out;
+  bool anyUv = false;
+  std::vector<int> onPath;
+  size_t visits = 0;
+  // A node's hierarchy is walked recursively: its depth is bounded (a chain of 100000 nodes overflowed the stack).
+  constexpr size_t kMaxDepth = 256;
+  std::function<void(int, const glm::dmat4&)> visit = [&](int ni, const glm::dmat4& parent) {
+    const std::string at = path + ": nodes[" + std::to_string(ni) + "]";
+    if (ni < 0 || ni >= static_cast<int>(model.nodes.size())) throw MeshError(at + ": node does not exist");
+    if (std::find(onPath.begin(), onPath.end(), ni) != onPath.end())
+      throw MeshError(at + ": node hierarchy has a cycle through this node");
+    if (onPath.size() >= kMaxDepth)
+      throw MeshError(at + ": node hierarchy deeper than " + std::to_string(kMaxDepth) + " levels");
+    if (++visits > 100000) throw MeshError(at + ": node hierarchy too large (over 100000 visits)");
+    onPath.push_back(ni);
+    const tinygltf::Node& node = model.nodes[static_cast<size_t>(ni)];
+    const glm::dmat4 xf = parent * nodeMatrix(node);
+    if (node.mesh >= 0) {
+      if (node.mesh >= static_cast<int>(model.meshes.size()))
+        throw MeshError(at + ".mesh: uses missing mesh " + std::to_string(node.mesh));
+      const auto& mesh = model.meshes[static_cast<size_t>(node.mesh)];
+      for (size_t pi = 0; pi < mesh.primitives.size(); ++pi)
+        appendPrimitive(model, mesh.primitives[pi], xf,
+                        path + ": meshes[" + std::to_string(node.mesh) + "].primitives[" + std::to_string(pi) + "]",
+                        out, anyUv);
+    }
+    for (int c : node.children) visit(c, xf);
+    onPath.pop_back();
+  };
+  for (int root : model.scenes[static_cast<size_t>(sceneIndex)].nodes) visit(root, glm::dmat4(1));
+  if (out.triangles.empty()) throw MeshError(path + ": the default scene has no triangles");
+  // Partial uvs (some primitives without TEXCOORD_0) cannot be trusted: drop them all.
+  bool complete = anyUv;
+  for (const auto& t : out.uvs) complete = complete && t.x >= 0;
+  if (!complete) out.uvs.clear();
+  return out;
+}
+
+}  // namespace crumple

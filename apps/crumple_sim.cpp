@@ -1,15 +1,22 @@
 // crumple-sim: batch runs of scene files. Writes the outputs of the contract in
 // shared/design/scene-format.md. Exit status: 0 success, 2 bad input, 1 failure,
 // 130 interrupted (SIGINT or SIGTERM: the partial output is removed, nothing is replaced).
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <cctype>
+#include <cerrno>
 #include <csignal>
+#include <cstdlib>
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "engine/builtin_scenes.h"
 #include "engine/output_writer.h"
@@ -27,6 +34,34 @@ namespace fs = std::filesystem;
 namespace {
 volatile std::sig_atomic_t gInterrupted = 0;
 extern "C" void onSignal(int) { gInterrupted = 1; }
+
+// The first executable `name` on PATH, or empty.
+std::string findOnPath(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "";
+  size_t start = 0;
+  while (start <= dirs.size()) {
+    const size_t end = std::min(dirs.find(':', start), dirs.size());
+    const std::string dir = end > start ? dirs.substr(start, end - start) : ".";
+    const std::string candidate = dir + "/" + name;
+    if (::access(candidate.c_str(), X_OK) == 0 && !fs::is_directory(candidate)) return candidate;
+    start = end + 1;
+  }
+  return "";
+}
+
+// Runs a program (no shell) and waits for it; returns its exit status, or -1 when it could not run.
+int runProgram(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (::posix_spawn(&pid, args[0].c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -36,7 +71,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
       "heightmaps/, normalmaps/, frames/)."};
-  std::string scenePath, outDir, deformPath, trace, size = "960x540";
+  std::string scenePath, outDir, deformPath, trace, size = "960x540", exportFormat, video, videoCamera;
   double duration = -1, fps = 30;
   long steps = -1;
   int gpu = -1;
@@ -66,6 +101,12 @@ int main(int argc, char** argv) {
                  "else software)")
       ->check(CLI::Range(0, 1023));
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
+  app.add_option("--export", exportFormat,
+                 "gltf: also write export/scene.gltf (every body at its final pose, its atlas, normal and height maps)")
+      ->check(CLI::IsMember({"gltf"}));
+  app.add_option("--video", video,
+                 "Encode one camera's frames into this video file (e.g. run.mp4) with ffmpeg; implies --render");
+  app.add_option("--video-camera", videoCamera, "The camera for --video (default: the scene's first camera)");
   app.add_flag("--quiet,-q", quiet, "Only errors");
   app.add_flag("--verbose,-v", verbose, "Debug messages (GL debug output included)");
   app.set_version_flag("--version", std::string("crumple-sim ") + versionString());
@@ -77,6 +118,25 @@ int main(int argc, char** argv) {
   }
 
   setLogLevel(quiet ? LogLevel::Error : verbose ? LogLevel::Debug : LogLevel::Info);
+  std::string ffmpeg;
+  if (!videoCamera.empty() && video.empty()) {
+    std::cerr << "crumple-sim: error: --video-camera needs --video\n";
+    return 2;
+  }
+  if (!video.empty()) {
+    ffmpeg = findOnPath("ffmpeg");
+    if (ffmpeg.empty()) {
+      std::cerr << "crumple-sim: error: --video needs ffmpeg (apt-get install ffmpeg)\n";
+      return 2;
+    }
+    const fs::path parent = fs::absolute(video).parent_path();
+    if (!fs::is_directory(parent)) {
+      std::cerr << "crumple-sim: error: " << video << ": --video: the folder " << parent.string()
+                << " does not exist\n";
+      return 2;
+    }
+    renderFrames = true;
+  }
   int width = 0, height = 0;
   if (std::sscanf(size.c_str(), "%dx%d", &width, &height) != 2 || width < 16 || height < 16 || width > 8192 ||
       height > 8192) {
@@ -95,7 +155,16 @@ int main(int argc, char** argv) {
     if (duration > 0) scene.duration = duration;
     const long totalSteps = steps > 0 ? steps : std::max(1L, std::lround(scene.duration / scene.timestep));
     if (outDir.empty()) outDir = "out/" + scene.name;
+    // --video: the camera whose frames are encoded (checked before the run).
+    if (!video.empty()) {
+      if (videoCamera.empty()) videoCamera = scene.cameras.empty() ? "default" : scene.cameras.front().name;
+      bool known = scene.cameras.empty() && videoCamera == "default";
+      for (const auto& c : scene.cameras) known = known || c.name == videoCamera;
+      if (!known) throw SceneError(scenePath.empty() ? scene.file : scenePath, "cameras",
+                                   "--video-camera: no camera named '" + videoCamera + "'");
+    }
     OutputWriter writer(outDir);
+    writer.setExportGltf(exportFormat == "gltf");
 
     bool needGl = renderFrames;
     for (const auto& b : scene.bodies) needGl = needGl || b.bumpMap.present;
@@ -174,6 +243,34 @@ int main(int argc, char** argv) {
     }
     if (gInterrupted) return interrupted(totalSteps);
     writer.write(sim);
+    if (!video.empty()) {
+      // Into a temporary file beside it (same extension: ffmpeg picks the format from it), renamed when done.
+      const fs::path target = fs::absolute(video);
+      const fs::path tmp = target.parent_path() / ("." + target.stem().string() + ".partial-" +
+                                                   std::to_string(::getpid()) + target.extension().string());
+      const double frameRate = 1.0 / (static_cast<double>(frameEvery) * scene.timestep);
+      std::vector<std::string> args = {ffmpeg, "-nostdin", "-y", "-loglevel", "error", "-framerate",
+                                        std::to_string(frameRate), "-i",
+                                        (framesDir / (videoCamera + "_%05d.png")).string()};
+      std::string ext = target.extension().string();
+      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (ext == ".mp4" || ext == ".mov" || ext == ".mkv")  // H.264 needs even sides; yuv420p plays everywhere
+        args.insert(args.end(), {"-c:v", "libx264", "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2"});
+      args.push_back(tmp.string());
+      const int rc = runProgram(args);
+      std::error_code ec;
+      if (rc != 0) {
+        fs::remove(tmp, ec);
+        throw std::runtime_error("--video: ffmpeg " + (rc < 0 ? std::string("could not be run") :
+                                                        "exited with status " + std::to_string(rc)) +
+                                 " encoding " + video);
+      }
+      fs::rename(tmp, target, ec);
+      if (ec) {
+        fs::remove(tmp, ec);
+        throw std::runtime_error(video + ": cannot write the video: " + ec.message());
+      }
+    }
     writer.commit();
     if (!quiet) {
       long sides = 0;

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "core/log.h"
+#include "engine/gltf_export.h"
 #include "render/image.h"
 
 namespace crumple {
@@ -155,6 +156,7 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
         nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
     render::writePng(normalPath.string(), nm, 8);
   }
+  if (exportGltf_) writeGltfExport(sim, (root / "export").string(), root.string());
   // Summary.
   json s;
   s["scene"] = sim.scene().name;

@@ -22,6 +22,8 @@ class OutputWriter {
   ~OutputWriter();                                // removes the staging folder if not committed
   const std::string& staging() const { return staging_; }
   void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
+  // With it on, write() also writes export/scene.gltf (engine/gltf_export.h) into the folder.
+  void setExportGltf(bool on) { exportGltf_ = on; }
   void commit();
   // Removes the staging folder now (e.g. on SIGINT/SIGTERM; the destructor does the same).
   void abandon();
@@ -30,6 +32,7 @@ class OutputWriter {
   void checkReplaceable(const std::string& dir) const;
   std::string dir_, staging_;
   bool committed_ = false;
+  bool exportGltf_ = false;
 };
 
 }  // namespace crumple

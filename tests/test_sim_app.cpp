@@ -891,3 +891,180 @@ TEST_CASE("soak: 200 mixed bodies on deformable ground for 2000 steps: no NaN, n
   }
   CHECK(peak[2000] < peak[500] * 1.1 + 20);  // memory does not grow with the steps
 }
+
+// --export gltf: read back with tinygltf's own loader (compiled here, external images loaded through stb_image:
+// this test does not link crumple_engine, which compiles tinygltf without external images).
+#include <stb/stb_image.h>
+#define TINYGLTF_IMPLEMENTATION
+#define TINYGLTF_NO_INCLUDE_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#include <tiny_gltf.h>
+
+TEST_CASE("--export gltf writes every body at its final pose with its atlas, normal map and height map") {
+  const fs::path out = kTmp / "export_gltf";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/sphere-into-plate.json --out " + out.string() +
+                     " --quiet --steps 60 --export gltf",
+                 &log) == 0);
+  CAPTURE(log);
+  const json summary = json::parse(slurp(out / "summary.json"));
+  const fs::path gltfPath = out / "export" / "scene.gltf";
+  REQUIRE(fs::exists(gltfPath));
+  // Inside the output folder: listed in its marker like every other file.
+  const json marker = json::parse(slurp(out / ".crumple-output"));
+  const std::vector<std::string> listed = marker["files"].get<std::vector<std::string>>();
+  for (const char* f : {"export/scene.gltf", "export/scene.bin", "export/normalmaps/plate.png",
+                        "export/heightmaps/plate.png", "export/normalmaps/ball.png", "export/heightmaps/ball.png"})
+    CHECK(std::find(listed.begin(), listed.end(), f) != listed.end());
+
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  std::string err, warn;
+  const bool ok = loader.LoadASCIIFromFile(&model, &err, &warn, gltfPath.string());
+  CAPTURE(err);
+  CAPTURE(warn);
+  REQUIRE(ok);
+  CHECK(err.empty());
+  CHECK(warn.empty());  // a missing image is a warning in tinygltf
+  REQUIRE(model.scenes.size() == 1);
+  REQUIRE(model.nodes.size() == summary["bodies"].size());
+  CHECK(model.scenes[0].nodes.size() == model.nodes.size());
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    const tinygltf::Node& node = model.nodes[i];
+    const json& body = summary["bodies"][i];
+    CAPTURE(node.name);
+    CHECK(node.name == body["name"].get<std::string>());
+    REQUIRE(node.translation.size() == 3);
+    REQUIRE(node.rotation.size() == 4);
+    for (int c = 0; c < 3; ++c) CHECK(node.translation[c] == doctest::Approx(body["position"][c].get<double>()).epsilon(1e-12));
+    // glTF's rotation is (x, y, z, w); summary.json's orientation (w, x, y, z).
+    for (int c = 0; c < 4; ++c)
+      CHECK(node.rotation[c] == doctest::Approx(body["orientation"][(c + 1) % 4].get<double>()).epsilon(1e-12));
+    REQUIRE(node.mesh >= 0);
+    const tinygltf::Primitive& prim = model.meshes[static_cast<size_t>(node.mesh)].primitives.at(0);
+    REQUIRE(prim.attributes.count("POSITION"));
+    REQUIRE(prim.attributes.count("TEXCOORD_0"));
+    const tinygltf::Accessor& uv = model.accessors[static_cast<size_t>(prim.attributes.at("TEXCOORD_0"))];
+    CHECK(uv.count == model.accessors[static_cast<size_t>(prim.attributes.at("POSITION"))].count);
+    CHECK(uv.type == TINYGLTF_TYPE_VEC2);
+    // Every texture coordinate inside [0, 1]^2 (crumple's atlas, as it is: v = 0 at the image's first row).
+    const tinygltf::BufferView& view = model.bufferViews[static_cast<size_t>(uv.bufferView)];
+    const float* uvs = reinterpret_cast<const float*>(model.buffers[static_cast<size_t>(view.buffer)].data.data() +
+                                                      view.byteOffset + uv.byteOffset);
+    size_t outside = 0;
+    for (size_t k = 0; k < uv.count * 2; ++k) outside += !(uvs[k] >= 0.0f && uvs[k] <= 1.0f);
+    CHECK(outside == 0);
+    // The material: the normal map (loaded by tinygltf: the image was found) at the map's size.
+    REQUIRE(prim.material >= 0);
+    const tinygltf::Material& mat = model.materials[static_cast<size_t>(prim.material)];
+    CHECK(mat.pbrMetallicRoughness.baseColorFactor.size() == 4);
+    REQUIRE(mat.normalTexture.index >= 0);
+    const tinygltf::Image& image =
+        model.images[static_cast<size_t>(model.textures[static_cast<size_t>(mat.normalTexture.index)].source)];
+    const crumple::render::Image written = crumple::render::readPng((out / "normalmaps" / (node.name + ".png")).string(), 3);
+    CHECK(image.width == written.width);
+    CHECK(image.height == written.height);
+    REQUIRE(image.image.size() == static_cast<size_t>(image.width) * image.height * image.component);
+    // Green inverted (crumple's green points down the image, glTF's up); red and blue as written.
+    long mismatches = 0;
+    for (size_t p = 0; p < static_cast<size_t>(image.width) * image.height; ++p)
+      for (int c = 0; c < 3; ++c) {
+        const int w = static_cast<int>(std::lround(written.pixels[p * 3 + c] * 255.0f));
+        const int e = image.image[p * static_cast<size_t>(image.component) + c];
+        mismatches += e != (c == 1 ? 255 - w : w);
+      }
+    CHECK(mismatches == 0);
+    // The height map: named in the extras, beside the .gltf, the same file as heightmaps/.
+    REQUIRE(mat.extras.IsObject());
+    REQUIRE(mat.extras.Has("crumple_height_map"));
+    const std::string heightRel = mat.extras.Get("crumple_height_map").Get<std::string>();
+    const fs::path heightPath = gltfPath.parent_path() / heightRel;
+    REQUIRE(fs::exists(heightPath));
+    CHECK(slurp(heightPath) == slurp(out / "heightmaps" / (node.name + ".png")));
+    REQUIRE(mat.extras.Has("bump_depth"));
+    CHECK(mat.extras.Get("bump_depth").GetNumberAsDouble() == doctest::Approx(0.1));
+  }
+  // Another format is bad input.
+  CHECK(runSim("--out " + (kTmp / "export_bad").string() + " --quiet --export obj") == 2);
+  CHECK(!fs::exists(kTmp / "export_bad"));
+}
+
+TEST_CASE("--video without ffmpeg on PATH is bad input with a clear message") {
+  const fs::path out = kTmp / "video_noffmpeg";
+  fs::remove_all(out);
+  fs::create_directories(kTmp / "empty_path");
+  // An empty PATH: no ffmpeg whether or not the machine has one.
+  const std::string cmd = "env PATH=" + (kTmp / "empty_path").string() + " " + std::string(CRUMPLE_SIM) + " --out " +
+                          out.string() + " --render --video " + (kTmp / "v.mp4").string() + " > " +
+                          (kTmp / "video.log").string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  const std::string log = slurp(kTmp / "video.log");
+  CAPTURE(log);
+  CHECK((WIFEXITED(rc) ? WEXITSTATUS(rc) : -1) == 2);
+  CHECK(log.find("--video needs ffmpeg (apt-get install ffmpeg)") != std::string::npos);
+  CHECK(!fs::exists(out));
+  CHECK(!fs::exists(kTmp / "v.mp4"));
+}
+
+TEST_CASE("--video encodes the first camera's frames with ffmpeg (when installed)") {
+  if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) {
+    MESSAGE("ffmpeg is not installed (apt-get install ffmpeg): --video's encoding is not tested");
+    return;
+  }
+  const fs::path out = kTmp / "video", video = kTmp / "run.mp4";
+  fs::remove_all(out);
+  fs::remove(video);
+  std::string log;
+  REQUIRE(runSim("--out " + out.string() + " --quiet --steps 48 --size 64x48 --video " + video.string(), &log) == 0);
+  CAPTURE(log);
+  CHECK(fs::exists(out / "frames"));  // --video implies --render
+  REQUIRE(fs::exists(video));
+  CHECK(fs::file_size(video) > 0);
+  CHECK(slurp(video).substr(4, 4) == "ftyp");  // an MP4 container
+  CHECK(runSim("--out " + out.string() + " --quiet --steps 8 --video " + video.string() + " --video-camera nope") == 2);
+}
+
+TEST_CASE("--video hands ffmpeg the chosen camera's frames at the frame rate, into a file renamed when done") {
+  // A stand-in ffmpeg on PATH that writes its arguments and the frames it was given into the output file.
+  const fs::path bin = kTmp / "fake_ffmpeg_bin";
+  fs::create_directories(bin);
+  std::ofstream(bin / "ffmpeg") << "#!/bin/sh\n"
+                                   "for a; do last=$a; done\n"
+                                   "prev=; for a; do [ \"$prev\" = -i ] && in=$a; prev=$a; done\n"
+                                   "{ printf '%s\\n' \"$@\"; echo FRAMES; ls \"$(dirname \"$in\")\"; } > \"$last\"\n";
+  fs::permissions(bin / "ffmpeg", fs::perms::owner_all);
+  const std::string scene = writeScene("two_cams.json", R"({
+    "format": "crumple-scene/1", "name": "two_cams", "timestep": 0.004166666666666667, "duration": 0.1,
+    "materials": {"wood": {"density": 600}},
+    "bodies": [{"name": "box", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]}, "material": "wood",
+                "position": [0, 1, 0]}],
+    "cameras": [{"name": "front", "position": [0, 1, 4], "target": [0, 1, 0]},
+                {"name": "side", "position": [4, 1, 0], "target": [0, 1, 0]}]})").string();
+  const fs::path out = kTmp / "video_fake", video = kTmp / "fake.mp4";
+  fs::remove_all(out);
+  fs::remove(video);
+  const std::string cmd = "env PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(CRUMPLE_SIM) + " " + scene +
+                          " --out " + out.string() + " --quiet --steps 16 --size 32x32 --video " + video.string() +
+                          " --video-camera side > " + (kTmp / "video_fake.log").string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  CAPTURE(slurp(kTmp / "video_fake.log"));
+  REQUIRE((WIFEXITED(rc) ? WEXITSTATUS(rc) : -1) == 0);
+  const std::string args = slurp(video);
+  CAPTURE(args);
+  CHECK(args.find("-framerate\n30.000000\n") != std::string::npos);  // 1 / (8 steps x 1/240 s)
+  CHECK(args.find("/frames/side_%05d.png\n") != std::string::npos);
+  CHECK(args.find("libx264") != std::string::npos);
+  CHECK(args.find("side_00002.png") != std::string::npos);  // the frames were there when ffmpeg ran
+  CHECK(fs::exists(out / "frames" / "front_00002.png"));     // --video implies --render
+  for (const auto& e : fs::directory_iterator(kTmp))          // no temporary video left behind
+    CHECK(e.path().filename().string().find(".fake.partial-") == std::string::npos);
+  // A camera the scene does not have is bad input, before the run.
+  fs::remove_all(out);
+  const std::string bad = "env PATH=" + bin.string() + ":/usr/bin:/bin " + std::string(CRUMPLE_SIM) + " " + scene +
+                          " --out " + out.string() + " --quiet --steps 16 --video " + video.string() +
+                          " --video-camera nope > /dev/null 2>&1";
+  const int badRc = std::system(bad.c_str());
+  CHECK((WIFEXITED(badRc) ? WEXITSTATUS(badRc) : -1) == 2);
+  CHECK(!fs::exists(out));
+}

@@ -1,0 +1,228 @@
+#include "engine/gltf_export.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+
+// The implementation is compiled once, in the mesh loader, with these settings: keep them the same here.
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#define TINYGLTF_NO_EXTERNAL_IMAGE
+#include <tiny_gltf.h>
+
+#include "render/image.h"
+
+namespace crumple {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// glTF's colour factors and COLOR_0 are linear; crumple's colours are sRGB.
+double srgbToLinear(double c) {
+  c = std::clamp(c, 0.0, 1.0);
+  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+// A relative path as a URI reference: unreserved characters and '/' kept, the rest percent-encoded.
+std::string uriOf(const std::string& path) {
+  static const char* hex = "0123456789ABCDEF";
+  std::string out;
+  for (unsigned char c : path) {
+    if (std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '~' || c == '/') {
+      out += static_cast<char>(c);
+    } else {
+      out += '%';
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    }
+  }
+  return out;
+}
+
+// Appends raw data to the buffer as one bufferView (4-byte aligned); returns the view's index.
+int addView(tinygltf::Model& m, const void* data, size_t bytes, int target) {
+  std::vector<unsigned char>& buf = m.buffers[0].data;
+  while (buf.size() % 4) buf.push_back(0);
+  tinygltf::BufferView v;
+  v.buffer = 0;
+  v.byteOffset = buf.size();
+  v.byteLength = bytes;
+  v.target = target;
+  const auto* p = static_cast<const unsigned char*>(data);
+  buf.insert(buf.end(), p, p + bytes);
+  m.bufferViews.push_back(v);
+  return static_cast<int>(m.bufferViews.size() - 1);
+}
+
+int addAccessor(tinygltf::Model& m, int view, int componentType, int type, size_t count) {
+  tinygltf::Accessor a;
+  a.bufferView = view;
+  a.componentType = componentType;
+  a.type = type;
+  a.count = count;
+  m.accessors.push_back(a);
+  return static_cast<int>(m.accessors.size() - 1);
+}
+
+// The accessors of one render mesh (shared by every body that uses the same mesh).
+struct MeshAccessors {
+  int position = -1, normal = -1, uv = -1, color = -1, indices = -1;
+};
+
+MeshAccessors addMesh(tinygltf::Model& m, const TriangleMesh& mesh) {
+  MeshAccessors r;
+  const size_t n = mesh.positions.size();
+  r.position = addAccessor(m, addView(m, mesh.positions.data(), n * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER),
+                           TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+  glm::vec3 lo = mesh.positions.empty() ? glm::vec3(0) : mesh.positions[0], hi = lo;
+  for (const glm::vec3& p : mesh.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  m.accessors[static_cast<size_t>(r.position)].minValues = {lo.x, lo.y, lo.z};
+  m.accessors[static_cast<size_t>(r.position)].maxValues = {hi.x, hi.y, hi.z};
+  if (mesh.normals.size() == n) {
+    std::vector<glm::vec3> normals(n);
+    for (size_t i = 0; i < n; ++i) {
+      const float len = glm::length(mesh.normals[i]);
+      normals[i] = len > 0 ? mesh.normals[i] / len : glm::vec3(0, 1, 0);  // glTF asks for unit normals
+    }
+    r.normal = addAccessor(m, addView(m, normals.data(), n * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER),
+                           TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+  }
+  // crumple's (u, v) is glTF's: v = 0 at the image's first row (docs/maps.md), so no flip.
+  if (mesh.uvs.size() == n)
+    r.uv = addAccessor(m, addView(m, mesh.uvs.data(), n * sizeof(glm::vec2), TINYGLTF_TARGET_ARRAY_BUFFER),
+                       TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC2, n);
+  if (mesh.colors.size() == n) {
+    std::vector<glm::vec3> linear(n);
+    for (size_t i = 0; i < n; ++i)
+      for (int c = 0; c < 3; ++c) linear[i][c] = static_cast<float>(srgbToLinear(mesh.colors[i][c]));
+    r.color = addAccessor(m, addView(m, linear.data(), n * sizeof(glm::vec3), TINYGLTF_TARGET_ARRAY_BUFFER),
+                          TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, n);
+  }
+  r.indices = addAccessor(
+      m, addView(m, mesh.triangles.data(), mesh.triangles.size() * sizeof(glm::uvec3), TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+      TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, mesh.triangles.size() * 3);
+  return r;
+}
+
+// Material fields another part of crumple may add (metallic, roughness): used when the struct has them.
+template <class M>
+void setPbr(tinygltf::Material& out, const M& mat) {
+  if constexpr (requires { mat.metallic; }) out.pbrMetallicRoughness.metallicFactor = mat.metallic;
+  if constexpr (requires { mat.roughness; }) out.pbrMetallicRoughness.roughnessFactor = mat.roughness;
+}
+
+}  // namespace
+
+void writeGltfExport(const Simulation& sim, const std::string& dir, const std::string& mapsRoot) {
+  const fs::path root(dir), maps(mapsRoot);
+  std::error_code ec;
+  fs::create_directories(root, ec);
+  if (ec) throw std::runtime_error(dir + ": cannot create the export folder: " + ec.message());
+
+  tinygltf::Model m;
+  m.asset.version = "2.0";
+  m.asset.generator = "crumple-sim";
+  m.buffers.emplace_back();
+  m.buffers[0].uri = "scene.bin";
+  tinygltf::Sampler sampler;  // the maps: linear, clamped (the atlas's gutters are outside every chart)
+  sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+  sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+  sampler.wrapS = sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+  m.samplers.push_back(sampler);
+
+  std::map<const TriangleMesh*, MeshAccessors> meshes;
+  tinygltf::Scene scene;
+  scene.name = sim.scene().name;
+  for (const BodyRuntime& b : sim.bodies()) {
+    const RigidBody& rb = sim.world().body(b.index);
+    tinygltf::Node node;
+    node.name = b.name;
+    const glm::dvec3 o = rb.origin();
+    node.translation = {o.x, o.y, o.z};
+    node.rotation = {rb.q.x, rb.q.y, rb.q.z, rb.q.w};  // glTF: x, y, z, w
+
+    if (b.mesh && !b.mesh->empty()) {
+      auto it = meshes.find(b.mesh.get());
+      if (it == meshes.end()) it = meshes.emplace(b.mesh.get(), addMesh(m, *b.mesh)).first;
+      const MeshAccessors& acc = it->second;
+
+      tinygltf::Material mat;
+      mat.name = b.name;
+      const Material* sm = b.material;
+      const glm::vec3 color = sm ? sm->color : glm::vec3(0.7f);
+      mat.pbrMetallicRoughness.baseColorFactor = {srgbToLinear(color.r), srgbToLinear(color.g),
+                                                  srgbToLinear(color.b), 1.0};
+      mat.pbrMetallicRoughness.metallicFactor = 0.0;
+      mat.pbrMetallicRoughness.roughnessFactor = 0.6;
+      if (sm) setPbr(mat, *sm);
+      tinygltf::Value::Object extras;
+      if (sm) extras["crumple_material"] = tinygltf::Value(sm->name);
+      if (b.surface && acc.uv >= 0) {
+        const std::string file = b.name + ".png";
+        // The height map as written to the output folder: 16-bit grey, 0.5 flat (docs/maps.md).
+        fs::create_directories(root / "heightmaps");
+        fs::copy_file(maps / "heightmaps" / file, root / "heightmaps" / file, fs::copy_options::overwrite_existing, ec);
+        if (ec) throw std::runtime_error((root / "heightmaps" / file).string() + ": " + ec.message());
+        // The normal map with green inverted: crumple's green points down the image, glTF's up.
+        render::Image nm = render::readPng((maps / "normalmaps" / file).string(), 3);
+        for (size_t i = 1; i < nm.pixels.size(); i += 3) nm.pixels[i] = 1.0f - nm.pixels[i];
+        fs::create_directories(root / "normalmaps");
+        render::writePng((root / "normalmaps" / file).string(), nm, 8);
+
+        tinygltf::Image image;
+        image.name = b.name + "_normal";
+        image.uri = uriOf("normalmaps/" + file);
+        image.mimeType = "image/png";
+        m.images.push_back(image);
+        tinygltf::Texture tex;
+        tex.source = static_cast<int>(m.images.size() - 1);
+        tex.sampler = 0;
+        m.textures.push_back(tex);
+        mat.normalTexture.index = static_cast<int>(m.textures.size() - 1);
+        mat.normalTexture.texCoord = 0;
+        extras["crumple_height_map"] = tinygltf::Value("heightmaps/" + file);
+        // k in metres, from its float: rounded to 7 digits so that 0.1 reads 0.1.
+        const double k = b.surface->bumpDepth();
+        const double scale = std::pow(10.0, 6 - std::floor(std::log10(std::max(k, 1e-30))));
+        extras["bump_depth"] = tinygltf::Value(std::round(k * scale) / scale);
+      }
+      mat.extras = tinygltf::Value(extras);
+      m.materials.push_back(mat);
+
+      tinygltf::Primitive prim;
+      prim.mode = TINYGLTF_MODE_TRIANGLES;
+      prim.indices = acc.indices;
+      prim.material = static_cast<int>(m.materials.size() - 1);
+      prim.attributes["POSITION"] = acc.position;
+      if (acc.normal >= 0) prim.attributes["NORMAL"] = acc.normal;
+      if (acc.uv >= 0) prim.attributes["TEXCOORD_0"] = acc.uv;
+      if (acc.color >= 0) prim.attributes["COLOR_0"] = acc.color;
+      tinygltf::Mesh mesh;
+      mesh.name = b.name;
+      mesh.primitives.push_back(prim);
+      m.meshes.push_back(mesh);
+      node.mesh = static_cast<int>(m.meshes.size() - 1);
+    }
+    m.nodes.push_back(node);
+    scene.nodes.push_back(static_cast<int>(m.nodes.size() - 1));
+  }
+  m.scenes.push_back(scene);
+  m.defaultScene = 0;
+  if (m.buffers[0].data.empty()) {  // no meshes at all: no buffer (glTF forbids empty ones)
+    m.buffers.clear();
+  }
+
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToFile(&m, (root / "scene.gltf").string(), /*embedImages=*/false,
+                                   /*embedBuffers=*/false, /*prettyPrint=*/true, /*writeBinary=*/false))
+    throw std::runtime_error((root / "scene.gltf").string() + ": writing the glTF export failed");
+}
+
+}  // namespace crumple

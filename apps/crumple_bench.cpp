@@ -44,7 +44,18 @@ struct BoxSpec {
 struct SceneSpec {
   std::vector<BoxSpec> boxes;
   int tori = 0;
+  // Chains of 0.2 m box links (1 kg), ball-jointed end to end, the first to the world; laid out
+  // horizontally so they fall and swing.
+  int chains = 0, links = 0;
 };
+constexpr double kLink = 0.2;
+glm::dvec3 chainPivot(int c) { return {-2.0, 5.0, -2.0 + 0.5 * c}; }
+SceneSpec chainScene(int chains, int links) {
+  SceneSpec s;
+  s.chains = chains;
+  s.links = links;
+  return s;
+}
 
 SceneSpec pyramid(int levels) {
   SceneSpec s;
@@ -90,6 +101,23 @@ std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
     d.restitution = 0.1;
     w->addBody(d);
   }
+  const auto link = makeBox({kLink, 0.04, 0.04});
+  for (int c = 0; c < spec.chains; ++c) {
+    int previous = -1;
+    for (int k = 0; k < spec.links; ++k) {
+      BodyDef d;
+      d.shape = link;
+      d.origin = chainPivot(c) + glm::dvec3((k + 0.5) * kLink, 0, 0);
+      d.mass = 1;
+      const int body = w->addBody(d);
+      JointDef j;
+      j.a = previous;
+      j.b = body;
+      j.anchor = chainPivot(c) + glm::dvec3(k * kLink, 0, 0);
+      w->addJoint(j);
+      previous = body;
+    }
+  }
   if (spec.tori) {
     const auto torus = makeMeshShape(benchTorus(), 32);
     for (int k = 0; k < spec.tori; ++k) {
@@ -115,6 +143,7 @@ struct BulletWorld {
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
   std::vector<std::unique_ptr<btDefaultMotionState>> motions;
   std::vector<std::unique_ptr<btRigidBody>> bodies;
+  std::vector<std::unique_ptr<btTypedConstraint>> constraints;
   TriangleMesh torus;
   std::unique_ptr<btTriangleIndexVertexArray> torusArray;
   std::vector<int> torusIndices;
@@ -132,6 +161,23 @@ struct BulletWorld {
           btScalar(b.size.x * b.size.y * b.size.z * 1000),
           btVector3(btScalar(b.position.x), btScalar(b.position.y), btScalar(b.position.z)),
           btQuaternion::getIdentity());
+    }
+    for (int c = 0; c < spec.chains; ++c) {
+      btRigidBody* previous = nullptr;
+      for (int k = 0; k < spec.links; ++k) {
+        const glm::dvec3 p = chainPivot(c) + glm::dvec3((k + 0.5) * kLink, 0, 0);
+        add(new btBoxShape(btVector3(btScalar(kLink / 2), 0.02f, 0.02f)), 1,
+            btVector3(btScalar(p.x), btScalar(p.y), btScalar(p.z)), btQuaternion::getIdentity());
+        btRigidBody* body = bodies.back().get();
+        const btVector3 own(btScalar(-kLink / 2), 0, 0);
+        if (previous)
+          constraints.push_back(
+              std::make_unique<btPoint2PointConstraint>(*previous, *body, btVector3(btScalar(kLink / 2), 0, 0), own));
+        else
+          constraints.push_back(std::make_unique<btPoint2PointConstraint>(*body, own));
+        world.addConstraint(constraints.back().get(), true);  // joined links do not collide (as in crumple)
+        previous = body;
+      }
     }
     if (spec.tori) {
       torus = benchTorus();
@@ -163,6 +209,7 @@ struct BulletWorld {
     world.addRigidBody(bodies.back().get());
   }
   ~BulletWorld() {
+    for (auto& c : constraints) world.removeConstraint(c.get());
     for (auto& b : bodies) world.removeRigidBody(b.get());
   }
 };
@@ -354,7 +401,8 @@ int main(int argc, char** argv) {
   std::vector<PhysicsCase> cases = {
       {"pyramid" + std::to_string(levels) + "_" + std::to_string(levels * (levels + 1) / 2) + "boxes", pyramid(levels)},
       {"pile_" + std::to_string(boxes) + "boxes", pile(boxes)},
-      {"tori_" + std::to_string(tori) + "meshes", toriScene(tori)}};
+      {"tori_" + std::to_string(tori) + "meshes", toriScene(tori)},
+      {"chains_" + std::to_string(quick ? 2 : 10) + "x20links", chainScene(quick ? 2 : 10, 20)}};
   for (const auto& c : cases) {
     benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name)
         ->Iterations(gSteps)

@@ -16,7 +16,8 @@
 // the sum of the inverse inertias).
 //
 // Guarantees:
-// - preStabilize: motors first (velocity targets; the impulse over a substep is
+// - preStabilize (twice a substep; the second call only when the contact step
+//   touched a joined body): motors first (velocity targets; the impulse over a substep is
 //   at most maxForce h, over both calls of the substep), then each joint's rows are solved for the impulse that
 //   makes the joint hold at the end of the substep, at the poses the position
 //   update will reach with the velocities (x + h v, q integrated from omega):
@@ -429,6 +430,17 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
   if (first) {
     wakeJoined(ctx);
     for (Joint& jt : ctx.joints) jt.motorImpulse = 0;  // the motor's budget is per substep
+  } else {
+    // Again after the contacts: only needed when they touched a joined body.
+    std::vector<char> touched(ctx.bodies.size(), 0);
+    for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi)
+      if (!ctx.groups[pi].empty())
+        touched[static_cast<size_t>(ctx.pairs[pi].a)] = touched[static_cast<size_t>(ctx.pairs[pi].b)] = 1;
+    bool any = false;
+    for (const Joint& jt : ctx.joints)
+      any = any || (active(ctx, jt) && ((jt.def.a >= 0 && touched[static_cast<size_t>(jt.def.a)]) ||
+                                        touched[static_cast<size_t>(jt.def.b)]));
+    if (!any) return;
   }
   startCall(ctx);
   for (int s = 0; s < sweeps; ++s) {

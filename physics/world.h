@@ -76,9 +76,9 @@ struct WorldSettings {
   // Joints: pre-stabilisation sweeps at most (each a Newton step per joint),
   // until every joint's predicted violation is under the tolerance; then
   // post-stabilisation sweeps over the velocities.
-  int jointIterations = 30;
-  double jointTolerance = 1e-6;  // m, and rad for the angular parts
-  int jointPostIterations = 8;
+  int jointIterations = 10;
+  double jointTolerance = 1e-5;  // m, and rad for the angular parts
+  int jointPostIterations = 4;
 };
 
 struct CollisionEvent {

@@ -44,7 +44,9 @@ struct Material {
   double friction = 0.5;
   double kappa = 0.1;       // the paper's kappa (m/s per unit impulse above Y)
   double thickness = 0.05;  // the paper's t (m)
-  glm::vec3 color{0.7f, 0.7f, 0.7f};
+  glm::vec3 color{0.7f, 0.7f, 0.7f};  // sRGB base colour
+  float metallic = 0.0f;               // glTF metallic-roughness: 0 dielectric, 1 metal
+  float roughness = 0.6f;              // perceptual roughness, 0 mirror .. 1 matte
 };
 
 struct DeformationSettings {

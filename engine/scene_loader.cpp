@@ -183,7 +183,7 @@ std::string resolvePath(const std::string& baseDir, const std::string& p) {
 
 Material parseMaterial(const Node& n, const std::string& name) {
   n.requireObject();
-  n.checkKeys({"density", "restitution", "friction", "kappa", "thickness", "color"});
+  n.checkKeys({"density", "restitution", "friction", "kappa", "thickness", "color", "metallic", "roughness"});
   Material m;
   m.name = name;
   m.density = n.number("density", m.density, 0, 1e6, true);
@@ -197,6 +197,8 @@ Material parseMaterial(const Node& n, const std::string& name) {
       if (c[i] < 0 || c[i] > 1) n.fail("color", "components must be in [0, 1]");
     m.color = glm::vec3(c);
   }
+  m.metallic = static_cast<float>(n.number("metallic", m.metallic, 0, 1));
+  m.roughness = static_cast<float>(n.number("roughness", m.roughness, 0, 1));
   return m;
 }
 

@@ -14,6 +14,8 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     it.indexCount = b.gpuMesh->indexCount;
     it.model = glm::mat4(sim.model(static_cast<int>(i)));
     it.color = b.material->color;
+    it.metallic = b.material->metallic;
+    it.roughness = b.material->roughness;
     it.boundsMin = b.gpuMesh->boundsMin;
     it.boundsMax = b.gpuMesh->boundsMax;
     if (b.surface) {
@@ -31,6 +33,7 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     it.indexCount = part.mesh->indexCount;
     it.model = glm::mat4(part.model);
     it.color = part.color;
+    it.roughness = 0.85f;  // tyres, belts, joint links: rubber and dull metal
     it.boundsMin = part.mesh->boundsMin;
     it.boundsMax = part.mesh->boundsMax;
     items.push_back(it);

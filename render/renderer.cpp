@@ -1,6 +1,7 @@
 #include "render/renderer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
@@ -14,12 +15,46 @@ Program program(const char* vs, const char* fs) {
       {{GL_VERTEX_SHADER, vs, std::string(renderShader(vs))}, {GL_FRAGMENT_SHADER, fs, std::string(renderShader(fs))}});
 }
 constexpr int kShadowSize = 2048;
+constexpr int kEnvSize = 64, kEnvLevels = 7;            // the sky as rendered, mipmapped
+constexpr int kPrefilterSize = 64, kPrefilterLevels = 5;  // roughness 0, 0.25, .. 1
+constexpr int kIrradianceSize = 16, kLutSize = 64;
+
+// A cube map with immutable storage.
+GLuint makeCube(int size, int levels, GLenum format) {
+  GLuint id = 0;
+  glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &id);
+  glTextureStorage2D(id, levels, format, size, size);
+  glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, levels > 1 ? GL_LINEAR_MIPMAP_LINEAR : GL_LINEAR);
+  glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(id, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+  return id;
+}
+
+// Maps (ndc.x, ndc.y, 1) of a cube face's viewport to the direction of its texel (GL's face layout).
+glm::mat3 faceBasis(int face) {
+  static const glm::vec3 fwd[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  static const glm::vec3 right[6] = {{0, 0, -1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, {-1, 0, 0}};
+  static const glm::vec3 up[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
+  return glm::mat3(right[face], up[face], fwd[face]);
+}
 }  // namespace
 
 struct Renderer::Impl {
   Program pom = program("pom.vert", "pom.frag");
   Program shadow = program("shadow.vert", "shadow.frag");
   Program addressView = program("fullscreen.vert", "address_view.frag");
+  Program sky = program("sky.vert", "sky.frag");
+  Program prefilter = program("sky.vert", "prefilter.frag");
+  Program brdfLut = program("fullscreen.vert", "brdf_lut.frag");
+  GlName<detail::deleteTexture> env{makeCube(kEnvSize, kEnvLevels, GL_RGBA16F)};
+  GlName<detail::deleteTexture> prefiltered{makeCube(kPrefilterSize, kPrefilterLevels, GL_RGBA16F)};
+  GlName<detail::deleteTexture> irradiance{makeCube(kIrradianceSize, 1, GL_RGBA16F)};
+  Texture2D lut{kLutSize, kLutSize, GL_RG16F};
+  Framebuffer bakeFbo;
+  bool lutDone = false, skyDone = false;
+  glm::vec3 skyKey[4];  // the settings the cube maps were made for
   VertexArray emptyVao;
   Texture2D color, depth;
   Framebuffer fbo;
@@ -36,6 +71,62 @@ struct Renderer::Impl {
     flatHeight.upload(GL_RED, GL_FLOAT, &half);
     const unsigned char up[4] = {128, 128, 255, 255};
     flatNormal.upload(GL_RGBA, GL_UNSIGNED_BYTE, up);
+    glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
+  }
+  // Renders into each face of `cube` at `level` with the bound program (uniform uBasis per face).
+  void bakeFaces(const Program& p, GLuint cube, int size, int level) {
+    glBindFramebuffer(GL_FRAMEBUFFER, bakeFbo.id());
+    glViewport(0, 0, size >> level, size >> level);
+    for (int face = 0; face < 6; ++face) {
+      glNamedFramebufferTextureLayer(bakeFbo.id(), GL_COLOR_ATTACHMENT0, cube, level, face);
+      const glm::mat3 basis = faceBasis(face);
+      glUniformMatrix3fv(p.uniform("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+    }
+  }
+  void setSkyUniforms(const Program& p, const RendererSettings& s) {
+    const glm::vec3 toSun = -glm::normalize(s.sunDirection);
+    glUniform3fv(p.uniform("uToSun"), 1, glm::value_ptr(toSun));
+    glUniform3fv(p.uniform("uSunColor"), 1, glm::value_ptr(s.sunColor));
+    glUniform3fv(p.uniform("uSkyColor"), 1, glm::value_ptr(s.skyColor));
+    glUniform3fv(p.uniform("uGroundColor"), 1, glm::value_ptr(s.groundColor));
+  }
+  // The split-sum table once; the sky's cube maps again when the sun or sky changes.
+  void prepareLight(const RendererSettings& s) {
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    glBindVertexArray(emptyVao.id());
+    if (!lutDone) {
+      glBindFramebuffer(GL_FRAMEBUFFER, bakeFbo.id());
+      glNamedFramebufferTexture(bakeFbo.id(), GL_COLOR_ATTACHMENT0, lut.id(), 0);
+      glViewport(0, 0, kLutSize, kLutSize);
+      brdfLut.use();
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      lutDone = true;
+    }
+    const glm::vec3 key[4] = {s.sunDirection, s.sunColor, s.skyColor, s.groundColor};
+    if (!skyDone || !std::equal(key, key + 4, skyKey)) {
+      std::copy(key, key + 4, skyKey);
+      sky.use();
+      setSkyUniforms(sky, s);
+      glUniform1i(sky.uniform("uBackground"), 0);
+      bakeFaces(sky, env.id(), kEnvSize, 0);
+      glGenerateTextureMipmap(env.id());
+      prefilter.use();
+      glBindTextureUnit(0, env.id());
+      glUniform1i(prefilter.uniform("uMode"), 0);
+      for (int level = 0; level < kPrefilterLevels; ++level) {
+        const float roughness = static_cast<float>(level) / (kPrefilterLevels - 1);
+        glUniform1f(prefilter.uniform("uRoughness"), roughness);
+        glUniform1i(prefilter.uniform("uSamples"), level == 0 ? 1 : 48);
+        bakeFaces(prefilter, prefiltered.id(), kPrefilterSize, level);
+      }
+      glUniform1i(prefilter.uniform("uMode"), 1);
+      glUniform1i(prefilter.uniform("uSamples"), 128);
+      bakeFaces(prefilter, irradiance.id(), kIrradianceSize, 0);
+      skyDone = true;
+    }
+    glEnable(GL_DEPTH_TEST);
   }
   void resize(int w, int h) {
     color = Texture2D(w, h, GL_SRGB8_ALPHA8);
@@ -86,10 +177,11 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
   const glm::mat4 lightProj = glm::ortho(-radius, radius, -radius, radius, 0.01f, radius * 4.0f);
   const glm::mat4 lightVP = lightProj * lightView;
 
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
   glDisable(GL_BLEND);
   glDisable(GL_CULL_FACE);
+  if (s.ibl && s.debug == DebugView::Shaded) m.prepareLight(s);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
   if (s.shadows && s.debug == DebugView::Shaded) {
     glBindFramebuffer(GL_FRAMEBUFFER, m.shadowFbo.id());
     glViewport(0, 0, kShadowSize, kShadowSize);
@@ -136,6 +228,12 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
   glUniform3fv(u("uSunColor"), 1, glm::value_ptr(s.sunColor));
   glUniform3fv(u("uSkyColor"), 1, glm::value_ptr(s.skyColor));
   glUniform3fv(u("uGroundColor"), 1, glm::value_ptr(s.groundColor));
+  glUniform1i(u("uIbl"), s.ibl);
+  glUniform1f(u("uExposure"), s.exposure);
+  glUniform1f(u("uPrefilteredMaxLod"), static_cast<float>(kPrefilterLevels - 1));
+  glBindTextureUnit(3, m.prefiltered.id());
+  glBindTextureUnit(4, m.irradiance.id());
+  glBindTextureUnit(5, m.lut.id());
   glUniform1i(u("uMode"), static_cast<int>(s.parallax));
   glUniform1i(u("uDebug"), static_cast<int>(s.debug));
   glUniform1i(u("uMinSteps"), s.minSteps);
@@ -153,12 +251,33 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
     glUniform1i(u("uHasMaps"), it.height != 0);
     glUniform1f(u("uBumpDepth"), it.bumpDepth);
     glUniform3fv(u("uColor"), 1, glm::value_ptr(it.color));
+    glUniform1f(u("uMetallic"), it.metallic);
+    glUniform1f(u("uRoughness"), it.roughness);
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
     glBindVertexArray(it.vao);
     glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
   }
   glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  if (s.debug == DebugView::Shaded) {
+    // The sky behind everything: only the pixels still at the far plane run it.
+    m.sky.use();
+    m.setSkyUniforms(m.sky, s);
+    const glm::vec3 fwd = glm::normalize(view.target - view.eye);
+    const glm::vec3 right = glm::normalize(glm::cross(fwd, view.up));
+    const glm::vec3 up = glm::cross(right, fwd);
+    const float tanY = std::tan(glm::radians(view.fovDegrees) * 0.5f);
+    const glm::mat3 basis(right * tanY * aspect, up * tanY, fwd);
+    glUniformMatrix3fv(m.sky.uniform("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
+    glUniform1i(m.sky.uniform("uBackground"), 1);
+    glUniform1f(m.sky.uniform("uExposure"), s.exposure);
+    glDepthFunc(GL_LEQUAL);
+    glDepthMask(GL_FALSE);
+    glBindVertexArray(m.emptyVao.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_LESS);
+  }
   glDisable(GL_FRAMEBUFFER_SRGB);
 }
 

@@ -5,7 +5,12 @@
 //     secant search; soft self-shadowing of the height field towards the sun;
 //     a fade to plain normal mapping with the texture's level of detail;
 //     the paper's offset-limited parallax (Welsh 2004) as a cheaper mode
-//   - a directional sun with a shadow map, hemisphere ambient, sRGB output
+//   - glTF's metallic-roughness materials under a Cook-Torrance GGX BRDF: a
+//     directional sun with a shadow map, and image-based light from an analytic
+//     sky (rendered into a small cube map, prefiltered per roughness, with an
+//     irradiance cube and a split-sum BRDF table, all made once and again only
+//     when the sun or sky settings change); the sky drawn as the background;
+//     exposure and an ACES fit tone map, sRGB output
 //   - debug views: height map, normal map, address map, wireframe
 // The tangent frame comes from screen-space derivatives of position and uv, so
 // meshes need no tangents and mirrored charts need no care.
@@ -27,7 +32,9 @@ struct RenderItem {
   glm::mat4 model{1};
   GLuint height = 0;  // R32F, 0 = flat
   GLuint normal = 0;  // RGBA8 tangent space, 0 = flat
-  glm::vec3 color{0.7f};
+  glm::vec3 color{0.7f};   // sRGB base colour
+  float metallic = 0.0f;   // glTF metallic-roughness
+  float roughness = 0.6f;  // perceptual roughness
   float bumpDepth = 0.1f;                 // k: the map's range in metres
   glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame), to fit the sun's shadow map
 };
@@ -44,9 +51,11 @@ enum class DebugView { Shaded = 0, Height = 1, Normal = 2, Address = 3, Wirefram
 struct RendererSettings {
   ParallaxMode parallax = ParallaxMode::Occlusion;
   DebugView debug = DebugView::Shaded;
-  glm::vec3 sunDirection = glm::normalize(glm::vec3(-0.5f, -1.0f, -0.35f));  // direction the light travels
+  glm::vec3 sunDirection = glm::normalize(glm::vec3(0.55f, -0.75f, -0.5f));  // direction the light travels
   glm::vec3 sunColor{1.7f, 1.62f, 1.5f};
-  glm::vec3 skyColor{0.35f, 0.42f, 0.55f}, groundColor{0.18f, 0.16f, 0.14f};
+  glm::vec3 skyColor{0.35f, 0.42f, 0.55f}, groundColor{0.18f, 0.16f, 0.14f};  // the sky's tint, the ground's
+  float exposure = 0.7f;  // scales the light before the tone map
+  bool ibl = true;        // image-based light from the sky (off: the sun alone, a flat sky tint as ambient)
   bool shadows = true;
   bool selfShadow = true;
   int minSteps = 8, maxSteps = 48;

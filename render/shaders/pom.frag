@@ -1,9 +1,14 @@
 #version 450 core
-// pom.frag: parallax occlusion mapping with soft self-shadowing, a shadow-mapped
-// sun and hemisphere ambient. Height convention: 0.5 flat, range k = uBumpDepth,
+// pom.frag: parallax occlusion mapping with soft self-shadowing, shaded in glTF's
+// metallic-roughness model: a Cook-Torrance GGX BRDF (Smith-Schlick G, Schlick F)
+// for the shadow-mapped sun, and image-based light from the sky (split sum: a
+// prefiltered radiance cube sampled along the reflection of the bumped normal, so
+// reflections bend across dents; an irradiance cube; the BRDF table). Exposure
+// and an ACES fit tone map. Height convention: 0.5 flat, range k = uBumpDepth,
 // so the surface lies at (h - 0.5) k above the mesh.
-// in:  vWorld, vNormal, vUV, vShadow; maps uHeight (R32F), uNormalMap (RGBA8), uShadowMap
-// out: fragColor (linear; the sRGB target encodes it)
+// in:  vWorld, vNormal, vUV, vShadow; maps uHeight (R32F), uNormalMap (RGBA8), uShadowMap,
+//      uPrefiltered, uIrradiance (cube maps), uBrdfLut (RG)
+// out: fragColor (tone mapped, linear; the sRGB target encodes it)
 in vec3 vWorld;
 in vec3 vNormal;
 in vec2 vUV;
@@ -12,12 +17,20 @@ in vec4 vShadow;
 layout(binding = 0) uniform sampler2D uHeight;
 layout(binding = 1) uniform sampler2D uNormalMap;
 layout(binding = 2) uniform sampler2DShadow uShadowMap;
+layout(binding = 3) uniform samplerCube uPrefiltered;
+layout(binding = 4) uniform samplerCube uIrradiance;
+layout(binding = 5) uniform sampler2D uBrdfLut;
+uniform float uPrefilteredMaxLod;  // its last level: roughness 1
+uniform float uMetallic, uRoughness;
+uniform float uExposure;
+uniform bool uIbl;  // false: a hemisphere of uSkyColor over uGroundColor instead of the cube maps
+uniform vec3 uSkyColor, uGroundColor;
 uniform bool uHasMaps;
 uniform float uBumpDepth;
 uniform vec3 uColor;  // sRGB material colour
 uniform vec3 uEye;
 uniform vec3 uToSun;
-uniform vec3 uSunColor, uSkyColor, uGroundColor;
+uniform vec3 uSunColor;
 uniform int uMode;   // 0 occlusion, 1 offset limited, 2 none
 uniform int uDebug;  // 0 shaded, 1 height, 2 normal, 4 wireframe
 uniform int uMinSteps, uMaxSteps;
@@ -87,7 +100,6 @@ void main() {
   if (uDebug == 2) { fragColor = vec4(uHasMaps ? textureGrad(uNormalMap, uv, duv1, duv2).xyz : vec3(0.5, 0.5, 1.0), 1.0); return; }
 
   vec3 L = normalize(uToSun);
-  float lit = max(dot(Nb, L), 0.0);
   float shadow = 1.0;
   if (uShadows) {
     vec3 s = vShadow.xyz / vShadow.w * 0.5 + 0.5;
@@ -115,10 +127,35 @@ void main() {
     }
     selfShadow = 1.0 - clamp(occlusion, 0.0, 1.0) * fade;
   }
+  const float PI = 3.14159265;
   vec3 albedo = pow(uColor * vColor, vec3(2.2));
-  vec3 ambient = mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
-  vec3 H = normalize(L - V);
-  float spec = pow(max(dot(Nb, H), 0.0), 48.0) * 0.15;
-  vec3 c = albedo * (ambient + uSunColor * lit * shadow * selfShadow) + uSunColor * spec * shadow * selfShadow * lit;
-  fragColor = vec4(c / (1.0 + c * 0.15), 1.0);
+  float rough = clamp(uRoughness, 0.045, 1.0);
+  vec3 F0 = mix(vec3(0.04), albedo, uMetallic);
+  vec3 toEye = -V;
+  float NV = max(dot(Nb, toEye), 1e-3);
+  // The sun: Cook-Torrance with GGX. sunColor is the radiance a white Lambert surface facing it returns.
+  vec3 H = normalize(L + toEye);
+  float NL = max(dot(Nb, L), 0.0), NH = max(dot(Nb, H), 0.0), VH = max(dot(toEye, H), 0.0);
+  float a2 = rough * rough * rough * rough;
+  float dd = NH * NH * (a2 - 1.0) + 1.0;
+  float D = a2 / (PI * dd * dd);
+  float k = (rough + 1.0) * (rough + 1.0) / 8.0;
+  float G = (NL / (NL * (1.0 - k) + k)) * (NV / (NV * (1.0 - k) + k));
+  vec3 F = F0 + (1.0 - F0) * pow(1.0 - VH, 5.0);
+  vec3 specular = D * G * F / max(4.0 * NL * NV, 1e-4);
+  vec3 kd = (1.0 - F) * (1.0 - uMetallic);
+  vec3 c = (kd * albedo + PI * specular) * uSunColor * NL * shadow * selfShadow;
+  // The sky: split-sum image-based light.
+  vec3 Fr = F0 + (max(vec3(1.0 - rough), F0) - F0) * pow(1.0 - NV, 5.0);
+  vec3 R = reflect(V, Nb);
+  float horizon = clamp(1.0 + 1.5 * dot(R, N), 0.0, 1.0);  // reflections from below the mesh's surface fade
+  vec3 prefiltered = uIbl ? textureLod(uPrefiltered, R, rough * uPrefilteredMaxLod).rgb
+                          : mix(uGroundColor, uSkyColor, 0.5 + 0.5 * R.y);
+  prefiltered *= horizon * horizon;
+  vec2 ab = texture(uBrdfLut, vec2(NV, rough)).rg;
+  vec3 irradiance = uIbl ? texture(uIrradiance, Nb).rgb : mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
+  vec3 ambient = (1.0 - Fr) * (1.0 - uMetallic) * albedo * irradiance + prefiltered * (F0 * ab.x + ab.y);
+  c += ambient * mix(1.0, selfShadow, 0.5);
+  c *= uExposure;
+  fragColor = vec4(clamp(c * (2.51 * c + 0.03) / (c * (2.43 * c + 0.59) + 0.14), 0.0, 1.0), 1.0);
 }

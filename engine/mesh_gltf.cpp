@@ -277,11 +277,16 @@ class DocumentCheck {
       const auto m = numbers(n, at, "matrix", 16);  // column-major
       if (m[3] != 0 || m[7] != 0 || m[11] != 0 || m[15] != 1)
         fail(at + ".matrix", "must be affine (its last row 0, 0, 0, 1)");
+      double lengths = 1;
       for (int c = 0; c < 3; ++c) {
         const double len = std::sqrt(m[size_t(4 * c)] * m[size_t(4 * c)] + m[size_t(4 * c + 1)] * m[size_t(4 * c + 1)] +
                                      m[size_t(4 * c + 2)] * m[size_t(4 * c + 2)]);
         scaleWithin(at + ".matrix: the scale of axis " + std::to_string(c), len);
+        lengths *= len;
       }
+      // Axes of fine lengths may still lie in a plane: the mesh would be flattened.
+      const glm::dmat3 a(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+      if (!(std::abs(glm::determinant(a)) > 1e-6 * lengths)) fail(at + ".matrix", "is singular (flattens the mesh)");
       for (int i = 12; i < 15; ++i) translationWithin(at + ".matrix[" + std::to_string(i) + "]", m[size_t(i)]);
     }
   }

@@ -5,8 +5,8 @@ dictionaries, tests/fuzz/<target>.dict (the words of each format; the scene's ke
 Seeds: the shipped scenes (scenes/*.json) and the small shipped assets (scenes/assets/*.obj under 64 KB), small
 valid files of each format (a tetrahedron in every variant the readers accept), and every reproducer of issue #16
 kept as a regression case (named issue16-*; tools/fuzz.sh replays each file once before fuzzing). Deterministic:
-rerunning it rewrites the same bytes and leaves other files there alone (inputs a fuzzer found, kept as
-regression cases). Usage: tests/fuzz/make-corpus.py
+rerunning it rewrites the same bytes and leaves other files there alone: the inputs a fuzzer found (named fuzz-*,
+copied from build-fuzz/findings/), kept as regression cases. Usage: tests/fuzz/make-corpus.py
 """
 import base64
 import json

@@ -1,6 +1,8 @@
 // crumple-bench: speed, measured side by side in one run.
-//   physics: crumple vs Bullet 3 on a 20-level box pyramid (210 boxes), a pile
-//            of 1000 boxes and 200 nonconvex mesh bodies (tori); ms per step
+//   physics: crumple vs Bullet 3 on a 20-level box pyramid (210 boxes), piles
+//            of 1000, 4000 and 10000 boxes (10 high), a heap of 500 mixed bodies
+//            (boxes, spheres, capsules, 12 tori), 200 nonconvex mesh bodies (tori)
+//            and 10 chains of 20 ball-jointed links; ms per step
 //   deform:  the GPU path vs the paper's read-back path, ms per deformation
 //            (both sides of one event) at address maps of 256..2048
 //   render:  ms per 1280x720 frame of the sandbox scene, parallax occlusion on and off
@@ -38,12 +40,16 @@ namespace {
 constexpr double kStep = 1.0 / 240;
 
 // ---- scenes, described once and built in both engines ----------------------
-struct BoxSpec {
-  glm::dvec3 size, position;
+enum class Kind { Box, Sphere, Capsule, Torus };
+struct BodySpec {
+  Kind kind = Kind::Box;
+  glm::dvec3 size{0};  // box: full size; sphere: radius in x; capsule: radius in x, straight height in y
+  glm::dvec3 position{0};
+  glm::dquat orientation{1, 0, 0, 0};
+  double friction = 0.6, restitution = 0.1, density = 1000;
 };
 struct SceneSpec {
-  std::vector<BoxSpec> boxes;
-  int tori = 0;
+  std::vector<BodySpec> bodies;
   // Chains of 0.2 m box links (1 kg), ball-jointed end to end, the first to the world; laid out
   // horizontally so they fall and swing.
   int chains = 0, links = 0;
@@ -57,32 +63,100 @@ SceneSpec chainScene(int chains, int links) {
   return s;
 }
 
+BodySpec box(const glm::dvec3& size, const glm::dvec3& position) {
+  BodySpec b;
+  b.size = size;
+  b.position = position;
+  return b;
+}
 SceneSpec pyramid(int levels) {
   SceneSpec s;
   for (int row = 0; row < levels; ++row)
     for (int k = 0; k < levels - row; ++k)
-      s.boxes.push_back({{0.5, 0.5, 0.5}, {(k - (levels - row - 1) / 2.0) * 0.51, 0.25 + row * 0.5, 0}});
+      s.bodies.push_back(box({0.5, 0.5, 0.5}, {(k - (levels - row - 1) / 2.0) * 0.51, 0.25 + row * 0.5, 0}));
   return s;
 }
-SceneSpec pile(int n) {
+// nx by nz columns of `layers` 0.4 m boxes, 0.5 m apart; every other layer shifted 5 cm along x.
+SceneSpec pile(int nx, int nz, int layers) {
   SceneSpec s;
-  for (int k = 0; k < n; ++k)
-    s.boxes.push_back(
-        {{0.4, 0.4, 0.4},
-         {(k % 10) * 0.5 - 2.25 + 0.05 * ((k / 100) % 2), 0.3 + 0.5 * (k / 100), ((k / 10) % 10) * 0.5 - 2.25}});
-  return s;
-}
-SceneSpec toriScene(int n) {
-  SceneSpec s;
-  s.tori = n;
+  for (int l = 0; l < layers; ++l)
+    for (int z = 0; z < nz; ++z)
+      for (int x = 0; x < nx; ++x)
+        s.bodies.push_back(box({0.4, 0.4, 0.4}, {x * 0.5 - (nx - 1) * 0.25 + 0.05 * (l % 2), 0.3 + 0.5 * l,
+                                                 z * 0.5 - (nz - 1) * 0.25}));
   return s;
 }
 glm::dvec3 torusPosition(int k) { return {-2.0 + 0.85 * (k % 6), 0.5 + 0.85 * (k / 36), -2.0 + 0.85 * ((k / 6) % 6)}; }
 glm::dquat torusOrientation(int k) {
   return glm::angleAxis(0.7 * k, glm::normalize(glm::dvec3(1, 0.3 * (k % 3), 0.5)));
 }
+BodySpec torus(const glm::dvec3& position, const glm::dquat& orientation) {
+  BodySpec b;
+  b.kind = Kind::Torus;
+  b.position = position;
+  b.orientation = orientation;
+  b.friction = 0.5;
+  b.restitution = 0.2;
+  b.density = 800;
+  return b;
+}
+SceneSpec toriScene(int n) {
+  SceneSpec s;
+  for (int k = 0; k < n; ++k) s.bodies.push_back(torus(torusPosition(k), torusOrientation(k)));
+  return s;
+}
+// A heap of n mixed bodies dropped in a tight block onto the ground: boxes, spheres and capsules
+// (0.2-0.5 m, random orientations) and, every n/12-th, a torus (12 in all).
+SceneSpec heapScene(int n) {
+  SceneSpec s;
+  uint64_t state = 11;
+  auto u = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  const int side = 8;
+  const double cell = 0.6;
+  const int torusEvery = std::max(1, n / 12);
+  for (int k = 0; k < n; ++k) {
+    const int x = k % side, z = (k / side) % side, layer = k / (side * side);
+    const glm::dvec3 p((x - (side - 1) * 0.5) * cell + 0.05 * (u() - 0.5), 0.35 + layer * cell,
+                       (z - (side - 1) * 0.5) * cell + 0.05 * (u() - 0.5));
+    const glm::dquat q = glm::angleAxis(6.283 * u(), glm::normalize(glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) +
+                                                                      glm::dvec3(1e-3, 0, 0)));
+    BodySpec b;
+    if (k % torusEvery == torusEvery / 2 && k / torusEvery < 12) {
+      b = torus(p, q);
+    } else if (k % 3 == 0) {
+      b = box({0.2 + 0.3 * u(), 0.2 + 0.3 * u(), 0.2 + 0.3 * u()}, p);
+    } else if (k % 3 == 1) {
+      b.kind = Kind::Sphere;
+      b.size = {0.1 + 0.12 * u(), 0, 0};
+    } else {
+      b.kind = Kind::Capsule;
+      b.size = {0.08 + 0.07 * u(), 0.1 + 0.2 * u(), 0};
+    }
+    b.position = p;
+    b.orientation = q;
+    s.bodies.push_back(b);
+  }
+  return s;
+}
 
 TriangleMesh benchTorus() { return torusMesh(0.3f, 0.1f, 16, 8); }
+
+std::shared_ptr<Shape> crumpleShape(const BodySpec& b, const std::shared_ptr<Shape>& torus) {
+  switch (b.kind) {
+    case Kind::Box:
+      return makeBox(b.size);
+    case Kind::Sphere:
+      return makeSphere(b.size.x);
+    case Kind::Capsule:
+      return makeCapsule(b.size.x, b.size.y);
+    case Kind::Torus:
+      return torus;
+  }
+  return nullptr;
+}
 
 std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
   auto w = std::make_unique<World>();
@@ -93,12 +167,17 @@ std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
   g.friction = 0.6;
   g.restitution = 0.1;
   w->addBody(g);
-  for (const auto& b : spec.boxes) {
+  std::shared_ptr<Shape> torus;
+  for (const auto& b : spec.bodies)
+    if (b.kind == Kind::Torus && !torus) torus = makeMeshShape(benchTorus(), 32);
+  for (const auto& b : spec.bodies) {
     BodyDef d;
-    d.shape = makeBox(b.size);
+    d.shape = crumpleShape(b, torus);
     d.origin = b.position;
-    d.friction = 0.6;
-    d.restitution = 0.1;
+    d.orientation = b.orientation;
+    d.friction = b.friction;
+    d.restitution = b.restitution;
+    d.density = b.density;
     w->addBody(d);
   }
   const auto link = makeBox({kLink, 0.04, 0.04});
@@ -118,21 +197,10 @@ std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
       previous = body;
     }
   }
-  if (spec.tori) {
-    const auto torus = makeMeshShape(benchTorus(), 32);
-    for (int k = 0; k < spec.tori; ++k) {
-      BodyDef d;
-      d.shape = torus;
-      d.origin = torusPosition(k);
-      d.orientation = torusOrientation(k);
-      d.friction = 0.5;
-      d.restitution = 0.2;
-      d.density = 800;
-      w->addBody(d);
-    }
-  }
   return w;
 }
+
+btVector3 bt(const glm::dvec3& v) { return btVector3(btScalar(v.x), btScalar(v.y), btScalar(v.z)); }
 
 struct BulletWorld {
   btDefaultCollisionConfiguration config;
@@ -154,20 +222,52 @@ struct BulletWorld {
     gDeactivationTime = btScalar(0.5);
     btGImpactCollisionAlgorithm::registerAlgorithm(&dispatcher);
     world.setGravity(btVector3(0, -9.81f, 0));
-    add(new btBoxShape(btVector3(30, 0.5f, 30)), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity());
-    for (const auto& b : spec.boxes) {
-      const glm::dvec3 h = b.size * 0.5;
-      add(new btBoxShape(btVector3(btScalar(h.x), btScalar(h.y), btScalar(h.z))),
-          btScalar(b.size.x * b.size.y * b.size.z * 1000),
-          btVector3(btScalar(b.position.x), btScalar(b.position.y), btScalar(b.position.z)),
-          btQuaternion::getIdentity());
+    add(new btBoxShape(btVector3(30, 0.5f, 30)), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity(), 0.6, 0.1);
+    double torusVolume = 0;
+    for (const auto& b : spec.bodies) {
+      if (b.kind != Kind::Torus || torusArray) continue;
+      torus = benchTorus();
+      for (const auto& p : torus.positions) torusVertices.insert(torusVertices.end(), {p.x, p.y, p.z});
+      for (const auto& t : torus.triangles) torusIndices.insert(torusIndices.end(), {int(t.x), int(t.y), int(t.z)});
+      torusArray = std::make_unique<btTriangleIndexVertexArray>(int(torus.triangles.size()), torusIndices.data(),
+                                                                3 * sizeof(int), int(torus.positions.size()),
+                                                                torusVertices.data(), 3 * sizeof(btScalar));
+      torusVolume = polyhedralMassProperties(torus).volume;
+    }
+    for (const auto& b : spec.bodies) {
+      btCollisionShape* shape = nullptr;
+      double volume = 0;
+      switch (b.kind) {
+        case Kind::Box:
+          shape = new btBoxShape(bt(b.size * 0.5));
+          volume = b.size.x * b.size.y * b.size.z;
+          break;
+        case Kind::Sphere:
+          shape = new btSphereShape(btScalar(b.size.x));
+          volume = makeSphere(b.size.x)->unitMass.volume;
+          break;
+        case Kind::Capsule:  // both along y, height = the straight part
+          shape = new btCapsuleShape(btScalar(b.size.x), btScalar(b.size.y));
+          volume = makeCapsule(b.size.x, b.size.y)->unitMass.volume;
+          break;
+        case Kind::Torus: {
+          auto* mesh = new btGImpactMeshShape(torusArray.get());
+          mesh->updateBound();
+          shape = mesh;
+          volume = torusVolume;
+          break;
+        }
+      }
+      const glm::dquat& q = b.orientation;
+      add(shape, btScalar(volume * b.density), bt(b.position),
+          btQuaternion(btScalar(q.x), btScalar(q.y), btScalar(q.z), btScalar(q.w)), b.friction, b.restitution);
     }
     for (int c = 0; c < spec.chains; ++c) {
       btRigidBody* previous = nullptr;
       for (int k = 0; k < spec.links; ++k) {
         const glm::dvec3 p = chainPivot(c) + glm::dvec3((k + 0.5) * kLink, 0, 0);
-        add(new btBoxShape(btVector3(btScalar(kLink / 2), 0.02f, 0.02f)), 1,
-            btVector3(btScalar(p.x), btScalar(p.y), btScalar(p.z)), btQuaternion::getIdentity());
+        add(new btBoxShape(btVector3(btScalar(kLink / 2), 0.02f, 0.02f)), 1, bt(p), btQuaternion::getIdentity(), 0.5,
+            0.5);
         btRigidBody* body = bodies.back().get();
         const btVector3 own(btScalar(-kLink / 2), 0, 0);
         if (previous)
@@ -179,32 +279,16 @@ struct BulletWorld {
         previous = body;
       }
     }
-    if (spec.tori) {
-      torus = benchTorus();
-      for (const auto& p : torus.positions) torusVertices.insert(torusVertices.end(), {p.x, p.y, p.z});
-      for (const auto& t : torus.triangles) torusIndices.insert(torusIndices.end(), {int(t.x), int(t.y), int(t.z)});
-      torusArray = std::make_unique<btTriangleIndexVertexArray>(int(torus.triangles.size()), torusIndices.data(),
-                                                                3 * sizeof(int), int(torus.positions.size()),
-                                                                torusVertices.data(), 3 * sizeof(btScalar));
-      const double mass = polyhedralMassProperties(torus).volume * 800;
-      for (int k = 0; k < spec.tori; ++k) {
-        auto* shape = new btGImpactMeshShape(torusArray.get());
-        shape->updateBound();
-        const glm::dvec3 p = torusPosition(k);
-        const glm::dquat q = torusOrientation(k);
-        add(shape, btScalar(mass), btVector3(btScalar(p.x), btScalar(p.y), btScalar(p.z)),
-            btQuaternion(btScalar(q.x), btScalar(q.y), btScalar(q.z), btScalar(q.w)));
-      }
-    }
   }
-  void add(btCollisionShape* shape, btScalar mass, const btVector3& pos, const btQuaternion& q) {
+  void add(btCollisionShape* shape, btScalar mass, const btVector3& pos, const btQuaternion& q, double friction,
+           double restitution) {
     shapes.emplace_back(shape);
     btVector3 inertia(0, 0, 0);
     if (mass > 0) shape->calculateLocalInertia(mass, inertia);
     motions.push_back(std::make_unique<btDefaultMotionState>(btTransform(q, pos)));
     btRigidBody::btRigidBodyConstructionInfo info(mass, motions.back().get(), shape, inertia);
-    info.m_friction = 0.6f;
-    info.m_restitution = 0.1f;
+    info.m_friction = btScalar(friction);
+    info.m_restitution = btScalar(restitution);
     bodies.push_back(std::make_unique<btRigidBody>(info));
     world.addRigidBody(bodies.back().get());
   }
@@ -397,12 +481,20 @@ int main(int argc, char** argv) {
     std::string name;
     SceneSpec spec;
   };
-  const int levels = quick ? 6 : 20, boxes = quick ? 100 : 1000, tori = quick ? 20 : 200;
+  const int levels = quick ? 6 : 20, tori = quick ? 20 : 200, heap = quick ? 60 : 500;
+  auto pileCase = [](int nx, int nz) {
+    return PhysicsCase{"pile_" + std::to_string(nx * nz * 10) + "boxes", pile(nx, nz, 10)};
+  };
   std::vector<PhysicsCase> cases = {
       {"pyramid" + std::to_string(levels) + "_" + std::to_string(levels * (levels + 1) / 2) + "boxes", pyramid(levels)},
-      {"pile_" + std::to_string(boxes) + "boxes", pile(boxes)},
-      {"tori_" + std::to_string(tori) + "meshes", toriScene(tori)},
-      {"chains_" + std::to_string(quick ? 2 : 10) + "x20links", chainScene(quick ? 2 : 10, 20)}};
+      quick ? pileCase(4, 3) : pileCase(10, 10)};
+  if (!quick) {
+    cases.push_back(pileCase(20, 20));
+    cases.push_back(pileCase(40, 25));
+  }
+  cases.push_back({"heap_" + std::to_string(heap) + "mixed", heapScene(heap)});
+  cases.push_back({"tori_" + std::to_string(tori) + "meshes", toriScene(tori)});
+  cases.push_back({"chains_" + std::to_string(quick ? 2 : 10) + "x20links", chainScene(quick ? 2 : 10, 20)});
   for (const auto& c : cases) {
     benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name)
         ->Iterations(gSteps)

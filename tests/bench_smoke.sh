@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Smoke run of crumple-bench --quick (small scenes, few iterations): it must
+# Smoke run of crumple-bench --quick (small scenes, few iterations: 5 physics cases): it must
 # finish and print every ratio line with numbers, and both engines' end states.
 # It asserts nothing about the figures themselves: speed is for the full bench.
 set -euo pipefail
@@ -11,8 +11,8 @@ expect() {  # count regex what
   n=$(echo "$out" | grep -cE "$2" || true)
   if [ "$n" -ne "$1" ]; then echo "bench_smoke: expected $1 $3 lines, found $n" >&2; exit 1; fi
 }
-expect 4 '^physics .* crumple/bullet +[0-9]+\.[0-9]+x$' "physics ratio"
-expect 4 '^ +at the end: crumple +[0-9]+ awake, top centre [0-9.]+ m; bullet +[0-9]+ awake, top centre [0-9.]+ m$' "end-state"
+expect 5 '^physics .* crumple/bullet +[0-9]+\.[0-9]+x$' "physics ratio"
+expect 5 '^ +at the end: crumple +[0-9]+ awake, top centre [0-9.]+ m; bullet +[0-9]+ awake, top centre [0-9.]+ m$' "end-state"
 expect 4 '^deform +address map +[0-9]+ +gather +[0-9.]+ ms +scatter +[0-9.]+ ms +readback +[0-9.]+ ms +gather/scatter +[0-9.]+x +readback/scatter +[0-9.]+x$' "deform ratio"
 expect 1 '^render +1280x720 +pom +[0-9.]+ ms/frame +no parallax +[0-9.]+ ms/frame +pom/none +[0-9.]+x$' "render ratio"
 if echo "$out" | grep -qi nan; then echo "bench_smoke: a figure is NaN" >&2; exit 1; fi

@@ -7,13 +7,17 @@ namespace crumple::deform {
 
 GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   std::vector<float> v;
-  v.reserve(mesh.positions.size() * 11);
+  constexpr int kFloats = 14;
+  v.reserve(mesh.positions.size() * kFloats);
+  const bool looks = mesh.materialUvs.size() == mesh.positions.size() && mesh.materialIds.size() == mesh.positions.size();
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const glm::vec3 p = mesh.positions[i];
     const glm::vec3 n = i < mesh.normals.size() ? mesh.normals[i] : glm::vec3(0, 1, 0);
     const glm::vec2 t = i < mesh.uvs.size() ? mesh.uvs[i] : glm::vec2(0);
     const glm::vec3 c = i < mesh.colors.size() ? mesh.colors[i] : glm::vec3(1);
-    v.insert(v.end(), {p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y, c.x, c.y, c.z});
+    const glm::vec2 mt = looks ? mesh.materialUvs[i] : glm::vec2(0);
+    const float mid = looks ? static_cast<float>(mesh.materialIds[i]) : -1.0f;
+    v.insert(v.end(), {p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y, c.x, c.y, c.z, mt.x, mt.y, mid});
   }
   std::vector<uint32_t> idx;
   idx.reserve(mesh.triangles.size() * 3);
@@ -34,9 +38,9 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   boundsMin = mesh.boundsMin();
   boundsMax = mesh.boundsMax();
   const GLuint a = vao.id();
-  glVertexArrayVertexBuffer(a, 0, vertices.id(), 0, 11 * sizeof(float));
+  glVertexArrayVertexBuffer(a, 0, vertices.id(), 0, kFloats * sizeof(float));
   glVertexArrayElementBuffer(a, indices.id());
-  for (GLuint k = 0; k < 4; ++k) {
+  for (GLuint k = 0; k < 6; ++k) {
     glEnableVertexArrayAttrib(a, k);
     glVertexArrayAttribBinding(a, k, 0);
   }
@@ -44,6 +48,8 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   glVertexArrayAttribFormat(a, 1, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float));
   glVertexArrayAttribFormat(a, 2, 2, GL_FLOAT, GL_FALSE, 6 * sizeof(float));
   glVertexArrayAttribFormat(a, 3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float));
+  glVertexArrayAttribFormat(a, 4, 2, GL_FLOAT, GL_FALSE, 11 * sizeof(float));  // the file's material uv
+  glVertexArrayAttribFormat(a, 5, 1, GL_FLOAT, GL_FALSE, 13 * sizeof(float));  // its material, -1 none
 }
 
 void GpuMesh::draw() const {

@@ -15,7 +15,8 @@ namespace crumple::deform {
 
 struct GpuMesh {
   render::VertexArray vao;
-  render::Buffer vertices;  // position (3), normal (3), uv (2), colour (3, sRGB; white without) floats
+  render::Buffer vertices;  // position (3), normal (3), uv (2), colour (3, sRGB; white without), material uv (2),
+                            // material (1, -1 none) floats
   render::Buffer indices;
   GLsizei indexCount = 0;
   glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame

@@ -71,8 +71,9 @@ BodyAssets AssetCache::load(const BodyDesc& d, const std::string& where) {
       if (!mesh) mesh = std::make_shared<TriangleMesh>(cylinderMesh(s.radius, s.height, mapRes));
     } else {
       TriangleMesh m;
+      render::Look look;
       try {
-        m = loadMeshFile(s.file);
+        m = loadMeshFile(s.file, &look);
       } catch (const MeshError& e) {
         throw SceneError(sceneFile_, where + ".shape.file", e.what());
       }
@@ -98,6 +99,7 @@ BodyAssets AssetCache::load(const BodyDesc& d, const std::string& where) {
         }
         mesh = std::make_shared<TriangleMesh>(std::move(m));
       }
+      if (!look.empty() && !looks_.count(key)) looks_[key] = std::make_shared<const render::Look>(std::move(look));
       if (!shape) shape = makeMeshShape(*mesh);
     }
   } catch (const std::invalid_argument& e) {
@@ -107,12 +109,20 @@ BodyAssets AssetCache::load(const BodyDesc& d, const std::string& where) {
   meshes_[meshKey] = mesh;
   out.shape = shape;
   out.mesh = mesh;
+  if (auto it = looks_.find(key); it != looks_.end()) out.look = it->second;
   return out;
 }
 
 std::shared_ptr<const deform::GpuMesh> AssetCache::gpuMesh(const BodyAssets& a) {
   auto& g = gpuMeshes_[a.meshKey];
   if (!g) g = std::make_shared<deform::GpuMesh>(*a.mesh);
+  return g;
+}
+
+std::shared_ptr<const render::GpuLook> AssetCache::gpuLook(const BodyAssets& a) {
+  if (!a.look) return nullptr;
+  auto& g = gpuLooks_[a.look.get()];
+  if (!g) g = std::make_shared<const render::GpuLook>(*a.look);
   return g;
 }
 

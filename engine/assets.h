@@ -12,6 +12,7 @@
 #include "engine/scene.h"
 #include "physics/shape.h"
 #include "render/image.h"
+#include "render/look.h"
 
 namespace crumple {
 
@@ -23,6 +24,7 @@ struct BodyAssets {
   render::Image initialMap;                  // the bump map's image, when it has one
   bool hasImage = false;
   std::string meshKey;  // shape and map resolution: what the render mesh depends on
+  std::shared_ptr<const render::Look> look;  // the mesh file's own materials (glTF), null when it has none
 };
 
 class AssetCache {
@@ -31,6 +33,8 @@ class AssetCache {
   // Throws SceneError naming `where` and the key at fault.
   BodyAssets load(const BodyDesc& desc, const std::string& where);
   std::shared_ptr<const deform::GpuMesh> gpuMesh(const BodyAssets& a);
+  // The look's textures, uploaded once per mesh file; null when the mesh has no look.
+  std::shared_ptr<const render::GpuLook> gpuLook(const BodyAssets& a);
   // The body's surface: its own maps from its image, or maps shared by every undented body of the
   // same mesh and bump depth (`lazy`), or maps of its own.
   std::unique_ptr<deform::Surface> surface(const BodyAssets& a, std::shared_ptr<const deform::GpuMesh> mesh, float k,
@@ -41,6 +45,8 @@ class AssetCache {
   std::map<std::string, std::shared_ptr<const Shape>> shapes_;
   std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes_;
   std::map<std::string, std::shared_ptr<const deform::GpuMesh>> gpuMeshes_;
+  std::map<std::string, std::shared_ptr<const render::Look>> looks_;
+  std::map<const render::Look*, std::shared_ptr<const render::GpuLook>> gpuLooks_;
   std::map<std::string, std::shared_ptr<deform::SurfaceMaps>> maps_;
 };
 

@@ -9,12 +9,16 @@
 namespace crumple {
 
 void ChartMesh::addTriangle(int chartId, const glm::vec3 p[3], const glm::vec3 n[3], const glm::vec2 uv[3],
-                            const glm::vec3* color) {
+                            const glm::vec3* color, const glm::vec2* materialUv, const int* materialId) {
   for (int k = 0; k < 3; ++k) {
     positions.push_back(p[k]);
     normals.push_back(n[k]);
     chartUV.push_back(uv[k]);
     if (color) colors.push_back(color[k]);
+    if (materialUv && materialId) {
+      materialUvs.push_back(materialUv[k]);
+      materialIds.push_back(materialId[k]);
+    }
   }
   chart.push_back(chartId);
 }
@@ -88,7 +92,9 @@ TriangleMesh packCharts(const ChartMesh& cm, int resolution, int gutterTexels) {
   for (const Rect& r : order) rects[static_cast<size_t>(r.chart)] = r;
 
   TriangleMesh out;
-  std::map<std::tuple<float, float, float, float, float, float, float, float>, unsigned> weld;
+  // Corners weld where position, normal and uv agree (and the file's material uv and material, when it has them).
+  const bool looks = cm.materialUvs.size() == cm.positions.size() && cm.materialIds.size() == cm.positions.size();
+  std::map<std::tuple<float, float, float, float, float, float, float, float, float, float, int>, unsigned> weld;
   for (size_t t = 0; t < cm.chart.size(); ++t) {
     const Rect& r = rects[static_cast<size_t>(cm.chart[t])];
     unsigned idx[3];
@@ -98,13 +104,19 @@ TriangleMesh packCharts(const ChartMesh& cm, int resolution, int gutterTexels) {
       const glm::vec2 uv = r.at + local * static_cast<float>(good);
       const glm::vec3& p = cm.positions[t * 3 + k];
       const glm::vec3& n = cm.normals[t * 3 + k];
-      auto [it, inserted] =
-          weld.try_emplace({p.x, p.y, p.z, n.x, n.y, n.z, uv.x, uv.y}, static_cast<unsigned>(out.positions.size()));
+      const glm::vec2 muv = looks ? cm.materialUvs[t * 3 + k] : glm::vec2(0);
+      const int mid = looks ? cm.materialIds[t * 3 + k] : -1;
+      auto [it, inserted] = weld.try_emplace({p.x, p.y, p.z, n.x, n.y, n.z, uv.x, uv.y, muv.x, muv.y, mid},
+                                             static_cast<unsigned>(out.positions.size()));
       if (inserted) {
         out.positions.push_back(p);
         out.normals.push_back(n);
         out.uvs.push_back(uv);
         if (!cm.colors.empty()) out.colors.push_back(cm.colors[t * 3 + k]);
+        if (looks) {
+          out.materialUvs.push_back(muv);
+          out.materialIds.push_back(mid);
+        }
       }
       idx[k] = it->second;
     }
@@ -241,7 +253,15 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
       const glm::vec3 c[3] = {coloured ? mesh.colors[tri.x] : glm::vec3(1),
                               coloured ? mesh.colors[tri.y] : glm::vec3(1),
                               coloured ? mesh.colors[tri.z] : glm::vec3(1)};
-      cm.addTriangle(chartIds[t], p, n, uv, coloured ? c : nullptr);
+      const bool looks =
+          mesh.materialUvs.size() == mesh.positions.size() && mesh.materialIds.size() == mesh.positions.size();
+      glm::vec2 muv[3] = {};
+      int mid[3] = {-1, -1, -1};
+      if (looks) {
+        const unsigned vs[3] = {tri.x, tri.y, tri.z};
+        for (int k = 0; k < 3; ++k) muv[k] = mesh.materialUvs[vs[k]], mid[k] = mesh.materialIds[vs[k]];
+      }
+      cm.addTriangle(chartIds[t], p, n, uv, coloured ? c : nullptr, looks ? muv : nullptr, looks ? mid : nullptr);
     }
     return cm;
   };

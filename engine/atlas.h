@@ -20,8 +20,11 @@ struct ChartMesh {
   std::vector<glm::vec2> chartUV;    // 3 per triangle, metres
   std::vector<int> chart;            // 1 per triangle
   std::vector<glm::vec3> colors;     // 3 per triangle, or empty
+  std::vector<glm::vec2> materialUvs;  // 3 per triangle, or empty (TriangleMesh::materialUvs)
+  std::vector<int> materialIds;        // 3 per triangle, or empty
   void addTriangle(int chartId, const glm::vec3 p[3], const glm::vec3 n[3], const glm::vec2 uv[3],
-                   const glm::vec3* color = nullptr);
+                   const glm::vec3* color = nullptr, const glm::vec2* materialUv = nullptr,
+                   const int* materialId = nullptr);
   size_t triangleCount() const { return chart.size(); }
 };
 

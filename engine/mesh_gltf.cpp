@@ -24,8 +24,10 @@
 #include <stb/stb_image.h>
 #include <tiny_gltf.h>
 
+#include "core/log.h"
 #include "engine/mesh_io.h"
 #include "engine/mesh_io_detail.h"
+#include "render/look.h"
 
 namespace crumple {
 
@@ -347,7 +349,7 @@ bool readBuffer(std::vector<unsigned char>* out, std::string* err, const std::st
 }
 
 void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, const glm::dmat4& xf,
-                     const std::string& what, TriangleMesh& out, bool& anyUv) {
+                     const std::string& what, TriangleMesh& out, bool& anyUv, const int* materialId = nullptr) {
   const int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
   if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
     return;
@@ -393,6 +395,10 @@ void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& pr
     } else {
       out.uvs.push_back(glm::vec2(-1));  // marks "no uv"
     }
+    if (materialId) {
+      out.materialUvs.push_back(uv && out.uvs.back().x != -1 ? out.uvs.back() : glm::vec2(0));
+      out.materialIds.push_back(*materialId);
+    }
   }
   anyUv = anyUv || uv != nullptr;
   std::vector<uint32_t> idx;
@@ -428,16 +434,147 @@ void appendPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& pr
   }
 }
 
+// Images as RGBA8, decoded by stb_image (at most 8192 texels a side); embedded images (data URIs, buffer views) come
+// through tinygltf, files beside the glTF are read here (TINYGLTF_NO_EXTERNAL_IMAGE keeps tinygltf from it).
+constexpr int kMaxImageSide = 8192;
+bool decodeImage(const unsigned char* bytes, size_t size, render::LookImage* out, std::string* why) {
+  int w = 0, h = 0, c = 0;
+  if (size > (size_t(1) << 30) || !stbi_info_from_memory(bytes, static_cast<int>(size), &w, &h, &c)) {
+    *why = "not an image stb_image reads";
+    return false;
+  }
+  if (w <= 0 || h <= 0 || w > kMaxImageSide || h > kMaxImageSide) {
+    *why = std::to_string(w) + "x" + std::to_string(h) + " texels (at most " + std::to_string(kMaxImageSide) + " a side)";
+    return false;
+  }
+  unsigned char* px = stbi_load_from_memory(bytes, static_cast<int>(size), &w, &h, &c, 4);
+  if (!px) {
+    *why = stbi_failure_reason() ? stbi_failure_reason() : "decoding failed";
+    return false;
+  }
+  out->width = w;
+  out->height = h;
+  out->rgba.assign(px, px + static_cast<size_t>(w) * h * 4);
+  stbi_image_free(px);
+  return true;
+}
+
+bool loadImageData(tinygltf::Image* image, const int index, std::string* err, std::string*, int, int,
+                   const unsigned char* bytes, int size, void*) {
+  render::LookImage decoded;
+  std::string why;
+  if (!decodeImage(bytes, static_cast<size_t>(std::max(size, 0)), &decoded, &why)) {
+    // A broken texture does not stop the mesh: the material draws without it (warned by readLook).
+    (void)err;
+    (void)index;
+    image->width = image->height = 0;
+    return true;
+  }
+  image->width = decoded.width;
+  image->height = decoded.height;
+  image->component = 4;
+  image->bits = 8;
+  image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+  image->image = std::move(decoded.rgba);
+  return true;
+}
+
+// The file's materials (those its primitives use) and their images, in glTF's metallic-roughness model.
+// Returns, per glTF material index, the index in `look` (or -1 when unused).
+std::vector<int> readLook(const tinygltf::Model& model, const std::string& path, render::Look& look) {
+  const fs::path baseDir = fs::path(path).parent_path();
+  std::vector<int> imageIndex(model.images.size(), -2);  // -2 not yet read, -1 unreadable
+  auto image = [&](const tinygltf::TextureInfo& info, const std::string& what) -> int {
+    {
+      if (info.index < 0) return -1;
+      if (info.texCoord != 0) {
+        logWarning(path, ": ", what, " uses TEXCOORD_", info.texCoord, ": only TEXCOORD_0 is read; drawn without it");
+        return -1;
+      }
+      if (info.index >= static_cast<int>(model.textures.size())) return -1;
+      const int src = model.textures[static_cast<size_t>(info.index)].source;
+      if (src < 0 || src >= static_cast<int>(model.images.size())) return -1;
+      int& slot = imageIndex[static_cast<size_t>(src)];
+      if (slot != -2) return slot;
+      const tinygltf::Image& im = model.images[static_cast<size_t>(src)];
+      render::LookImage out;
+      std::string why;
+      if (!im.image.empty() && im.width > 0 && im.component == 4) {
+        out.width = im.width;
+        out.height = im.height;
+        out.rgba = im.image;
+      } else if (!im.uri.empty() && im.bufferView < 0 && im.uri.rfind("data:", 0) != 0) {
+        const fs::path file = baseDir / im.uri;
+        std::error_code ec;
+        if (!fs::is_regular_file(file, ec) || fs::file_size(file, ec) > (size_t(256) << 20)) {
+          why = file.string() + " is not a regular file of at most 256 MiB";
+        } else {
+          std::ifstream in(file, std::ios::binary);
+          const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+          if (decodeImage(bytes.data(), bytes.size(), &out, &why)) why.clear();
+          else why = file.string() + ": " + why;
+        }
+      } else {
+        why = "could not be decoded";
+      }
+      if (out.width == 0) {
+        logWarning(path, ": images[", src, "] (", what, "): ", why.empty() ? "could not be decoded" : why,
+                   ": drawn without it");
+        return slot = -1;
+      }
+      look.images.push_back(std::move(out));
+      return slot = static_cast<int>(look.images.size()) - 1;
+    }
+  };
+  std::vector<int> index(model.materials.size(), -1);
+  for (const auto& mesh : model.meshes)
+    for (const auto& prim : mesh.primitives) {
+      const int mi = prim.material;
+      if (mi < 0 || mi >= static_cast<int>(model.materials.size()) || index[static_cast<size_t>(mi)] >= 0) continue;
+      const tinygltf::Material& g = model.materials[static_cast<size_t>(mi)];
+      const std::string what = "materials[" + std::to_string(mi) + "]";
+      const auto& pbr = g.pbrMetallicRoughness;
+      render::LookMaterial m;
+      for (int c = 0; c < 4 && c < static_cast<int>(pbr.baseColorFactor.size()); ++c)
+        m.baseColor[c] = static_cast<float>(std::clamp(pbr.baseColorFactor[static_cast<size_t>(c)], 0.0, 1.0));
+      m.metallic = static_cast<float>(std::clamp(pbr.metallicFactor, 0.0, 1.0));
+      m.roughness = static_cast<float>(std::clamp(pbr.roughnessFactor, 0.0, 1.0));
+      for (int c = 0; c < 3 && c < static_cast<int>(g.emissiveFactor.size()); ++c)
+        m.emissive[c] = static_cast<float>(std::clamp(g.emissiveFactor[static_cast<size_t>(c)], 0.0, 1e3));
+      m.normalScale = std::isfinite(g.normalTexture.scale) ? static_cast<float>(g.normalTexture.scale) : 1.0f;
+      m.occlusionStrength = static_cast<float>(std::clamp(g.occlusionTexture.strength, 0.0, 1.0));
+      m.baseColorImage = image(pbr.baseColorTexture, what + ".baseColorTexture");
+      m.metallicRoughnessImage = image(pbr.metallicRoughnessTexture, what + ".metallicRoughnessTexture");
+      tinygltf::TextureInfo normal, occlusion;
+      normal.index = g.normalTexture.index;
+      normal.texCoord = g.normalTexture.texCoord;
+      occlusion.index = g.occlusionTexture.index;
+      occlusion.texCoord = g.occlusionTexture.texCoord;
+      m.normalImage = image(normal, what + ".normalTexture");
+      m.occlusionImage = image(occlusion, what + ".occlusionTexture");
+      m.emissiveImage = image(g.emissiveTexture, what + ".emissiveTexture");
+      index[static_cast<size_t>(mi)] = static_cast<int>(look.materials.size());
+      look.materials.push_back(m);
+    }
+  if (look.materials.size() > static_cast<size_t>(render::kMaxLookMaterials))
+    logWarning(path, ": ", look.materials.size(), " materials; the renderer draws the first ",
+               render::kMaxLookMaterials, " and the rest as the last of them");
+  return index;
+}
+
 }  // namespace
 
-TriangleMesh loadGltf(const std::string& path) {
+TriangleMesh loadGltf(const std::string& path, render::Look* look) {
   tinygltf::TinyGLTF loader;
   tinygltf::Model model;
   std::string err, warn;
-  // Images are not needed for geometry: skip decoding them.
-  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
-                           void*) { return true; },
-                        nullptr);
+  // Images are not needed for geometry: decoded only when the look is asked for.
+  if (look)
+    loader.SetImageLoader(&loadImageData, nullptr);
+  else
+    loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*,
+                             int, void*) { return true; },
+                          nullptr);
   loader.SetFsCallbacks(
       {&tinygltf::FileExists, &tinygltf::ExpandFilePath, &readBuffer, &tinygltf::WriteWholeFile, nullptr});
   const bool binary = meshio::lower(fs::path(path).extension().string()) == ".glb";
@@ -499,6 +636,11 @@ TriangleMesh loadGltf(const std::string& path) {
     throw MeshError(path + ": scene: default scene " + std::to_string(sceneIndex) + " does not exist");
   TriangleMesh out;
   bool anyUv = false;
+  std::vector<int> lookIndex;
+  if (look) {
+    *look = render::Look();
+    lookIndex = readLook(model, path, *look);
+  }
   std::vector<int> onPath;
   size_t visits = 0;
   // A node's hierarchy is walked recursively: its depth is bounded (a chain of 100000 nodes overflowed the stack).
@@ -518,10 +660,13 @@ TriangleMesh loadGltf(const std::string& path) {
       if (node.mesh >= static_cast<int>(model.meshes.size()))
         throw MeshError(at + ".mesh: uses missing mesh " + std::to_string(node.mesh));
       const auto& mesh = model.meshes[static_cast<size_t>(node.mesh)];
-      for (size_t pi = 0; pi < mesh.primitives.size(); ++pi)
+      for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+        const int mi = mesh.primitives[pi].material;
+        const int lookId = mi >= 0 && mi < static_cast<int>(lookIndex.size()) ? lookIndex[static_cast<size_t>(mi)] : -1;
         appendPrimitive(model, mesh.primitives[pi], xf,
                         path + ": meshes[" + std::to_string(node.mesh) + "].primitives[" + std::to_string(pi) + "]",
-                        out, anyUv);
+                        out, anyUv, look ? &lookId : nullptr);
+      }
     }
     for (int c : node.children) visit(c, xf);
     onPath.pop_back();
@@ -532,6 +677,10 @@ TriangleMesh loadGltf(const std::string& path) {
   bool complete = anyUv;
   for (const auto& t : out.uvs) complete = complete && t.x >= 0;
   if (!complete) out.uvs.clear();
+  if (look && look->empty()) {
+    out.materialUvs.clear();
+    out.materialIds.clear();
+  }
   return out;
 }
 

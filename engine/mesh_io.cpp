@@ -200,7 +200,7 @@ void removeDuplicateFaces(TriangleMesh& m, const std::string& path) {
 }
 }  // namespace
 
-TriangleMesh loadMeshFile(const std::string& path) {
+TriangleMesh loadMeshFile(const std::string& path, render::Look* look) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw MeshError(path + ": is a folder, not a mesh file");
   if (!fs::is_regular_file(path, ec)) throw MeshError(path + ": no such file");
@@ -211,7 +211,7 @@ TriangleMesh loadMeshFile(const std::string& path) {
   const std::string ext = lower(fs::path(path).extension().string());
   TriangleMesh m;
   if (ext == ".gltf" || ext == ".glb")
-    m = loadGltf(path);
+    m = loadGltf(path, look);
   else if (ext == ".obj")
     m = loadObj(path);
   else if (ext == ".off")

@@ -9,13 +9,18 @@
 #include "physics/mesh.h"
 
 namespace crumple {
+namespace render {
+struct Look;
+}
 
 struct MeshError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-TriangleMesh loadMeshFile(const std::string& path);
-TriangleMesh loadGltf(const std::string& path);
+// With `look`, a glTF file's materials and images are read into it as well (empty for other formats, and for a
+// glTF whose primitives have no material), and the mesh gains materialUvs and materialIds.
+TriangleMesh loadMeshFile(const std::string& path, render::Look* look = nullptr);
+TriangleMesh loadGltf(const std::string& path, render::Look* look = nullptr);
 TriangleMesh loadObj(const std::string& path);  // strict: errors name the line
 TriangleMesh loadOff(const std::string& path);  // strict: errors name the line or the byte
 TriangleMesh loadPly(const std::string& path);  // strict: errors name the header line or the record

@@ -47,6 +47,8 @@ struct Material {
   glm::vec3 color{0.7f, 0.7f, 0.7f};  // sRGB base colour
   float metallic = 0.0f;               // glTF metallic-roughness: 0 dielectric, 1 metal
   float roughness = 0.6f;              // perceptual roughness, 0 mirror .. 1 matte
+  // Which of the three the scene gave: those replace a glTF mesh's own (docs/scene-format.md).
+  bool hasColor = false, hasMetallic = false, hasRoughness = false;
 };
 
 struct DeformationSettings {

@@ -197,6 +197,9 @@ Material parseMaterial(const Node& n, const std::string& name) {
       if (c[i] < 0 || c[i] > 1) n.fail("color", "components must be in [0, 1]");
     m.color = glm::vec3(c);
   }
+  m.hasColor = n.has("color");
+  m.hasMetallic = n.has("metallic");
+  m.hasRoughness = n.has("roughness");
   m.metallic = static_cast<float>(n.number("metallic", m.metallic, 0, 1));
   m.roughness = static_cast<float>(n.number("roughness", m.roughness, 0, 1));
   return m;

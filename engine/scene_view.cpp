@@ -16,6 +16,10 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     it.color = b.material->color;
     it.metallic = b.material->metallic;
     it.roughness = b.material->roughness;
+    it.look = b.look.get();
+    it.ownColor = !b.material->hasColor;
+    it.ownMetallic = !b.material->hasMetallic;
+    it.ownRoughness = !b.material->hasRoughness;
     it.boundsMin = b.gpuMesh->boundsMin;
     it.boundsMax = b.gpuMesh->boundsMax;
     if (b.surface) {

@@ -249,6 +249,7 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
 
   if (gl_) {
     b.gpuMesh = assets_.gpuMesh(assets);
+    b.look = assets_.gpuLook(assets);
     if (d.bumpMap.present) {
       const float k = static_cast<float>(d.bumpMap.bumpDepth.value_or(scene_.deformation.bumpDepth));
       const float kc = static_cast<float>(d.bumpMap.bumpDepthCollide.value_or(scene_.deformation.bumpDepthCollide));

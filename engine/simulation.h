@@ -46,6 +46,7 @@ struct BodyRuntime {
   std::shared_ptr<const TriangleMesh> mesh;        // render mesh, shape frame, one-to-one uvs
   std::shared_ptr<const deform::GpuMesh> gpuMesh;  // null without GL
   std::unique_ptr<deform::Surface> surface;        // null without a bump map
+  std::shared_ptr<const render::GpuLook> look;     // the mesh file's own materials; null without (or without GL)
   bool contactDeformation = false;
 };
 

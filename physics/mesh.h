@@ -16,6 +16,11 @@ struct TriangleMesh {
   // Vertex colours (sRGB), empty when the file has none. They multiply the
   // material's colour, as glTF's COLOR_0 multiplies its base colour.
   std::vector<glm::vec3> colors;
+  // The file's own material (glTF): per vertex, the texture coordinates of its images (TEXCOORD_0, kept when the
+  // atlas above is regenerated) and the index of its material in the file's look (render/look.h);
+  // both empty when the file has none.
+  std::vector<glm::vec2> materialUvs;
+  std::vector<int> materialIds;
   std::vector<glm::uvec3> triangles;
 
   bool empty() const { return triangles.empty(); }

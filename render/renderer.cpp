@@ -6,6 +6,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "render/capture.h"
+#include "render/look.h"
 
 namespace crumple::render {
 
@@ -29,6 +30,16 @@ GLuint makeCube(int size, int levels, GLenum format) {
   glTextureParameteri(id, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTextureParameteri(id, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   glTextureParameteri(id, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
+  return id;
+}
+
+// A 1x1 white texture array.
+GLuint makeFlatArray() {
+  GLuint id = 0;
+  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &id);
+  glTextureStorage3D(id, 1, GL_RGBA8, 1, 1, 1);
+  const unsigned char white[4] = {255, 255, 255, 255};
+  glTextureSubImage3D(id, 0, 0, 0, 0, 1, 1, 1, GL_RGBA, GL_UNSIGNED_BYTE, white);
   return id;
 }
 
@@ -61,6 +72,7 @@ struct Renderer::Impl {
   Texture2D shadowMap{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
   Framebuffer shadowFbo;
   Texture2D flatHeight{1, 1, GL_R32F}, flatNormal{1, 1, GL_RGBA8};
+  GlName<detail::deleteTexture> flatArray{makeFlatArray()};  // bound where a look has no images of a kind
   Impl() {
     glTextureParameteri(shadowMap.id(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
     glTextureParameteri(shadowMap.id(), GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
@@ -72,6 +84,20 @@ struct Renderer::Impl {
     const unsigned char up[4] = {128, 128, 255, 255};
     flatNormal.upload(GL_RGBA, GL_UNSIGNED_BYTE, up);
     glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
+  }
+  // The item's look (render/look.h): its materials' uniforms and its two texture arrays (units 8, 9).
+  void bindLook(const Program& p, const RenderItem& it) {
+    const GpuLook* look = it.look;
+    glUniform1i(p.uniform("uHasLook"), look != nullptr && look->materialCount() > 0);
+    if (!look || look->materialCount() == 0) return;
+    const int n = look->materialCount();
+    glUniform3i(p.uniform("uLookOwn"), it.ownColor, it.ownMetallic, it.ownRoughness);
+    glUniform4fv(p.uniform("uLookBase"), n, glm::value_ptr(look->baseColor[0]));
+    glUniform4fv(p.uniform("uLookParams"), n, glm::value_ptr(look->params[0]));
+    glUniform4fv(p.uniform("uLookEmissive"), n, glm::value_ptr(look->emissive[0]));
+    glUniform4iv(p.uniform("uLookLayers"), n, glm::value_ptr(look->layers[0]));
+    glBindTextureUnit(8, look->srgbArray() ? look->srgbArray() : flatArray.id());
+    glBindTextureUnit(9, look->linearArray() ? look->linearArray() : flatArray.id());
   }
   // Renders into each face of `cube` at `level` with the bound program (uniform uBasis per face).
   void bakeFaces(const Program& p, GLuint cube, int size, int level) {
@@ -253,6 +279,7 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
     glUniform3fv(u("uColor"), 1, glm::value_ptr(it.color));
     glUniform1f(u("uMetallic"), it.metallic);
     glUniform1f(u("uRoughness"), it.roughness);
+    m.bindLook(m.pom, it);
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
     glBindVertexArray(it.vao);

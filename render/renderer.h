@@ -26,6 +26,8 @@
 
 namespace crumple::render {
 
+class GpuLook;  // render/look.h
+
 struct RenderItem {
   GLuint vao = 0;
   GLsizei indexCount = 0;
@@ -35,6 +37,10 @@ struct RenderItem {
   glm::vec3 color{0.7f};   // sRGB base colour
   float metallic = 0.0f;   // glTF metallic-roughness
   float roughness = 0.6f;  // perceptual roughness
+  // The mesh file's own materials (render/look.h), picked per vertex; null: color/metallic/roughness above.
+  // A look's base colour, metallic or roughness gives way to the item's when the scene set that key.
+  const GpuLook* look = nullptr;
+  bool ownColor = true, ownMetallic = true, ownRoughness = true;
   float bumpDepth = 0.1f;                 // k: the map's range in metres
   glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame), to fit the sun's shadow map
 };

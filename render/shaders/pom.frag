@@ -14,6 +14,16 @@ in vec3 vNormal;
 in vec2 vUV;
 in vec3 vColor;  // multiplies uColor (glTF's COLOR_0)
 in vec4 vShadow;
+in vec2 vMaterialUV;    // the mesh file's own uv
+flat in int vMaterial;  // its material in the look, -1 none
+// The look (render/look.h): per material the base colour factor (linear), metallic, roughness, normal scale,
+// occlusion strength, emissive (rgb, sRGB layer), and the layers of its images (-1 none).
+uniform bool uHasLook;
+uniform bvec3 uLookOwn;  // the look's base colour, metallic, roughness apply (the scene did not set them)
+uniform vec4 uLookBase[16], uLookParams[16], uLookEmissive[16];
+uniform ivec4 uLookLayers[16];  // base colour (sRGB array), metallic-roughness, normal, occlusion (linear array)
+layout(binding = 8) uniform sampler2DArray uLookSrgb;
+layout(binding = 9) uniform sampler2DArray uLookLinear;
 layout(binding = 0) uniform sampler2D uHeight;
 layout(binding = 1) uniform sampler2D uNormalMap;
 layout(binding = 2) uniform sampler2DShadow uShadowMap;
@@ -53,6 +63,7 @@ void main() {
   vec3 gradU = (dp2perp * duv1.x + dp1perp * duv2.x) / (abs(det) > 1e-20 ? det : 1e-20);
   vec3 gradV = (dp2perp * duv1.y + dp1perp * duv2.y) / (abs(det) > 1e-20 ? det : 1e-20);
   vec2 uv = vUV;
+  vec3 shift = vec3(0.0);  // where parallax moved the surface point (world), for the look's uv
   float surfaceHeight = 0.0;
   float fade = 1.0;
   if (uHasMaps) {
@@ -82,20 +93,56 @@ void main() {
         prevDiff = diff;
       }
       uv = mix(vUV, hitUV, fade);
+      shift = V / cosV * (depth - 0.5 * uBumpDepth) * fade;
     } else if (uMode == 1) {
       // Offset limiting (Welsh 2004), as the paper renders: no division by the view angle.
       float h = heightAt(vUV, duv1, duv2);
       uv = vUV - vec2(dot(gradU, V), dot(gradV, V)) * h * fade;
+      shift = -V * h * fade;
     }
     surfaceHeight = heightAt(uv, duv1, duv2);
   }
   if (uDebug == 1) { float h = uHasMaps ? textureGrad(uHeight, uv, duv1, duv2).r : 0.5; fragColor = vec4(vec3(h), 1.0); return; }
-  vec3 Nb = N;
+  // The look: base colour, metallic, roughness and occlusion from the file's material and images, and its normal
+  // map, which tilts the surface the dent normal map then bends.
+  vec3 baseColor = pow(uColor * vColor, vec3(2.2));
+  float metallic = uMetallic, roughness = uRoughness, occlusion = 1.0;
+  vec3 emissive = vec3(0.0);
+  vec3 Nl = N;
+  if (uHasLook && vMaterial >= 0) {
+    int mi = min(vMaterial, 15);
+    vec2 m1 = dFdx(vMaterialUV), m2 = dFdy(vMaterialUV);
+    vec3 gradMU = (dp2perp * m1.x + dp1perp * m2.x) / (abs(det) > 1e-20 ? det : 1e-20);
+    vec3 gradMV = (dp2perp * m1.y + dp1perp * m2.y) / (abs(det) > 1e-20 ? det : 1e-20);
+    vec2 muv = vMaterialUV + vec2(dot(gradMU, shift), dot(gradMV, shift));
+    ivec4 layer = uLookLayers[mi];
+    vec4 p = uLookParams[mi];
+    if (uLookOwn.x) {
+      vec4 b = uLookBase[mi];
+      if (layer.x >= 0) b *= textureGrad(uLookSrgb, vec3(muv, layer.x), m1, m2);
+      baseColor = b.rgb * pow(vColor, vec3(2.2));
+    }
+    vec4 mr = layer.y >= 0 ? textureGrad(uLookLinear, vec3(muv, layer.y), m1, m2) : vec4(1.0);
+    if (uLookOwn.y) metallic = p.x * mr.b;
+    if (uLookOwn.z) roughness = p.y * mr.g;
+    if (layer.w >= 0) occlusion = mix(1.0, textureGrad(uLookLinear, vec3(muv, layer.w), m1, m2).r, p.w);
+    emissive = uLookEmissive[mi].rgb;
+    if (uLookEmissive[mi].w >= 0.0) emissive *= textureGrad(uLookSrgb, vec3(muv, uLookEmissive[mi].w), m1, m2).rgb;
+    if (layer.z >= 0 && length(gradMU) > 0.0 && length(gradMV) > 0.0) {
+      vec3 nt = textureGrad(uLookLinear, vec3(muv, layer.z), m1, m2).xyz * 2.0 - 1.0;
+      nt.xy *= p.z;
+      // glTF's green points up the image, towards -v (crumple's own maps: towards +v; the export flips it).
+      vec3 T = normalize(gradMU - N * dot(gradMU, N));
+      vec3 B = normalize(gradMV - N * dot(gradMV, N));
+      Nl = normalize(T * nt.x - B * nt.y + N * nt.z);
+    }
+  }
+  vec3 Nb = Nl;
   if (uHasMaps) {
     vec3 nt = textureGrad(uNormalMap, uv, duv1, duv2).xyz * 2.0 - 1.0;
-    vec3 T = normalize(gradU - N * dot(gradU, N));
-    vec3 B = normalize(gradV - N * dot(gradV, N));
-    Nb = normalize(T * nt.x + B * nt.y + N * nt.z);
+    vec3 T = normalize(gradU - Nl * dot(gradU, Nl));
+    vec3 B = normalize(gradV - Nl * dot(gradV, Nl));
+    Nb = normalize(T * nt.x + B * nt.y + Nl * nt.z);
   }
   if (uDebug == 2) { fragColor = vec4(uHasMaps ? textureGrad(uNormalMap, uv, duv1, duv2).xyz : vec3(0.5, 0.5, 1.0), 1.0); return; }
 
@@ -128,9 +175,9 @@ void main() {
     selfShadow = 1.0 - clamp(occlusion, 0.0, 1.0) * fade;
   }
   const float PI = 3.14159265;
-  vec3 albedo = pow(uColor * vColor, vec3(2.2));
-  float rough = clamp(uRoughness, 0.045, 1.0);
-  vec3 F0 = mix(vec3(0.04), albedo, uMetallic);
+  vec3 albedo = baseColor;
+  float rough = clamp(roughness, 0.045, 1.0);
+  vec3 F0 = mix(vec3(0.04), albedo, metallic);
   vec3 toEye = -V;
   float NV = max(dot(Nb, toEye), 1e-3);
   // The sun: Cook-Torrance with GGX. sunColor is the radiance a white Lambert surface facing it returns.
@@ -143,7 +190,7 @@ void main() {
   float G = (NL / (NL * (1.0 - k) + k)) * (NV / (NV * (1.0 - k) + k));
   vec3 F = F0 + (1.0 - F0) * pow(1.0 - VH, 5.0);
   vec3 specular = D * G * F / max(4.0 * NL * NV, 1e-4);
-  vec3 kd = (1.0 - F) * (1.0 - uMetallic);
+  vec3 kd = (1.0 - F) * (1.0 - metallic);
   vec3 c = (kd * albedo + PI * specular) * uSunColor * NL * shadow * selfShadow;
   // The sky: split-sum image-based light.
   vec3 Fr = F0 + (max(vec3(1.0 - rough), F0) - F0) * pow(1.0 - NV, 5.0);
@@ -154,8 +201,8 @@ void main() {
   prefiltered *= horizon * horizon;
   vec2 ab = texture(uBrdfLut, vec2(NV, rough)).rg;
   vec3 irradiance = uIbl ? texture(uIrradiance, Nb).rgb : mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
-  vec3 ambient = (1.0 - Fr) * (1.0 - uMetallic) * albedo * irradiance + prefiltered * (F0 * ab.x + ab.y);
-  c += ambient * mix(1.0, selfShadow, 0.5);
+  vec3 ambient = (1.0 - Fr) * (1.0 - metallic) * albedo * irradiance + prefiltered * (F0 * ab.x + ab.y);
+  c += ambient * mix(1.0, selfShadow, 0.5) * occlusion + emissive;
   c *= uExposure;
   fragColor = vec4(clamp(c * (2.51 * c + 0.03) / (c * (2.43 * c + 0.59) + 0.14), 0.0, 1.0), 1.0);
 }

@@ -1,13 +1,22 @@
 #include "deform/surface.h"
 
 #include <cmath>
+#include <map>
+#include <tuple>
 #include <vector>
 
 namespace crumple::deform {
 
 GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   std::vector<float> v;
-  constexpr int kFloats = 14;
+  constexpr int kFloats = 17;
+  // The normal averaged over the vertices at one position (the displaced renderer moves vertices along it, so hard
+  // edges and chart seams stay closed).
+  std::map<std::tuple<float, float, float>, glm::vec3> smooth;
+  for (size_t i = 0; i < mesh.positions.size() && i < mesh.normals.size(); ++i) {
+    const glm::vec3 p = mesh.positions[i];
+    smooth[{p.x, p.y, p.z}] += mesh.normals[i];
+  }
   v.reserve(mesh.positions.size() * kFloats);
   const bool looks = mesh.materialUvs.size() == mesh.positions.size() && mesh.materialIds.size() == mesh.positions.size();
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
@@ -17,7 +26,9 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
     const glm::vec3 c = i < mesh.colors.size() ? mesh.colors[i] : glm::vec3(1);
     const glm::vec2 mt = looks ? mesh.materialUvs[i] : glm::vec2(0);
     const float mid = looks ? static_cast<float>(mesh.materialIds[i]) : -1.0f;
-    v.insert(v.end(), {p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y, c.x, c.y, c.z, mt.x, mt.y, mid});
+    glm::vec3 sn = smooth.count({p.x, p.y, p.z}) ? smooth[{p.x, p.y, p.z}] : n;
+    sn = glm::length(sn) > 1e-6f ? glm::normalize(sn) : n;
+    v.insert(v.end(), {p.x, p.y, p.z, n.x, n.y, n.z, t.x, t.y, c.x, c.y, c.z, mt.x, mt.y, mid, sn.x, sn.y, sn.z});
   }
   std::vector<uint32_t> idx;
   idx.reserve(mesh.triangles.size() * 3);
@@ -40,7 +51,7 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   const GLuint a = vao.id();
   glVertexArrayVertexBuffer(a, 0, vertices.id(), 0, kFloats * sizeof(float));
   glVertexArrayElementBuffer(a, indices.id());
-  for (GLuint k = 0; k < 6; ++k) {
+  for (GLuint k = 0; k < 7; ++k) {
     glEnableVertexArrayAttrib(a, k);
     glVertexArrayAttribBinding(a, k, 0);
   }
@@ -50,6 +61,7 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   glVertexArrayAttribFormat(a, 3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float));
   glVertexArrayAttribFormat(a, 4, 2, GL_FLOAT, GL_FALSE, 11 * sizeof(float));  // the file's material uv
   glVertexArrayAttribFormat(a, 5, 1, GL_FLOAT, GL_FALSE, 13 * sizeof(float));  // its material, -1 none
+  glVertexArrayAttribFormat(a, 6, 3, GL_FLOAT, GL_FALSE, 14 * sizeof(float));  // the smooth normal
 }
 
 void GpuMesh::draw() const {

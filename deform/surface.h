@@ -16,7 +16,7 @@ namespace crumple::deform {
 struct GpuMesh {
   render::VertexArray vao;
   render::Buffer vertices;  // position (3), normal (3), uv (2), colour (3, sRGB; white without), material uv (2),
-                            // material (1, -1 none) floats
+                            // material (1, -1 none), normal averaged over the vertices at its position (3) floats
   render::Buffer indices;
   GLsizei indexCount = 0;
   glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame

@@ -54,6 +54,10 @@ glm::mat3 faceBasis(int face) {
 
 struct Renderer::Impl {
   Program pom = program("pom.vert", "pom.frag");
+  Program pomDisplace{{{GL_VERTEX_SHADER, "pom_displace.vert", std::string(renderShader("pom_displace.vert"))},
+                       {GL_TESS_CONTROL_SHADER, "pom_displace.tesc", std::string(renderShader("pom_displace.tesc"))},
+                       {GL_TESS_EVALUATION_SHADER, "pom_displace.tese", std::string(renderShader("pom_displace.tese"))},
+                       {GL_FRAGMENT_SHADER, "pom.frag", std::string(renderShader("pom.frag"))}}};
   Program shadow = program("shadow.vert", "shadow.frag");
   Program addressView = program("fullscreen.vert", "address_view.frag");
   Program sky = program("sky.vert", "sky.frag");
@@ -84,6 +88,61 @@ struct Renderer::Impl {
     const unsigned char up[4] = {128, 128, 255, 255};
     flatNormal.upload(GL_RGBA, GL_UNSIGNED_BYTE, up);
     glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
+  }
+  // The displaced path (RendererSettings::displace): `pomDisplace` gets every uniform `pom` has at this point
+  // (both run pom.frag), then its own, and draws the item as patches.
+  void drawDisplaced(const RenderItem& it, const RendererSettings& s, int w, int h) {
+    copyUniforms(pom, pomDisplace);
+    pomDisplace.use();
+    glUniform1i(pomDisplace.uniform("uDisplaced"), 1);
+    glUniform2f(pomDisplace.uniform("uViewport"), static_cast<float>(w), static_cast<float>(h));
+    glUniform1f(pomDisplace.uniform("uSegmentPixels"), std::max(s.displaceSegmentPixels, 0.5f));
+    glUniform1f(pomDisplace.uniform("uMaxLevel"), 64.0f);
+    glPatchParameteri(GL_PATCH_VERTICES, 3);
+    glDrawElements(GL_PATCHES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+    pom.use();
+  }
+  // Copies the values of `from`'s active uniforms to the uniforms of the same name in `to`.
+  static void copyUniforms(const Program& from, const Program& to) {
+    GLint count = 0;
+    glGetProgramiv(from.id(), GL_ACTIVE_UNIFORMS, &count);
+    for (GLint i = 0; i < count; ++i) {
+      char name[256];
+      GLsizei len = 0;
+      GLint size = 0;
+      GLenum type = 0;
+      glGetActiveUniform(from.id(), static_cast<GLuint>(i), sizeof name, &len, &size, &type, name);
+      std::string base(name, static_cast<size_t>(len));
+      if (base.size() > 3 && base.compare(base.size() - 3, 3, "[0]") == 0) base.resize(base.size() - 3);
+      for (GLint e = 0; e < size; ++e) {
+        const std::string n = size > 1 ? base + "[" + std::to_string(e) + "]" : base;
+        const GLint src = glGetUniformLocation(from.id(), n.c_str()), dst = glGetUniformLocation(to.id(), n.c_str());
+        if (src < 0 || dst < 0) continue;
+        float f[16];
+        GLint k[4];
+        switch (type) {
+          case GL_FLOAT: glGetUniformfv(from.id(), src, f); glProgramUniform1fv(to.id(), dst, 1, f); break;
+          case GL_FLOAT_VEC2: glGetUniformfv(from.id(), src, f); glProgramUniform2fv(to.id(), dst, 1, f); break;
+          case GL_FLOAT_VEC3: glGetUniformfv(from.id(), src, f); glProgramUniform3fv(to.id(), dst, 1, f); break;
+          case GL_FLOAT_VEC4: glGetUniformfv(from.id(), src, f); glProgramUniform4fv(to.id(), dst, 1, f); break;
+          case GL_FLOAT_MAT3:
+            glGetUniformfv(from.id(), src, f);
+            glProgramUniformMatrix3fv(to.id(), dst, 1, GL_FALSE, f);
+            break;
+          case GL_FLOAT_MAT4:
+            glGetUniformfv(from.id(), src, f);
+            glProgramUniformMatrix4fv(to.id(), dst, 1, GL_FALSE, f);
+            break;
+          case GL_INT_VEC2: case GL_BOOL_VEC2: glGetUniformiv(from.id(), src, k); glProgramUniform2iv(to.id(), dst, 1, k); break;
+          case GL_INT_VEC3: case GL_BOOL_VEC3: glGetUniformiv(from.id(), src, k); glProgramUniform3iv(to.id(), dst, 1, k); break;
+          case GL_INT_VEC4: case GL_BOOL_VEC4: glGetUniformiv(from.id(), src, k); glProgramUniform4iv(to.id(), dst, 1, k); break;
+          default:  // int, bool, samplers
+            glGetUniformiv(from.id(), src, k);
+            glProgramUniform1iv(to.id(), dst, 1, k);
+            break;
+        }
+      }
+    }
   }
   // The item's look (render/look.h): its materials' uniforms and its two texture arrays (units 8, 9).
   void bindLook(const Program& p, const RenderItem& it) {
@@ -283,7 +342,10 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
     glBindVertexArray(it.vao);
-    glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+    if (s.displace && it.height && s.debug != DebugView::Wireframe)
+      m.drawDisplaced(it, s, width_, height_);
+    else
+      glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
   }
   glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
   if (s.debug == DebugView::Shaded) {

@@ -11,6 +11,8 @@
 //     irradiance cube and a split-sum BRDF table, all made once and again only
 //     when the sun or sky settings change); the sky drawn as the background;
 //     exposure and an ACES fit tone map, sRGB output
+//   - optional displacement (settings().displace): tessellation shaders move the
+//     vertices by the height map, so a dented edge is no longer straight
 //   - debug views: height map, normal map, address map, wireframe
 // The tangent frame comes from screen-space derivatives of position and uv, so
 // meshes need no tangents and mirrored charts need no care.
@@ -67,6 +69,11 @@ struct RendererSettings {
   int minSteps = 8, maxSteps = 48;
   float lodFadeStart = 1.5f, lodFadeEnd = 3.5f;  // texture lod where POM fades to normal mapping
   GLuint addressMap = 0;                         // RG32F: shown by DebugView::Address
+  // Silhouettes that show dents: bodies with maps drawn through tessellation shaders, cut to about
+  // displaceSegmentPixels a segment on screen (at most 64 a triangle edge) and moved along the normal by
+  // (h - 0.5) k; the fragment stage then shades with the normal map without the parallax march.
+  bool displace = false;
+  float displaceSegmentPixels = 6.0f;
 };
 
 class Renderer {

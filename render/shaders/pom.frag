@@ -36,6 +36,7 @@ uniform float uExposure;
 uniform bool uIbl;  // false: a hemisphere of uSkyColor over uGroundColor instead of the cube maps
 uniform vec3 uSkyColor, uGroundColor;
 uniform bool uHasMaps;
+uniform bool uDisplaced;  // the geometry was moved by the height map (pom_displace.tese): no parallax march
 uniform float uBumpDepth;
 uniform vec3 uColor;  // sRGB material colour
 uniform vec3 uEye;
@@ -71,7 +72,9 @@ void main() {
     fade = 1.0 - smoothstep(uLodFade.x, uLodFade.y, lod);
     float cosV = max(-dot(V, N), 0.05);
     vec2 uvPerDepth = vec2(dot(gradU, V), dot(gradV, V)) / cosV;  // uv change per metre of descent
-    if (uMode == 0 && fade > 0.0) {
+    if (uDisplaced) {
+      // The surface is where the map puts it already: shade it where it is.
+    } else if (uMode == 0 && fade > 0.0) {
       // Linear march from the top of the height field (+k/2) down to its bottom (-k/2).
       int steps = int(mix(float(uMaxSteps), float(uMinSteps), cosV));
       float stepDepth = uBumpDepth / float(steps);

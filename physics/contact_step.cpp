@@ -161,6 +161,16 @@ void contactStep(StepContext& ctx, double h) {
   Scratch scratch;
   const bool reporting = !ctx.reportContacts.empty();
   std::vector<double> pushed(reporting ? pairs.size() : 0, 0.0);
+  thread_local std::vector<glm::dvec3> v0, w0;
+  const bool resting = ctx.settings.restingSolveRows > 0;
+  if (resting) {
+    v0.resize(ctx.bodies.size());
+    w0.resize(ctx.bodies.size());
+    for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+      v0[i] = ctx.bodies[i].v;
+      w0[i] = ctx.bodies[i].w;
+    }
+  }
   const int n = std::max(1, ctx.settings.contactPasses);
   const int refresh = std::max(1, ctx.settings.contactRefresh);
   for (int pass = 1; pass <= n; ++pass) {
@@ -203,6 +213,7 @@ void contactStep(StepContext& ctx, double h) {
       solvePair(ctx, pi, eps, report ? &pushed[pi] : nullptr);
     }
   }
+  if (resting) restingSolve(ctx, v0, w0);
   for (int c : ctx.lookCount) ctx.stats.contacts += c;  // each pair's last look
   if (reporting) reportContacts(ctx, pushed);
 }

@@ -110,6 +110,36 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     out.push_back(c);
   }
 }
+// Two convex polytopes, one of them a mesh: their contact manifold (polytope.h)
+// instead of the samples, which cannot hold a face lying on a face of the same
+// size (an arch's joints). Box on box keeps the samples (their face samples
+// give aligned stacks their support). False when the pair is not such a pair.
+bool manifoldContacts(int ia, const RigidBody& A, const Pose& pa, int ib, const RigidBody& B, const Pose& pb,
+                      std::vector<Contact>& out) {
+  const Shape& sa = *A.shape;
+  const Shape& sb = *B.shape;
+  if (!sa.polytope || !sb.polytope || (sa.type != ShapeType::Mesh && sb.type != ShapeType::Mesh)) return false;
+  const glm::dmat3 ra = glm::mat3_cast(pa.orientation);
+  const glm::dmat3 rat = glm::transpose(ra);
+  const glm::dmat3 rb = glm::mat3_cast(pb.orientation);
+  // B's shape frame into A's: x_A = rat (pb + rb (x_B - comB) - pa) + comA.
+  RigidMap map;
+  map.rotation = rat * rb;
+  map.translation = rat * (pb.position - pa.position - rb * B.localCom) + A.localCom;
+  thread_local std::vector<PolytopeContact> found;
+  polytopeContacts(*sa.polytope, *sb.polytope, map, found);
+  for (const PolytopeContact& f : found) {
+    Contact c;
+    c.a = f.normalOfA ? ia : ib;
+    c.b = f.normalOfA ? ib : ia;
+    c.normal = ra * f.normal;
+    c.point = pa.position + ra * (f.point - A.localCom);
+    c.phi = f.depth;
+    out.push_back(c);
+  }
+  return true;
+}
+
 // Deepest first; equal depths keep the order they were found in (a stable
 // insertion sort: the lists are short, and it allocates nothing).
 void sortContacts(std::vector<Contact>& out) {
@@ -141,6 +171,11 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
                                                                       B.shape->boundingRadius)
                                           : 0.0;
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
+  const bool bumpy = bump && (ctx.bumpNormals[static_cast<size_t>(pair.a)] || ctx.bumpNormals[static_cast<size_t>(pair.b)]);
+  if (!sweepA && !sweepB && !bumpy && manifoldContacts(pair.a, A, pa, pair.b, B, pb, out)) {
+    sortContacts(out);
+    return;
+  }
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
                  bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr,
                  sweepA ? &sa : nullptr, sweepA ? &sb : nullptr);
@@ -155,6 +190,10 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   out.clear();
   const RigidBody& A = ctx_->body(ia);
   const RigidBody& B = ctx_->body(ib);
+  if (manifoldContacts(ia, A, pa, ib, B, pb, out)) {
+    sortContacts(out);
+    return;
+  }
   contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out);
   contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out);
   sortContacts(out);

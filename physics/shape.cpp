@@ -109,8 +109,23 @@ double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dve
       return capsuleDistance(p, radius, halfHeight, gradient);
     case ShapeType::Cylinder:
       return cylinderDistance(p, radius, halfHeight, gradient);
-    case ShapeType::Mesh:
-      return grid->distance(p, gradient);
+    case ShapeType::Mesh: {
+      if (!polytope) return grid->distance(p, gradient);
+      // Convex: inside, the nearest face plane is the exact distance (the grid
+      // rounds the edges off, by up to a cell); outside, the grid's value, never
+      // below the plane distance (a lower bound there).
+      int face = 0;
+      const double tie = 0.1 * halfThickness();
+      const double planes = polytope->planeDistance(p, &face, hint, tie);
+      if (planes <= 0) {
+        if (gradient) *gradient = polytope->faces[static_cast<size_t>(face)].normal;
+        return planes;
+      }
+      const double field = grid->distance(p, gradient);
+      if (field >= planes) return field;
+      if (gradient) *gradient = polytope->faces[static_cast<size_t>(face)].normal;
+      return planes;
+    }
   }
   return 0;
 }
@@ -179,6 +194,7 @@ std::shared_ptr<Shape> makeBox(const glm::dvec3& size) {
   }
   s->boundsMin = -h;
   s->boundsMax = h;
+  s->polytope = boxPolytope(h);
   const double v = size.x * size.y * size.z;
   s->unitMass.volume = v;
   s->unitMass.inertia =
@@ -285,6 +301,7 @@ std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolutio
   s->boundsMin = glm::dvec3(mesh.boundsMin());
   s->boundsMax = glm::dvec3(mesh.boundsMax());
   s->grid = std::make_shared<SdfGrid>(mesh, gridResolution);
+  s->polytope = convexPolytope(mesh);
   for (const glm::dvec3& p : s->samples) {
     glm::dvec3 g;
     s->grid->distance(p, &g);

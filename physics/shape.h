@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "physics/mesh.h"
+#include "physics/polytope.h"
 #include "physics/sdf_grid.h"
 
 namespace crumple {
@@ -36,6 +37,10 @@ struct Shape {
   double boundingRadius = 0;              // about the shape origin
   MassProperties unitMass;                // density 1
   std::shared_ptr<const SdfGrid> grid;    // meshes only
+  // Boxes and convex meshes (of at most 64 faces): vertices, faces and edges.
+  // Two such shapes collide by their contact manifold (polytope.h) rather than
+  // by samples, and a convex mesh's distance inside is its exact plane distance.
+  std::shared_ptr<const ConvexPolytope> polytope;
 
   // Signed distance at p (shape frame) and, if asked, its unit gradient. Where
   // the gradient is ambiguous inside (a box's edges), `hint`, a unit direction

@@ -57,6 +57,14 @@ struct WorldSettings {
   // contact step's last geometry). With it the 10-level pyramid stands with
   // 10 contact passes, sleeping or not (tests/test_physics_stacks.cpp); 0 turns it off.
   int shockPasses = 3;
+  // Islands of at most this many contact rows (3 to 6 per contact group; no
+  // joints) are solved to convergence at the end of the contact step (projected
+  // Gauss-Seidel over accumulated impulses, resting_solve.cpp): the contact
+  // passes alone carry a load one contact a pass, and a ring of blocks (an
+  // arch) would sag a little every step. 0 turns it off.
+  int restingSolveRows = 192;
+  int restingSolveIterations = 1000;
+  double restingSolveTolerance = 1e-5;  // m/s: a sweep changing no row's velocity more ends it
   double penetrationSlop = 0.0005;     // m left alone by the positional projection
   double penetrationCorrection = 0.4;  // fraction removed per projection iteration
   int projectionIterations = 3;
@@ -131,6 +139,7 @@ struct StepStats {
   int awake = 0;
   int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
   int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
+  int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)
   StepProfile ms;
 };
 

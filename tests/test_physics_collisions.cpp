@@ -7,6 +7,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "physics_fixture.h"
+#include "test_meshes.h"
 
 using namespace crumple;
 using namespace crumple::test;
@@ -172,4 +173,45 @@ TEST_CASE("thin plates hold: nothing tunnels through a static plate down to the 
       }
     }
   }
+}
+
+TEST_CASE("convex meshes become polytopes; nonconvex ones keep the samples") {
+  const double pi = glm::pi<double>();
+  const auto wedge = convexPolytope(voussoirMesh(2.0, 0.4, 0.6, 0, pi / 10));
+  REQUIRE(wedge);
+  CHECK(wedge->faces.size() == 6);
+  CHECK(wedge->vertices.size() == 8);
+  CHECK(wedge->edges.size() == 12);
+  for (const auto& f : wedge->faces) CHECK(f.loop.size() == 4);
+  // Exact distance inside: a point on the mid-angle, 2.05 m out, below the inner face (a chord 2 cos 9 deg out).
+  const glm::dvec3 p(2.05 * std::cos(pi / 20), 2.05 * std::sin(pi / 20), 0);
+  CHECK(wedge->planeDistance(p) == Approx(-(2.05 - 2 * std::cos(pi / 20))).epsilon(1e-5));
+  CHECK_FALSE(convexPolytope(torusMesh(0.3f, 0.1f, 16, 8)));
+  const auto box = boxPolytope({0.5, 1, 1.5});
+  CHECK(box->faces.size() == 6);
+  CHECK(box->edgeDirections.size() == 3);
+}
+
+TEST_CASE("two voussoirs lying face on face touch over the whole joint, not at its centre") {
+  // The samples of a face lying on a face of the same size sit on the other's edges, neither in nor out:
+  // the manifold clips the joint's polygon instead, four corners deep.
+  const double pi = glm::pi<double>();
+  World w;
+  const int a = addShape(w, makeMeshShape(voussoirMesh(2.0, 0.4, 0.6, 0.4 * pi, 0.5 * pi)), {0, 0, 0}, 0.6, 0);
+  const int b = addShape(w, makeMeshShape(voussoirMesh(2.0, 0.4, 0.6, 0.5 * pi, 0.6 * pi)), {0, 0, 0}, 0.6, 0);
+  const RigidBody& A = w.body(a);
+  const RigidBody& B = w.body(b);
+  std::vector<Contact> contacts;
+  // B pressed 1 mm into A across the joint (the joint's normal is x).
+  w.findContacts(a, b, {A.x, A.q}, {B.x + glm::dvec3(0.001, 0, 0), B.q}, contacts);
+  REQUIRE(contacts.size() == 4);
+  glm::dvec3 lo(1e9), hi(-1e9);
+  for (const Contact& c : contacts) {
+    CHECK(c.phi == Approx(-0.001).epsilon(1e-3));
+    CHECK(std::abs(std::abs(c.normal.x) - 1) < 1e-9);
+    lo = glm::min(lo, c.point);
+    hi = glm::max(hi, c.point);
+  }
+  CHECK(hi.y - lo.y == Approx(0.4).epsilon(1e-3));  // the joint's radial extent
+  CHECK(hi.z - lo.z == Approx(0.6).epsilon(1e-3));  // and its depth
 }

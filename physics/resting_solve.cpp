@@ -1,0 +1,259 @@
+// Small islands solved to convergence (the end of the contact step).
+//
+// Guarantees:
+// - restingSolve: for each island of dynamic bodies joined by contact groups
+//   (no joints, at most settings.restingSolveRows rows: 3 per group, plus one
+//   per axis its patch can hold a torque about), the contact step's velocities
+//   are replaced by those of a projected Gauss-Seidel solve of the same groups
+//   (Catto's sequential impulses: accumulated totals, each clamped to what the
+//   contact can give: a push, Coulomb's cone, the centre of pressure inside the
+//   patch, the twist within torsional friction), begun from the velocities the
+//   contact step began with and swept back and forth until no row's velocity
+//   changes by more than restingSolveTolerance. Its totals become the groups'
+//   totals. An island not converged within restingSolveIterations sweeps
+//   keeps the contact step's velocities (stiff mass ratios converge slowly).
+// Why: the contact step's passes are a few sweeps, enough for a stack whose
+// load goes straight down, not for a ring: an arch carries each voussoir's
+// weight round to both springings, and with ten passes a residual approach
+// is left every step and the crown sags without end. Iterating to convergence
+// costs little on a small island.
+#include <algorithm>
+#include <cmath>
+
+#include "physics/step_context.h"
+
+namespace crumple::detail {
+
+namespace {
+
+struct Slot {
+  int body = -1;
+  bool dof = false;          // a dynamic body (its velocities change)
+  glm::dvec3 jl{0}, ja{0};   // Jacobian: linear, angular
+  glm::dvec3 ml{0}, ma{0};   // M^-1 J^T
+};
+struct Row {
+  size_t group;  // index into the island's group list
+  int kind;      // 0 normal, 1 t1, 2 t2, 3 torque t1, 4 torque t2, 5 twist
+  Slot s[2];
+};
+struct IslandGroup {
+  size_t pair, index;
+  int rowStart = 0, rows = 0;
+  bool torque1 = false, torque2 = false, twist = false;
+  double mu = 0, twistRadius = 0;
+};
+
+int find(std::vector<int>& parent, int i) {
+  while (parent[static_cast<size_t>(i)] != i) {
+    parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
+    i = parent[static_cast<size_t>(i)];
+  }
+  return i;
+}
+
+}  // namespace
+
+void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0) {
+  const int maxRows = ctx.settings.restingSolveRows;
+  if (maxRows <= 0) return;
+  const size_t nb = ctx.bodies.size();
+  // Islands of dynamic bodies through the pairs that have groups.
+  std::vector<int> parent(nb);
+  for (size_t i = 0; i < nb; ++i) parent[i] = static_cast<int>(i);
+  std::vector<char> joined(nb, 0);
+  for (const Joint& j : ctx.joints) {
+    if (j.removed || j.broken) continue;
+    if (j.def.a >= 0) joined[static_cast<size_t>(j.def.a)] = 1;
+    if (j.def.b >= 0) joined[static_cast<size_t>(j.def.b)] = 1;
+  }
+  auto dyn = [&](int i) { return ctx.body(i).dynamic(); };
+  bool anyGroup = false;
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
+    if (ctx.groups[pi].empty()) continue;
+    anyGroup = true;
+    const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
+    if (dyn(a) && dyn(b)) parent[static_cast<size_t>(find(parent, a))] = find(parent, b);
+  }
+  if (!anyGroup) return;
+  // Each island's groups, in pair order; an island with a joint or too many rows is left alone.
+  std::vector<int> rowCount(nb, 0);
+  std::vector<char> skip(nb, 0);
+  auto rootOf = [&](size_t pi) {
+    const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
+    return find(parent, dyn(a) ? a : b);
+  };
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
+    if (ctx.groups[pi].empty()) continue;
+    const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
+    if (!dyn(a) && !dyn(b)) continue;
+    const size_t r = static_cast<size_t>(rootOf(pi));
+    rowCount[r] += 6 * static_cast<int>(ctx.groups[pi].size());
+    if ((dyn(a) && joined[static_cast<size_t>(a)]) || (dyn(b) && joined[static_cast<size_t>(b)])) skip[r] = 1;
+  }
+  std::vector<IslandGroup> groups;
+  std::vector<Row> rows;
+  thread_local std::vector<double> scratchLambda, scratchDiag;
+  thread_local std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>> scratchKept;
+  for (size_t root = 0; root < nb; ++root) {
+    if (rowCount[root] == 0 || skip[root] || rowCount[root] > maxRows) continue;
+    groups.clear();
+    rows.clear();
+    for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
+      if (ctx.groups[pi].empty()) continue;
+      if (!dyn(ctx.pairs[pi].a) && !dyn(ctx.pairs[pi].b)) continue;
+      if (static_cast<size_t>(rootOf(pi)) != root) continue;
+      for (size_t gi = 0; gi < ctx.groups[pi].size(); ++gi) {
+        const ContactGroup& g = ctx.groups[pi][gi];
+        const PatchExtent& e = g.patch;
+        IslandGroup ig{pi, gi};
+        // Torque about t2 moves the centre of pressure along t1 (and the reverse).
+        ig.torque2 = e.hi1 - e.lo1 > 1e-6;
+        ig.torque1 = e.hi2 - e.lo2 > 1e-6;
+        ig.mu = std::sqrt(ctx.body(g.contact.a).friction * ctx.body(g.contact.b).friction);
+        ig.twistRadius = 0.77 * 0.25 * ((e.hi1 - e.lo1) + (e.hi2 - e.lo2));
+        ig.twist = ig.torque1 || ig.torque2;
+        ig.rowStart = static_cast<int>(rows.size());
+        const Contact& c = g.contact;
+        const glm::dvec3 dirs[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
+        for (int kind = 0; kind < 6; ++kind) {
+          if ((kind == 3 && !ig.torque1) || (kind == 4 && !ig.torque2) || (kind == 5 && !ig.twist)) continue;
+          Row row;
+          row.group = groups.size();
+          row.kind = kind;
+          const glm::dvec3& d = dirs[kind];
+          for (int side = 0; side < 2; ++side) {
+            Slot& s = row.s[side];
+            s.body = side ? c.b : c.a;
+            const RigidBody& body = ctx.body(s.body);
+            s.dof = body.dynamic();
+            const double sign = side ? 1.0 : -1.0;
+            const glm::dvec3& r = side ? g.levers.rb : g.levers.ra;
+            if (kind < 3) {
+              s.jl = sign * d;
+              s.ja = sign * glm::cross(r, d);
+            } else {
+              s.ja = sign * d;
+            }
+            if (s.dof) {
+              s.ml = body.invMass * s.jl;
+              s.ma = ctx.invInertia[static_cast<size_t>(s.body)] * s.ja;
+            }
+          }
+          rows.push_back(row);
+        }
+        ig.rows = static_cast<int>(rows.size()) - ig.rowStart;
+        groups.push_back(ig);
+      }
+    }
+    // Sequential impulses with accumulated, projected totals (projected Gauss-Seidel) over the island's rows,
+    // from the velocities the contact step began with, in alternating sweeps until no row changes its velocity
+    // by more than the tolerance.
+    const size_t m = rows.size();
+    std::vector<double>& lambda = scratchLambda;
+    std::vector<double>& diag = scratchDiag;
+    lambda.assign(m, 0.0);
+    diag.assign(m, 0.0);
+    for (size_t r = 0; r < m; ++r)
+      for (const Slot& s : rows[r].s)
+        if (s.dof) diag[r] += glm::dot(s.jl, s.ml) + glm::dot(s.ja, s.ma);
+    // The contact step's velocities, kept in case the solve does not converge.
+    std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>>& kept = scratchKept;
+    kept.clear();
+    for (const Row& row : rows)
+      for (const Slot& s : row.s)
+        if (s.dof) {
+          RigidBody& b = ctx.body(s.body);
+          kept.push_back({s.body, {b.v, b.w}});
+          b.v = v0[static_cast<size_t>(s.body)];
+          b.w = w0[static_cast<size_t>(s.body)];
+        }
+    auto apply = [&](const Row& row, double d) {
+      for (const Slot& s : row.s)
+        if (s.dof) {
+          RigidBody& b = ctx.body(s.body);
+          b.v += d * s.ml;
+          b.w += d * s.ma;
+        }
+    };
+    const double tolerance = ctx.settings.restingSolveTolerance;
+    const int iterations = std::max(1, ctx.settings.restingSolveIterations);
+    bool converged = false;
+    for (int it = 0; it < iterations && !converged; ++it) {
+      double largest = 0;
+      for (size_t k = 0; k < m; ++k) {
+        const size_t r = it % 2 ? m - 1 - k : k;
+        const Row& row = rows[r];
+        if (!(diag[r] > 0)) continue;
+        const IslandGroup& ig = groups[row.group];
+        const ContactGroup& g = ctx.groups[ig.pair][ig.index];
+        const PatchExtent& e = g.patch;
+        double u = 0;
+        for (const Slot& s : row.s) {
+          const RigidBody& b = ctx.body(s.body);
+          u += glm::dot(s.jl, b.v) + glm::dot(s.ja, b.w);
+        }
+        const double jn = lambda[static_cast<size_t>(ig.rowStart)];
+        double lo = -1e300, hi = 1e300;
+        switch (row.kind) {
+          case 0:
+            lo = 0;
+            break;
+          case 1:
+          case 2:
+            hi = ig.mu * jn;
+            lo = -hi;
+            break;
+          case 3:  // the centre of pressure T1 / jn along t2
+            lo = e.lo2 * jn;
+            hi = e.hi2 * jn;
+            break;
+          case 4:  // -T2 / jn along t1
+            lo = -e.hi1 * jn;
+            hi = -e.lo1 * jn;
+            break;
+          default:  // twist
+            hi = ig.mu * jn * ig.twistRadius;
+            lo = -hi;
+        }
+        const double next = std::clamp(lambda[r] - u / diag[r], lo, hi);
+        const double d = next - lambda[r];
+        if (d != 0) {
+          apply(row, d);
+          lambda[r] = next;
+          largest = std::max(largest, std::abs(d) * diag[r]);
+        }
+        if (row.kind == 2) {
+          // Coulomb's cone is round: the two friction rows together within mu jn.
+          const size_t r1 = r - 1;
+          const double t = std::hypot(lambda[r1], lambda[r]), limit = ig.mu * jn;
+          if (t > limit) {
+            const double f = limit / t;
+            apply(rows[r1], lambda[r1] * f - lambda[r1]);
+            apply(row, lambda[r] * f - lambda[r]);
+            lambda[r1] *= f;
+            lambda[r] *= f;
+          }
+        }
+      }
+      converged = largest < tolerance;
+    }
+    if (!converged) {
+      // Stiff mass ratios (a heavy body on a light one) converge slowly: the contact step's result stands.
+      for (auto it = kept.rbegin(); it != kept.rend(); ++it) {
+        ctx.body(it->first).v = it->second.first;
+        ctx.body(it->first).w = it->second.second;
+      }
+      continue;
+    }
+    ++ctx.stats.restingSolves;
+    for (const IslandGroup& ig : groups) {
+      ContactGroup& g = ctx.groups[ig.pair][ig.index];
+      const double* lam = &lambda[static_cast<size_t>(ig.rowStart)];
+      g.totals.normal = lam[0];
+      g.totals.tangential = lam[1] * g.patch.t1 + lam[2] * g.patch.t2;
+    }
+  }
+}
+
+}  // namespace crumple::detail

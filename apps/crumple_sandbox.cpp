@@ -232,6 +232,7 @@ void panel(App& app) {
   ImGui::Begin("crumple");
   ImGui::Text("t = %.2f s   step %ld", app.sim->world().time(), app.sim->steps());
   ImGui::Text("physics %.2f ms  deform %.2f ms  render %.2f ms", app.physicsMs, app.deformMs, app.renderMs);
+  ImGui::Text("%.1f fps", ImGui::GetIO().Framerate);
   ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.renderScale,
               app.autoScale ? ", auto" : "");
   ImGui::Text("collisions %zu  deformations %ld", app.sim->events().size(), app.sim->timings().deformations);
@@ -315,6 +316,11 @@ void panel(App& app) {
       s.parallax = static_cast<render::ParallaxMode>(mode);
     if (ImGui::Combo("view", &debug, "shaded\0height map\0normal map\0address map\0wireframe\0"))
       s.debug = static_cast<render::DebugView>(debug);
+    bool iblOn = s.ibl, aaOn = s.antialias == render::Antialias::Fxaa;
+    if (ImGui::Checkbox("sky light (IBL)", &iblOn)) s.ibl = iblOn;
+    ImGui::SameLine();
+    if (ImGui::Checkbox("antialiasing (FXAA)", &aaOn)) s.antialias = aaOn ? render::Antialias::Fxaa : render::Antialias::None;
+    ImGui::SliderFloat("exposure", &s.exposure, 0.1f, 3.0f, "%.2f", ImGuiSliderFlags_Logarithmic);
     ImGui::Checkbox("shadows", &s.shadows);
     ImGui::SameLine();
     ImGui::Checkbox("self-shadowing", &s.selfShadow);
@@ -348,7 +354,10 @@ int main(int argc, char** argv) {
   cli.add_option("--width", width, "Window width")->check(CLI::Range(64, 8192));
   cli.add_option("--height", height, "Window height")->check(CLI::Range(64, 8192));
   cli.add_flag("--quiet,-q", quiet, "Only errors");
-  std::string renderScale = "auto";
+  std::string renderScale = "auto", antialias = "fxaa";
+  cli.add_option("--antialias", antialias, "fxaa (default: an FXAA pass over the 3D view) or none")
+      ->check(CLI::IsMember({"fxaa", "none"}))
+      ->capture_default_str();
   cli.add_option("--render-scale", renderScale,
                  "The 3D view's resolution as a fraction of the window's (0.25 to 1), or 'auto': lowered while "
                  "rendering takes over 25 ms a frame (software GL), raised again below 10 ms")
@@ -397,6 +406,7 @@ int main(int argc, char** argv) {
     logInfo("GL: ", window.description());
     app.reset();
     app.renderer = std::make_unique<render::Renderer>(width, height);
+    app.renderer->settings().antialias = antialias == "none" ? render::Antialias::None : render::Antialias::Fxaa;
 
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();
@@ -410,6 +420,7 @@ int main(int argc, char** argv) {
     auto last = Clock::now();
     long frame = 0;
     double renderTotal = 0;
+    const auto loopStart = Clock::now();
     bool prevKeys[512] = {};
     auto pressed = [&](int key) {
       const bool down = glfwGetKey(window.window(), key) == GLFW_PRESS;
@@ -493,6 +504,7 @@ int main(int argc, char** argv) {
       window.swapBuffers();
       ++frame;
     }
+    const double loopSeconds = std::chrono::duration<double>(Clock::now() - loopStart).count();
     if (!saveScenePath.empty()) {
       saveScene(app, saveScenePath);
       logInfo("scene saved: ", saveScenePath);
@@ -507,9 +519,9 @@ int main(int argc, char** argv) {
     if (!quiet)
       std::printf(
           "crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; render %.1f ms a frame "
-          "(view scale %.2f at the end)\n",
+          "(view scale %.2f at the end), %.1f fps\n",
           frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations,
-          frame ? renderTotal / double(frame) : 0.0, app.renderScale);
+          frame ? renderTotal / double(frame) : 0.0, app.renderScale, loopSeconds > 0 ? frame / loopSeconds : 0.0);
     app.sim.reset();
     app.renderer.reset();
     return 0;

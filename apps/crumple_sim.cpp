@@ -72,11 +72,13 @@ int main(int argc, char** argv) {
       "crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
       "heightmaps/, normalmaps/, frames/)."};
   std::string scenePath, outDir, deformPath, trace, size = "960x540", exportFormat, video, videoCamera;
+  std::string antialias = "fxaa";
   double duration = -1, fps = 30;
   long steps = -1;
   int gpu = -1;
   std::vector<std::string> sets;
   bool renderFrames = false, quiet = false, verbose = false;
+  bool displace = false;
   app.add_option("scene", scenePath,
                  "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
   app.add_option("--out,-o", outDir, "Output folder (default: out/<scene name>). Written atomically.");
@@ -89,6 +91,13 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"gather", "scatter", "readback", "gpu"}));
   app.add_flag("--render", renderFrames, "Write frames/<camera>_<frame>.png for every camera of the scene");
   app.add_option("--size", size, "Frame size WxH for --render")->default_val("960x540");
+  app.add_flag("--displace", displace,
+               "Draw every camera with displacement (dents change silhouettes; tessellation shaders), as a camera's "
+               "\"displace\": true does for that camera");
+  app.add_option("--antialias", antialias,
+                 "Antialiasing of the rendered frames: fxaa (default: an FXAA pass over each frame) or none")
+      ->check(CLI::IsMember({"fxaa", "none"}))
+      ->capture_default_str();
   app.add_option("--fps", fps, "Frames per simulated second for --render")
       ->check(CLI::Range(0.01, 1000.0))
       ->default_val(30);
@@ -187,6 +196,8 @@ int main(int argc, char** argv) {
     if (renderFrames) {
       if (scene.cameras.empty()) logWarning("--render: the scene has no cameras; a default view is used");
       renderer = std::make_unique<render::Renderer>(width, height);
+      renderer->settings().displace = displace;
+      renderer->settings().antialias = antialias == "none" ? render::Antialias::None : render::Antialias::Fxaa;
       fs::create_directories(framesDir);
     }
     auto interrupted = [&](long step) {

@@ -63,6 +63,7 @@ struct Renderer::Impl {
   Program sky = program("sky.vert", "sky.frag");
   Program prefilter = program("sky.vert", "prefilter.frag");
   Program brdfLut = program("fullscreen.vert", "brdf_lut.frag");
+  Program fxaa = program("fullscreen.vert", "fxaa.frag");
   GlName<detail::deleteTexture> env{makeCube(kEnvSize, kEnvLevels, GL_RGBA16F)};
   GlName<detail::deleteTexture> prefiltered{makeCube(kPrefilterSize, kPrefilterLevels, GL_RGBA16F)};
   GlName<detail::deleteTexture> irradiance{makeCube(kIrradianceSize, 1, GL_RGBA16F)};
@@ -73,6 +74,8 @@ struct Renderer::Impl {
   VertexArray emptyVao;
   Texture2D color, depth;
   Framebuffer fbo;
+  Texture2D sceneColor;  // antialiased views: the frame before the FXAA pass (sharing `depth`)
+  Framebuffer sceneFbo;
   Texture2D shadowMap{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
   Framebuffer shadowFbo;
   Texture2D flatHeight{1, 1, GL_R32F}, flatNormal{1, 1, GL_RGBA8};
@@ -220,6 +223,26 @@ struct Renderer::Impl {
     fbo.attachColor(color);
     fbo.attachDepth(depth);
     fbo.checkComplete();
+    sceneColor = Texture2D(w, h, GL_SRGB8_ALPHA8);
+    sceneColor.setFilter(GL_LINEAR, GL_LINEAR);
+    sceneColor.setWrap(GL_CLAMP_TO_EDGE);
+    sceneFbo = Framebuffer();
+    sceneFbo.attachColor(sceneColor);
+    sceneFbo.attachDepth(depth);
+    sceneFbo.checkComplete();
+  }
+  // The FXAA pass: sceneColor into `target`.
+  void antialias(GLuint target, int w, int h) {
+    glBindFramebuffer(GL_FRAMEBUFFER, target);
+    glViewport(0, 0, w, h);
+    glDisable(GL_DEPTH_TEST);
+    glEnable(GL_FRAMEBUFFER_SRGB);
+    fxaa.use();
+    glUniform2f(fxaa.uniform("uTexel"), 1.0f / static_cast<float>(w), 1.0f / static_cast<float>(h));
+    glBindTextureUnit(0, sceneColor.id());
+    glBindVertexArray(emptyVao.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glEnable(GL_DEPTH_TEST);
   }
 };
 
@@ -239,9 +262,12 @@ GLuint Renderer::framebuffer() const { return impl_->fbo.id(); }
 
 void Renderer::draw(const std::vector<RenderItem>& items, const View& view) { drawTo(impl_->fbo.id(), items, view); }
 
-void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const View& view) {
+void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, const View& view) {
   Impl& m = *impl_;
   const RendererSettings& s = settings_;
+  // The shaded view draws into sceneFbo when antialiased, filtered into the target at the end.
+  const bool fxaa = s.antialias == Antialias::Fxaa && s.debug == DebugView::Shaded;
+  const GLuint target = fxaa ? m.sceneFbo.id() : finalTarget;
   // Fit the sun's orthographic frustum around everything.
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (const auto& it : items) {
@@ -367,6 +393,7 @@ void Renderer::drawTo(GLuint target, const std::vector<RenderItem>& items, const
     glDepthMask(GL_TRUE);
     glDepthFunc(GL_LESS);
   }
+  if (fxaa) m.antialias(finalTarget, width_, height_);
   glDisable(GL_FRAMEBUFFER_SRGB);
 }
 

@@ -11,6 +11,8 @@
 //     irradiance cube and a split-sum BRDF table, all made once and again only
 //     when the sun or sky settings change); the sky drawn as the background;
 //     exposure and an ACES fit tone map, sRGB output
+//   - antialiasing: an FXAA pass over the shaded frame (luma edges, blended
+//     across; render/shaders/fxaa.frag), on by default
 //   - optional displacement (settings().displace): tessellation shaders move the
 //     vertices by the height map, so a dented edge is no longer straight
 //   - debug views: height map, normal map, address map, wireframe
@@ -51,10 +53,13 @@ struct View {
   glm::vec3 eye{4, 3, 4}, target{0}, up{0, 1, 0};
   float fovDegrees = 45;
   float zNear = 0.05f, zFar = 500.0f;
+  bool displace = false;  // this view displaces as RendererSettings::displace does (a scene camera's "displace")
 };
 
 enum class ParallaxMode { Occlusion = 0, OffsetLimited = 1, None = 2 };
 enum class DebugView { Shaded = 0, Height = 1, Normal = 2, Address = 3, Wireframe = 4 };
+// Antialiasing of the shaded view (debug views are never filtered).
+enum class Antialias { None = 0, Fxaa = 1 };
 
 struct RendererSettings {
   ParallaxMode parallax = ParallaxMode::Occlusion;
@@ -64,6 +69,7 @@ struct RendererSettings {
   glm::vec3 skyColor{0.35f, 0.42f, 0.55f}, groundColor{0.18f, 0.16f, 0.14f};  // the sky's tint, the ground's
   float exposure = 0.7f;  // scales the light before the tone map
   bool ibl = true;        // image-based light from the sky (off: the sun alone, a flat sky tint as ambient)
+  Antialias antialias = Antialias::Fxaa;
   bool shadows = true;
   bool selfShadow = true;
   int minSteps = 8, maxSteps = 48;

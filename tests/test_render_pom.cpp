@@ -216,3 +216,77 @@ TEST_CASE("tracked vehicle: wheels and belts are drawn, and the grousers keep th
   // Meanwhile the belt went on with the body, more than a pitch.
   CHECK(sim.treadModel(tank, 0, false)[3].x - belt0 > pitch);
 }
+
+TEST_CASE("FXAA: edges are smoothed, flat areas keep their pixels, and it can be turned off") {
+  test::glContext();
+  Stage s;
+  s.dent(0.03, {0.3, 0, 0.2});
+  Renderer r(192, 128);
+  View v = topView();
+  v.eye = {0.9f, 1.2f, 1.9f};  // the plate's edges slanted against the sky, the ball's silhouette round
+  CHECK(r.settings().antialias == Antialias::Fxaa);  // on by default
+  r.settings().antialias = Antialias::None;
+  r.draw(s.items(true), v);
+  const Image off = r.readPixels();
+  r.settings().antialias = Antialias::Fxaa;
+  r.draw(s.items(true), v);
+  const Image on = r.readPixels();
+  auto luma = [](const Image& img, int x, int y) {
+    return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
+  };
+  // Pixels on an edge (a strong step within their 3x3 neighbourhood) whose value lies between its two
+  // sides: partly covered pixels. An aliased edge has almost none; a smoothed staircase has many.
+  auto between = [&](const Image& img, const Image& edges) {
+    long edge = 0, mid = 0;
+    for (int y = 1; y + 1 < img.height; ++y)
+      for (int x = 1; x + 1 < img.width; ++x) {
+        float lo = 1, hi = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            lo = std::min(lo, luma(edges, x + dx, y + dy));
+            hi = std::max(hi, luma(edges, x + dx, y + dy));
+          }
+        if (hi - lo < 0.08f) continue;
+        ++edge;
+        const float t = (luma(img, x, y) - lo) / (hi - lo);
+        mid += t > 0.2f && t < 0.8f;
+      }
+    return static_cast<double>(mid) / std::max(edge, 1L);
+  };
+  long changed = 0, flatChanged = 0, flat = 0;
+  for (int y = 1; y + 1 < off.height; ++y)
+    for (int x = 1; x + 1 < off.width; ++x) {
+      float lo = 1, hi = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          lo = std::min(lo, luma(off, x + dx, y + dy));
+          hi = std::max(hi, luma(off, x + dx, y + dy));
+        }
+      bool diff = false;
+      for (int c = 0; c < 3; ++c) diff = diff || std::abs(on.at(x, y, c) - off.at(x, y, c)) > 1.5f / 255.0f;
+      changed += diff;
+      if (hi - lo < 0.02f) {
+        ++flat;
+        flatChanged += diff;
+      }
+    }
+  const double midOff = between(off, off), midOn = between(on, off);
+  if (const char* dir = std::getenv("CRUMPLE_FXAA_DUMP")) {
+    writePng(std::string(dir) + "/fxaa_off.png", off, 8);
+    writePng(std::string(dir) + "/fxaa_on.png", on, 8);
+  }
+  MESSAGE("FXAA changed " << changed << " pixels; flat pixels changed " << flatChanged << " of " << flat
+                          << "; edge pixels between their sides " << midOff * 100 << "% -> " << midOn * 100 << "%");
+  CHECK(changed > 100);
+  CHECK(changed < off.width * off.height / 5);  // edges only
+  CHECK(flat > off.width * off.height / 4);
+  CHECK(flatChanged == 0);
+  CHECK(midOn > 1.5 * midOff);
+  // Debug views are never filtered.
+  r.settings().debug = DebugView::Height;
+  r.draw(s.items(true), v);
+  const Image heightOn = r.readPixels();
+  r.settings().antialias = Antialias::None;
+  r.draw(s.items(true), v);
+  CHECK(fractionOff(heightOn, r.readPixels()) == 0.0);
+}

@@ -32,6 +32,7 @@ tools/dent-view.py "$tmp/dent-gather/heightmaps/car.png" --compare "$tmp/dent-sc
 shoot sphere-into-plate main 1.5
 shoot pattern-box wall 3
 shoot pyramid front 2
+shoot arch main 5
 shoot brick-wall front 5
 shoot mixed-pile main 3
 shoot tank-tracks side 4

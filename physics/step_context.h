@@ -275,6 +275,8 @@ bool collide(StepContext& ctx, double h);
 // contact_step.cpp
 void integrateVelocities(StepContext& ctx, double h);
 void contactStep(StepContext& ctx, double h);
+// resting_solve.cpp (called by contactStep with the velocities it began with)
+void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0);
 // shock_propagation.cpp
 void shockPropagation(StepContext& ctx);
 // joint_step.cpp

@@ -79,6 +79,15 @@ struct App {
   void reset() {
     sim = std::make_unique<Simulation>(scene, true);
     for (auto& v : sim->vehicles()) v.manual = !autopilot;
+    if (scene.cameras.empty() && carBody() < 0) {
+      // The orbit starts where a camera-less scene's default camera looks from (its moving bodies framed).
+      const CameraDesc c = defaultCamera(*sim);
+      const glm::dvec3 d = c.position - c.target;
+      orbitTarget = glm::vec3(c.target);
+      orbitDistance = static_cast<float>(std::clamp(glm::length(d), 2.0, 80.0));
+      orbitYaw = static_cast<float>(std::atan2(d.z, d.x));
+      orbitPitch = static_cast<float>(std::asin(std::clamp(d.y / glm::length(d), -1.0, 1.0)));
+    }
   }
 
   // The scene picker: loads another scene (the --set overrides applied) and starts it; a bad one is reported

@@ -194,7 +194,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<render::Renderer> renderer;
     const fs::path framesDir = fs::path(writer.staging()) / "frames";
     if (renderFrames) {
-      if (scene.cameras.empty()) logWarning("--render: the scene has no cameras; a default view is used");
+      if (scene.cameras.empty()) logInfo("--render: the scene has no cameras; a default view frames its moving bodies");
       renderer = std::make_unique<render::Renderer>(width, height);
       renderer->settings().displace = displace;
       renderer->settings().antialias = antialias == "none" ? render::Antialias::None : render::Antialias::Fxaa;
@@ -215,12 +215,11 @@ int main(int argc, char** argv) {
     const bool tty = !quiet && isatty(STDERR_FILENO);
     const long frameEvery = std::max(1L, std::lround(1.0 / (fps * scene.timestep)));
     long frame = 0;
+    // Without cameras: one framing the moving bodies and where they will dent, fixed at the start.
+    const CameraDesc fallbackCamera = defaultCamera(sim);
     auto renderFrame = [&]() {
       std::vector<CameraDesc> cams = scene.cameras;
-      if (cams.empty()) {
-        cams.emplace_back();
-        cams.back().name = "default";
-      }
+      if (cams.empty()) cams.push_back(fallbackCamera);
       for (const auto& cam : cams) {
         char name[64];
         std::snprintf(name, sizeof name, "_%05ld.png", frame);

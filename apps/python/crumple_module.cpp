@@ -84,6 +84,7 @@ ojson eventsJson(Simulation& sim) {
     const auto& e = r.event;
     addBreaks(std::nextafter(e.time, -1.0));
     ojson line;
+    defaultCamera_ = defaultCamera(*sim_);  // framed once, on the bodies as they start
     line["t"] = e.time;
     line["type"] = "collision";
     std::string names[2];
@@ -208,6 +209,7 @@ class PySimulation {
     std::copy(h.pixels.begin(), h.pixels.begin() + static_cast<long>(h.width) * h.height, out.mutable_data());
     return out;
   }
+  CameraDesc defaultCamera_;  // for scenes without cameras
   py::array_t<float> normalMap(const std::string& name) {
     const BodyRuntime& b = mapped(name);
     const int n = b.surface->resolution();
@@ -233,10 +235,7 @@ class PySimulation {
       throw py::value_error("render: width and height must be in [16, 8192], got " + std::to_string(width) + "x" +
                             std::to_string(height));
     std::vector<CameraDesc> cams = scene_.cameras;
-    if (cams.empty()) {
-      cams.emplace_back();
-      cams.back().name = "default";
-    }
+    if (cams.empty()) cams.push_back(defaultCamera_);
     const CameraDesc* cam = camera ? nullptr : &cams.front();
     std::string names;
     for (const auto& c : cams) {

@@ -9,15 +9,19 @@
 //   overlap; sorted by (a, b), a < b, with no duplicates. A sleeping body in
 //   such a pair is woken.
 // - Each pair's candidate lists (bInA, aInB) hold every sample of one body that
-//   can come within the substep's margin of the other's surface (Verlet lists:
-//   kept from the last substep while the bodies have moved less than the skin
-//   they were built with, rebuilt otherwise).
+//   can come within the substep's margin of the other's surface, in sample
+//   order (Verlet lists: kept from the last substep while the bodies have moved
+//   less than the skin they were built with, rebuilt otherwise). A shape with
+//   a sample tree (sample_tree.h) has only the samples in the other's bounds
+//   looked at: the cost of a list is that of the samples near the other body,
+//   not of all of a big mesh's.
 // - ctx.predicted holds each body's predicted pose x + h (v + h a) (version 0),
 //   for the collision step's first look.
 // The order is unique whichever sort made it (ties by index): same input, same pairs.
 #include <algorithm>
 #include <numeric>
 
+#include "physics/sample_tree.h"
 #include "physics/step_context.h"
 
 namespace crumple::detail {
@@ -169,13 +173,25 @@ void findCandidates(StepContext& ctx, double h) {
       const glm::dmat3 rt = other.rotation();
       const glm::dmat3 m = rot * rt;
       const glm::dvec3 offset = rot * (other.x - owner.x - rt * other.localCom) + owner.localCom;
-      for (size_t k = 0; k < st.samples.size(); ++k) {
+      auto test = [&](uint32_t k) {
         const glm::dvec3 local = m * st.samples[k] + offset;
         if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
-          continue;
-        if (so.distance(local) - r > built) continue;
-        list.push_back(static_cast<uint32_t>(k));
+          return;
+        if (so.distance(local) - r > built) return;
+        list.push_back(k);
+      };
+      const SampleTree* tree = st.sampleTree.get();
+      if (!tree || tree->size() != st.samples.size()) {
+        for (size_t k = 0; k < st.samples.size(); ++k) test(static_cast<uint32_t>(k));
+        return;
       }
+      // Only the samples whose place in the owner's frame lies in the box: the
+      // box as the other's frame sees it (a little wider: the test decides).
+      const glm::dmat3 mt = glm::transpose(m);
+      const glm::dvec3 centre = mt * ((lo + hi) * 0.5 - offset);
+      const glm::dvec3 half = (hi - lo) * 0.5;
+      tree->query(centre, mt, half + 1e-9 * (1 + glm::length(centre) + glm::length(half)), test);
+      std::sort(list.begin(), list.end());  // in sample order, as a whole scan finds them
     };
     collect(A, B, pair.bInA);
     collect(B, A, pair.aInB);

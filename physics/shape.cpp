@@ -1,5 +1,7 @@
 #include "physics/shape.h"
 
+#include "physics/sample_tree.h"
+
 #include <algorithm>
 #include <cmath>
 #include <glm/gtc/constants.hpp>
@@ -92,7 +94,11 @@ double cylinderDistance(const glm::dvec3& p, double r, double hh, glm::dvec3* gr
 }
 
 // The radius about the shape origin of a sphere holding the bounding box.
-void finishBounds(Shape& s) { s.boundingRadius = glm::length(glm::max(glm::abs(s.boundsMin), glm::abs(s.boundsMax))); }
+// Also the samples' tree, where there are enough of them.
+void finishBounds(Shape& s) {
+  s.boundingRadius = glm::length(glm::max(glm::abs(s.boundsMin), glm::abs(s.boundsMax)));
+  if (s.samples.size() > SampleTree::kMinSamples) s.sampleTree = std::make_shared<const SampleTree>(s.samples);
+}
 
 }  // namespace
 

@@ -15,6 +15,8 @@
 
 namespace crumple {
 
+class SampleTree;
+
 enum class ShapeType { Box, Sphere, Capsule, Cylinder, Mesh };
 const char* shapeTypeName(ShapeType t);
 
@@ -41,6 +43,9 @@ struct Shape {
   // Two such shapes collide by their contact manifold (polytope.h) rather than
   // by samples, and a convex mesh's distance inside is its exact plane distance.
   std::shared_ptr<const ConvexPolytope> polytope;
+  // The samples in a tree (shapes of more than SampleTree::kMinSamples samples; made with
+  // the samples, unused unless it holds as many as they are): the broad phase's box queries.
+  std::shared_ptr<const SampleTree> sampleTree;
 
   // Signed distance at p (shape frame) and, if asked, its unit gradient. Where
   // the gradient is ambiguous inside (a box's edges), `hint`, a unit direction

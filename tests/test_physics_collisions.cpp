@@ -6,6 +6,7 @@
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include "physics/sample_tree.h"
 #include "physics_fixture.h"
 #include "test_meshes.h"
 
@@ -214,4 +215,59 @@ TEST_CASE("two voussoirs lying face on face touch over the whole joint, not at i
   }
   CHECK(hi.y - lo.y == Approx(0.4).epsilon(1e-3));  // the joint's radial extent
   CHECK(hi.z - lo.z == Approx(0.6).epsilon(1e-3));  // and its depth
+}
+
+TEST_CASE("sample tree: an oriented box query visits every sample inside it and few of the others") {
+  uint64_t state = 3;
+  auto u = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  std::vector<glm::dvec3> samples;
+  for (int i = 0; i < 5000; ++i) samples.push_back({2 * u() - 1, 2 * u() - 1, 0.5 * u()});
+  const SampleTree tree(samples);
+  REQUIRE(tree.size() == samples.size());
+  size_t visited = 0, inside = 0, missed = 0, twice = 0;
+  for (int q = 0; q < 200; ++q) {
+    const glm::dmat3 axes = glm::mat3_cast(glm::angleAxis(6.3 * u(), glm::normalize(glm::dvec3(u(), u(), u()) + 0.01)));
+    const glm::dvec3 centre(2 * u() - 1, 2 * u() - 1, 0.5 * u()), half(0.05 + 0.2 * u(), 0.05 + 0.2 * u(), 0.01);
+    std::vector<char> seen(samples.size(), 0);
+    tree.query(centre, axes, half, [&](uint32_t k) {
+      ++seen[k];
+      ++visited;
+    });
+    for (size_t k = 0; k < samples.size(); ++k) {
+      twice += seen[k] > 1;
+      const glm::dvec3 local = glm::transpose(axes) * (samples[k] - centre);
+      if (std::abs(local.x) <= half.x && std::abs(local.y) <= half.y && std::abs(local.z) <= half.z) {
+        ++inside;
+        missed += seen[k] != 1;
+      }
+    }
+  }
+  MESSAGE("sample tree: " << inside << " samples inside the boxes, " << visited << " visited of " << 200 * 5000);
+  CHECK(inside > 0);
+  CHECK(missed == 0);
+  CHECK(twice == 0);
+  CHECK(visited < 200 * 5000 / 10);  // thin boxes: a small fraction of the samples is looked at
+}
+
+TEST_CASE("sample tree: bodies on a mesh step to the same bits with the tree and without it") {
+  auto run = [](bool withTree) {
+    World w;
+    addGround(w, 0.6, 0.2);
+    auto torus = std::make_shared<Shape>(*makeMeshShape(torusMesh(0.6f, 0.2f, 32, 16), 32));
+    REQUIRE(torus->sampleTree);
+    if (!withTree) torus->sampleTree.reset();
+    BodyDef d;
+    d.shape = torus;
+    d.origin = {0, 0.3, 0};
+    d.orientation = glm::angleAxis(0.2, glm::dvec3(1, 0, 0));
+    w.addBody(d);
+    for (int k = 0; k < 12; ++k)
+      addBox(w, {0.15, 0.15, 0.15}, {-0.6 + 0.11 * k, 0.7 + 0.2 * (k % 3), 0.05 * (k % 4)}, 0.5, 0.3);
+    for (int s = 0; s < 240; ++s) w.step(1.0 / 240);
+    return w.stateHash();
+  };
+  CHECK(run(true) == run(false));
 }

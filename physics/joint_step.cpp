@@ -17,18 +17,25 @@
 //
 // Guarantees:
 // - preStabilize (twice a substep; the second call only when the contact step
-//   touched a joined body): motors first (velocity targets; the impulse over a substep is
-//   at most maxForce h, over both calls of the substep), then each joint's rows are solved for the impulse that
-//   makes the joint hold at the end of the substep, at the poses the position
-//   update will reach with the velocities (x + h v, q integrated from omega):
-//   a Newton step on the linearisation per joint and sweep, Gauss-Seidel over
-//   the joints in id order, until every joint's predicted violation is under
-//   jointTolerance or `sweeps` sweeps are done. Limits are one-sided rows at the
-//   bound, acting only where the predicted angle (hinge), offset (slider) or
-//   distance would leave the range.
+//   touched a joined body): motors first (velocity targets; the impulse over a
+//   substep is at most maxForce h, over both calls of the substep), then the
+//   joints' rows are solved for the impulses that make them hold at the end of
+//   the substep, at the poses the position update will reach with the
+//   velocities (x + h v, q integrated from omega). Each pass is a Newton step
+//   on the linearisation of all joints at once: the joints that form a forest
+//   over the bodies (what cannot move counting as one) are solved together by
+//   a sparse L D L^T factorisation over the joint graph (linear in the joints
+//   for chains and trees); each joint that closes a loop (a second joint
+//   between the same bodies, a ring, a second anchor to the world) is then
+//   solved alone (Gauss-Seidel). Passes go on until every joint's predicted
+//   violation is under jointTolerance or `sweeps` passes are done. Limits are
+//   one-sided rows at the bound, acting only where the predicted angle (hinge),
+//   offset (slider) or distance would leave the range.
 // - postStabilize (after the positions): the relative velocity each joint
-//   forbids is removed (limits: only the part that leaves the range),
-//   `jointPostIterations` sweeps; then every hinge's unwrapped angle is updated.
+//   forbids is removed (limits: only the part that leaves the range), one pass
+//   of the same solve (the rows are linear), up to `jointPostIterations` where
+//   limits, ranges or loops take part; then every hinge's unwrapped angle is
+//   updated.
 // - projectJoints (in the position step's projection, after each iteration over
 //   the contacts): one Gauss-Seidel sweep that translates each joint's bodies,
 //   split by inverse mass, to close its anchor gap (the part the joint forbids).
@@ -43,7 +50,9 @@
 // - A joint between two bodies that cannot move (static, kinematic, asleep) does
 //   nothing; a sleeping body joined to an awake one is woken first.
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <set>
 
 #include "physics/step_context.h"
 
@@ -71,41 +80,70 @@ void normalBasis(const glm::dvec3& n, glm::dvec3& t1, glm::dvec3& t2) {
   t2 = glm::cross(n, t1);
 }
 
-// One body's side of a joint (the world when index < 0).
+// One body's side of a joint (the world when index < 0): what stays put within
+// a pre- or post-stabilisation call (the pose, its rotation, the inverse mass
+// and world inverse inertia) and what a pass refreshes (the velocities and the
+// pose they reach after h).
 struct Side {
   int index = -1;
   double invMass = 0;
   glm::dmat3 invInertia{0};
   Pose pose;       // now
   Pose predicted;  // after h with the current velocities
+  glm::dmat3 R{1}, Rp{1};  // rotations of pose and predicted
   glm::dvec3 v{0}, w{0};
+
+  // A body-frame point or direction (world coordinates for the world), now or predicted.
+  glm::dvec3 point(const glm::dvec3& local, bool pred) const {
+    if (index < 0) return local;
+    return pred ? predicted.position + Rp * local : pose.position + R * local;
+  }
+  glm::dvec3 dir(const glm::dvec3& local, bool pred) const {
+    if (index < 0) return local;
+    return (pred ? Rp : R) * local;
+  }
+  glm::dquat rot(bool pred) const {
+    if (index < 0) return glm::dquat(1, 0, 0, 0);
+    return pred ? predicted.orientation : pose.orientation;
+  }
+  // The velocities from the body, and (pre) the pose they reach after h.
+  void refresh(const StepContext& ctx, double h, bool pred) {
+    if (index < 0) return;
+    const RigidBody& b = ctx.body(index);
+    if (!b.movable()) return;
+    v = b.v;
+    w = b.w;
+    if (pred) {
+      predicted = {b.x + h * b.v, integrateOrientation(b.q, b.w, h)};
+      Rp = glm::mat3_cast(predicted.orientation);
+    }
+  }
 };
 
-Side sideOf(const StepContext& ctx, int i, double h) {
+// A side now: the pose, the inverse masses, the velocities (predicted = now).
+Side sideAt(const StepContext& ctx, int i) {
   Side s;
   s.index = i;
   if (i < 0) return s;
   const RigidBody& b = ctx.body(i);
   s.pose = {b.x, b.q};
   s.predicted = s.pose;
+  s.R = s.Rp = glm::mat3_cast(b.q);
   if (!b.movable()) return s;
-  s.v = b.v;
-  s.w = b.w;
-  s.predicted = {b.x + h * b.v, integrateOrientation(b.q, b.w, h)};
   if (b.dynamic()) {
     s.invMass = b.invMass;
     s.invInertia = ctx.invInertia[static_cast<size_t>(i)];
   }
+  s.v = b.v;
+  s.w = b.w;
   return s;
 }
 
-glm::dvec3 pointOf(const Pose& p, const glm::dvec3& local, int index) {
-  return index < 0 ? local : p.position + glm::mat3_cast(p.orientation) * local;
+Side sideOf(const StepContext& ctx, int i, double h) {
+  Side s = sideAt(ctx, i);
+  s.refresh(ctx, h, true);
+  return s;
 }
-glm::dvec3 dirOf(const Pose& p, const glm::dvec3& local, int index) {
-  return index < 0 ? local : glm::mat3_cast(p.orientation) * local;
-}
-glm::dquat rotOf(const Pose& p, int index) { return index < 0 ? glm::dquat(1, 0, 0, 0) : p.orientation; }
 
 // The 6x6 map from (linear impulse at the anchors, torque impulse) on B to the
 // change of (relative anchor velocity, relative angular velocity).
@@ -173,29 +211,29 @@ void solveRows(const Mobility& m, const Row* rows, int n, const double* rhs, dou
 }
 
 // Applies a linear impulse j at the anchors and a torque impulse t on B (their opposites on A).
-void applyImpulse(StepContext& ctx, const Mobility& m, const Side& a, const Side& b, const glm::dvec3& j,
-                  const glm::dvec3& t) {
+void applyImpulse(StepContext& ctx, const glm::dvec3& ra, const glm::dvec3& rb, const Side& a, const Side& b,
+                  const glm::dvec3& j, const glm::dvec3& t) {
   if (a.index >= 0 && (a.invMass > 0)) {
     RigidBody& A = ctx.body(a.index);
     A.v -= j * a.invMass;
-    A.w -= a.invInertia * (glm::cross(m.ra, j) + t);
+    A.w -= a.invInertia * (glm::cross(ra, j) + t);
   }
   if (b.index >= 0 && (b.invMass > 0)) {
     RigidBody& B = ctx.body(b.index);
     B.v += j * b.invMass;
-    B.w += b.invInertia * (glm::cross(m.rb, j) + t);
+    B.w += b.invInertia * (glm::cross(rb, j) + t);
   }
 }
 
 // Applies sum lambda_k row_k on B (its opposite on A) and books it on the joint.
-void applyRows(StepContext& ctx, Joint& jt, const Mobility& m, const Side& a, const Side& b, const Row* rows, int n,
-               const double* lambda) {
+void applyRows(StepContext& ctx, Joint& jt, const glm::dvec3& ra, const glm::dvec3& rb, const Side& a, const Side& b,
+               const Row* rows, int n, const double* lambda) {
   glm::dvec3 j(0), t(0);
   for (int k = 0; k < n; ++k) {
     j += lambda[k] * rows[k].lin;
     t += lambda[k] * rows[k].ang;
   }
-  applyImpulse(ctx, m, a, b, j, t);
+  applyImpulse(ctx, ra, rb, a, b, j, t);
   jt.stepImpulse += j;
   jt.callLinear += j;
   jt.callAngular += t;
@@ -210,10 +248,9 @@ glm::dvec3 rotationVector(glm::dquat q) {
   return v * (2 * std::atan2(s, q.w) / s);
 }
 
-// The hinge angle at poses (pa, pb): B's reference direction against A's about A's axis.
-double hingeAngle(const Joint& jt, const Pose& pa, const Pose& pb) {
-  const glm::dvec3 n = dirOf(pa, jt.axisA, jt.def.a), ra = dirOf(pa, jt.refA, jt.def.a),
-                   rb = dirOf(pb, jt.refB, jt.def.b);
+// The hinge angle at the sides' poses (predicted or now): B's reference direction against A's about A's axis.
+double hingeAngle(const Joint& jt, const Side& a, const Side& b, bool pred) {
+  const glm::dvec3 n = a.dir(jt.axisA, pred), ra = a.dir(jt.refA, pred), rb = b.dir(jt.refB, pred);
   return std::atan2(glm::dot(n, glm::cross(ra, rb)), glm::dot(ra, rb));
 }
 
@@ -223,23 +260,37 @@ bool active(const StepContext& ctx, const Joint& jt) {
   return ma || mb;
 }
 
-// One Newton step of joint jt's rows towards its end-of-substep target (pre =
-// true) or its velocity target (pre = false). Returns the largest violation it saw.
-double solveJoint(StepContext& ctx, Joint& jt, double h, bool pre) {
+// What a joint forbids in one pass: its rows (at most 6), their errors (the
+// predicted violation for pre, the relative velocity for post) and the levers
+// the impulses act at (now).
+struct JointRows {
+  int n = 0;
+  Row rows[6];
+  double err[6] = {};
+  glm::dvec3 ra{0}, rb{0};
+  double worst = 0;  // m or rad (pre); m or rad per substep (post)
+};
+
+constexpr int kMainRows = 1, kLimitRow = 2;
+
+// The rows of joint jt towards its end-of-substep target (pre = true) or its
+// velocity target (pre = false); a hinge's or slider's limit row joins them
+// where the predicted angle or offset leaves the range (pre), or sits at a
+// bound and moves out of it (post).
+JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, bool pre, int parts = kMainRows | kLimitRow) {
   const JointDef& d = jt.def;
-  const Side a = sideOf(ctx, d.a, h), b = sideOf(ctx, d.b, h);
-  const Pose& pa = pre ? a.predicted : a.pose;
-  const Pose& pb = pre ? b.predicted : b.pose;
+  JointRows out;
   // Levers now (the impulse acts now); errors at the poses the step will reach.
-  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : dirOf(a.pose, jt.rA, d.a);
-  const glm::dvec3 rb = dirOf(b.pose, jt.rB, d.b);
-  const Mobility m = mobility(a, b, ra, rb);
-  const glm::dvec3 e = pointOf(pb, jt.rB, d.b) - pointOf(pa, jt.rA, d.a);  // anchor gap
+  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, false);
+  const glm::dvec3 rb = b.dir(jt.rB, false);
+  out.ra = ra;
+  out.rb = rb;
+  const glm::dvec3 e = b.point(jt.rB, pre) - a.point(jt.rA, pre);  // anchor gap
   const glm::dvec3 u = (b.v + glm::cross(b.w, rb)) - (a.v + glm::cross(a.w, ra));
   const glm::dvec3 omega = b.w - a.w;
-  Row rows[6];
-  double err[6];
-  int n = 0;
+  Row* rows = out.rows;
+  double* err = out.err;
+  int& n = out.n;
   auto linear = [&](const glm::dvec3& dir) {
     rows[n] = {dir, glm::dvec3(0)};
     err[n++] = pre ? glm::dot(dir, e) : glm::dot(dir, u);
@@ -248,17 +299,13 @@ double solveJoint(StepContext& ctx, Joint& jt, double h, bool pre) {
     rows[n] = {glm::dvec3(0), dir};
     err[n++] = pre ? angleError : glm::dot(dir, omega);
   };
-  const glm::dvec3 axis = d.type == JointType::Hinge || d.type == JointType::Slider
-                              ? glm::normalize(dirOf(pa, jt.axisA, d.a))
-                              : glm::dvec3(0, 1, 0);
-  glm::dvec3 t1, t2;
-  normalBasis(axis, t1, t2);
+  const bool axial = d.type == JointType::Hinge || d.type == JointType::Slider;
+  const glm::dvec3 axis = axial ? glm::normalize(a.dir(jt.axisA, pre)) : glm::dvec3(0, 1, 0);
+  glm::dvec3 t1(0), t2(0);
+  if (axial) normalBasis(axis, t1, t2);
   // Relative turn of B against its target relative to A (fixed, slider).
-  auto turnError = [&]() {
-    return rotationVector(rotOf(pb, d.b) * glm::conjugate(rotOf(pa, d.a) * jt.rel0));
-  };
-  double worst = 0;
-  switch (d.type) {
+  auto turnError = [&]() { return rotationVector(b.rot(pre) * glm::conjugate(a.rot(pre) * jt.rel0)); };
+  if (parts & kMainRows) switch (d.type) {
     case JointType::Ball:
       for (int k = 0; k < 3; ++k) linear(glm::dvec3(k == 0, k == 1, k == 2));
       break;
@@ -270,7 +317,7 @@ double solveJoint(StepContext& ctx, Joint& jt, double h, bool pre) {
     }
     case JointType::Hinge: {
       for (int k = 0; k < 3; ++k) linear(glm::dvec3(k == 0, k == 1, k == 2));
-      const glm::dvec3 th = pre ? glm::cross(axis, glm::normalize(dirOf(pb, jt.axisB, d.b))) : glm::dvec3(0);
+      const glm::dvec3 th = pre ? glm::cross(axis, glm::normalize(b.dir(jt.axisB, true))) : glm::dvec3(0);
       angular(t1, glm::dot(th, t1));
       angular(t2, glm::dot(th, t2));
       break;
@@ -294,90 +341,473 @@ double solveJoint(StepContext& ctx, Joint& jt, double h, bool pre) {
         err[n - 1] = len - (len > jt.maxLength ? jt.maxLength : jt.minLength);
       } else if (!pre) {
         // Post: only at a bound and moving out of the range.
-        const glm::dvec3 ep = pointOf(b.pose, jt.rB, d.b) - pointOf(a.pose, jt.rA, d.a);
-        const double l = glm::length(ep);
+        const double l = glm::length(b.point(jt.rB, false) - a.point(jt.rA, false));
         const double speed = glm::dot(dir, u);
         if ((l >= jt.maxLength - 1e-6 && speed > 0) || (l <= jt.minLength + 1e-6 && speed < 0)) linear(dir);
       }
       break;
     }
   }
-  if (n > 0) {
-    double rhs[6], lambda[6];
-    for (int k = 0; k < n; ++k) {
-      worst = std::max(worst, std::abs(err[k]) * (pre ? 1.0 : h));
-      rhs[k] = pre ? -err[k] / h : -err[k];
+  if (axial && d.limited && (parts & kLimitRow)) {
+    // The angle or offset: predicted (pre) or now (post).
+    const bool hinge = d.type == JointType::Hinge;
+    const double value = hinge ? jt.angle + wrapAngle(hingeAngle(jt, a, b, pre) - wrapAngle(jt.angle))
+                               : glm::dot(e, axis);
+    const double rate = hinge ? glm::dot(axis, omega) : glm::dot(axis, u);
+    const Row row = hinge ? Row{glm::dvec3(0), axis} : Row{axis, glm::dvec3(0)};
+    const double tol = 1e-6;
+    if (pre && (value > d.upper || value < d.lower)) {
+      rows[n] = row;
+      err[n++] = value - (value > d.upper ? d.upper : d.lower);
+    } else if (!pre && ((value >= d.upper - tol && rate > 0) || (value <= d.lower + tol && rate < 0))) {
+      rows[n] = row;
+      err[n++] = rate;
     }
-    solveRows(m, rows, n, rhs, lambda);
-    applyRows(ctx, jt, m, a, b, rows, n, lambda);
+  }
+  for (int k = 0; k < n; ++k) out.worst = std::max(out.worst, std::abs(err[k]) * (pre ? 1.0 : h));
+  return out;
+}
+
+// ---- the direct solve ---------------------------------------------------------
+//
+// Every pass solves all joints' rows at once: A lambda = rhs with
+// A = J W J^T (J the rows against the bodies' velocities, W their inverse
+// masses and inertias), one block per joint, joints coupled where they share
+// a dynamic body. A is factored as L D L^T over the joint graph in a minimum
+// degree order: a chain or any tree of bodies (whose joint graph is chordal)
+// is factored with no fill, in time linear in its joints, so a chain of any
+// length is solved in one pass instead of converging over Gauss-Seidel sweeps.
+// A row whose pivot vanishes (a direction no body can move in, or a joint
+// repeating another) gets lambda 0.
+
+struct Block {
+  double m[6][6];
+};
+
+// The symmetric (pseudo-)inverse of the n x n positive semi-definite matrix a
+// (LDL^T without pivoting). A pivot that is not above 1e-9 of the row's own
+// diagonal before any elimination (`scale`: what is left of it is rounding, the
+// row repeats others) is dropped: that row gets lambda 0.
+void pseudoInverse(const Block& a, int n, const double* scale, Block& inv) {
+  double L[6][6] = {}, d[6] = {}, invd[6] = {};
+  for (int k = 0; k < n; ++k) {
+    double dk = a.m[k][k];
+    for (int j = 0; j < k; ++j) dk -= L[k][j] * L[k][j] * d[j];
+    const bool dead = !(dk > 1e-9 * scale[k]) || !(scale[k] > 0);
+    d[k] = dead ? 0 : dk;
+    invd[k] = dead ? 0 : 1 / dk;
+    L[k][k] = 1;
+    for (int i = k + 1; i < n; ++i) {
+      if (dead) {
+        L[i][k] = 0;
+        continue;
+      }
+      double s = a.m[i][k];
+      for (int j = 0; j < k; ++j) s -= L[i][j] * L[k][j] * d[j];
+      L[i][k] = s / dk;
+    }
+  }
+  // inv = L^-T diag(invd) L^-1, column by column.
+  for (int c = 0; c < n; ++c) {
+    double y[6];
+    for (int i = 0; i < n; ++i) {
+      double s = i == c ? 1.0 : 0.0;
+      for (int j = 0; j < i; ++j) s -= L[i][j] * y[j];
+      y[i] = s;
+    }
+    for (int i = 0; i < n; ++i) y[i] *= invd[i];
+    for (int i = n - 1; i >= 0; --i) {
+      double s = y[i];
+      for (int j = i + 1; j < n; ++j) s -= L[j][i] * y[j];
+      y[i] = s;
+    }
+    for (int i = 0; i < n; ++i) inv.m[i][c] = y[i];
+  }
+}
+
+}  // namespace
+
+// The joints of a call, the bodies they join and the elimination order (kept
+// in StepContext::jointSolver while `signature` stays the same), and what each
+// pass fills in.
+struct JointSystem {
+  std::vector<int> signature;             // per active joint: id, and which of its ends are dynamic
+  std::vector<int> joints;                // active joints (ids), in id order
+  std::vector<int> slot;                  // per body index: its side in `sides`, or -1
+  std::vector<Side> sides;                // [0] is the world
+  std::vector<std::pair<int, int>> ends;  // per active joint: the slots of a and b
+  // Joints that close a loop (through each other or through what cannot move,
+  // e.g. a second joint between the same two bodies): solved one by one
+  // (Gauss-Seidel) between the direct solves of the others, which form a forest.
+  std::vector<int> loops;
+  std::vector<std::pair<int, int>> loopEnds;
+  // Per dynamic body slot: the joints (places in `joints`) on it, with +1 on B, -1 on A.
+  std::vector<std::vector<std::pair<int, int>>> onBody;
+  bool conditional = false;               // some rows come and go (limits, distance ranges)
+  std::vector<int> order, place;          // elimination position -> joint, joint -> position
+  std::vector<std::vector<int>> later;    // per position: the later positions L couples it to (sorted)
+  // Per pass.
+  std::vector<JointRows> rows;            // per joint
+  std::vector<Block> diag, inv;           // per position
+  std::vector<std::array<double, 6>> scale;  // per position: the diagonal before elimination
+  std::vector<std::vector<Block>> off;    // per position, along `later`
+  std::vector<std::array<double, 6>> x;   // per position
+  std::vector<Block> scratch;
+};
+
+JointSolverCache::JointSolverCache() = default;
+JointSolverCache::JointSolverCache(const JointSolverCache&) {}
+JointSolverCache& JointSolverCache::operator=(const JointSolverCache& o) {
+  if (this != &o) system.reset();
+  return *this;
+}
+JointSolverCache::~JointSolverCache() = default;
+
+namespace {
+
+// The system of this call: the cached one with the sides brought up to date
+// while the active joints and which of their ends are dynamic stay the same,
+// else built anew.
+JointSystem& buildSystem(StepContext& ctx) {
+  if (!ctx.jointSolver.system) ctx.jointSolver.system = std::make_unique<JointSystem>();
+  JointSystem& s = *ctx.jointSolver.system;
+  std::vector<int> signature;
+  signature.reserve(2 * s.signature.size());
+  for (size_t i = 0; i < ctx.joints.size(); ++i) {
+    const Joint& jt = ctx.joints[i];
+    if (!active(ctx, jt)) continue;
+    signature.push_back(static_cast<int>(i));
+    signature.push_back((jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() ? 1 : 0) | (ctx.body(jt.def.b).dynamic() ? 2 : 0));
+  }
+  if (signature == s.signature) {
+    for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k] = sideAt(ctx, s.sides[k].index);
+    return s;
+  }
+  s.signature.swap(signature);
+  s.conditional = false;
+  s.slot.assign(ctx.bodies.size(), -1);
+  s.sides.assign(1, Side{});
+  s.joints.clear();
+  s.ends.clear();
+  s.loops.clear();
+  s.loopEnds.clear();
+  s.onBody.assign(1, {});
+  // Components of the dynamic bodies joined to each other (union-find over
+  // the slots; slot 0, all that cannot move, joins nothing).
+  std::vector<int> root(1, 0);
+  auto find = [&](int k) {
+    while (root[static_cast<size_t>(k)] != k)
+      k = root[static_cast<size_t>(k)] = root[static_cast<size_t>(root[static_cast<size_t>(k)])];
+    return k;
+  };
+  auto slotOf = [&](int body) {
+    if (body < 0) return 0;
+    int& k = s.slot[static_cast<size_t>(body)];
+    if (k < 0) {
+      k = static_cast<int>(s.sides.size());
+      s.sides.push_back(sideAt(ctx, body));
+      s.onBody.emplace_back();
+      root.push_back(s.sides.back().invMass > 0 ? k : 0);
+    }
+    return k;
+  };
+  std::vector<int> active;
+  std::vector<std::pair<int, int>> ends;
+  for (size_t i = 0; i < ctx.joints.size(); ++i) {
+    const Joint& jt = ctx.joints[i];
+    if (!crumple::detail::active(ctx, jt)) continue;
+    const int sa = slotOf(jt.def.a), sb = slotOf(jt.def.b);
+    active.push_back(static_cast<int>(i));
+    ends.emplace_back(sa, sb);
+    const int ra = find(sa), rb = find(sb);
+    if (ra != 0 && rb != 0 && ra != rb) root[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
+  }
+  // A component is a tree (what cannot move counting as one more body) when it
+  // has no more joints than bodies; the others hold loops.
+  std::vector<int> bodies(s.sides.size(), 0), joints(s.sides.size(), 0);
+  for (size_t k = 1; k < s.sides.size(); ++k)
+    if (root[k] != 0) ++bodies[static_cast<size_t>(find(static_cast<int>(k)))];
+  auto componentOf = [&](const std::pair<int, int>& e) { return find(root[static_cast<size_t>(e.first)] != 0 ? e.first : e.second); };
+  for (const auto& e : ends) ++joints[static_cast<size_t>(componentOf(e))];
+  for (size_t k = 0; k < active.size(); ++k) {
+    const int i = active[k];
+    const Joint& jt = ctx.joints[static_cast<size_t>(i)];
+    const int sa = ends[k].first, sb = ends[k].second, c = componentOf(ends[k]);
+    if (joints[static_cast<size_t>(c)] > bodies[static_cast<size_t>(c)]) {
+      s.loops.push_back(i);
+      s.loopEnds.emplace_back(sa, sb);
+      continue;
+    }
+    const int kk = static_cast<int>(s.joints.size());
+    s.joints.push_back(i);
+    s.ends.emplace_back(sa, sb);
+    const bool axial = jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider;
+    if ((axial && jt.def.limited) || (jt.def.type == JointType::Distance && jt.minLength != jt.maxLength))
+      s.conditional = true;
+    if (s.sides[static_cast<size_t>(sa)].invMass > 0) s.onBody[static_cast<size_t>(sa)].emplace_back(kk, -1);
+    if (s.sides[static_cast<size_t>(sb)].invMass > 0) s.onBody[static_cast<size_t>(sb)].emplace_back(kk, +1);
+  }
+  // Minimum degree order over the joint graph (ties: the lower id), with the fill it makes.
+  const size_t n = s.joints.size();
+  std::vector<std::vector<int>> adj(n);
+  auto link = [&](int p, int q) {
+    auto& l = adj[static_cast<size_t>(p)];
+    const auto it = std::lower_bound(l.begin(), l.end(), q);
+    if (it == l.end() || *it != q) l.insert(it, q);
+  };
+  for (const auto& list : s.onBody)
+    for (size_t i = 0; i < list.size(); ++i)
+      for (size_t j = 0; j < list.size(); ++j)
+        if (list[i].first != list[j].first) link(list[i].first, list[j].first);
+  std::set<std::pair<size_t, int>> queue;
+  for (size_t k = 0; k < n; ++k) queue.emplace(adj[k].size(), static_cast<int>(k));
+  s.order.clear();
+  s.place.assign(n, -1);
+  std::vector<std::vector<int>> laterJoints;
+  while (!queue.empty()) {
+    const int p = queue.begin()->second;
+    queue.erase(queue.begin());
+    s.place[static_cast<size_t>(p)] = static_cast<int>(s.order.size());
+    s.order.push_back(p);
+    const std::vector<int> nb = adj[static_cast<size_t>(p)];
+    for (int q : nb) {
+      queue.erase({adj[static_cast<size_t>(q)].size(), q});
+      auto& l = adj[static_cast<size_t>(q)];
+      l.erase(std::lower_bound(l.begin(), l.end(), p));
+      for (int r : nb)
+        if (r != q) link(q, r);
+      queue.emplace(l.size(), q);
+    }
+    laterJoints.push_back(nb);
+  }
+  s.later.assign(n, {});
+  for (size_t p = 0; p < n; ++p) {
+    for (int q : laterJoints[p]) s.later[p].push_back(s.place[static_cast<size_t>(q)]);
+    std::sort(s.later[p].begin(), s.later[p].end());
+  }
+  s.rows.resize(n);
+  s.diag.resize(n);
+  s.inv.resize(n);
+  s.scale.resize(n);
+  s.off.resize(n);
+  for (size_t p = 0; p < n; ++p) s.off[p].resize(s.later[p].size());
+  s.x.resize(n);
+  return s;
+}
+
+// The velocities (and, pre, the predicted poses) of the bodies, then each joint's rows.
+double lookAtJoints(const StepContext& ctx, JointSystem& s, double h, bool pre) {
+  for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k].refresh(ctx, h, pre);
+  double worst = 0;
+  for (size_t k = 0; k < s.joints.size(); ++k) {
+    const Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
+    s.rows[k] = jointRows(jt, s.sides[static_cast<size_t>(s.ends[k].first)],
+                          s.sides[static_cast<size_t>(s.ends[k].second)], h, pre);
+    worst = std::max(worst, s.rows[k].worst);
+  }
+  for (size_t k = 0; k < s.loops.size(); ++k) {
+    const Joint& jt = ctx.joints[static_cast<size_t>(s.loops[k])];
+    worst = std::max(worst, jointRows(jt, s.sides[static_cast<size_t>(s.loopEnds[k].first)],
+                                      s.sides[static_cast<size_t>(s.loopEnds[k].second)], h, pre)
+                                .worst);
   }
   return worst;
 }
 
-// Motors and limits of hinges and sliders: one row each along the axis.
-double solveAxis(StepContext& ctx, Joint& jt, double h, bool pre) {
+// A hinge's or slider's motor: one row along the axis towards its speed, its
+// impulse over the substep clamped to maxForce h.
+void solveMotor(StepContext& ctx, Joint& jt, Side& a, Side& b, double h) {
   const JointDef& d = jt.def;
-  if (d.type != JointType::Hinge && d.type != JointType::Slider) return 0;
-  if (!d.limited && !(pre && d.motor.enabled)) return 0;
-  const Side a = sideOf(ctx, d.a, h), b = sideOf(ctx, d.b, h);
-  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : dirOf(a.pose, jt.rA, d.a);
-  const glm::dvec3 rb = dirOf(b.pose, jt.rB, d.b);
+  a.refresh(ctx, h, true);
+  b.refresh(ctx, h, true);
+  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, false);
+  const glm::dvec3 rb = b.dir(jt.rB, false);
   const Mobility m = mobility(a, b, ra, rb);
   const bool hinge = d.type == JointType::Hinge;
-  const glm::dvec3 axis = glm::normalize(dirOf(pre ? a.predicted : a.pose, jt.axisA, d.a));
+  const glm::dvec3 axis = glm::normalize(a.dir(jt.axisA, true));
   const Row row = hinge ? Row{glm::dvec3(0), axis} : Row{axis, glm::dvec3(0)};
   const glm::dvec3 u = (b.v + glm::cross(b.w, rb)) - (a.v + glm::cross(a.w, ra));
   const double rate = hinge ? glm::dot(axis, b.w - a.w) : glm::dot(axis, u);
-  double worst = 0;
-  double lambda = 0;
-  if (pre && d.motor.enabled) {
-    double l;
-    const double rhs = -(rate - d.motor.speed);
-    solveRows(m, &row, 1, &rhs, &l);
-    const double cap = d.motor.maxForce * h;
-    const double total = std::clamp(jt.motorImpulse + l, -cap, cap);
-    lambda = total - jt.motorImpulse;
-    jt.motorImpulse = total;
-    if (lambda != 0) applyRows(ctx, jt, m, a, b, &row, 1, &lambda);
-  }
-  if (!d.limited) return 0;
-  // The angle or offset: predicted (pre) or now (post).
-  const Side a2 = sideOf(ctx, d.a, h), b2 = sideOf(ctx, d.b, h);
-  const Pose& pa = pre ? a2.predicted : a2.pose;
-  const Pose& pb = pre ? b2.predicted : b2.pose;
-  double value;
-  if (hinge) {
-    value = jt.angle + wrapAngle(hingeAngle(jt, pa, pb) - wrapAngle(jt.angle));
-  } else {
-    value = glm::dot(pointOf(pb, jt.rB, d.b) - pointOf(pa, jt.rA, d.a), axis);
-  }
-  const double rate2 = hinge ? glm::dot(axis, b2.w - a2.w)
-                             : glm::dot(axis, (b2.v + glm::cross(b2.w, rb)) - (a2.v + glm::cross(a2.w, ra)));
-  double rhs = 0;
-  if (pre) {
-    if (value > d.upper) {
-      rhs = -(value - d.upper) / h;
-      worst = value - d.upper;
-    } else if (value < d.lower) {
-      rhs = -(value - d.lower) / h;
-      worst = d.lower - value;
-    } else {
-      return 0;
-    }
-  } else {
-    const double tol = 1e-6;
-    if (value >= d.upper - tol && rate2 > 0) {
-      rhs = -rate2;
-    } else if (value <= d.lower + tol && rate2 < 0) {
-      rhs = -rate2;
-    } else {
-      return 0;
-    }
-  }
-  solveRows(m, &row, 1, &rhs, &lambda);
-  if (lambda != 0) applyRows(ctx, jt, m, a2, b2, &row, 1, &lambda);
-  return worst;
+  // The effect of a unit impulse along the row on the rate.
+  const glm::dvec3 ul = m.K * row.lin + m.C * row.ang, ua = glm::transpose(m.C) * row.lin + m.A * row.ang;
+  const double mass = glm::dot(row.lin, ul) + glm::dot(row.ang, ua);
+  if (!(mass > 0)) return;
+  const double l = -(rate - d.motor.speed) / mass;
+  const double cap = d.motor.maxForce * h;
+  const double total = std::clamp(jt.motorImpulse + l, -cap, cap);
+  const double lambda = total - jt.motorImpulse;
+  jt.motorImpulse = total;
+  if (lambda != 0) applyRows(ctx, jt, ra, rb, a, b, &row, 1, &lambda);
 }
+
+// One Gauss-Seidel sweep over the joints of components with loops (a second
+// joint between two bodies, a ring, a second anchor to what cannot move),
+// where a direct solve would split the load between redundant rows at random:
+// each joint alone in id order, a Newton step with the velocities of the
+// moment; pre: its motor, its limit row, then its other rows; post: its rows, then its limit row.
+void solveLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
+  for (size_t k = 0; k < s.loops.size(); ++k) {
+    Joint& jt = ctx.joints[static_cast<size_t>(s.loops[k])];
+    Side& a = s.sides[static_cast<size_t>(s.loopEnds[k].first)];
+    Side& b = s.sides[static_cast<size_t>(s.loopEnds[k].second)];
+    if (pre && jt.def.motor.enabled && (jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider))
+      solveMotor(ctx, jt, a, b, h);
+    for (int part : {pre ? kLimitRow : kMainRows, pre ? kMainRows : kLimitRow}) {
+      a.refresh(ctx, h, pre);
+      b.refresh(ctx, h, pre);
+      const JointRows jr = jointRows(jt, a, b, h, pre, part);
+      if (jr.n == 0) continue;
+      double rhs[6], lambda[6];
+      for (int r = 0; r < jr.n; ++r) rhs[r] = pre ? -jr.err[r] / h : -jr.err[r];
+      solveRows(mobility(a, b, jr.ra, jr.rb), jr.rows, jr.n, rhs, lambda);
+      applyRows(ctx, jt, jr.ra, jr.rb, a, b, jr.rows, jr.n, lambda);
+    }
+  }
+}
+
+// Solves every joint's rows at once and applies the impulses.
+void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
+  const size_t n = s.joints.size();
+  auto size = [&](int pos) { return s.rows[static_cast<size_t>(s.order[static_cast<size_t>(pos)])].n; };
+  for (size_t p = 0; p < n; ++p) {
+    s.diag[p] = {};
+    for (Block& b : s.off[p]) b = {};
+  }
+  // A: per body, the effect of each of its joints' rows on each of its joints' rows.
+  struct Effect {
+    glm::dvec3 dv[6], dw[6];
+  };
+  std::vector<Effect> effects;
+  for (size_t slot = 1; slot < s.onBody.size(); ++slot) {
+    const auto& list = s.onBody[slot];
+    if (list.empty()) continue;
+    const Side& body = s.sides[slot];
+    effects.resize(list.size());
+    for (size_t i = 0; i < list.size(); ++i) {
+      const JointRows& jr = s.rows[static_cast<size_t>(list[i].first)];
+      const glm::dvec3 r = list[i].second > 0 ? jr.rb : jr.ra;
+      for (int k = 0; k < jr.n; ++k) {
+        const double sign = list[i].second;
+        effects[i].dv[k] = (sign * body.invMass) * jr.rows[k].lin;
+        effects[i].dw[k] = body.invInertia * (sign * (glm::cross(r, jr.rows[k].lin) + jr.rows[k].ang));
+      }
+    }
+    for (size_t i = 0; i < list.size(); ++i) {
+      const int p = s.place[static_cast<size_t>(list[i].first)];
+      const JointRows& jp = s.rows[static_cast<size_t>(list[i].first)];
+      const glm::dvec3 rp = list[i].second > 0 ? jp.rb : jp.ra;
+      for (size_t j = 0; j < list.size(); ++j) {
+        const int q = s.place[static_cast<size_t>(list[j].first)];
+        if (q < p) continue;  // the block (p, q) with p first in the order
+        const JointRows& jq = s.rows[static_cast<size_t>(list[j].first)];
+        Block* blk = &s.diag[static_cast<size_t>(p)];
+        if (q != p) {
+          const auto& l = s.later[static_cast<size_t>(p)];
+          blk = &s.off[static_cast<size_t>(p)][static_cast<size_t>(std::lower_bound(l.begin(), l.end(), q) - l.begin())];
+        }
+        for (int a = 0; a < jp.n; ++a)
+          for (int b = 0; b < jq.n; ++b) {
+            const glm::dvec3 dv = effects[j].dv[b], dw = effects[j].dw[b];
+            blk->m[a][b] += list[i].second * (glm::dot(jp.rows[a].lin, dv + glm::cross(dw, rp)) +
+                                              glm::dot(jp.rows[a].ang, dw));
+          }
+      }
+    }
+  }
+  // Factor: eliminate each position into the later ones it is coupled to; the
+  // off-diagonal blocks become D_p^-1 A_pq.
+  for (size_t p = 0; p < n; ++p)
+    for (int k = 0; k < size(static_cast<int>(p)); ++k) s.scale[p][static_cast<size_t>(k)] = s.diag[p].m[k][k];
+  for (size_t p = 0; p < n; ++p) {
+    const int np = size(static_cast<int>(p));
+    pseudoInverse(s.diag[p], np, s.scale[p].data(), s.inv[p]);
+    const auto& later = s.later[p];
+    std::vector<Block>& off = s.off[p];
+    std::vector<Block>& scaled = s.scratch;
+    scaled.resize(off.size());
+    for (size_t e = 0; e < later.size(); ++e) {
+      const int nq = size(later[e]);
+      for (int i = 0; i < np; ++i)
+        for (int c = 0; c < nq; ++c) {
+          double v = 0;
+          for (int k = 0; k < np; ++k) v += s.inv[p].m[i][k] * off[e].m[k][c];
+          scaled[e].m[i][c] = v;
+        }
+    }
+    for (size_t e1 = 0; e1 < later.size(); ++e1) {
+      const int q = later[e1], nq = size(q);
+      for (size_t e2 = e1; e2 < later.size(); ++e2) {
+        const int r = later[e2], nr = size(r);
+        Block* target = &s.diag[static_cast<size_t>(q)];
+        if (r != q) {
+          const auto& l = s.later[static_cast<size_t>(q)];
+          target = &s.off[static_cast<size_t>(q)][static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
+        }
+        for (int i = 0; i < nq; ++i)
+          for (int c = 0; c < nr; ++c) {
+            double v = 0;
+            for (int k = 0; k < np; ++k) v += off[e1].m[k][i] * scaled[e2].m[k][c];
+            target->m[i][c] -= v;
+          }
+      }
+    }
+    off.swap(scaled);
+  }
+  // Solve: forward, the diagonal, back.
+  for (size_t p = 0; p < n; ++p) {
+    const JointRows& jr = s.rows[static_cast<size_t>(s.order[p])];
+    for (int k = 0; k < jr.n; ++k) s.x[p][static_cast<size_t>(k)] = pre ? -jr.err[k] / h : -jr.err[k];
+  }
+  std::array<double, 6> y{};
+  for (size_t p = 0; p < n; ++p) {
+    const int np = size(static_cast<int>(p));
+    for (size_t e = 0; e < s.later[p].size(); ++e) {
+      const int q = s.later[p][e], nq = size(q);
+      for (int c = 0; c < nq; ++c) {
+        double v = 0;
+        for (int k = 0; k < np; ++k) v += s.off[p][e].m[k][c] * s.x[p][static_cast<size_t>(k)];
+        s.x[static_cast<size_t>(q)][static_cast<size_t>(c)] -= v;
+      }
+    }
+  }
+  for (size_t p = 0; p < n; ++p) {
+    const int np = size(static_cast<int>(p));
+    for (int i = 0; i < np; ++i) {
+      double v = 0;
+      for (int k = 0; k < np; ++k) v += s.inv[p].m[i][k] * s.x[p][static_cast<size_t>(k)];
+      y[static_cast<size_t>(i)] = v;
+    }
+    for (int i = 0; i < np; ++i) s.x[p][static_cast<size_t>(i)] = y[static_cast<size_t>(i)];
+  }
+  for (size_t p = n; p-- > 0;) {
+    const int np = size(static_cast<int>(p));
+    for (size_t e = 0; e < s.later[p].size(); ++e) {
+      const int q = s.later[p][e], nq = size(q);
+      for (int i = 0; i < np; ++i) {
+        double v = 0;
+        for (int c = 0; c < nq; ++c) v += s.off[p][e].m[i][c] * s.x[static_cast<size_t>(q)][static_cast<size_t>(c)];
+        s.x[p][static_cast<size_t>(i)] -= v;
+      }
+    }
+  }
+  // Apply, in id order.
+  for (size_t k = 0; k < n; ++k) {
+    const JointRows& jr = s.rows[k];
+    if (jr.n == 0) continue;
+    Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
+    applyRows(ctx, jt, jr.ra, jr.rb, s.sides[static_cast<size_t>(s.ends[k].first)],
+              s.sides[static_cast<size_t>(s.ends[k].second)], jr.rows, jr.n,
+              s.x[static_cast<size_t>(s.place[k])].data());
+  }
+}
+
+// A pass (after a look at the joints): the forest at once, then the loops one
+// by one (a loop joint takes only what the forest leaves to it).
+void solvePass(StepContext& ctx, JointSystem& s, double h, bool pre) {
+  solveSystem(ctx, s, h, pre);
+  solveLoops(ctx, s, h, pre);
+}
+
 
 // Before a call's sweeps: what each joint applies in the call is booked from zero.
 void startCall(StepContext& ctx) {
@@ -403,9 +833,8 @@ void yieldJoints(StepContext& ctx, double h) {
     double f = 0;
     if (jj > 0) f = std::clamp((-pj + std::sqrt(std::max(0.0, pj * pj - jj * (glm::dot(p, p) - B * B)))) / jj, 0.0, 1.0);
     const Side a = sideOf(ctx, jt.def.a, h), b = sideOf(ctx, jt.def.b, h);
-    const glm::dvec3 ra = jt.def.a < 0 ? glm::dvec3(0) : dirOf(a.pose, jt.rA, jt.def.a);
-    const Mobility m = mobility(a, b, ra, dirOf(b.pose, jt.rB, jt.def.b));
-    applyImpulse(ctx, m, a, b, -(1 - f) * j, -(1 - f) * jt.callAngular);
+    const glm::dvec3 ra = jt.def.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, false);
+    applyImpulse(ctx, ra, b.dir(jt.rB, false), a, b, -(1 - f) * j, -(1 - f) * jt.callAngular);
     jt.stepImpulse = p + f * j;
     jt.broken = true;
     ctx.jointExcludedDirty = true;
@@ -443,15 +872,17 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     if (!any) return;
   }
   startCall(ctx);
-  for (int s = 0; s < sweeps; ++s) {
-    double worst = 0;
-    for (Joint& jt : ctx.joints) {
-      if (!active(ctx, jt)) continue;
-      worst = std::max(worst, solveAxis(ctx, jt, h, true));
-      worst = std::max(worst, solveJoint(ctx, jt, h, true));
+  JointSystem& s = buildSystem(ctx);
+  for (int sweep = 0; sweep < sweeps; ++sweep) {
+    for (size_t k = 0; k < s.joints.size(); ++k) {
+      Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
+      if (jt.def.motor.enabled && (jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider))
+        solveMotor(ctx, jt, s.sides[static_cast<size_t>(s.ends[k].first)], s.sides[static_cast<size_t>(s.ends[k].second)],
+                   h);
     }
     ++ctx.stats.jointSweeps;
-    if (worst < ctx.settings.jointTolerance) break;
+    if (lookAtJoints(ctx, s, h, true) < ctx.settings.jointTolerance) break;
+    solvePass(ctx, s, h, true);
   }
   yieldJoints(ctx, h);
 }
@@ -459,17 +890,19 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
 void postStabilize(StepContext& ctx, double h) {
   if (ctx.joints.empty()) return;
   startCall(ctx);
-  for (int s = 0; s < ctx.settings.jointPostIterations; ++s)
-    for (Joint& jt : ctx.joints) {
-      if (!active(ctx, jt)) continue;
-      solveJoint(ctx, jt, h, false);
-      solveAxis(ctx, jt, h, false);
-    }
+  JointSystem& s = buildSystem(ctx);
+  // The velocity rows are linear: one solve removes them; more passes only
+  // where limit or range rows may join or leave.
+  for (int pass = 0; pass < ctx.settings.jointPostIterations; ++pass) {
+    if (!(lookAtJoints(ctx, s, h, false) > 1e-3 * ctx.settings.jointTolerance)) break;
+    solvePass(ctx, s, h, false);
+    if (!s.conditional && s.loops.empty()) break;
+  }
   yieldJoints(ctx, h);
   for (Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.type != JointType::Hinge) continue;
-    const Side a = sideOf(ctx, jt.def.a, h), b = sideOf(ctx, jt.def.b, h);
-    jt.angle += wrapAngle(hingeAngle(jt, a.pose, b.pose) - wrapAngle(jt.angle));
+    const Side a = sideAt(ctx, jt.def.a), b = sideAt(ctx, jt.def.b);
+    jt.angle += wrapAngle(hingeAngle(jt, a, b, false) - wrapAngle(jt.angle));
   }
 }
 
@@ -480,10 +913,12 @@ void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved) {
     const double wa = d.a >= 0 && ctx.body(d.a).dynamic() ? ctx.body(d.a).invMass : 0;
     const double wb = ctx.body(d.b).dynamic() ? ctx.body(d.b).invMass : 0;
     if (wa + wb <= 0) continue;
-    const Side a = sideOf(ctx, d.a, 0), b = sideOf(ctx, d.b, 0);
-    glm::dvec3 e = pointOf(b.pose, jt.rB, d.b) - pointOf(a.pose, jt.rA, d.a);
+    // Orientations stay put in the projection (translations only).
+    auto dir = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).q * local; };
+    auto point = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).x + ctx.body(i).q * local; };
+    glm::dvec3 e = point(d.b, jt.rB) - point(d.a, jt.rA);
     if (d.type == JointType::Slider) {
-      const glm::dvec3 axis = glm::normalize(dirOf(a.pose, jt.axisA, d.a));
+      const glm::dvec3 axis = glm::normalize(dir(d.a, jt.axisA));
       e -= glm::dot(e, axis) * axis;
     } else if (d.type == JointType::Distance) {
       const double len = glm::length(e);

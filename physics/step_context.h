@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -63,6 +64,19 @@ struct Joint {
   glm::dvec3 stepImpulse{0};      // linear impulse at the anchor over the step so far
   glm::dvec3 callStart{0}, callLinear{0}, callAngular{0};  // this pre- or post-stabilisation call's share
   double motorImpulse = 0;        // this substep's motor impulse (clamped to maxForce h)
+};
+
+// The joint solver's view of the joint graph (joint_step.cpp): which joints
+// are active, the bodies they join and the elimination order, kept from one
+// call to the next while the joints and their bodies' states stay the same.
+// A copy is empty (it is rebuilt on use: results never depend on it).
+struct JointSystem;
+struct JointSolverCache {
+  std::unique_ptr<JointSystem> system;
+  JointSolverCache();
+  JointSolverCache(const JointSolverCache&);
+  JointSolverCache& operator=(const JointSolverCache&);
+  ~JointSolverCache();
 };
 
 // ---- helpers the stages share ------------------------------------------------
@@ -118,6 +132,7 @@ struct StepContext {
   std::vector<uint64_t> groupMasks = std::vector<uint64_t>(64, ~0ull);  // bit g of groupMasks[f]: f and g collide
   std::vector<uint64_t> jointExcluded;  // sorted pair keys of bodies joined without collideConnected
   bool jointExcludedDirty = false;
+  JointSolverCache jointSolver;
   World::CollisionFilter filter;
   // What the last step produced (all its substeps).
   std::vector<CollisionEvent> events, contactReports;

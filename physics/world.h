@@ -14,9 +14,10 @@
 //   6. sleeping:   islands whose bodies all stayed still for `sleepTime` freeze
 //
 // Joints (physics/joint.h; Weinstein, Teran & Fedkiw 2006) join the step as
-// impulses: after 2, pre-stabilisation finds for each joint the impulse that
-// makes it hold at the end of the step (motors and limits first), swept
-// Gauss-Seidel until the largest violation is under `jointTolerance`; again
+// impulses: after 2, pre-stabilisation finds the joints' impulses that make
+// them hold at the end of the step (motors first; Newton steps that solve all
+// joints at once, a direct solve over the joint graph, until the largest
+// violation is under `jointTolerance`); again
 // after 4 for what the contacts moved; after 5, post-stabilisation removes the
 // relative velocity each joint forbids. A joint whose linear impulse over a
 // step passes its breakImpulse breaks. Kinematic bodies move with their
@@ -81,9 +82,10 @@ struct WorldSettings {
   double sleepLinear = 0.05;   // m/s
   double sleepAngular = 0.08;  // rad/s
   double sleepTime = 0.5;      // s
-  // Joints: pre-stabilisation sweeps at most (each a Newton step per joint),
-  // until every joint's predicted violation is under the tolerance; then
-  // post-stabilisation sweeps over the velocities.
+  // Joints: pre-stabilisation passes at most (each a Newton step for all
+  // joints at once), until every joint's predicted violation is under the
+  // tolerance; then post-stabilisation passes over the velocities (one
+  // suffices unless limits, distance ranges or joints that close loops take part).
   int jointIterations = 10;
   double jointTolerance = 1e-5;  // m, and rad for the angular parts
   int jointPostIterations = 4;

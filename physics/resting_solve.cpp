@@ -3,12 +3,15 @@
 // Guarantees:
 // - restingSolve: for each island of dynamic bodies joined by contact groups
 //   (no joints, at most settings.restingSolveRows rows: 3 per group, plus one
-//   per axis its patch can hold a torque about), the contact step's velocities
+//   per axis its patch can hold a torque about) that holds a convex mesh block
+//   and that the contact step left approaching faster than restingSolveTrigger
+//   somewhere (or that was solved the substep before), the contact step's velocities
 //   are replaced by those of a projected Gauss-Seidel solve of the same groups
 //   (Catto's sequential impulses: accumulated totals, each clamped to what the
 //   contact can give: a push, Coulomb's cone, the centre of pressure inside the
 //   patch, the twist within torsional friction), begun from the velocities the
-//   contact step began with and swept back and forth until no row's velocity
+//   contact step began with plus last substep's totals of the same groups
+//   (matched by pair and normal: a warm start), and swept back and forth until no row's velocity
 //   changes by more than restingSolveTolerance. Its totals become the groups'
 //   totals. An island not converged within restingSolveIterations sweeps
 //   keeps the contact step's velocities (stiff mass ratios converge slowly).
@@ -75,7 +78,10 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
     if (dyn(a) && dyn(b)) parent[static_cast<size_t>(find(parent, a))] = find(parent, b);
   }
-  if (!anyGroup) return;
+  if (!anyGroup) {
+    ctx.restingWarm.clear();
+    return;
+  }
   // Each island's groups, in pair order; an island with a joint or too many rows is left alone.
   std::vector<int> rowCount(nb, 0);
   std::vector<char> skip(nb, 0);
@@ -91,6 +97,27 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     rowCount[r] += 6 * static_cast<int>(ctx.groups[pi].size());
     if ((dyn(a) && joined[static_cast<size_t>(a)]) || (dyn(b) && joined[static_cast<size_t>(b)])) skip[r] = 1;
   }
+  // The pairs of each island, in pair order (a counting sort by root).
+  std::vector<int> first(nb + 1, 0);
+  std::vector<size_t> islandPairs;
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi)
+    if (!ctx.groups[pi].empty() && (dyn(ctx.pairs[pi].a) || dyn(ctx.pairs[pi].b)))
+      ++first[static_cast<size_t>(rootOf(pi)) + 1];
+  for (size_t i = 0; i < nb; ++i) first[i + 1] += first[i];
+  islandPairs.resize(static_cast<size_t>(first[nb]));
+  {
+    std::vector<int> at(first.begin(), first.end() - 1);
+    for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi)
+      if (!ctx.groups[pi].empty() && (dyn(ctx.pairs[pi].a) || dyn(ctx.pairs[pi].b)))
+        islandPairs[static_cast<size_t>(at[static_cast<size_t>(rootOf(pi))]++)] = pi;
+  }
+  // Last substep's totals (warm start), by pair key.
+  std::vector<RestingWarm> previous;
+  previous.swap(ctx.restingWarm);
+  ctx.restingWarm.clear();
+  auto key = [&](size_t pi) {
+    return static_cast<uint64_t>(ctx.pairs[pi].a) << 32 | static_cast<uint32_t>(ctx.pairs[pi].b);
+  };
   std::vector<IslandGroup> groups;
   std::vector<Row> rows;
   thread_local std::vector<double> scratchLambda, scratchDiag;
@@ -99,10 +126,33 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     if (rowCount[root] == 0 || skip[root] || rowCount[root] > maxRows) continue;
     groups.clear();
     rows.clear();
-    for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
-      if (ctx.groups[pi].empty()) continue;
-      if (!dyn(ctx.pairs[pi].a) && !dyn(ctx.pairs[pi].b)) continue;
-      if (static_cast<size_t>(rootOf(pi)) != root) continue;
+    // Solved when the contact step left an approach at one of its groups, or when it was solved last substep,
+    // and only islands with a convex mesh block (masonry: arches, walls of cut stone). Box stacks and piles
+    // keep the contact step's result: there the projected Gauss-Seidel sweeps did not converge within a few
+    // hundred sweeps (many redundant face rows), and the contact step with shock propagation holds them.
+    bool needed = false, masonry = false;
+    for (int k = first[root]; k < first[root + 1] && !masonry; ++k) {
+      const Pair& pair = ctx.pairs[islandPairs[static_cast<size_t>(k)]];
+      for (int i : {pair.a, pair.b}) {
+        const Shape& shape = *ctx.body(i).shape;
+        masonry = masonry || (ctx.body(i).dynamic() && shape.type == ShapeType::Mesh && shape.polytope);
+      }
+    }
+    if (!masonry) continue;
+    for (int k = first[root]; k < first[root + 1] && !needed; ++k) {
+      const size_t pi = islandPairs[static_cast<size_t>(k)];
+      const uint64_t pk = key(pi);
+      const auto w = std::lower_bound(previous.begin(), previous.end(), pk,
+                                      [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
+      if (w != previous.end() && w->key == pk) needed = true;
+      for (const ContactGroup& g : ctx.groups[pi])
+        if (glm::dot(ctx.relativeVelocity(g.contact.a, g.contact.b, g.levers), g.contact.normal) <
+            -ctx.settings.restingSolveTrigger)
+          needed = true;
+    }
+    if (!needed) continue;
+    for (int k = first[root]; k < first[root + 1]; ++k) {
+      const size_t pi = islandPairs[static_cast<size_t>(k)];
       for (size_t gi = 0; gi < ctx.groups[pi].size(); ++gi) {
         const ContactGroup& g = ctx.groups[pi][gi];
         const PatchExtent& e = g.patch;
@@ -176,6 +226,61 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
           b.w += d * s.ma;
         }
     };
+    // Warm start: the totals of the group of last substep whose normal agrees best (same pair), in this
+    // group's rows, clamped to this group's limits.
+    for (const IslandGroup& ig : groups) {
+      const ContactGroup& g = ctx.groups[ig.pair][ig.index];
+      const PatchExtent& e = g.patch;
+      const bool ab = g.contact.a == ctx.pairs[ig.pair].a;
+      const glm::dvec3 nAB = ab ? e.n : -e.n;
+      const uint64_t pk = key(ig.pair);
+      const RestingWarm* best = nullptr;
+      double bestDot = 0.95;
+      for (auto w = std::lower_bound(previous.begin(), previous.end(), pk,
+                                     [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
+           w != previous.end() && w->key == pk; ++w) {
+        const double d = glm::dot(w->normal, nAB);
+        if (d > bestDot) {
+          bestDot = d;
+          best = &*w;
+        }
+      }
+      if (!best) continue;
+      const glm::dvec3 J = ab ? best->impulse : -best->impulse, T = ab ? best->torque : -best->torque;
+      const double jn = std::max(0.0, glm::dot(J, e.n));
+      for (int k = 0; k < ig.rows; ++k) {
+        const size_t r = static_cast<size_t>(ig.rowStart + k);
+        double value = 0, limit = 0;
+        switch (rows[r].kind) {
+          case 0:
+            value = jn;
+            limit = 1e300;
+            break;
+          case 1:
+            value = glm::dot(J, e.t1);
+            limit = ig.mu * jn / std::sqrt(2.0);
+            break;
+          case 2:
+            value = glm::dot(J, e.t2);
+            limit = ig.mu * jn / std::sqrt(2.0);
+            break;
+          case 3:
+            value = std::clamp(glm::dot(T, e.t1), e.lo2 * jn, e.hi2 * jn);
+            limit = 1e300;
+            break;
+          case 4:
+            value = std::clamp(glm::dot(T, e.t2), -e.hi1 * jn, -e.lo1 * jn);
+            limit = 1e300;
+            break;
+          default:
+            value = glm::dot(T, e.n);
+            limit = ig.mu * jn * ig.twistRadius;
+        }
+        value = std::clamp(value, -limit, limit);
+        lambda[r] = value;
+        apply(rows[r], value);
+      }
+    }
     const double tolerance = ctx.settings.restingSolveTolerance;
     const int iterations = std::max(1, ctx.settings.restingSolveIterations);
     bool converged = false;
@@ -238,6 +343,18 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
       }
       converged = largest < tolerance;
     }
+    for (const IslandGroup& ig : groups) {
+      const ContactGroup& g = ctx.groups[ig.pair][ig.index];
+      const PatchExtent& e = g.patch;
+      const bool ab = g.contact.a == ctx.pairs[ig.pair].a;
+      glm::dvec3 J(0), T(0);
+      for (int k = 0; k < ig.rows; ++k) {
+        const size_t r = static_cast<size_t>(ig.rowStart + k);
+        const glm::dvec3 axes[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
+        (rows[r].kind < 3 ? J : T) += lambda[r] * axes[rows[r].kind];
+      }
+      ctx.restingWarm.push_back({key(ig.pair), ab ? e.n : -e.n, ab ? J : -J, ab ? T : -T});
+    }
     if (!converged) {
       // Stiff mass ratios (a heavy body on a light one) converge slowly: the contact step's result stands.
       for (auto it = kept.rbegin(); it != kept.rend(); ++it) {
@@ -254,6 +371,8 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
       g.totals.tangential = lam[1] * g.patch.t1 + lam[2] * g.patch.t2;
     }
   }
+  std::stable_sort(ctx.restingWarm.begin(), ctx.restingWarm.end(),
+                   [](const RestingWarm& x, const RestingWarm& y) { return x.key < y.key; });
 }
 
 }  // namespace crumple::detail

@@ -116,6 +116,13 @@ inline double relativeDisplacementBound(const Pose& fromA, const Pose& toA, doub
          rotationAngle(fromB.orientation, toB.orientation) * rb;
 }
 
+// A contact group's totals from the last island solve: the pair (key a << 32 | b), its normal from a to b,
+// the impulse and torque on b.
+struct RestingWarm {
+  uint64_t key = 0;
+  glm::dvec3 normal{0}, impulse{0}, torque{0};
+};
+
 // ---- the context ------------------------------------------------------------
 
 struct StepContext {
@@ -174,6 +181,8 @@ struct StepContext {
   std::vector<std::vector<ContactGroup>> groups;
   std::vector<std::pair<Pose, Pose>> lookPoses;
   std::vector<int> lookCount;
+  // The island solve's totals per group (resting_solve.cpp), kept for the next substep's warm start.
+  std::vector<RestingWarm> restingWarm;
 
   RigidBody& body(int i) { return bodies[static_cast<size_t>(i)]; }
   const RigidBody& body(int i) const { return bodies[static_cast<size_t>(i)]; }

@@ -59,13 +59,17 @@ struct WorldSettings {
   // 10 contact passes, sleeping or not (tests/test_physics_stacks.cpp); 0 turns it off.
   int shockPasses = 3;
   // Islands of at most this many contact rows (3 to 6 per contact group; no
-  // joints) are solved to convergence at the end of the contact step (projected
-  // Gauss-Seidel over accumulated impulses, resting_solve.cpp): the contact
-  // passes alone carry a load one contact a pass, and a ring of blocks (an
-  // arch) would sag a little every step. 0 turns it off.
+  // joints) holding a convex mesh block (masonry) are solved to convergence at
+  // the end of the contact step (projected Gauss-Seidel over accumulated
+  // impulses, warm-started, resting_solve.cpp): the contact passes alone carry
+  // a load one contact a pass, and a ring of blocks (an arch) would sag a
+  // little every step. 0 turns it off.
   int restingSolveRows = 192;
   int restingSolveIterations = 1000;
   double restingSolveTolerance = 1e-5;  // m/s: a sweep changing no row's velocity more ends it
+  // m/s: an island is solved when the contact step left one of its groups approaching faster than this (or
+  // when it was solved the substep before: its totals warm-start the next solve).
+  double restingSolveTrigger = 1e-3;
   double penetrationSlop = 0.0005;     // m left alone by the positional projection
   double penetrationCorrection = 0.4;  // fraction removed per projection iteration
   int projectionIterations = 3;

@@ -35,23 +35,54 @@ struct LevelContact {
   PatchMatrix patch;  // valid only for a body's one or two support patches
 };
 
+// Working arrays kept from one substep to the next (no allocation per substep).
+struct Scratch {
+  std::vector<uint32_t> start, neighbours;  // the contact graph, compressed rows: body i's are [start[i], start[i+1])
+  std::vector<int> queue, stack;
+  std::vector<std::vector<int>> joined;
+  std::vector<size_t> touching;        // pairs with groups, by level (levelStart), in pair order within a level
+  std::vector<uint32_t> levelStart;    // touching[levelStart[l], levelStart[l+1]): level l's pairs
+  std::vector<int> byLevel;            // bodies by level (bodyStart), in index order within a level
+  std::vector<uint32_t> bodyStart;
+  std::vector<int> share;
+  std::vector<LevelContact> lc;
+  std::vector<std::pair<int, size_t>> supports;
+  std::vector<glm::dvec3> dj, dt;
+};
+Scratch& scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
 // The contact graph of the contact step's last look (positions moved with the
 // velocities of then); levels from the static (and sleeping) bodies up by
-// breadth-first search. Fills `touching` with the pairs that have groups;
-// returns the highest level.
-int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
+// breadth-first search. Returns the highest level.
+int computeLevels(StepContext& ctx, Scratch& s) {
   const size_t n = ctx.bodies.size();
-  std::vector<std::vector<int>> adjacency(n);
-  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
+  const size_t pairs = std::min(ctx.pairs.size(), ctx.groups.size());
+  // Each body's neighbours, in pair order.
+  s.start.assign(n + 1, 0);
+  for (size_t pi = 0; pi < pairs; ++pi) {
     if (ctx.groups[pi].empty()) continue;
-    const Pair& pair = ctx.pairs[pi];
-    adjacency[static_cast<size_t>(pair.a)].push_back(pair.b);
-    adjacency[static_cast<size_t>(pair.b)].push_back(pair.a);
-    touching.push_back(pi);
+    ++s.start[static_cast<size_t>(ctx.pairs[pi].a) + 1];
+    ++s.start[static_cast<size_t>(ctx.pairs[pi].b) + 1];
+  }
+  for (size_t i = 0; i < n; ++i) s.start[i + 1] += s.start[i];
+  s.neighbours.resize(s.start[n]);
+  {
+    std::vector<uint32_t>& fill = s.levelStart;  // borrowed as the fill cursors
+    fill.assign(s.start.begin(), s.start.end() - 1);
+    for (size_t pi = 0; pi < pairs; ++pi) {
+      if (ctx.groups[pi].empty()) continue;
+      const Pair& pair = ctx.pairs[pi];
+      s.neighbours[fill[static_cast<size_t>(pair.a)]++] = static_cast<uint32_t>(pair.b);
+      s.neighbours[fill[static_cast<size_t>(pair.b)]++] = static_cast<uint32_t>(pair.a);
+    }
   }
   std::vector<int>& level = ctx.level;
   level.assign(n, -1);
-  std::vector<int> queue;
+  std::vector<int>& queue = s.queue;
+  queue.clear();
   for (size_t i = 0; i < n; ++i) {
     if (!ctx.bodies[i].dynamic()) {
       level[i] = 0;
@@ -60,7 +91,8 @@ int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
   }
   // Articulated bodies (joined, both dynamic) act as one unit: a body's level
   // goes at once to every body joined to it.
-  std::vector<std::vector<int>> joined;
+  std::vector<std::vector<int>>& joined = s.joined;
+  joined.clear();
   for (const Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.a < 0) continue;
     if (!ctx.body(jt.def.a).dynamic() || !ctx.body(jt.def.b).dynamic()) continue;
@@ -75,7 +107,8 @@ int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
     queue.push_back(j);
     if (joined.empty()) return;
     // The joined unit, depth first, all at level l.
-    std::vector<int> stack{j};
+    std::vector<int>& stack = s.stack;
+    stack.assign(1, j);
     while (!stack.empty()) {
       const int k = stack.back();
       stack.pop_back();
@@ -89,20 +122,49 @@ int computeLevels(StepContext& ctx, std::vector<size_t>& touching) {
   };
   for (size_t head = 0; head < queue.size(); ++head) {
     const int i = queue[head];
-    for (int j : adjacency[static_cast<size_t>(i)])
+    for (uint32_t k = s.start[static_cast<size_t>(i)]; k < s.start[static_cast<size_t>(i) + 1]; ++k) {
+      const int j = static_cast<int>(s.neighbours[k]);
       if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
+    }
+  }
+  // The pairs with groups by the level of their upper body (both levelled), in pair order.
+  const size_t levels = static_cast<size_t>(maxLevel) + 1;
+  auto pairLevel = [&](size_t pi) {
+    const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
+    return std::min(la, lb) < 0 ? -1 : std::max(la, lb);
+  };
+  s.levelStart.assign(levels + 1, 0);
+  for (size_t pi = 0; pi < pairs; ++pi)
+    if (!ctx.groups[pi].empty() && pairLevel(pi) >= 0) ++s.levelStart[static_cast<size_t>(pairLevel(pi)) + 1];
+  for (size_t l = 0; l < levels; ++l) s.levelStart[l + 1] += s.levelStart[l];
+  s.touching.resize(s.levelStart[levels]);
+  {
+    std::vector<uint32_t> fill(s.levelStart.begin(), s.levelStart.end() - 1);
+    for (size_t pi = 0; pi < pairs; ++pi)
+      if (!ctx.groups[pi].empty() && pairLevel(pi) >= 0) s.touching[fill[static_cast<size_t>(pairLevel(pi))]++] = pi;
+  }
+  // The levelled bodies by level.
+  s.bodyStart.assign(levels + 1, 0);
+  for (size_t i = 0; i < n; ++i)
+    if (level[i] >= 0) ++s.bodyStart[static_cast<size_t>(level[i]) + 1];
+  for (size_t l = 0; l < levels; ++l) s.bodyStart[l + 1] += s.bodyStart[l];
+  s.byLevel.resize(s.bodyStart[levels]);
+  {
+    std::vector<uint32_t> fill(s.bodyStart.begin(), s.bodyStart.end() - 1);
+    for (size_t i = 0; i < n; ++i)
+      if (level[i] >= 0) s.byLevel[fill[static_cast<size_t>(level[i])]++] = static_cast<int>(i);
   }
   return maxLevel;
 }
 
 // This level's contact groups (a pair whose upper body is on this level), with
 // K for the frozen bodies of the levels below, and each body's count of them.
-void levelContacts(const StepContext& ctx, const std::vector<size_t>& touching, int level,
-                   std::vector<LevelContact>& lc, std::vector<int>& share) {
-  for (size_t pi : touching) {
+void levelContacts(const StepContext& ctx, const Scratch& s, int level, std::vector<LevelContact>& lc,
+                   std::vector<int>& share) {
+  lc.clear();
+  for (uint32_t t = s.levelStart[static_cast<size_t>(level)]; t < s.levelStart[static_cast<size_t>(level) + 1]; ++t) {
+    const size_t pi = s.touching[t];
     const Pair& pair = ctx.pairs[pi];
-    const int la = ctx.level[static_cast<size_t>(pair.a)], lb = ctx.level[static_cast<size_t>(pair.b)];
-    if (std::max(la, lb) != level || std::min(la, lb) < 0) continue;
     const double mu = std::sqrt(ctx.body(pair.a).friction * ctx.body(pair.b).friction);
     for (const ContactGroup& g : ctx.groups[pi]) {
       const Contact& c = g.contact;
@@ -123,9 +185,10 @@ void levelContacts(const StepContext& ctx, const std::vector<size_t>& touching, 
 // patch keeps only the torque about that line (lineMatrix): full patch
 // torques would each ask for their own support's tilt, and the body would
 // jitter between them. On more, the couples hold every tilt.
-void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::vector<LevelContact>& lc) {
+void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::vector<LevelContact>& lc,
+                    std::vector<std::pair<int, size_t>>& supports) {
   // (body, level contact) for each support from the frozen level below, by body.
-  std::vector<std::pair<int, size_t>> supports;
+  supports.clear();
   for (size_t k = 0; k < lc.size(); ++k) {
     const bool fa = ctx.frozen[static_cast<size_t>(lc[k].c.a)] != 0,
                fb = ctx.frozen[static_cast<size_t>(lc[k].c.b)] != 0;
@@ -152,8 +215,10 @@ void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::
 // Jacobi passes: every group's impulse from the same velocities, each body
 // taking the mean of its groups' (a body on two supports follows neither
 // alone: in order, the last one processed would win).
-void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const std::vector<int>& share) {
-  std::vector<glm::dvec3> dj(lc.size()), dt(lc.size());
+void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const std::vector<int>& share,
+                  std::vector<glm::dvec3>& dj, std::vector<glm::dvec3>& dt) {
+  dj.resize(lc.size());
+  dt.resize(lc.size());
   for (int pass = 0; pass < ctx.settings.shockPasses; ++pass) {
     for (size_t k = 0; k < lc.size(); ++k) {
       const Contact& c = lc[k].c;
@@ -178,15 +243,18 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
 void shockPropagation(StepContext& ctx) {
   if (ctx.settings.shockPasses <= 0) return;
   const size_t n = ctx.bodies.size();
-  std::vector<size_t> touching;
-  const int maxLevel = computeLevels(ctx, touching);
+  Scratch& s = scratch();
+  const int maxLevel = computeLevels(ctx, s);
+  std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
+  s.share.assign(n, 0);
   for (int level = 1; level <= maxLevel; ++level) {
-    for (size_t i = 0; i < n; ++i) ctx.frozen[i] = ctx.level[i] >= 0 && ctx.level[i] < level;
-    std::vector<LevelContact> lc;
-    std::vector<int> share(n, 0);
-    levelContacts(ctx, touching, level, lc, share);
-    supportPatches(ctx, share, lc);
-    jacobiPasses(ctx, lc, share);
+    // Frozen: every level below this one (the one just below joins the frozen).
+    for (uint32_t k = s.bodyStart[static_cast<size_t>(level) - 1]; k < s.bodyStart[static_cast<size_t>(level)]; ++k)
+      ctx.frozen[static_cast<size_t>(s.byLevel[k])] = 1;
+    levelContacts(ctx, s, level, s.lc, s.share);
+    supportPatches(ctx, s.share, s.lc, s.supports);
+    jacobiPasses(ctx, s.lc, s.share, s.dj, s.dt);
+    for (const LevelContact& x : s.lc) s.share[static_cast<size_t>(x.c.a)] = s.share[static_cast<size_t>(x.c.b)] = 0;
   }
   std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
 }

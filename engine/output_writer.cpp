@@ -70,99 +70,12 @@ void OutputWriter::abandon() {
 OutputWriter::~OutputWriter() { abandon(); }
 
 namespace {
-nlohmann::ordered_json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
-}  // namespace
 
-void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
-  using json = nlohmann::ordered_json;
-  sim.resolveEventStats();
-  const fs::path root(staging_);
-  fs::create_directories(root / "heightmaps");
-  fs::create_directories(root / "normalmaps");
-  // Events.
-  {
-    std::ofstream ev(root / "events.jsonl");
-    // Collisions and joint breaks, in time order (a collision first at equal times).
-    const std::vector<JointBreakRecord>& breaks = sim.jointBreaks();
-    size_t nextBreak = 0;
-    auto writeBreaks = [&](double until) {
-      for (; nextBreak < breaks.size() && breaks[nextBreak].time <= until; ++nextBreak) {
-        json line;
-        line["t"] = breaks[nextBreak].time;
-        line["type"] = "joint_break";
-        line["joint"] = breaks[nextBreak].joint;
-        line["impulse"] = breaks[nextBreak].impulse;
-        ev << line.dump() << "\n";
-      }
-    };
-    for (const EventRecord& r : sim.events()) {
-      const auto& e = r.event;
-      writeBreaks(std::nextafter(e.time, -1.0));
-      json line;
-      line["t"] = e.time;
-      line["type"] = "collision";
-      const std::string* names[2] = {nullptr, nullptr};
-      for (const auto& b : sim.bodies()) {
-        if (b.index == e.a) names[0] = &b.name;
-        if (b.index == e.b) names[1] = &b.name;
-      }
-      line["a"] = *names[0];
-      line["b"] = *names[1];
-      line["point"] = vec(e.point);
-      line["normal"] = vec(e.normal);
-      line["penetration"] = e.penetration;
-      line["impulse_elastic"] = e.elasticImpulse;
-      line["impulse"] = e.impulse;
-      for (int s = 0; s < 2; ++s) {
-        const SideDecision& d = r.side[s];
-        json side;
-        side["threshold"] = std::isfinite(d.threshold) ? json(d.threshold) : json(nullptr);  // null: infinite (eps = 1)
-        side["percent_deform"] = d.percentDeform;
-        side["deform_depth"] = d.deformDepth;
-        side["deformed"] = d.deformed;
-        side["texels_changed"] = d.stats.texelsChanged;
-        side["max_dent"] = d.stats.maxDent;
-        side["saturated"] = d.stats.saturated;
-        line[s == 0 ? "a_side" : "b_side"] = side;
-      }
-      ev << line.dump() << "\n";
-    }
-    writeBreaks(std::numeric_limits<double>::infinity());
-    if (!ev) throw std::runtime_error("writing events.jsonl failed");
-  }
-  // Maps.
-  long deformedSides = 0;
-  for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
-  // Bodies that were never dented share their maps (lazy maps): encode each once, copy the files.
-  std::map<GLuint, std::string> written;
-  for (const auto& b : sim.bodies()) {
-    if (!b.surface) continue;
-    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"),
-                   normalPath = root / "normalmaps" / (b.name + ".png");
-    if (auto it = written.find(b.surface->height().id()); it != written.end()) {
-      fs::copy_file(root / "heightmaps" / it->second, heightPath);
-      fs::copy_file(root / "normalmaps" / it->second, normalPath);
-      continue;
-    }
-    written[b.surface->height().id()] = b.name + ".png";
-    const render::Image h = b.surface->downloadHeight();
-    render::writePng(heightPath.string(), h, 16);
-    const int n = b.surface->resolution();
-    std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
-    b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
-    render::Image nm(n, n, 3);
-    for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
-      for (int c = 0; c < 3; ++c)
-        nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
-    render::writePng(normalPath.string(), nm, 8);
-  }
-  if (exportGltf_) writeGltfExport(sim, (root / "export").string(), root.string());
-  // Summary.
-  json s;
-  s["scene"] = sim.scene().name;
-  s["scene_file"] = sim.scene().file;
-  s["steps"] = sim.steps();
-  s["time"] = sim.world().time();
+using json = nlohmann::ordered_json;
+
+json vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
+
+json bodiesArray(const Simulation& sim) {
   json bodies = json::array();
   for (const auto& b : sim.bodies()) {
     const RigidBody& rb = sim.world().body(b.index);
@@ -179,7 +92,74 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
     jb["asleep"] = rb.asleep;
     bodies.push_back(jb);
   }
-  s["bodies"] = bodies;
+  return bodies;
+}
+
+}  // namespace
+
+std::string bodiesJson(const Simulation& sim) { return bodiesArray(sim).dump(); }
+
+std::vector<std::string> eventLines(Simulation& sim) {
+  sim.resolveEventStats();
+  std::vector<std::string> lines;
+  const std::vector<JointBreakRecord>& breaks = sim.jointBreaks();
+  size_t nextBreak = 0;
+  auto addBreaks = [&](double until) {
+    for (; nextBreak < breaks.size() && breaks[nextBreak].time <= until; ++nextBreak) {
+      json line;
+      line["t"] = breaks[nextBreak].time;
+      line["type"] = "joint_break";
+      line["joint"] = breaks[nextBreak].joint;
+      line["impulse"] = breaks[nextBreak].impulse;
+      lines.push_back(line.dump());
+    }
+  };
+  for (const EventRecord& r : sim.events()) {
+    const auto& e = r.event;
+    addBreaks(std::nextafter(e.time, -1.0));
+    json line;
+    line["t"] = e.time;
+    line["type"] = "collision";
+    const std::string* names[2] = {nullptr, nullptr};
+    for (const auto& b : sim.bodies()) {
+      if (b.index == e.a) names[0] = &b.name;
+      if (b.index == e.b) names[1] = &b.name;
+    }
+    line["a"] = *names[0];
+    line["b"] = *names[1];
+    line["point"] = vec(e.point);
+    line["normal"] = vec(e.normal);
+    line["penetration"] = e.penetration;
+    line["impulse_elastic"] = e.elasticImpulse;
+    line["impulse"] = e.impulse;
+    for (int s = 0; s < 2; ++s) {
+      const SideDecision& d = r.side[s];
+      json side;
+      side["threshold"] = std::isfinite(d.threshold) ? json(d.threshold) : json(nullptr);  // null: infinite (eps = 1)
+      side["percent_deform"] = d.percentDeform;
+      side["deform_depth"] = d.deformDepth;
+      side["deformed"] = d.deformed;
+      side["texels_changed"] = d.stats.texelsChanged;
+      side["max_dent"] = d.stats.maxDent;
+      side["saturated"] = d.stats.saturated;
+      line[s == 0 ? "a_side" : "b_side"] = side;
+    }
+    lines.push_back(line.dump());
+  }
+  addBreaks(std::numeric_limits<double>::infinity());
+  return lines;
+}
+
+std::string summaryJson(Simulation& sim, const std::map<std::string, std::string>& extra) {
+  sim.resolveEventStats();
+  long deformedSides = 0;
+  for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
+  json s;
+  s["scene"] = sim.scene().name;
+  s["scene_file"] = sim.scene().file;
+  s["steps"] = sim.steps();
+  s["time"] = sim.world().time();
+  s["bodies"] = bodiesArray(sim);
   if (!sim.scene().joints.empty()) {
     json joints = json::array();
     for (size_t i = 0; i < sim.scene().joints.size() && i < sim.joints().size(); ++i) {
@@ -220,8 +200,44 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
   }
   s["timings"] = tj;
   for (const auto& [k, v] : extra) s[k] = v;
+  return s.dump(2);
+}
+
+void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
+  const fs::path root(staging_);
+  fs::create_directories(root / "heightmaps");
+  fs::create_directories(root / "normalmaps");
+  {
+    std::ofstream ev(root / "events.jsonl");
+    for (const std::string& line : eventLines(sim)) ev << line << "\n";
+    if (!ev) throw std::runtime_error("writing events.jsonl failed");
+  }
+  // Maps. Bodies that were never dented share their maps (lazy maps): encode each once, copy the files.
+  std::map<GLuint, std::string> written;
+  for (const auto& b : sim.bodies()) {
+    if (!b.surface) continue;
+    const fs::path heightPath = root / "heightmaps" / (b.name + ".png"),
+                   normalPath = root / "normalmaps" / (b.name + ".png");
+    if (auto it = written.find(b.surface->height().id()); it != written.end()) {
+      fs::copy_file(root / "heightmaps" / it->second, heightPath);
+      fs::copy_file(root / "normalmaps" / it->second, normalPath);
+      continue;
+    }
+    written[b.surface->height().id()] = b.name + ".png";
+    const render::Image h = b.surface->downloadHeight();
+    render::writePng(heightPath.string(), h, 16);
+    const int n = b.surface->resolution();
+    std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
+    b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
+    render::Image nm(n, n, 3);
+    for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
+      for (int c = 0; c < 3; ++c)
+        nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
+    render::writePng(normalPath.string(), nm, 8);
+  }
+  if (exportGltf_) writeGltfExport(sim, (root / "export").string(), root.string());
   std::ofstream f(root / "summary.json");
-  f << s.dump(2) << "\n";
+  f << summaryJson(sim, extra) << "\n";
   if (!f) throw std::runtime_error("writing summary.json failed");
 }
 

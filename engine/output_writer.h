@@ -3,10 +3,21 @@
 #pragma once
 #include <map>
 #include <string>
+#include <vector>
 
 #include "engine/simulation.h"
 
 namespace crumple {
+
+// What summary.json and events.jsonl hold, as JSON text (OutputWriter writes
+// them; the Python module returns the same).
+// summary.json's "bodies": every body's pose, velocities, mass and state now.
+std::string bodiesJson(const Simulation& sim);
+// summary.json: the run so far (bodies, joints, counts, timings), with `extra` as more string fields.
+std::string summaryJson(Simulation& sim, const std::map<std::string, std::string>& extra = {});
+// events.jsonl's lines so far, one JSON object each: collisions and joint
+// breaks in time order (a collision first at equal times).
+std::vector<std::string> eventLines(Simulation& sim);
 
 // Writes the outputs of the contract into `dir`: summary.json, events.jsonl,
 // heightmaps/ and normalmaps/ (and whatever is already in `staging`, e.g. frames/).

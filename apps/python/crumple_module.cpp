@@ -9,7 +9,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -39,83 +38,7 @@ Scene loadWithOverrides(const std::optional<std::string>& path, const Overrides&
   return loadScene(*path, overrides);
 }
 
-ojson vec(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
-
 py::object loads(const std::string& text) { return py::module_::import("json").attr("loads")(text); }
-
-// summary.json's "bodies" (engine/output_writer.cpp writes the same fields; the Python suite compares them).
-ojson bodiesJson(const Simulation& sim) {
-  ojson bodies = ojson::array();
-  for (const auto& b : sim.bodies()) {
-    const RigidBody& rb = sim.world().body(b.index);
-    ojson jb;
-    jb["name"] = b.name;
-    jb["position"] = vec(rb.origin());
-    jb["orientation"] = {rb.q.w, rb.q.x, rb.q.y, rb.q.z};
-    jb["linear_velocity"] = vec(rb.v);
-    jb["angular_velocity"] = vec(rb.w);
-    jb["center_of_mass"] = vec(rb.x);
-    jb["mass"] = rb.isStatic ? ojson(nullptr) : ojson(rb.mass);
-    jb["static"] = rb.isStatic;
-    if (rb.kinematic) jb["kinematic"] = true;
-    jb["asleep"] = rb.asleep;
-    bodies.push_back(jb);
-  }
-  return bodies;
-}
-
-// events.jsonl's lines so far: collisions and joint breaks in time order (as engine/output_writer.cpp).
-ojson eventsJson(Simulation& sim) {
-  sim.resolveEventStats();
-  ojson lines = ojson::array();
-  const std::vector<JointBreakRecord>& breaks = sim.jointBreaks();
-  size_t nextBreak = 0;
-  auto addBreaks = [&](double until) {
-    for (; nextBreak < breaks.size() && breaks[nextBreak].time <= until; ++nextBreak) {
-      ojson line;
-      line["t"] = breaks[nextBreak].time;
-      line["type"] = "joint_break";
-      line["joint"] = breaks[nextBreak].joint;
-      line["impulse"] = breaks[nextBreak].impulse;
-      lines.push_back(line);
-    }
-  };
-  for (const EventRecord& r : sim.events()) {
-    const auto& e = r.event;
-    addBreaks(std::nextafter(e.time, -1.0));
-    ojson line;
-    defaultCamera_ = defaultCamera(*sim_);  // framed once, on the bodies as they start
-    line["t"] = e.time;
-    line["type"] = "collision";
-    std::string names[2];
-    for (const auto& b : sim.bodies()) {
-      if (b.index == e.a) names[0] = b.name;
-      if (b.index == e.b) names[1] = b.name;
-    }
-    line["a"] = names[0];
-    line["b"] = names[1];
-    line["point"] = vec(e.point);
-    line["normal"] = vec(e.normal);
-    line["penetration"] = e.penetration;
-    line["impulse_elastic"] = e.elasticImpulse;
-    line["impulse"] = e.impulse;
-    for (int s = 0; s < 2; ++s) {
-      const SideDecision& d = r.side[s];
-      ojson side;
-      side["threshold"] = std::isfinite(d.threshold) ? ojson(d.threshold) : ojson(nullptr);
-      side["percent_deform"] = d.percentDeform;
-      side["deform_depth"] = d.deformDepth;
-      side["deformed"] = d.deformed;
-      side["texels_changed"] = d.stats.texelsChanged;
-      side["max_dent"] = d.stats.maxDent;
-      side["saturated"] = d.stats.saturated;
-      line[s == 0 ? "a_side" : "b_side"] = side;
-    }
-    lines.push_back(line);
-  }
-  addBreaks(std::numeric_limits<double>::infinity());
-  return lines;
-}
 
 // What a scene holds, without running it (crumple.load_scene; crumple-sweep checks its variants with it).
 ojson sceneJson(const Scene& s) {
@@ -195,10 +118,13 @@ class PySimulation {
   const Scene& scene() const { return scene_; }
   long totalSteps() const { return totalSteps_; }
 
-  py::object bodies() const { return loads(bodiesJson(*sim_).dump()); }
+  // What summary.json's "bodies" and events.jsonl hold (engine/output_writer.h).
+  py::object bodies() const { return loads(bodiesJson(*sim_)); }
   py::object events() {
     current();
-    return loads(eventsJson(*sim_).dump());
+    std::string array = "[";
+    for (const std::string& line : eventLines(*sim_)) array += (array.size() > 1 ? "," : "") + line;
+    return loads(array + "]");
   }
   std::string glDescription() const { return gl_ ? gl_->description() : "none: " + glError_; }
 

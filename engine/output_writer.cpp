@@ -167,12 +167,12 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
       const JointState st = sim.world().jointState(sim.joints()[i]);
       json jj;
       jj["name"] = d.name;
-      jj["type"] = jointTypeName(d.type);
+      jj["type"] = jointTypeName(d.def.type);
       jj["broken"] = st.broken;
       jj["peak_impulse"] = i < sim.jointPeaks().size() ? sim.jointPeaks()[i] : 0.0;
-      if (d.type == JointType::Hinge) jj["angle"] = st.angle * 180.0 / 3.14159265358979323846;
-      if (d.type == JointType::Slider) jj["offset"] = st.offset;
-      if (d.type == JointType::Distance) jj["distance"] = st.offset;
+      if (d.def.type == JointType::Hinge) jj["angle"] = st.angle * 180.0 / 3.14159265358979323846;
+      if (d.def.type == JointType::Slider) jj["offset"] = st.offset;
+      if (d.def.type == JointType::Distance) jj["distance"] = st.offset;
       joints.push_back(jj);
     }
     s["joints"] = joints;

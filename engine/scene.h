@@ -125,18 +125,14 @@ struct BodyDesc {
   std::string group = "default";
 };
 
-// A joint (physics/joint.h) between two bodies named in the scene; `a` empty is the static world.
+// A joint (physics/joint.h) between two bodies named in the scene; `a` empty is
+// the static world. `def` is the joint as the World takes it (angles in
+// radians; its body indices a and b are filled in from the names when the
+// simulation is built).
 struct JointDesc {
   std::string name;
-  JointType type = JointType::Ball;
   std::string a, b;
-  glm::dvec3 anchor{0}, anchorA{0}, anchorB{0}, axis{0, 1, 0};
-  bool limited = false;
-  double lower = 0, upper = 0;  // radians (hinge) or m (slider)
-  double length = -1, minLength = -1, maxLength = -1;
-  JointMotor motor;  // speed in rad/s or m/s
-  double breakImpulse = std::numeric_limits<double>::infinity();
-  bool collideConnected = false;
+  JointDef def;
 };
 
 struct CameraDesc {

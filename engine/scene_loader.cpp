@@ -413,15 +413,15 @@ JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& b
   if (j.name.empty()) n.fail("name", "must not be empty");
   const std::string type = n.requiredString("type");
   if (type == "ball")
-    j.type = JointType::Ball;
+    j.def.type = JointType::Ball;
   else if (type == "hinge")
-    j.type = JointType::Hinge;
+    j.def.type = JointType::Hinge;
   else if (type == "slider")
-    j.type = JointType::Slider;
+    j.def.type = JointType::Slider;
   else if (type == "fixed")
-    j.type = JointType::Fixed;
+    j.def.type = JointType::Fixed;
   else if (type == "distance")
-    j.type = JointType::Distance;
+    j.def.type = JointType::Distance;
   else
     n.fail("type", "unknown joint type '" + type + "' (expected ball, hinge, slider, fixed or distance)");
   auto bodyName = [&](const char* key, bool optional) {
@@ -436,35 +436,35 @@ JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& b
   j.a = bodyName("a", true);
   j.b = bodyName("b", false);
   if (j.a == j.b) n.fail("b", "a joint needs two different bodies");
-  const bool axial = j.type == JointType::Hinge || j.type == JointType::Slider;
-  if (j.type == JointType::Distance) {
+  const bool axial = j.def.type == JointType::Hinge || j.def.type == JointType::Slider;
+  if (j.def.type == JointType::Distance) {
     if (n.has("anchor")) n.fail("anchor", "a distance joint takes anchor_a and anchor_b");
     if (!n.has("anchor_a")) n.fail("anchor_a", "is required for a distance joint");
     if (!n.has("anchor_b")) n.fail("anchor_b", "is required for a distance joint");
-    j.anchorA = n.vec3("anchor_a", j.anchorA);
-    j.anchorB = n.vec3("anchor_b", j.anchorB);
+    j.def.anchorA = n.vec3("anchor_a", j.def.anchorA);
+    j.def.anchorB = n.vec3("anchor_b", j.def.anchorB);
     if (n.has("length") && (n.has("min") || n.has("max"))) n.fail("length", "give either length or min and max");
-    if (n.has("length")) j.length = n.number("length", 0, 0, 1e6);
+    if (n.has("length")) j.def.length = n.number("length", 0, 0, 1e6);
     if (n.has("min") || n.has("max")) {
       if (!n.has("max")) n.fail("max", "is required with min");
-      j.minLength = n.number("min", 0, 0, 1e6);
-      j.maxLength = n.number("max", 0, 0, 1e6);
-      if (j.minLength > j.maxLength) n.fail("min", "is above max");
+      j.def.minLength = n.number("min", 0, 0, 1e6);
+      j.def.maxLength = n.number("max", 0, 0, 1e6);
+      if (j.def.minLength > j.def.maxLength) n.fail("min", "is above max");
     }
   } else {
     for (const char* k : {"anchor_a", "anchor_b", "length", "min", "max"})
       if (n.has(k)) n.fail(k, "only for distance joints");
     if (!n.has("anchor")) n.fail("anchor", "is required (a world point at the start)");
-    j.anchor = n.vec3("anchor", j.anchor);
+    j.def.anchor = n.vec3("anchor", j.def.anchor);
   }
   if (axial) {
     if (!n.has("axis")) n.fail("axis", "is required for a " + type + " joint");
-    j.axis = n.vec3("axis", j.axis);
-    if (!(glm::length(j.axis) > 1e-9)) n.fail("axis", "must not be zero");
+    j.def.axis = n.vec3("axis", j.def.axis);
+    if (!(glm::length(j.def.axis) > 1e-9)) n.fail("axis", "must not be zero");
   } else if (n.has("axis")) {
     n.fail("axis", "only for hinge and slider joints");
   }
-  const bool hinge = j.type == JointType::Hinge;
+  const bool hinge = j.def.type == JointType::Hinge;
   if (n.has("limits")) {
     if (!axial) n.fail("limits", "only for hinge and slider joints");
     const json& l = n.raw("limits");
@@ -473,22 +473,22 @@ JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& b
     const double lo = n.numberValue(l[0], "limits[0]", -bound, bound, false, false);
     const double hi = n.numberValue(l[1], "limits[1]", -bound, bound, false, false);
     if (lo > hi) n.fail("limits", "lo is above hi");
-    j.limited = true;
-    j.lower = hinge ? glm::radians(lo) : lo;
-    j.upper = hinge ? glm::radians(hi) : hi;
+    j.def.limited = true;
+    j.def.lower = hinge ? glm::radians(lo) : lo;
+    j.def.upper = hinge ? glm::radians(hi) : hi;
   }
   if (n.has("motor")) {
     if (!axial) n.fail("motor", "only for hinge and slider joints");
     Node m = n.child("motor");
     const char* effort = hinge ? "max_torque" : "max_force";
     m.checkKeys({"speed", effort});
-    j.motor.enabled = true;
+    j.def.motor.enabled = true;
     const double speed = m.requiredNumber("speed", -1e6, 1e6);
-    j.motor.speed = hinge ? glm::radians(speed) : speed;
-    j.motor.maxForce = m.requiredNumber(effort, 0, 1e12);
+    j.def.motor.speed = hinge ? glm::radians(speed) : speed;
+    j.def.motor.maxForce = m.requiredNumber(effort, 0, 1e12);
   }
-  if (n.has("break_impulse")) j.breakImpulse = n.number("break_impulse", 0, 0, 1e15);
-  j.collideConnected = n.boolean("collide_connected", false);
+  if (n.has("break_impulse")) j.def.breakImpulse = n.number("break_impulse", 0, 0, 1e15);
+  j.def.collideConnected = n.boolean("collide_connected", false);
   return j;
 }
 

@@ -92,29 +92,15 @@ void Simulation::buildJoints() {
   initialPoses_.clear();
   for (const RigidBody& rb : world_.bodies()) initialPoses_.push_back({rb.x, rb.q});
   bool cables = false;
-  for (const JointDesc& d : scene_.joints) cables = cables || d.type == JointType::Distance;
+  for (const JointDesc& d : scene_.joints) cables = cables || d.def.type == JointType::Distance;
   if (gl_ && cables) cableMesh_ = std::make_shared<deform::GpuMesh>(cylinderMesh(1.0, 1.0, 64, 12));
   std::map<std::string, int> index;
   for (const BodyRuntime& b : bodies_) index[b.name] = b.index;
   for (size_t i = 0; i < scene_.joints.size(); ++i) {
     const JointDesc& d = scene_.joints[i];
-    JointDef j;
-    j.type = d.type;
+    JointDef j = d.def;
     j.a = d.a.empty() ? -1 : index.at(d.a);
     j.b = index.at(d.b);
-    j.anchor = d.anchor;
-    j.anchorA = d.anchorA;
-    j.anchorB = d.anchorB;
-    j.axis = d.axis;
-    j.limited = d.limited;
-    j.lower = d.lower;
-    j.upper = d.upper;
-    j.length = d.length;
-    j.minLength = d.minLength;
-    j.maxLength = d.maxLength;
-    j.motor = d.motor;
-    j.breakImpulse = d.breakImpulse;
-    j.collideConnected = d.collideConnected;
     try {
       joints_.push_back(world_.addJoint(j));
     } catch (const std::invalid_argument& e) {

@@ -131,14 +131,14 @@ TEST_CASE("joints, kinematic bodies and groups load, and their errors name the k
   const std::string good = mutate("\"cameras\"", joints);
   const Scene s = parseScene(good, "good.json", ".");
   REQUIRE(s.joints.size() == 2);
-  CHECK(s.joints[0].type == JointType::Hinge);
-  CHECK(s.joints[0].lower == doctest::Approx(-0.25 * 3.14159265358979));
-  CHECK(s.joints[0].motor.enabled);
-  CHECK(s.joints[0].motor.speed == doctest::Approx(0.5 * 3.14159265358979));
-  CHECK(s.joints[0].breakImpulse == 100);
+  CHECK(s.joints[0].def.type == JointType::Hinge);
+  CHECK(s.joints[0].def.lower == doctest::Approx(-0.25 * 3.14159265358979));
+  CHECK(s.joints[0].def.motor.enabled);
+  CHECK(s.joints[0].def.motor.speed == doctest::Approx(0.5 * 3.14159265358979));
+  CHECK(s.joints[0].def.breakImpulse == 100);
   CHECK(s.joints[1].name == "joint1");
   CHECK(s.joints[1].a.empty());
-  CHECK(s.joints[1].maxLength == 1.5);
+  CHECK(s.joints[1].def.maxLength == 1.5);
   CHECK(s.noCollide.size() == 1);
   auto jointMutate = [&](const std::string& from, const std::string& to) {
     std::string t = good;

@@ -38,6 +38,27 @@ double kineticEnergy(const World& w) {
   return e;
 }
 
+// A box of `mass` kg centred at `origin`.
+int addMassBox(PhysicsTestContext& t, const glm::dvec3& size, const glm::dvec3& origin, double mass) {
+  BodyDef d;
+  d.shape = makeBox(size);
+  d.origin = origin;
+  d.mass = mass;
+  return t.world().addBody(d);
+}
+
+// A joint of `type` from body a (-1: the world) to body b at the world point
+// `anchor`, about or along `axis` (hinges and sliders).
+JointDef jointBetween(JointType type, int a, int b, const glm::dvec3& anchor, const glm::dvec3& axis = {0, 1, 0}) {
+  JointDef j;
+  j.type = type;
+  j.a = a;
+  j.b = b;
+  j.anchor = anchor;
+  j.axis = axis;
+  return j;
+}
+
 double potentialEnergy(const World& w) {
   double e = 0;
   for (const RigidBody& b : w.bodies())
@@ -52,12 +73,7 @@ TEST_CASE("joints: a sphere on a ball joint swings with the physical pendulum's 
   const double L = 1.0, r = 0.1, theta0 = 5.0 * kPi / 180;
   const glm::dvec3 pivot(0, 2, 0);
   const int ball = t.addSphere(r, pivot + glm::dvec3(L * std::sin(theta0), -L * std::cos(theta0), 0), 0.5, 0.5);
-  JointDef j;
-  j.type = JointType::Ball;
-  j.a = -1;
-  j.b = ball;
-  j.anchor = pivot;
-  t.world().addJoint(j);
+  t.world().addJoint(jointBetween(JointType::Ball, -1, ball, pivot));
   const double m = t.body(ball).mass;
   const double I = 0.4 * m * r * r + m * L * L;
   const double expected = 2 * kPi * std::sqrt(I / (m * 9.81 * L));
@@ -90,30 +106,15 @@ TEST_CASE("joints: a chain of 20 links hanging from one end stays joined, and so
     std::vector<int> joint;
     const glm::dvec3 pivot(0, 5, 0);
     for (int i = 0; i < links; ++i) {
-      BodyDef d;
-      d.shape = makeBox({len, 0.04, 0.04});
-      d.origin = pivot + glm::dvec3((i + 0.5) * len, 0, 0);
-      d.mass = 1.0;
-      body.push_back(t.world().addBody(d));
-      JointDef j;
-      j.type = JointType::Ball;
-      j.a = i == 0 ? -1 : body[static_cast<size_t>(i - 1)];
-      j.b = body.back();
-      j.anchor = pivot + glm::dvec3(i * len, 0, 0);
-      joint.push_back(t.world().addJoint(j));
+      body.push_back(addMassBox(t, {len, 0.04, 0.04}, pivot + glm::dvec3((i + 0.5) * len, 0, 0), 1.0));
+      const int previous = i == 0 ? -1 : body[static_cast<size_t>(i - 1)];
+      joint.push_back(
+          t.world().addJoint(jointBetween(JointType::Ball, previous, body.back(), pivot + glm::dvec3(i * len, 0, 0))));
     }
     if (heavy) {
-      BodyDef d;
-      d.shape = makeBox({0.3, 0.3, 0.3});
-      d.origin = pivot + glm::dvec3(links * len + 0.15, 0, 0);
-      d.mass = 100;
-      body.push_back(t.world().addBody(d));
-      JointDef j;
-      j.type = JointType::Ball;
-      j.a = body[static_cast<size_t>(links - 1)];
-      j.b = body.back();
-      j.anchor = pivot + glm::dvec3(links * len, 0, 0);
-      joint.push_back(t.world().addJoint(j));
+      body.push_back(addMassBox(t, {0.3, 0.3, 0.3}, pivot + glm::dvec3(links * len + 0.15, 0, 0), 100));
+      joint.push_back(t.world().addJoint(jointBetween(JointType::Ball, body[static_cast<size_t>(links - 1)], body.back(),
+                                                      pivot + glm::dvec3(links * len, 0, 0))));
     }
     double worst = 0;
     for (int s = 0; s < 3 * 240; ++s) {
@@ -140,17 +141,9 @@ struct Door {
   int body, joint;
 };
 Door addDoor(PhysicsTestContext& t, bool limited, double lo, double hi) {
-  BodyDef d;
-  d.shape = makeBox({1, 2, 0.05});
-  d.origin = {0.5, 1.5, 0};
-  d.mass = 20;
   Door door;
-  door.body = t.world().addBody(d);
-  JointDef j;
-  j.type = JointType::Hinge;
-  j.b = door.body;
-  j.anchor = {0, 1.5, 0};
-  j.axis = {0, 1, 0};
+  door.body = addMassBox(t, {1, 2, 0.05}, {0.5, 1.5, 0}, 20);
+  JointDef j = jointBetween(JointType::Hinge, -1, door.body, {0, 1.5, 0}, {0, 1, 0});
   j.limited = limited;
   j.lower = lo;
   j.upper = hi;
@@ -190,16 +183,8 @@ TEST_CASE("joints: hinge limits hold against a push, and the door turns only abo
 TEST_CASE("joints: a hinge motor reaches its speed within its torque") {
   PhysicsTestContext t;
   // A flywheel (box 0.6 x 0.6 x 0.1) on a horizontal axle through its centre.
-  BodyDef d;
-  d.shape = makeBox({0.6, 0.6, 0.1});
-  d.origin = {0, 2, 0};
-  d.mass = 10;
-  const int wheel = t.world().addBody(d);
-  JointDef j;
-  j.type = JointType::Hinge;
-  j.b = wheel;
-  j.anchor = {0, 2, 0};
-  j.axis = {0, 0, 1};
+  const int wheel = addMassBox(t, {0.6, 0.6, 0.1}, {0, 2, 0}, 10);
+  JointDef j = jointBetween(JointType::Hinge, -1, wheel, {0, 2, 0}, {0, 0, 1});
   j.motor = {true, 2 * kPi, 3.0};  // one turn a second, at most 3 N m
   const int joint = t.world().addJoint(j);
   const double I = t.body(wheel).inertiaBody[2][2];
@@ -218,16 +203,8 @@ TEST_CASE("joints: a hinge motor reaches its speed within its torque") {
 
 TEST_CASE("joints: slider limits hold and the slider does not turn") {
   PhysicsTestContext t;
-  BodyDef d;
-  d.shape = makeBox({0.3, 0.3, 0.3});
-  d.origin = {0, 1, 0};
-  d.mass = 5;
-  const int box = t.world().addBody(d);
-  JointDef j;
-  j.type = JointType::Slider;
-  j.b = box;
-  j.anchor = {0, 1, 0};
-  j.axis = {1, 0, 0};
+  const int box = addMassBox(t, {0.3, 0.3, 0.3}, {0, 1, 0}, 5);
+  JointDef j = jointBetween(JointType::Slider, -1, box, {0, 1, 0}, {1, 0, 0});
   j.limited = true;
   j.lower = -0.2;
   j.upper = 0.3;
@@ -279,15 +256,8 @@ TEST_CASE("joints: a weld breaks in the step whose impulse passes its threshold,
   // A sign welded to the world is hit by a ball. A first run with an unbreakable
   // weld records the joint's impulse step by step.
   auto build = [](PhysicsTestContext& t, double breakImpulse, int& joint) {
-    BodyDef d;
-    d.shape = makeBox({0.6, 0.4, 0.05});
-    d.origin = {0, 2, 0};
-    d.mass = 4;
-    const int sign = t.world().addBody(d);
-    JointDef j;
-    j.type = JointType::Fixed;
-    j.b = sign;
-    j.anchor = {0, 2.2, 0};
+    const int sign = addMassBox(t, {0.6, 0.4, 0.05}, {0, 2, 0}, 4);
+    JointDef j = jointBetween(JointType::Fixed, -1, sign, {0, 2.2, 0});
     j.breakImpulse = breakImpulse;
     joint = t.world().addJoint(j);
     const int ball = t.addSphere(0.1, {0, 2, -1}, 0.5, 0.8, 7800);

@@ -49,6 +49,10 @@ struct Material {
   float roughness = 0.6f;              // perceptual roughness, 0 mirror .. 1 matte
   // Which of the three the scene gave: those replace a glTF mesh's own (docs/scene-format.md).
   bool hasColor = false, hasMetallic = false, hasRoughness = false;
+  // A procedural surface drawn over the colour and roughness (render::SurfaceTexture): none, asphalt,
+  // concrete or clay, its features textureScale times their natural size.
+  std::string texture = "none";
+  float textureScale = 1.0f;
 };
 
 struct DeformationSettings {

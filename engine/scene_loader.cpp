@@ -183,7 +183,8 @@ std::string resolvePath(const std::string& baseDir, const std::string& p) {
 
 Material parseMaterial(const Node& n, const std::string& name) {
   n.requireObject();
-  n.checkKeys({"density", "restitution", "friction", "kappa", "thickness", "color", "metallic", "roughness"});
+  n.checkKeys({"density", "restitution", "friction", "kappa", "thickness", "color", "metallic", "roughness", "texture",
+               "texture_scale"});
   Material m;
   m.name = name;
   m.density = n.number("density", m.density, 0, 1e6, true);
@@ -202,6 +203,10 @@ Material parseMaterial(const Node& n, const std::string& name) {
   m.hasRoughness = n.has("roughness");
   m.metallic = static_cast<float>(n.number("metallic", m.metallic, 0, 1));
   m.roughness = static_cast<float>(n.number("roughness", m.roughness, 0, 1));
+  m.texture = n.string("texture", m.texture);
+  if (m.texture != "none" && m.texture != "asphalt" && m.texture != "concrete" && m.texture != "clay")
+    n.fail("texture", "unknown texture '" + m.texture + "' (expected asphalt, concrete, clay or none)");
+  m.textureScale = static_cast<float>(n.number("texture_scale", m.textureScale, 0.01, 100));
   return m;
 }
 

@@ -19,6 +19,12 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     it.color = b.material->color;
     it.metallic = b.material->metallic;
     it.roughness = b.material->roughness;
+    const std::string& tex = b.material->texture;
+    it.texture = tex == "asphalt"    ? render::SurfaceTexture::Asphalt
+                 : tex == "concrete" ? render::SurfaceTexture::Concrete
+                 : tex == "clay"     ? render::SurfaceTexture::Clay
+                                     : render::SurfaceTexture::None;
+    it.textureScale = b.material->textureScale;
     it.look = b.look.get();
     it.ownColor = !b.material->hasColor;
     it.ownMetallic = !b.material->hasMetallic;
@@ -89,7 +95,6 @@ render::View cameraView(const CameraDesc& c, const Simulation* sim) {
   return v;
 }
 
-}  // namespace crumple
 namespace {
 struct Box {
   glm::dvec3 lo{std::numeric_limits<double>::infinity()}, hi{-std::numeric_limits<double>::infinity()};
@@ -203,3 +208,4 @@ CameraDesc defaultCamera(const Simulation& sim) {
   return cam;
 }
 
+}  // namespace crumple

@@ -364,6 +364,10 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     glUniform3fv(u("uColor"), 1, glm::value_ptr(it.color));
     glUniform1f(u("uMetallic"), it.metallic);
     glUniform1f(u("uRoughness"), it.roughness);
+    glUniform1i(u("uTexture"), static_cast<int>(it.texture));
+    const glm::mat4 toModel = glm::inverse(it.model);
+    glUniformMatrix4fv(u("uWorldToModel"), 1, GL_FALSE, glm::value_ptr(toModel));
+    glUniform1f(u("uTextureScale"), it.textureScale);
     m.bindLook(m.pom, it);
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());

@@ -32,6 +32,9 @@ namespace crumple::render {
 
 class GpuLook;  // render/look.h
 
+// Procedural surfaces (pom.frag, value-noise fbm): albedo and roughness varied, no image needed.
+enum class SurfaceTexture { None = 0, Asphalt = 1, Concrete = 2, Clay = 3 };
+
 struct RenderItem {
   GLuint vao = 0;
   GLsizei indexCount = 0;
@@ -45,6 +48,9 @@ struct RenderItem {
   // A look's base colour, metallic or roughness gives way to the item's when the scene set that key.
   const GpuLook* look = nullptr;
   bool ownColor = true, ownMetallic = true, ownRoughness = true;
+  // A procedural surface over the colour and roughness, laid in the mesh's frame (metres / textureScale).
+  SurfaceTexture texture = SurfaceTexture::None;
+  float textureScale = 1.0f;
   float bumpDepth = 0.1f;                 // k: the map's range in metres
   glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame), to fit the sun's shadow map
 };

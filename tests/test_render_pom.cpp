@@ -290,3 +290,48 @@ TEST_CASE("FXAA: edges are smoothed, flat areas keep their pixels, and it can be
   r.draw(s.items(true), v);
   CHECK(fractionOff(heightOn, r.readPixels()) == 0.0);
 }
+
+TEST_CASE("procedural textures vary the surface, each its own way, the same every time") {
+  test::glContext();
+  Stage s;
+  Renderer r(160, 120);
+  r.settings().antialias = Antialias::None;
+  r.settings().shadows = false;
+  auto render = [&](SurfaceTexture t, float scale = 1.0f) {
+    std::vector<RenderItem> items = s.items(false);
+    items[0].texture = t;
+    items[0].textureScale = scale;
+    items[0].color = {0.6f, 0.6f, 0.6f};
+    r.draw(items, topView());
+    return r.readPixels();
+  };
+  // Spread of the luma over the middle of the plate (the dent-free flat top).
+  auto spread = [](const Image& img) {
+    double sum = 0, sum2 = 0;
+    int n = 0;
+    for (int y = 40; y < 80; ++y)
+      for (int x = 50; x < 110; ++x) {
+        const double l = 0.299 * img.at(x, y, 0) + 0.587 * img.at(x, y, 1) + 0.114 * img.at(x, y, 2);
+        sum += l;
+        sum2 += l * l;
+        ++n;
+      }
+    const double mean = sum / n;
+    return std::sqrt(std::max(0.0, sum2 / n - mean * mean));
+  };
+  const Image none = render(SurfaceTexture::None);
+  const double flat = spread(none);
+  double previous = -1;
+  for (SurfaceTexture t : {SurfaceTexture::Asphalt, SurfaceTexture::Concrete, SurfaceTexture::Clay}) {
+    CAPTURE(static_cast<int>(t));
+    const Image a = render(t, 0.25f), b = render(t, 0.25f);  // features a quarter of their size: more in view
+    const double sd = spread(a);
+    MESSAGE("texture " << static_cast<int>(t) << ": luma spread " << sd << " (plain " << flat << ")");
+    CHECK(sd > flat + 0.005);
+    CHECK(fractionOff(a, b) == 0.0);          // deterministic
+    CHECK(fractionOff(a, none) > 0.05);  // it shows on the plate
+    CHECK(fractionOff(a, render(t, 1.0f)) > 0.1);  // the scale changes it
+    CHECK(sd != previous);
+    previous = sd;
+  }
+}

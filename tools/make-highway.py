@@ -79,7 +79,7 @@ def scene():
         "duration": 4.5,
         "materials": {
             "asphalt": {"density": 2400, "restitution": 0.1, "friction": 1.0, "kappa": 0.0, "thickness": 0.2,
-                        "color": [0.23, 0.23, 0.25], "metallic": 0, "roughness": 0.9},
+                        "color": [0.23, 0.23, 0.25], "metallic": 0, "roughness": 0.9, "texture": "asphalt"},
             "rail": {"density": 7800, "restitution": 0.4, "friction": 0.4, "kappa": 0.00006, "thickness": 0.08,
                      "color": [0.58, 0.6, 0.62], "metallic": 1, "roughness": 0.35},
             "post": {"density": 7800, "restitution": 0.4, "friction": 0.5, "kappa": 0.0, "thickness": 0.1,

@@ -32,9 +32,9 @@ def wrecking_ball():
     centre = [pivot[0] + (L + r) * d[0], pivot[1] + (L + r) * d[1], 0.0]
     s = base("wrecking-ball", 4.0, {
         "ground": {"density": 2400, "restitution": 0.1, "friction": 0.9, "kappa": 0.0, "thickness": 0.2,
-                   "color": [0.35, 0.34, 0.32], "metallic": 0, "roughness": 0.95},
+                   "color": [0.35, 0.34, 0.32], "metallic": 0, "roughness": 0.95, "texture": "concrete"},
         "clay": {"density": 1800, "restitution": 0.2, "friction": 0.8, "kappa": 0.00003, "thickness": 0.05,
-                 "color": [0.72, 0.5, 0.36], "metallic": 0, "roughness": 0.75},
+                 "color": [0.72, 0.5, 0.36], "metallic": 0, "roughness": 0.75, "texture": "clay"},
         "steel": {"density": 7800, "restitution": 0.95, "friction": 0.4, "kappa": 0.00001, "thickness": 0.01,
                   "color": [0.3, 0.31, 0.33], "metallic": 1, "roughness": 0.3},
         "crane": {"density": 7800, "restitution": 0.5, "friction": 0.5, "kappa": 0.0, "thickness": 0.05,
@@ -97,7 +97,7 @@ def ragdoll_bodies(at, material, velocity=None, spin=None):
 def ragdoll():
     s = base("ragdoll", 3.0, {
         "ground": {"density": 2400, "restitution": 0.1, "friction": 0.9, "kappa": 0.0, "thickness": 0.2,
-                   "color": [0.35, 0.36, 0.33], "metallic": 0, "roughness": 0.95},
+                   "color": [0.35, 0.36, 0.33], "metallic": 0, "roughness": 0.95, "texture": "concrete"},
         "plaster": {"density": 1200, "restitution": 0.1, "friction": 0.7, "kappa": 0.003, "thickness": 0.05,
                     "color": [0.85, 0.83, 0.78], "metallic": 0, "roughness": 0.9},
         "dummy": {"density": 1000, "restitution": 0.1, "friction": 0.6, "kappa": 0.0, "thickness": 0.05,
@@ -138,7 +138,7 @@ def chain_bridge():
         verts.append((R * math.sin(a), cy - R * math.cos(a)))
     s = base("chain-bridge", 4.0, {
         "ground": {"density": 2400, "restitution": 0.1, "friction": 0.9, "kappa": 0.0, "thickness": 0.2,
-                   "color": [0.3, 0.42, 0.28], "metallic": 0, "roughness": 0.95},
+                   "color": [0.3, 0.42, 0.28], "metallic": 0, "roughness": 0.95, "texture": "clay"},
         "stone": {"density": 2600, "restitution": 0.2, "friction": 0.8, "kappa": 0.0, "thickness": 0.2,
                   "color": [0.55, 0.54, 0.5], "metallic": 0, "roughness": 0.8},
         "wood": {"density": 600, "restitution": 0.3, "friction": 0.7, "kappa": 0.0002, "thickness": 0.04,
@@ -216,9 +216,9 @@ def car_doors():
     yaw = [0, -c["heading"] + 0.0, 0]
     s = base("car-doors", c["duration"], {
         "asphalt": {"density": 2400, "restitution": 0.1, "friction": 1.0, "kappa": 0.0, "thickness": 0.2,
-                    "color": [0.23, 0.23, 0.25], "metallic": 0, "roughness": 0.9},
+                    "color": [0.23, 0.23, 0.25], "metallic": 0, "roughness": 0.9, "texture": "asphalt"},
         "concrete": {"density": 2400, "restitution": 0.2, "friction": 0.7, "kappa": 0.0, "thickness": 0.3,
-                     "color": [0.62, 0.61, 0.58], "metallic": 0, "roughness": 0.85},
+                     "color": [0.62, 0.61, 0.58], "metallic": 0, "roughness": 0.85, "texture": "concrete"},
         "car_body": {"density": 300, "restitution": 0.05, "friction": 0.5, "kappa": 0.0002, "thickness": 0.12,
                      "color": [1.0, 1.0, 1.0], "metallic": 0.5, "roughness": 0.3}})
     s["deformation"] = {"enabled": True, "impulse_floor": 200, "bump_depth": 0.1, "bump_depth_collide": 0.02,

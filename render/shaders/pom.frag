@@ -47,9 +47,67 @@ uniform int uDebug;  // 0 shaded, 1 height, 2 normal, 4 wireframe
 uniform int uMinSteps, uMaxSteps;
 uniform bool uShadows, uSelfShadow;
 uniform vec2 uLodFade;
+uniform int uTexture;         // procedural surface: 0 none, 1 asphalt, 2 concrete, 3 clay
+uniform float uTextureScale;  // its features' size, times their natural size
+uniform mat4 uWorldToModel;   // the surface is laid in the mesh's frame
 out vec4 fragColor;
 
 float heightAt(vec2 uv, vec2 gx, vec2 gy) { return (textureGrad(uHeight, uv, gx, gy).r - 0.5) * uBumpDepth; }
+
+// Value noise: a hash per lattice point, smoothly interpolated; fbm: octaves of it, each fading to its mean
+// once its features are smaller than about two pixels (`footprint`: metres per pixel), so that nothing aliases.
+float hash3(vec3 p) {
+  p = fract(p * vec3(0.1031, 0.1030, 0.0973));
+  p += dot(p, p.yxz + 33.33);
+  return fract((p.x + p.y) * p.z);
+}
+float valueNoise(vec3 x) {
+  vec3 i = floor(x), f = fract(x);
+  f = f * f * (3.0 - 2.0 * f);
+  return mix(mix(mix(hash3(i), hash3(i + vec3(1, 0, 0)), f.x), mix(hash3(i + vec3(0, 1, 0)), hash3(i + vec3(1, 1, 0)), f.x), f.y),
+             mix(mix(hash3(i + vec3(0, 0, 1)), hash3(i + vec3(1, 0, 1)), f.x), mix(hash3(i + vec3(0, 1, 1)), hash3(i + vec3(1, 1, 1)), f.x), f.y),
+             f.z);
+}
+float fadeFor(float frequency, float footprint) { return clamp(2.0 - 4.0 * frequency * footprint, 0.0, 1.0); }
+float fbm(vec3 p, float frequency, int octaves, float footprint) {
+  float sum = 0.0, amplitude = 0.5, total = 0.0;
+  for (int i = 0; i < octaves; ++i) {
+    sum += amplitude * mix(0.5, valueNoise(p * frequency + float(i) * 17.31), fadeFor(frequency, footprint));
+    total += amplitude;
+    amplitude *= 0.5;
+    frequency *= 2.03;
+  }
+  return sum / total;
+}
+// A procedural surface at q (metres in the mesh's frame over the scale): x multiplies the albedo (about 1 on
+// average), y is added to the roughness.
+vec2 surfaceTexture(int kind, vec3 q, float footprint) {
+  if (kind == 1) {
+    // Asphalt: worn and tar-darkened patches of a metre or two, 2 cm grain, pale stone chips.
+    float patches = fbm(q, 0.6, 3, footprint);
+    float grain = fbm(q, 45.0, 2, footprint);
+    float chips = smoothstep(0.74, 0.8, valueNoise(q * 110.0 + 5.0)) * fadeFor(110.0, footprint);
+    float tar = smoothstep(0.45, 0.8, patches);
+    float albedo = mix(1.1, 0.84, tar) * mix(0.82, 1.18, grain) + 0.7 * chips;
+    return vec2(albedo, 0.12 * (grain - 0.5) - 0.15 * tar);
+  }
+  if (kind == 2) {
+    // Concrete: cloudy mottling, faint larger stains, pores of a centimetre or so.
+    float mottle = fbm(q, 0.9, 4, footprint);
+    float stains = fbm(q + 31.0, 0.18, 2, footprint);
+    float pores = smoothstep(0.8, 0.88, valueNoise(q * 70.0 + 11.0)) * fadeFor(70.0, footprint);
+    float albedo = mix(0.82, 1.14, mottle) * mix(0.88, 1.06, stains) * (1.0 - 0.45 * pores);
+    return vec2(albedo, 0.14 * (mottle - 0.5) + 0.1 * pores);
+  }
+  if (kind == 3) {
+    // Clay: broad damp and dry areas, clods of a few centimetres.
+    float damp = fbm(q, 0.7, 4, footprint);
+    float clods = fbm(q + 7.0, 9.0, 3, footprint);
+    float albedo = mix(0.72, 1.2, damp) * mix(0.82, 1.12, clods);
+    return vec2(albedo, 0.08 * (clods - 0.5) - 0.15 * smoothstep(0.55, 0.75, 1.0 - damp));
+  }
+  return vec2(1.0, 0.0);
+}
 
 void main() {
   if (uDebug == 4) { fragColor = vec4(0.05, 0.9, 0.3, 1.0); return; }
@@ -139,6 +197,13 @@ void main() {
       vec3 B = normalize(gradMV - N * dot(gradMV, N));
       Nl = normalize(T * nt.x - B * nt.y + N * nt.z);
     }
+  }
+  if (uTexture != 0) {
+    vec3 q = (uWorldToModel * vec4(vWorld, 1.0)).xyz / max(uTextureScale, 1e-3);
+    float footprint = max(length(dFdx(q)), length(dFdy(q)));
+    vec2 t = surfaceTexture(uTexture, q, footprint);
+    baseColor *= t.x;
+    roughness = clamp(roughness + t.y, 0.0, 1.0);
   }
   vec3 Nb = Nl;
   if (uHasMaps) {

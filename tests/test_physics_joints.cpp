@@ -670,3 +670,49 @@ TEST_CASE("joints: a ragdoll lying on a box stack does not tear, and the stack s
   for (int p : parts) lowest = std::min(lowest, t.body(p).x.y);
   CHECK(lowest > 1.2);  // still on the stack
 }
+
+TEST_CASE("joints: a 40-link chain is solved in two passes a substep; a hinge and a weld on one body share its weight") {
+  SUBCASE("chain") {
+    PhysicsTestContext t;
+    const double len = 0.1;
+    const glm::dvec3 pivot(0, 6, 0);
+    std::vector<int> body;
+    for (int i = 0; i < 40; ++i) {
+      body.push_back(addMassBox(t, {len, 0.02, 0.02}, pivot + glm::dvec3((i + 0.5) * len, 0, 0), 0.5));
+      t.world().addJoint(
+          jointBetween(JointType::Ball, i == 0 ? -1 : body[static_cast<size_t>(i - 1)], body.back(), pivot + glm::dvec3(i * len, 0, 0)));
+    }
+    double worstPasses = 0, worstGap = 0;
+    for (int s = 0; s < 240; ++s) {
+      t.world().step(t.stepSize());
+      const StepStats& st = t.world().lastStats();
+      worstPasses = std::max(worstPasses, static_cast<double>(st.jointSweeps) / st.substeps);
+      for (size_t k = 1; k < body.size(); ++k)
+        worstGap = std::max(worstGap, glm::length(pointOnBody(t.world(), body[k], {-len / 2, 0, 0}) -
+                                                  pointOnBody(t.world(), body[k - 1], {len / 2, 0, 0})));
+    }
+    MESSAGE("40 links: at most " << worstPasses << " passes a substep, largest gap " << worstGap * 1000 << " mm");
+    CHECK(worstPasses <= 2.0);  // a Newton step that solves the whole chain, and the look that sees it hold
+    CHECK(worstGap < 1e-4);
+  }
+  SUBCASE("loop") {
+    // A 10 kg plate hinged to the world along its left edge and welded to it at its right edge: the weld repeats
+    // the hinge (a loop through the world). It must stay put, each joint carrying part of the weight, never
+    // pulling against the other.
+    PhysicsTestContext t;
+    const int plate = addMassBox(t, {1, 0.05, 0.5}, {0.5, 2, 0}, 10);
+    const int hinge = t.world().addJoint(jointBetween(JointType::Hinge, -1, plate, {0, 2, 0}, {0, 0, 1}));
+    const int weld = t.world().addJoint(jointBetween(JointType::Fixed, -1, plate, {1, 2, 0}));
+    const double weight = 10 * 9.81 * t.stepSize();
+    double drift = 0, worstSum = 0;
+    for (int s = 0; s < 240; ++s) {
+      t.world().step(t.stepSize());
+      drift = std::max(drift, glm::length(t.body(plate).x - glm::dvec3(0.5, 2, 0)));
+      worstSum = std::max(worstSum, t.world().jointState(hinge).impulse + t.world().jointState(weld).impulse);
+    }
+    MESSAGE("hinge + weld: drift " << drift * 1000 << " mm, joint impulses a step at most " << worstSum / weight
+                                   << " x the weight's");
+    CHECK(drift < 1e-4);
+    CHECK(worstSum < 1.5 * weight);
+  }
+}

@@ -5,7 +5,8 @@
 //            and 10 chains of 20 ball-jointed links; ms per step
 //   deform:  the GPU path vs the paper's read-back path, ms per deformation
 //            (both sides of one event) at address maps of 256..2048
-//   render:  ms per 1280x720 frame of the sandbox scene, parallax occlusion on and off
+//   render:  ms per 1280x720 frame of the sandbox scene: everything on (parallax occlusion, sky light, FXAA),
+//            then each of those off in turn
 // Prints Google Benchmark's table, then the ratios (with crumple's ms per step in
 // each stage: World::lastStats().ms).
 #include <benchmark/benchmark.h>
@@ -426,13 +427,16 @@ void deformProfile(int iterations) {
 
 // ---- rendering --------------------------------------------------------------
 // The sandbox's scene (the built-in highway) after its car has hit the rail,
-// seen from its chase camera.
-void renderBench(benchmark::State& state, bool pom) {
+// seen from its chase camera. `off`: the feature turned off ("" none, "parallax", "ibl", "aa").
+void renderBench(benchmark::State& state, const std::string& off) {
   Simulation sim(builtinHighway(), true);
   for (int s = 0; s < 900; ++s) sim.step();  // 3.75 s: past the first hit, dents in car and rail
   render::Renderer r(1280, 720);
+  const bool pom = off != "parallax";
   r.settings().parallax = pom ? render::ParallaxMode::Occlusion : render::ParallaxMode::None;
   r.settings().selfShadow = pom;
+  r.settings().ibl = off != "ibl";
+  r.settings().antialias = off == "aa" ? render::Antialias::None : render::Antialias::Fxaa;
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   for (auto _ : state) {
@@ -517,12 +521,11 @@ int main(int argc, char** argv) {
             ->Iterations(quick ? 3 : 20)
             ->Unit(benchmark::kMillisecond);
     }
-    benchmark::RegisterBenchmark("render/1280x720/pom", renderBench, true)
-        ->Iterations(quick ? 2 : 10)
-        ->Unit(benchmark::kMillisecond);
-    benchmark::RegisterBenchmark("render/1280x720/no_parallax", renderBench, false)
-        ->Iterations(quick ? 2 : 10)
-        ->Unit(benchmark::kMillisecond);
+    for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
+             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}})
+      benchmark::RegisterBenchmark(("render/1280x720/" + name).c_str(), renderBench, off)
+          ->Iterations(quick ? 2 : 10)
+          ->Unit(benchmark::kMillisecond);
   }
   std::vector<char*> args = {argv[0]};
   std::string filterArg = "--benchmark_filter=" + filter;
@@ -567,6 +570,11 @@ int main(int argc, char** argv) {
   const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);
   if (!std::isnan(p))
     std::printf("render  1280x720   pom %8.3f ms/frame  no parallax %8.3f ms/frame  pom/none %6.2fx\n", p, f, p / f);
+  const double noIbl = ms("render/1280x720/no_ibl"), noAa = ms("render/1280x720/no_aa");
+  if (!std::isnan(p) && !std::isnan(noIbl))
+    std::printf("render  1280x720   ibl %8.3f ms/frame  no ibl %8.3f ms/frame  ibl/none %6.2fx\n", p, noIbl, p / noIbl);
+  if (!std::isnan(p) && !std::isnan(noAa))
+    std::printf("render  1280x720   fxaa %8.3f ms/frame  no aa %8.3f ms/frame  fxaa/none %6.2fx\n", p, noAa, p / noAa);
   if (deformPhases && gDeformStage) deformProfile(quick ? 3 : 20);
   return 0;
 }

@@ -150,6 +150,7 @@ struct CameraDesc {
   // body's heading about up (x: the body's x projected on the ground).
   std::string follow;
   bool followHeading = false;
+  bool displace = false;  // silhouettes that show dents: drawn with displacement (render::View::displace)
 };
 
 struct Scene {

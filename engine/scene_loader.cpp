@@ -626,7 +626,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     for (size_t i = 0; i < cams.size(); ++i) {
       Node c(cams[i], "cameras[" + std::to_string(i) + "]", file);
       c.requireObject();
-      c.checkKeys({"name", "position", "target", "up", "fov", "follow", "follow_heading"});
+      c.checkKeys({"name", "position", "target", "up", "fov", "follow", "follow_heading", "displace"});
       CameraDesc cd;
       cd.name = c.string("name", "camera" + std::to_string(i));
       for (unsigned char ch : cd.name)
@@ -641,6 +641,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
       if (c.has("follow") && !names.count(cd.follow)) c.fail("follow", "no body is named '" + cd.follow + "'");
       cd.followHeading = c.boolean("follow_heading", false);
       if (c.has("follow_heading") && cd.follow.empty()) c.fail("follow_heading", "needs \"follow\"");
+      cd.displace = c.boolean("displace", false);
       if (glm::length(cd.target - cd.position) < 1e-9) c.fail("target", "must differ from position");
       if (glm::length(glm::cross(glm::normalize(cd.target - cd.position), cd.up)) < 1e-6)
         c.fail("up", "must not be parallel to the view direction");

@@ -89,6 +89,7 @@ render::View cameraView(const CameraDesc& c, const Simulation* sim) {
   v.target = glm::vec3(target);
   v.up = glm::vec3(c.up);
   v.fovDegrees = static_cast<float>(c.fov);
+  v.displace = c.displace;
   const float dist = glm::length(v.target - v.eye);
   v.zNear = std::max(0.01f, dist * 0.01f);
   v.zFar = std::max(100.0f, dist * 50.0f);

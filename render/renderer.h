@@ -82,7 +82,7 @@ struct RendererSettings {
   float lodFadeStart = 1.5f, lodFadeEnd = 3.5f;  // texture lod where POM fades to normal mapping
   GLuint addressMap = 0;                         // RG32F: shown by DebugView::Address
   // Silhouettes that show dents: bodies with maps drawn through tessellation shaders, cut to about
-  // displaceSegmentPixels a segment on screen (at most 64 a triangle edge) and moved along the normal by
+  // displaceSegmentPixels a segment on screen (at most 32 a triangle edge) and moved along the normal by
   // (h - 0.5) k; the fragment stage then shades with the normal map without the parallax march.
   bool displace = false;
   float displaceSegmentPixels = 6.0f;

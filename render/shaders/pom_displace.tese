@@ -32,6 +32,8 @@ void main() {
   s = length(s) > 1e-6 ? normalize(s) : n;
   vec2 uv = b.x * teUV[0] + b.y * teUV[1] + b.z * teUV[2];
   float d = (textureLod(uHeight, uv, 0.0).r - 0.5) * uBumpDepth;
+  // The sun's shadow map holds the undisplaced meshes: look the shadow up where the vertex was, as POM does.
+  vShadow = uLightViewProjection * (uModel * vec4(p, 1.0));
   p += s * (d / max(dot(s, n), 0.5));  // a depth d along n, reached along s
   vColor = b.x * teColor[0] + b.y * teColor[1] + b.z * teColor[2];
   vMaterialUV = b.x * teMaterialUV[0] + b.y * teMaterialUV[1] + b.z * teMaterialUV[2];
@@ -40,6 +42,5 @@ void main() {
   vWorld = world.xyz;
   vNormal = uNormalMatrix * n;
   vUV = uv;
-  vShadow = uLightViewProjection * world;
   gl_Position = uViewProjection * world;
 }

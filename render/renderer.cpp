@@ -15,7 +15,7 @@ Program program(const char* vs, const char* fs) {
   return Program(
       {{GL_VERTEX_SHADER, vs, std::string(renderShader(vs))}, {GL_FRAGMENT_SHADER, fs, std::string(renderShader(fs))}});
 }
-constexpr int kShadowSize = 256;
+constexpr int kShadowSize = 2048;
 constexpr int kEnvSize = 64, kEnvLevels = 7;            // the sky as rendered, mipmapped
 constexpr int kPrefilterSize = 64, kPrefilterLevels = 5;  // roughness 0, 0.25, .. 1
 constexpr int kIrradianceSize = 16, kLutSize = 64;

@@ -427,7 +427,8 @@ void deformProfile(int iterations) {
 
 // ---- rendering --------------------------------------------------------------
 // The sandbox's scene (the built-in highway) after its car has hit the rail,
-// seen from its chase camera. `off`: the feature turned off ("" none, "parallax", "ibl", "aa").
+// seen from its chase camera. `off`: the feature turned off ("" none, "parallax", "ibl", "aa"), or "+displace":
+// displacement (tessellation) turned on.
 void renderBench(benchmark::State& state, const std::string& off) {
   Simulation sim(builtinHighway(), true);
   for (int s = 0; s < 900; ++s) sim.step();  // 3.75 s: past the first hit, dents in car and rail
@@ -437,6 +438,7 @@ void renderBench(benchmark::State& state, const std::string& off) {
   r.settings().selfShadow = pom;
   r.settings().ibl = off != "ibl";
   r.settings().antialias = off == "aa" ? render::Antialias::None : render::Antialias::Fxaa;
+  r.settings().displace = off == "+displace";
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   for (auto _ : state) {
@@ -522,7 +524,7 @@ int main(int argc, char** argv) {
             ->Unit(benchmark::kMillisecond);
     }
     for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
-             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}})
+             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"displace", "+displace"}})
       benchmark::RegisterBenchmark(("render/1280x720/" + name).c_str(), renderBench, off)
           ->Iterations(quick ? 2 : 10)
           ->Unit(benchmark::kMillisecond);
@@ -575,6 +577,10 @@ int main(int argc, char** argv) {
     std::printf("render  1280x720   ibl %8.3f ms/frame  no ibl %8.3f ms/frame  ibl/none %6.2fx\n", p, noIbl, p / noIbl);
   if (!std::isnan(p) && !std::isnan(noAa))
     std::printf("render  1280x720   fxaa %8.3f ms/frame  no aa %8.3f ms/frame  fxaa/none %6.2fx\n", p, noAa, p / noAa);
+  const double displaced = ms("render/1280x720/displace");
+  if (!std::isnan(p) && !std::isnan(displaced))
+    std::printf("render  1280x720   displace %8.3f ms/frame  pom alone %8.3f ms/frame  displace/pom %6.2fx\n", displaced, p,
+                displaced / p);
   if (deformPhases && gDeformStage) deformProfile(quick ? 3 : 20);
   return 0;
 }

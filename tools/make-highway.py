@@ -98,7 +98,7 @@ def scene():
              "target": [2.5, 0.4, 0], "fov": 50},
             {"name": "impact", "position": [36.0, 1.25, -3.1], "target": [39.0, 0.55, -4.9], "fov": 45},
             {"name": "torn", "position": [41.5, 2.6, -2.0], "target": [37.8, 0.2, -5.8], "fov": 50},
-            {"name": "side", "follow": "car", "position": [3.4, 0.55, -2.9], "target": [-0.3, -0.1, -0.7], "fov": 45},
+            {"name": "side", "follow": "car", "position": [3.4, 0.55, -2.9], "target": [-0.3, -0.1, -0.7], "fov": 45, "displace": True},
         ],
     }
 

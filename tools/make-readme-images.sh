@@ -43,8 +43,6 @@ shoot wrecking-ball main 1.3
 shoot wrecking-ball wall 2.4 wrecking-ball-dent
 shoot ragdoll main 0.4
 shoot chain-bridge main 1.5
-rm -rf "$tmp"
-ls -la docs/images
 # A dented edge under POM alone (left) and with displacement (right): the default scene's ball dropped on the
 # plate's edge, seen along it (crumple-sim --displace).
 for mode in pom displace; do
@@ -56,3 +54,5 @@ for mode in pom displace; do
 done
 tools/side-by-side.py docs/images/displace-edge.png "$tmp/edge-pom/frames/main_00003.png" \
   "$tmp/edge-displace/frames/main_00003.png"
+rm -rf "$tmp"
+ls -la docs/images

@@ -460,6 +460,72 @@ TEST_CASE("cow-drop: the cow lands on its four hooves and leaves four prints in 
   CHECK(d[4] == doctest::Approx(std::hypot(d[0], d[2])).epsilon(0.03));  // a rectangle
 }
 
+TEST_CASE("crate-drop: the shipped glTF crate keeps its textures in the render and is dented") {
+  // Renders the scene's camera at the end of a short run and looks at the pixels inside the crate's silhouette
+  // (a disc about its final centre, projected with the scene's camera): the file's base-colour texture shows plank
+  // brown and the dark brace. The same run with the scene material's colour given (which replaces the file's
+  // texture) has neither, so the counts tell the texture from a plain body.
+  const json scene = json::parse(slurp(fs::path(CRUMPLE_SCENES) / "crate-drop.json"));
+  const json& cam = scene["cameras"][0];
+  const int W = 480, H = 270;
+  struct Counts {
+    int inside = 0, plank = 0, brace = 0;
+  };
+  auto run = [&](const std::string& extra, const std::string& tag) {
+    const fs::path out = kTmp / ("crate_" + tag);
+    fs::remove_all(out);
+    REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/crate-drop.json --out " + out.string() +
+                   " --render --fps 1 --size 480x270 --duration 1 --quiet" + extra) == 0);
+    const json s = json::parse(slurp(out / "summary.json"));
+    glm::vec3 centre(0);
+    for (const auto& b : s["bodies"])
+      if (b["name"] == "crate")
+        centre = glm::vec3(b["position"][0].get<float>(), b["position"][1].get<float>(), b["position"][2].get<float>());
+    const glm::vec3 eye(cam["position"][0].get<float>(), cam["position"][1].get<float>(), cam["position"][2].get<float>());
+    const glm::vec3 target(cam["target"][0].get<float>(), cam["target"][1].get<float>(), cam["target"][2].get<float>());
+    const float fov = glm::radians(cam["fov"].get<float>());
+    // Pinhole projection of the camera (vertical fov, y up, looking from eye to target).
+    const glm::vec3 f = glm::normalize(target - eye), r = glm::normalize(glm::cross(f, glm::vec3(0, 1, 0))),
+                    u = glm::cross(r, f);
+    const glm::vec3 d = centre - eye;
+    const float z = glm::dot(d, f), k = 0.5f * H / std::tan(0.5f * fov);
+    const float px = 0.5f * W + k * glm::dot(d, r) / z, py = 0.5f * H - k * glm::dot(d, u) / z;
+    const float radius = 0.85f * k * 0.3f / glm::length(d);  // inside the crate's inscribed sphere (0.3 m)
+    MESSAGE(tag << ": crate centre at pixel (" << px << ", " << py << "), disc radius " << radius);
+    REQUIRE(radius > 10);
+    std::vector<fs::path> frames;
+    for (const auto& e : fs::directory_iterator(out / "frames")) frames.push_back(e.path());
+    std::sort(frames.begin(), frames.end());
+    REQUIRE(!frames.empty());
+    const crumple::render::Image img = crumple::render::readPng(frames.back().string(), 3);
+    REQUIRE(img.width == W);
+    Counts c;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        if (std::hypot(x + 0.5f - px, y + 0.5f - py) > radius) continue;
+        ++c.inside;
+        const float R = img.at(x, y, 0), G = img.at(x, y, 1), B = img.at(x, y, 2);
+        if (R > 0.4f && R > G + 0.08f && G > B + 0.05f) ++c.plank;  // lit planks: orange brown
+        if (std::max({R, G, B}) < 0.2f && R > B + 0.02f) ++c.brace;  // the brace: dark brown, not grey
+      }
+    MESSAGE(tag << ": " << c.inside << " pixels in the disc, " << c.plank << " plank brown, " << c.brace
+                << " brace dark");
+    return std::make_pair(c, out);
+  };
+  const auto [textured, out] = run("", "file");
+  CHECK(textured.plank > textured.inside / 4);
+  CHECK(textured.brace > textured.inside / 50);
+  const auto [plain, plainOut] = run(" --set 'materials.wood.color=[0.55,0.55,0.55]'", "plain");
+  CHECK(plain.plank < plain.inside / 50);
+  CHECK(plain.brace < plain.inside / 200);
+  // The landing wrote the crate's height map, dented.
+  const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / "crate.png").string());
+  int dented = 0;
+  for (float v : h.pixels) dented += v < 0.45f;
+  MESSAGE(dented << " crate height-map texels dented");
+  CHECK(dented > 100);
+}
+
 TEST_CASE(
     "bump-ramp: with normal-mapped collision normals a ball rolls down a slope that exists only in the bump map "
     "(figure 10)") {

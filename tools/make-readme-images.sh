@@ -43,6 +43,7 @@ shoot wrecking-ball main 1.3
 shoot wrecking-ball wall 2.4 wrecking-ball-dent
 shoot ragdoll main 0.4
 shoot chain-bridge main 1.5
+shoot crate-drop main 2
 # A dented edge under POM alone (left) and with displacement (right): the default scene's ball dropped on the
 # plate's edge, seen along it (crumple-sim --displace).
 for mode in pom displace; do

@@ -84,6 +84,7 @@ class PySimulation {
       glError_ = e.what();
     }
     sim_ = std::make_unique<Simulation>(scene_, gl_ != nullptr);
+    defaultCamera_ = defaultCamera(*sim_);  // framed once, on the bodies as they start
     totalSteps_ = std::max(1L, std::lround(scene_.duration / scene_.timestep));
   }
   ~PySimulation() {
@@ -135,7 +136,6 @@ class PySimulation {
     std::copy(h.pixels.begin(), h.pixels.begin() + static_cast<long>(h.width) * h.height, out.mutable_data());
     return out;
   }
-  CameraDesc defaultCamera_;  // for scenes without cameras
   py::array_t<float> normalMap(const std::string& name) {
     const BodyRuntime& b = mapped(name);
     const int n = b.surface->resolution();
@@ -209,6 +209,7 @@ class PySimulation {
   std::string glError_;
   std::unique_ptr<Simulation> sim_;
   std::unique_ptr<render::Renderer> renderer_;
+  CameraDesc defaultCamera_;  // for scenes without cameras
   long totalSteps_ = 1;
 };
 

@@ -14,6 +14,7 @@
 #include "engine/atlas.h"
 #include "engine/mesh_io.h"
 #include "engine/scene.h"
+#include "engine/scene_view.h"
 
 using namespace crumple;
 namespace fs = std::filesystem;
@@ -60,6 +61,16 @@ TEST_CASE("the good scene loads") {
   CHECK(s.deformation.options.addressMap == 256);
 }
 
+TEST_CASE("a camera's displace key turns displacement on for that camera only") {
+  const Scene plain = parseScene(kGood, "good.json", ".");
+  REQUIRE(plain.cameras.size() == 1);
+  CHECK_FALSE(plain.cameras[0].displace);
+  const Scene s = parseScene(mutate("\"fov\": 45", "\"fov\": 45, \"displace\": true"), "good.json", ".");
+  REQUIRE(s.cameras.size() == 1);
+  CHECK(s.cameras[0].displace);
+  CHECK(cameraView(s.cameras[0], nullptr).displace);
+}
+
 TEST_CASE("malformed scenes name the key path and the reason") {
   struct Case {
     std::string text, path, reason;
@@ -99,6 +110,7 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"target\": [0, 0, 0]", "\"target\": [2, 1.5, 2]"), "cameras[0].target", "must differ from position"},
       {mutate("\"fov\": 45", "\"fov\": 45, \"follow\": \"bal\""), "cameras[0].follow", "no body is named 'bal'"},
       {mutate("\"fov\": 45", "\"fov\": 45, \"follow_heading\": true"), "cameras[0].follow_heading", "needs \"follow\""},
+      {mutate("\"fov\": 45", "\"fov\": 45, \"displace\": \"yes\""), "cameras[0].displace", "must be true or false"},
       {mutate("{\"type\": \"sphere\", \"radius\": 0.25}", "{\"type\": \"mesh\", \"file\": \"nope.glb\"}"),
        "bodies[1].shape.file", "no such file"},
       {mutate("\"bodies\": [", "\"bodies\": 3, \"x\": ["), "bodies", "must be an array"},

@@ -161,7 +161,7 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
   p.s3 = glm::inverse(schur);
   // The lever of torsional friction: the mean distance from the centre of a
   // uniformly pressed rectangle, about 0.77 of its mean half side.
-  p.twistRadius = 0.77 * 0.25 * ((patch.hi1 - patch.lo1) + (patch.hi2 - patch.lo2));
+  p.twistRadius = patch.twistRadius();
   p.valid = true;
   return p;
 }

@@ -65,6 +65,8 @@ struct PatchExtent {
   glm::dvec3 n{0}, t1{0}, t2{0};
   double lo1 = 0, hi1 = 0, lo2 = 0, hi2 = 0;  // lo <= 0 <= hi
   bool flat() const { return hi1 - lo1 <= 0 || hi2 - lo2 <= 0; }
+  // The mean lever of torsional friction over the patch (its twist limit is mu jn times this).
+  double twistRadius() const { return 0.77 * 0.25 * ((hi1 - lo1) + (hi2 - lo2)); }
 };
 // One impulse at a single point cannot hold a face: it zeroes the relative
 // velocity there but not the relative tilting or twisting, and a box resting

@@ -115,6 +115,10 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
   std::vector<RestingWarm> previous;
   previous.swap(ctx.restingWarm);
   ctx.restingWarm.clear();
+  auto firstWarm = [&](uint64_t pk) {  // the first of last substep's groups of pair key pk
+    return std::lower_bound(previous.begin(), previous.end(), pk,
+                            [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
+  };
   auto key = [&](size_t pi) {
     return static_cast<uint64_t>(ctx.pairs[pi].a) << 32 | static_cast<uint32_t>(ctx.pairs[pi].b);
   };
@@ -142,8 +146,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     for (int k = first[root]; k < first[root + 1] && !needed; ++k) {
       const size_t pi = islandPairs[static_cast<size_t>(k)];
       const uint64_t pk = key(pi);
-      const auto w = std::lower_bound(previous.begin(), previous.end(), pk,
-                                      [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
+      const auto w = firstWarm(pk);
       if (w != previous.end() && w->key == pk) needed = true;
       for (const ContactGroup& g : ctx.groups[pi])
         if (glm::dot(ctx.relativeVelocity(g.contact.a, g.contact.b, g.levers), g.contact.normal) <
@@ -161,7 +164,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
         ig.torque2 = e.hi1 - e.lo1 > 1e-6;
         ig.torque1 = e.hi2 - e.lo2 > 1e-6;
         ig.mu = std::sqrt(ctx.body(g.contact.a).friction * ctx.body(g.contact.b).friction);
-        ig.twistRadius = 0.77 * 0.25 * ((e.hi1 - e.lo1) + (e.hi2 - e.lo2));
+        ig.twistRadius = e.twistRadius();
         ig.twist = ig.torque1 || ig.torque2;
         ig.rowStart = static_cast<int>(rows.size());
         const Contact& c = g.contact;
@@ -236,9 +239,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
       const uint64_t pk = key(ig.pair);
       const RestingWarm* best = nullptr;
       double bestDot = 0.95;
-      for (auto w = std::lower_bound(previous.begin(), previous.end(), pk,
-                                     [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
-           w != previous.end() && w->key == pk; ++w) {
+      for (auto w = firstWarm(pk); w != previous.end() && w->key == pk; ++w) {
         const double d = glm::dot(w->normal, nAB);
         if (d > bestDot) {
           bestDot = d;

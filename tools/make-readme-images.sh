@@ -28,7 +28,7 @@ for path in gather scatter; do
   build/apps/crumple-sim scenes/highway.json --out "$tmp/dent-$path" --duration 2.5 --deform-path $path -q
 done
 tools/dent-view.py "$tmp/dent-gather/heightmaps/car.png" --compare "$tmp/dent-scatter/heightmaps/car.png" --k 0.2 \
-  --crop 760,1125,1060,1255 --scale 2 --png docs/images/highway-dent-gather-vs-scatter.png
+  --crop 0,1115,190,1250 --scale 2 --png docs/images/highway-dent-gather-vs-scatter.png
 shoot sphere-into-plate main 1.5
 shoot pattern-box wall 3
 shoot pyramid front 2

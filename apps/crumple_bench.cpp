@@ -428,11 +428,14 @@ void deformProfile(int iterations) {
 // ---- rendering --------------------------------------------------------------
 // The sandbox's scene (the built-in highway) after its car has hit the rail,
 // seen from its chase camera. `off`: the feature turned off ("" none, "parallax", "ibl", "aa"), or "+displace":
-// displacement (tessellation) turned on.
+// displacement (tessellation) turned on, "+simplified": simplified meshes (RendererSettings::simplified),
+// "sandbox": the sandbox's view at its smallest automatic scale (960x540 x 0.35, simplified meshes, FXAA).
 void renderBench(benchmark::State& state, const std::string& off) {
   Simulation sim(builtinHighway(), true);
   for (int s = 0; s < 900; ++s) sim.step();  // 3.75 s: past the first hit, dents in car and rail
-  render::Renderer r(1280, 720);
+  const bool sandbox = off == "sandbox";
+  render::Renderer r(sandbox ? 336 : 1280, sandbox ? 189 : 720);
+  r.settings().simplified = sandbox || off == "+simplified";
   const bool pom = off != "parallax";
   r.settings().parallax = pom ? render::ParallaxMode::Occlusion : render::ParallaxMode::None;
   r.settings().selfShadow = pom;
@@ -524,8 +527,10 @@ int main(int argc, char** argv) {
             ->Unit(benchmark::kMillisecond);
     }
     for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
-             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"displace", "+displace"}})
-      benchmark::RegisterBenchmark(("render/1280x720/" + name).c_str(), renderBench, off)
+             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"displace", "+displace"},
+             {"simplified", "+simplified"}, {"sandbox_336x189", "sandbox"}})
+      benchmark::RegisterBenchmark(("render/" + std::string(off == "sandbox" ? "" : "1280x720/") + name).c_str(),
+                                   renderBench, off)
           ->Iterations(quick ? 2 : 10)
           ->Unit(benchmark::kMillisecond);
   }
@@ -581,6 +586,13 @@ int main(int argc, char** argv) {
   if (!std::isnan(p) && !std::isnan(displaced))
     std::printf("render  1280x720   displace %8.3f ms/frame  pom alone %8.3f ms/frame  displace/pom %6.2fx\n", displaced, p,
                 displaced / p);
+  const double simplified = ms("render/1280x720/simplified"), sandboxView = ms("render/sandbox_336x189");
+  if (!std::isnan(p) && !std::isnan(simplified))
+    std::printf("render  1280x720   simplified meshes %8.3f ms/frame  full %8.3f ms/frame  simplified/full %6.2fx\n",
+                simplified, p, simplified / p);
+  if (!std::isnan(sandboxView))
+    std::printf("render  sandbox view 336x189 (960x540 x 0.35, simplified)  %8.3f ms/frame  (%.1f frames/s of rendering)\n",
+                sandboxView, 1000.0 / sandboxView);
   if (deformPhases && gDeformStage) deformProfile(quick ? 3 : 20);
   return 0;
 }

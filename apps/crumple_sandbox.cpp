@@ -244,6 +244,8 @@ void panel(App& app) {
   ImGui::Text("%.1f fps", ImGui::GetIO().Framerate);
   ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.renderScale,
               app.autoScale ? ", auto" : "");
+  const render::RendererStats& rs = app.renderer->stats();
+  ImGui::Text("bodies drawn %d (%d outside the view), shadow casters drawn %d", rs.drawn, rs.culled, rs.shadowCasters);
   ImGui::Text("collisions %zu  deformations %ld", app.sim->events().size(), app.sim->timings().deformations);
   if (!app.sim->vehicles().empty())
     ImGui::Text("speed %.1f km/h", app.sim->vehicles().front().vehicle.speed(app.sim->world()) * 3.6);
@@ -333,6 +335,9 @@ void panel(App& app) {
     ImGui::Checkbox("shadows", &s.shadows);
     ImGui::SameLine();
     ImGui::Checkbox("self-shadowing", &s.selfShadow);
+    ImGui::Checkbox("simplified meshes", &s.simplified);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("Draw large meshes with fewer triangles (at most 3 mm off the surface; dents stay in the maps)");
     ImGui::SliderInt("max steps", &s.maxSteps, 8, 128);
     if (ImGui::SliderFloat("render scale", &app.renderScale, 0.25f, 1.0f)) app.autoScale = false;
     ImGui::SameLine();
@@ -416,6 +421,7 @@ int main(int argc, char** argv) {
     app.reset();
     app.renderer = std::make_unique<render::Renderer>(width, height);
     app.renderer->settings().antialias = antialias == "none" ? render::Antialias::None : render::Antialias::Fxaa;
+    app.renderer->settings().simplified = true;  // interactive: large meshes drawn simplified (panel)
 
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();

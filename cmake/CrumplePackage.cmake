@@ -76,6 +76,8 @@ else()
 endif()
 # Link order: each library before those it uses.
 set(CRUMPLE_PC_LIBS "-lcrumple_engine -lcrumple_deform -lcrumple_render -lcrumple_deform_model -lcrumple_physics -lcrumple_core")
+# meshoptimizer (crumple_deform) has no pkg-config module: named on the link line.
+string(APPEND CRUMPLE_PC_LIBS " -lmeshoptimizer")
 foreach(lib ${CMAKE_DL_LIBS})
   string(APPEND CRUMPLE_PC_LIBS " -l${lib}")
 endforeach()

@@ -2,10 +2,83 @@
 
 #include <cmath>
 #include <map>
+#include <meshoptimizer.h>
 #include <tuple>
 #include <vector>
 
 namespace crumple::deform {
+
+namespace {
+// The vertex layout of GpuMesh::vertices (17 floats) on vertex array `a`, with its index buffer.
+void describeVertices(GLuint a, GLuint vertexBuffer, GLuint indexBuffer) {
+  glVertexArrayVertexBuffer(a, 0, vertexBuffer, 0, 17 * sizeof(float));
+  glVertexArrayElementBuffer(a, indexBuffer);
+  for (GLuint k = 0; k < 7; ++k) {
+    glEnableVertexArrayAttrib(a, k);
+    glVertexArrayAttribBinding(a, k, 0);
+  }
+  glVertexArrayAttribFormat(a, 0, 3, GL_FLOAT, GL_FALSE, 0);
+  glVertexArrayAttribFormat(a, 1, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float));
+  glVertexArrayAttribFormat(a, 2, 2, GL_FLOAT, GL_FALSE, 6 * sizeof(float));
+  glVertexArrayAttribFormat(a, 3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float));
+  glVertexArrayAttribFormat(a, 4, 2, GL_FLOAT, GL_FALSE, 11 * sizeof(float));  // the file's material uv
+  glVertexArrayAttribFormat(a, 5, 1, GL_FLOAT, GL_FALSE, 13 * sizeof(float));  // its material, -1 none
+  glVertexArrayAttribFormat(a, 6, 3, GL_FLOAT, GL_FALSE, 14 * sizeof(float));  // the smooth normal
+}
+
+// GpuMesh's simplified triangles (indices into the same vertices). Vertices split at one position (uv seams,
+// hard edges, colour or material borders) stay split: meshoptimizer's simplifier moves such seams only along
+// themselves, so every kept triangle keeps its own uvs and the atlas still maps it one-to-one; open borders are
+// locked. Where seams leave little to collapse the triangles stay as they are. Either way they are ordered for
+// the vertex cache.
+std::vector<uint32_t> simplifiedTriangles(const std::vector<float>& v, size_t floats, const std::vector<uint32_t>& idx) {
+  const size_t vertexCount = v.size() / floats;
+  const float scale = meshopt_simplifyScale(v.data(), vertexCount, floats * sizeof(float));
+  std::vector<uint32_t> out(idx.size());
+  size_t n = 0;
+  if (scale > 0)
+    n = meshopt_simplify(out.data(), idx.data(), idx.size(), v.data(), vertexCount, floats * sizeof(float),
+                         idx.size() / 8 / 3 * 3, GpuMesh::kSimplifyError / scale, meshopt_SimplifyLockBorder);
+  if (n == 0) {
+    out = idx;
+    n = idx.size();
+  }
+  out.resize(n);
+  meshopt_optimizeVertexCache(out.data(), out.data(), n, vertexCount);
+  return out;
+}
+
+// The shadow caster: positions alone, welded where they coincide (no seams), simplified while the surface
+// moves at most GpuMesh::kShadowError metres, ordered for the vertex cache, unused vertices dropped.
+void shadowMesh(const std::vector<float>& v, size_t floats, const std::vector<uint32_t>& idx,
+                std::vector<float>& positions, std::vector<uint32_t>& triangles) {
+  const size_t count = v.size() / floats;
+  std::vector<float> p(count * 3);
+  for (size_t i = 0; i < count; ++i)
+    for (int k = 0; k < 3; ++k) p[i * 3 + k] = v[i * floats + k];
+  std::vector<uint32_t> remap(count);
+  const size_t unique = meshopt_generateVertexRemap(remap.data(), idx.data(), idx.size(), p.data(), count, 12);
+  std::vector<uint32_t> welded(idx.size());
+  meshopt_remapIndexBuffer(welded.data(), idx.data(), idx.size(), remap.data());
+  std::vector<float> q(unique * 3);
+  meshopt_remapVertexBuffer(q.data(), p.data(), count, 12, remap.data());
+  const float scale = meshopt_simplifyScale(q.data(), unique, 12);
+  triangles.assign(welded.size(), 0);
+  size_t n = 0;
+  if (scale > 0)
+    n = meshopt_simplify(triangles.data(), welded.data(), welded.size(), q.data(), unique, 12, welded.size() / 20 / 3 * 3,
+                         GpuMesh::kShadowError / scale, meshopt_SimplifyLockBorder);
+  if (n == 0) {
+    triangles = welded;
+    n = welded.size();
+  }
+  triangles.resize(n);
+  meshopt_optimizeVertexCache(triangles.data(), triangles.data(), n, unique);
+  positions.assign(unique * 3, 0.0f);
+  const size_t used = meshopt_optimizeVertexFetch(positions.data(), triangles.data(), n, q.data(), unique, 12);
+  positions.resize(used * 3);
+}
+}  // namespace
 
 GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   std::vector<float> v;
@@ -48,20 +121,25 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   indexCount = static_cast<GLsizei>(idx.size());
   boundsMin = mesh.boundsMin();
   boundsMax = mesh.boundsMax();
-  const GLuint a = vao.id();
-  glVertexArrayVertexBuffer(a, 0, vertices.id(), 0, kFloats * sizeof(float));
-  glVertexArrayElementBuffer(a, indices.id());
-  for (GLuint k = 0; k < 7; ++k) {
-    glEnableVertexArrayAttrib(a, k);
-    glVertexArrayAttribBinding(a, k, 0);
+  describeVertices(vao.id(), vertices.id(), indices.id());
+  if (mesh.triangles.size() > kSimplifyAbove) {
+    const std::vector<uint32_t> fewer = simplifiedTriangles(v, kFloats, idx);
+    simplifiedIndices = render::Buffer::fromVector(fewer);
+    simplifiedIndexCount = static_cast<GLsizei>(fewer.size());
+    describeVertices(simplifiedVao.id(), vertices.id(), simplifiedIndices.id());
+    std::vector<float> positions;
+    std::vector<uint32_t> triangles;
+    shadowMesh(v, kFloats, idx, positions, triangles);
+    shadowVertices = render::Buffer::fromVector(positions);
+    shadowIndices = render::Buffer::fromVector(triangles);
+    shadowIndexCount = static_cast<GLsizei>(triangles.size());
+    const GLuint a = shadowVao.id();
+    glVertexArrayVertexBuffer(a, 0, shadowVertices.id(), 0, 3 * sizeof(float));
+    glVertexArrayElementBuffer(a, shadowIndices.id());
+    glEnableVertexArrayAttrib(a, 0);
+    glVertexArrayAttribBinding(a, 0, 0);
+    glVertexArrayAttribFormat(a, 0, 3, GL_FLOAT, GL_FALSE, 0);
   }
-  glVertexArrayAttribFormat(a, 0, 3, GL_FLOAT, GL_FALSE, 0);
-  glVertexArrayAttribFormat(a, 1, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float));
-  glVertexArrayAttribFormat(a, 2, 2, GL_FLOAT, GL_FALSE, 6 * sizeof(float));
-  glVertexArrayAttribFormat(a, 3, 3, GL_FLOAT, GL_FALSE, 8 * sizeof(float));
-  glVertexArrayAttribFormat(a, 4, 2, GL_FLOAT, GL_FALSE, 11 * sizeof(float));  // the file's material uv
-  glVertexArrayAttribFormat(a, 5, 1, GL_FLOAT, GL_FALSE, 13 * sizeof(float));  // its material, -1 none
-  glVertexArrayAttribFormat(a, 6, 3, GL_FLOAT, GL_FALSE, 14 * sizeof(float));  // the smooth normal
 }
 
 void GpuMesh::draw() const {

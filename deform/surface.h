@@ -19,6 +19,20 @@ struct GpuMesh {
                             // material (1, -1 none), normal averaged over the vertices at its position (3) floats
   render::Buffer indices;
   GLsizei indexCount = 0;
+  // For interactive views (render::RendererSettings::simplified), meshes over kSimplifyAbove triangles get
+  // - the same vertices under fewer triangles: simplified (meshoptimizer's edge collapses, which keep uv seams
+  //   and open borders) while the surface moves at most kSimplifyError metres, ordered for the vertex cache;
+  // - a shadow caster: positions alone, welded, simplified within kShadowError metres (a shadow map texel of
+  //   the shipped scenes is several centimetres).
+  // The counts are 0 for smaller meshes.
+  static constexpr size_t kSimplifyAbove = 1000;
+  static constexpr float kSimplifyError = 0.003f, kShadowError = 0.01f;
+  render::VertexArray simplifiedVao;
+  render::Buffer simplifiedIndices;
+  GLsizei simplifiedIndexCount = 0;
+  render::VertexArray shadowVao;
+  render::Buffer shadowVertices, shadowIndices;
+  GLsizei shadowIndexCount = 0;
   glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame
   double metresPerUv = 1;                // sqrt(surface area / uv area)
   explicit GpuMesh(const TriangleMesh& mesh);

@@ -15,6 +15,12 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     render::RenderItem it;
     it.vao = b.gpuMesh->vao.id();
     it.indexCount = b.gpuMesh->indexCount;
+    if (b.gpuMesh->simplifiedIndexCount > 0) {
+      it.simplifiedVao = b.gpuMesh->simplifiedVao.id();
+      it.simplifiedIndexCount = b.gpuMesh->simplifiedIndexCount;
+      it.shadowVao = b.gpuMesh->shadowVao.id();
+      it.shadowIndexCount = b.gpuMesh->shadowIndexCount;
+    }
     it.model = glm::mat4(sim.model(static_cast<int>(i)));
     it.color = b.material->color;
     it.metallic = b.material->metallic;

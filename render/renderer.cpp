@@ -50,7 +50,88 @@ glm::mat3 faceBasis(int face) {
   static const glm::vec3 up[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
   return glm::mat3(right[face], up[face], fwd[face]);
 }
+// True when the box lo..hi (model frame) lies wholly outside one plane of the clip volume of `mvp`:
+// the item can draw no pixel (a conservative test: boxes across a corner of the frustum are kept).
+bool outsideClip(const glm::mat4& mvp, const glm::vec3& lo, const glm::vec3& hi) {
+  glm::vec4 c[8];
+  for (int k = 0; k < 8; ++k)
+    c[k] = mvp * glm::vec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0f);
+  for (int axis = 0; axis < 3; ++axis)
+    for (const float side : {-1.0f, 1.0f}) {
+      bool allOut = true;
+      for (int k = 0; k < 8 && allOut; ++k) allOut = side * c[k][axis] > c[k].w;
+      if (allOut) return true;
+    }
+  return false;
+}
+
+// What one item draws: its simplified mesh where the settings ask for it and it has one.
+GLuint itemVao(const RenderItem& it, const RendererSettings& s) {
+  return s.simplified && it.simplifiedVao ? it.simplifiedVao : it.vao;
+}
+GLsizei itemIndexCount(const RenderItem& it, const RendererSettings& s) {
+  return s.simplified && it.simplifiedVao ? it.simplifiedIndexCount : it.indexCount;
+}
+// What it casts into the shadow map.
+GLuint casterVao(const RenderItem& it, const RendererSettings& s) {
+  return s.simplified && it.shadowVao ? it.shadowVao : it.vao;
+}
+GLsizei casterIndexCount(const RenderItem& it, const RendererSettings& s) {
+  return s.simplified && it.shadowVao ? it.shadowIndexCount : it.indexCount;
+}
 }  // namespace
+
+// The sun's shadow map keeps the casters that stood still: they are drawn once into `still` and copied
+// into the shadow map each frame, and only the items that moved since the last frame are drawn over it.
+// An item is matched to last frame's by its place in the list, its mesh and index count; the copy is made
+// anew when the light's frustum changes, a still item moves or the list changes. The depth test (less)
+// makes the result the same as drawing every item (up to which of two casters at one depth wins).
+struct ShadowCache {
+  static constexpr int kPromoteFrames = 30;  // a moving caster that then stood this many frames joins `still`
+  struct Caster {
+    GLuint vao = 0;
+    GLsizei indexCount = 0;
+    glm::mat4 model{0};
+    int unmoved = 0;     // frames since it last moved
+    bool still = false;  // drawn into `still` (at `model`)
+  };
+  std::vector<Caster> casters;
+  glm::mat4 lightVP{0};
+  bool valid = false;  // `still` holds the still casters, drawn with lightVP
+  Texture2D still{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
+  Framebuffer stillFbo;
+  ShadowCache() {
+    stillFbo.attachDepth(still);
+    glNamedFramebufferDrawBuffer(stillFbo.id(), GL_NONE);
+    stillFbo.checkComplete();
+  }
+  // Follows the items' poses; true when `still` must be drawn again (the casters marked still are drawn).
+  bool update(const std::vector<RenderItem>& items, const RendererSettings& s, const glm::mat4& vp) {
+    bool same = items.size() == casters.size();
+    for (size_t i = 0; same && i < items.size(); ++i)
+      same = casters[i].vao == casterVao(items[i], s) && casters[i].indexCount == casterIndexCount(items[i], s);
+    if (!same) {  // a new list: nothing is known to stand still yet
+      casters.assign(items.size(), Caster{});
+      for (size_t i = 0; i < items.size(); ++i)
+        casters[i] = {casterVao(items[i], s), casterIndexCount(items[i], s), items[i].model, 0, false};
+      valid = false;
+      return false;
+    }
+    bool redraw = !valid || vp != lightVP;
+    for (size_t i = 0; i < items.size(); ++i) {
+      Caster& c = casters[i];
+      const bool moved = c.model != items[i].model;
+      c.model = items[i].model;
+      c.unmoved = moved ? 0 : std::min(c.unmoved + 1, kPromoteFrames);
+      redraw = redraw || (c.still && moved) || (!c.still && c.unmoved == kPromoteFrames);
+    }
+    if (!redraw) return false;
+    for (Caster& c : casters) c.still = c.unmoved > 0;
+    lightVP = vp;
+    valid = true;
+    return true;
+  }
+};
 
 struct Renderer::Impl {
   Program pom = program("pom.vert", "pom.frag");
@@ -78,6 +159,8 @@ struct Renderer::Impl {
   Framebuffer sceneFbo;
   Texture2D shadowMap{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
   Framebuffer shadowFbo;
+  ShadowCache shadowCache;
+  glm::vec3 sunFitLo{1e30f}, sunFitHi{-1e30f};  // the box the sun's frustum is fitted to (drawTo)
   Texture2D flatHeight{1, 1, GL_R32F}, flatNormal{1, 1, GL_RGBA8};
   GlName<detail::deleteTexture> flatArray{makeFlatArray()};  // bound where a look has no images of a kind
   Impl() {
@@ -267,6 +350,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   const RendererSettings& s = settings_;
   // The shaded view draws into sceneFbo when antialiased, filtered into the target at the end.
   const bool fxaa = s.antialias == Antialias::Fxaa && s.debug == DebugView::Shaded;
+  stats_ = {};
   const GLuint target = fxaa ? m.sceneFbo.id() : finalTarget;
   // Fit the sun's orthographic frustum around everything.
   glm::vec3 lo(1e30f), hi(-1e30f);
@@ -280,8 +364,16 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     }
   }
   if (items.empty()) lo = hi = glm::vec3(0);
-  const glm::vec3 centre = 0.5f * (lo + hi);
-  const float radius = std::max(0.5f * glm::length(hi - lo), 0.5f);
+  // The box it is fitted to is kept while everything stays inside it and it is not much larger (so the
+  // shadow map of the still casters stays valid while bodies move about in it); refitted with a margin.
+  const float fitRadius = std::max(0.5f * glm::length(hi - lo), 0.5f);
+  const bool inside = glm::all(glm::greaterThanEqual(lo, m.sunFitLo)) && glm::all(glm::lessThanEqual(hi, m.sunFitHi));
+  if (!inside || 0.5f * glm::length(m.sunFitHi - m.sunFitLo) > 1.1f * fitRadius) {
+    m.sunFitLo = lo - glm::vec3(0.02f * fitRadius);
+    m.sunFitHi = hi + glm::vec3(0.02f * fitRadius);
+  }
+  const glm::vec3 centre = 0.5f * (m.sunFitLo + m.sunFitHi);
+  const float radius = std::max(0.5f * glm::length(m.sunFitHi - m.sunFitLo), 0.5f);
   const glm::vec3 sunDir = glm::normalize(s.sunDirection);
   const glm::vec3 sunUp = std::abs(sunDir.y) > 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 1, 0);
   const glm::mat4 lightView = glm::lookAt(centre - sunDir * radius * 2.0f, centre, sunUp);
@@ -294,17 +386,36 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   if (s.shadows && s.debug == DebugView::Shaded) {
-    glBindFramebuffer(GL_FRAMEBUFFER, m.shadowFbo.id());
-    glViewport(0, 0, kShadowSize, kShadowSize);
-    glClear(GL_DEPTH_BUFFER_BIT);
     m.shadow.use();
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(2.0f, 4.0f);
-    for (const auto& it : items) {
-      const glm::mat4 mvp = lightVP * it.model;
-      glUniformMatrix4fv(m.shadow.uniform("uLightModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
-      glBindVertexArray(it.vao);
-      glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+    glViewport(0, 0, kShadowSize, kShadowSize);
+    // Draws the items whose `still` flag is `which` (all of them without a cache).
+    auto casters = [&](bool cached, bool which) {
+      for (size_t i = 0; i < items.size(); ++i) {
+        if (cached && m.shadowCache.casters[i].still != which) continue;
+        const RenderItem& it = items[i];
+        ++stats_.shadowCasters;
+        const glm::mat4 mvp = lightVP * it.model;
+        glUniformMatrix4fv(m.shadow.uniform("uLightModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+        glBindVertexArray(casterVao(it, s));
+        glDrawElements(GL_TRIANGLES, casterIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
+      }
+    };
+    if (m.shadowCache.update(items, s, lightVP)) {
+      glBindFramebuffer(GL_FRAMEBUFFER, m.shadowCache.stillFbo.id());
+      glClear(GL_DEPTH_BUFFER_BIT);
+      casters(true, true);
+      stats_.shadowCacheRedrawn = true;
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, m.shadowFbo.id());
+    if (m.shadowCache.valid) {
+      glCopyImageSubData(m.shadowCache.still.id(), GL_TEXTURE_2D, 0, 0, 0, 0, m.shadowMap.id(), GL_TEXTURE_2D, 0, 0, 0,
+                         0, kShadowSize, kShadowSize, 1);
+      casters(true, false);
+    } else {
+      glClear(GL_DEPTH_BUFFER_BIT);
+      casters(false, false);
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
   }
@@ -356,6 +467,14 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   if (s.debug == DebugView::Wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
   glVertexAttrib3f(3, 1.0f, 1.0f, 1.0f);  // the colour of vertex arrays without one: white
   for (const auto& it : items) {
+    const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
+    // Items wholly outside the view are skipped (displaced ones with their bounds grown by the map's range).
+    const glm::vec3 grow(displaced ? it.bumpDepth : 0.0f);
+    if (outsideClip(vp * it.model, it.boundsMin - grow, it.boundsMax + grow)) {
+      ++stats_.culled;
+      continue;
+    }
+    ++stats_.drawn;
     const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
     glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));
     glUniformMatrix3fv(u("uNormalMatrix"), 1, GL_FALSE, glm::value_ptr(nrm));
@@ -371,11 +490,13 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     m.bindLook(m.pom, it);
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
-    glBindVertexArray(it.vao);
-    if ((s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe)
+    if (displaced) {
+      glBindVertexArray(it.vao);
       m.drawDisplaced(it, s, width_, height_);
-    else
-      glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+    } else {
+      glBindVertexArray(itemVao(it, s));
+      glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
+    }
   }
   glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
   if (s.debug == DebugView::Shaded) {

@@ -52,7 +52,14 @@ struct RenderItem {
   SurfaceTexture texture = SurfaceTexture::None;
   float textureScale = 1.0f;
   float bumpDepth = 0.1f;                 // k: the map's range in metres
-  glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame), to fit the sun's shadow map
+  glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame): the sun's shadow map, view culling
+  // A simplified version of the mesh (the same vertices, fewer triangles), drawn where
+  // RendererSettings::simplified asks; 0: none.
+  GLuint simplifiedVao = 0;
+  GLsizei simplifiedIndexCount = 0;
+  // Its shadow caster under the same setting (positions at attribute 0 alone); 0: none.
+  GLuint shadowVao = 0;
+  GLsizei shadowIndexCount = 0;
 };
 
 struct View {
@@ -86,6 +93,17 @@ struct RendererSettings {
   // (h - 0.5) k; the fragment stage then shades with the normal map without the parallax march.
   bool displace = false;
   float displaceSegmentPixels = 6.0f;
+  // Draw items' simplified meshes where they have one (RenderItem::simplifiedVao): the interactive sandbox's
+  // fast path on software GL; batch renders keep the full meshes.
+  bool simplified = false;
+};
+
+// What the last drawTo did (for tests and the sandbox's panel).
+struct RendererStats {
+  int drawn = 0;          // items drawn in the view
+  int culled = 0;         // items skipped, wholly outside the view
+  int shadowCasters = 0;  // items drawn for the sun's shadow this frame (the others came from its cache)
+  bool shadowCacheRedrawn = false;  // the still casters' map was drawn anew
 };
 
 class Renderer {
@@ -96,6 +114,7 @@ class Renderer {
   int width() const { return width_; }
   int height() const { return height_; }
   RendererSettings& settings() { return settings_; }
+  const RendererStats& stats() const { return stats_; }
   // Draws into the renderer's own offscreen target, or into `framebuffer` when
   // given (the window's, 0), at the renderer's size.
   void draw(const std::vector<RenderItem>& items, const View& view);
@@ -109,6 +128,7 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
   int width_, height_;
   RendererSettings settings_;
+  RendererStats stats_;
 };
 
 }  // namespace crumple::render

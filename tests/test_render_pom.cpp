@@ -335,3 +335,87 @@ TEST_CASE("procedural textures vary the surface, each its own way, the same ever
     previous = sd;
   }
 }
+
+TEST_CASE("view culling and the shadow cache leave the picture as a fresh renderer draws it") {
+  test::glContext();
+  Stage s;
+  // The ball rolls over the plate (inside the box the sun's frustum is fitted to): a renderer that drew the
+  // earlier frames (the plate's shadow from its cache) and a fresh one draw the last frame alike.
+  const glm::vec3 path[4] = {{-0.6f, 0.35f, -0.4f}, {-0.2f, 0.35f, -0.3f}, {0.2f, 0.35f, -0.2f}, {0.6f, 0.35f, -0.1f}};
+  Renderer warm(160, 112);
+  for (const glm::vec3& at : path) warm.draw(s.items(true, at), topView());
+  CHECK(warm.stats().shadowCasters == 1);  // the ball alone: the plate stood still
+  CHECK_FALSE(warm.stats().shadowCacheRedrawn);
+  Renderer fresh(160, 112);
+  fresh.draw(s.items(true, path[3]), topView());
+  CHECK(fresh.stats().shadowCasters == 2);
+  const Image a = warm.readPixels(), b = fresh.readPixels();
+  long differ = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) differ += a.pixels[i] != b.pixels[i];
+  CHECK(differ == 0);
+  // A still caster that moves is drawn again with the others.
+  std::vector<RenderItem> moved = s.items(true, path[3]);
+  moved[0].model = glm::translate(glm::mat4(1), glm::vec3(0, -0.01f, 0));
+  warm.draw(moved, topView());
+  CHECK(warm.stats().shadowCacheRedrawn);
+
+  // A ball behind the camera is not drawn, and the picture is the one without it.
+  Renderer r(160, 112);
+  r.draw(s.items(false), topView());
+  const Image without = r.readPixels();
+  CHECK(r.stats().drawn == 1);
+  r.draw(s.items(true, {0.0f, 1.0f, 3.0f}), topView());
+  CHECK(r.stats().culled == 1);
+  CHECK(r.stats().drawn == 1);
+  CHECK(fractionOff(r.readPixels(), without) <= 0.002);  // only the ball's shadow may differ
+}
+
+TEST_CASE("simplified meshes: fewer triangles on the same vertices, shadow casters within a centimetre") {
+  test::glContext();
+  const TriangleMesh sphere = sphereMesh(0.5, 128, 48);
+  const deform::GpuMesh g(sphere);
+  REQUIRE(sphere.triangles.size() > deform::GpuMesh::kSimplifyAbove);
+  CHECK(g.simplifiedIndexCount > 0);
+  CHECK(g.simplifiedIndexCount <= g.indexCount);
+  CHECK(g.shadowIndexCount > 0);
+  CHECK(g.shadowIndexCount * 4 < g.indexCount);  // welded, the caster simplifies freely
+  // Every vertex of the caster lies on the sphere within the tolerance and its triangles close the surface
+  // to about it (each triangle's centroid is at most a centimetre inside the sphere).
+  std::vector<float> p(static_cast<size_t>(g.shadowVertices.size() / sizeof(float)));
+  glGetNamedBufferSubData(g.shadowVertices.id(), 0, static_cast<GLsizeiptr>(p.size() * sizeof(float)), p.data());
+  std::vector<uint32_t> t(static_cast<size_t>(g.shadowIndexCount));
+  glGetNamedBufferSubData(g.shadowIndices.id(), 0, static_cast<GLsizeiptr>(t.size() * sizeof(uint32_t)), t.data());
+  double worstVertex = 0, worstCentroid = 0;
+  for (size_t i = 0; i + 2 < p.size(); i += 3)
+    worstVertex = std::max(worstVertex, std::abs(glm::length(glm::dvec3(p[i], p[i + 1], p[i + 2])) - 0.5));
+  for (size_t k = 0; k + 2 < t.size(); k += 3) {
+    glm::dvec3 c(0);
+    for (int j = 0; j < 3; ++j) c += glm::dvec3(p[t[k + j] * 3], p[t[k + j] * 3 + 1], p[t[k + j] * 3 + 2]) / 3.0;
+    worstCentroid = std::max(worstCentroid, 0.5 - glm::length(c));
+  }
+  MESSAGE("caster: " << g.shadowIndexCount / 3 << " of " << g.indexCount / 3 << " triangles, vertices off by "
+                     << worstVertex * 1000 << " mm, centroids inside by " << worstCentroid * 1000 << " mm");
+  CHECK(worstVertex < 1e-4);
+  CHECK(worstCentroid < 0.012);
+  // Drawn simplified, the picture is nearly the same.
+  Stage s;
+  std::vector<RenderItem> items = s.items(false);
+  RenderItem ball;
+  ball.vao = g.vao.id();
+  ball.indexCount = g.indexCount;
+  ball.simplifiedVao = g.simplifiedVao.id();
+  ball.simplifiedIndexCount = g.simplifiedIndexCount;
+  ball.shadowVao = g.shadowVao.id();
+  ball.shadowIndexCount = g.shadowIndexCount;
+  ball.model = glm::translate(glm::mat4(1), glm::vec3(0.2f, 0.6f, 0.0f));
+  ball.boundsMin = g.boundsMin;
+  ball.boundsMax = g.boundsMax;
+  items.push_back(ball);
+  Renderer full(160, 112), simple(160, 112);
+  simple.settings().simplified = true;
+  full.draw(items, topView());
+  simple.draw(items, topView());
+  const double off = fractionOff(full.readPixels(), simple.readPixels());
+  MESSAGE("simplified vs full: " << off * 100 << "% of pixels off by more than 5/255");
+  CHECK(off < 0.02);
+}

@@ -16,7 +16,7 @@ tool_args "" "$@"
 
 PACKAGES=(
   build-essential cmake pkg-config git
-  zlib1g-dev libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev
+  zlib1g-dev libglm-dev libtinygltf-dev nlohmann-json3-dev libstb-dev libmeshoptimizer-dev
   libglfw3-dev libepoxy-dev libegl-dev libopengl-dev libgl-dev
   libegl-mesa0 libgl1-mesa-dri mesa-utils
   doctest-dev libcli11-dev libimgui-dev

@@ -40,18 +40,20 @@ void findPairs(StepContext& ctx, double h) {
   boxes.resize(n);
   ctx.predicted.resize(n);
   ctx.predictedVersion.assign(n, 0);
-  for (size_t i = 0; i < n; ++i) {
-    const RigidBody& b = bodies[i];
-    ctx.predicted[i] = ctx.predict(b, h, true);
-    boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
-    if (b.movable()) {
-      Aabb& box = boxes[i];
-      box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i]));
-      const double margin = 0.005 + 2 * h * glm::length(b.v);
-      box.lo -= margin;
-      box.hi += margin;
+  ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      const RigidBody& b = bodies[i];
+      ctx.predicted[i] = ctx.predict(b, h, true);
+      boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
+      if (b.movable()) {
+        Aabb& box = boxes[i];
+        box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i]));
+        const double margin = 0.005 + 2 * h * glm::length(b.v);
+        box.lo -= margin;
+        box.hi += margin;
+      }
     }
-  }
+  });
   // Sweep and prune along x. The order of the last substep is nearly right:
   // insertion sort, unless too much has moved (then a full sort). Ties go by
   // index, so the order is unique whichever sort made it.
@@ -143,7 +145,10 @@ void findPairs(StepContext& ctx, double h) {
 
 void findCandidates(StepContext& ctx, double h) {
   const double g = glm::length(ctx.settings.gravity);
-  for (Pair& pair : ctx.pairs) {
+  // Each pair writes only its own lists: in parallel on the World's threads.
+  ctx.parallelRange(ctx.pairs.size(), 64, [&](size_t begin, size_t end, int) {
+  for (size_t pi = begin; pi < end; ++pi) {
+    Pair& pair = ctx.pairs[pi];
     const RigidBody& A = ctx.body(pair.a);
     const RigidBody& B = ctx.body(pair.b);
     // What matters is B's motion relative to A: two bodies falling side by
@@ -199,6 +204,7 @@ void findCandidates(StepContext& ctx, double h) {
     pair.builtB = {B.x, B.q};
     pair.builtMargin = built;
   }
+  });
 }
 
 }  // namespace crumple::detail

@@ -12,6 +12,9 @@
 //   is looked at again every `contactRefresh` passes, and then only for pairs
 //   whose predicted relative pose moved more than `contactRefreshTolerance`;
 //   a group found again inherits the totals of the old group it replaces.
+// - The pairs run island by island (islands.cpp; in parallel on the World's
+//   threads), each island's in the sweep's order: the same impulses in the
+//   same order per body as one sweep over all pairs.
 // - After it, ctx.groups holds each pair's groups of its last look (levers, K,
 //   normal speed then, patch): shock propagation and the position step use them.
 //   stats.contacts counts the points of each pair's last look.
@@ -25,14 +28,16 @@
 namespace crumple::detail {
 
 void integrateVelocities(StepContext& ctx, double h) {
-  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
-    RigidBody& b = ctx.bodies[i];
-    if (!b.movable()) continue;
-    const glm::dvec3 a = ctx.acceleration(static_cast<int>(i));
-    const glm::dvec3 alpha = ctx.angularAcceleration(static_cast<int>(i));
-    b.v += h * a;
-    b.w += h * alpha;
-  }
+  ctx.parallelRange(ctx.bodies.size(), 256, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      RigidBody& b = ctx.bodies[i];
+      if (!b.movable()) continue;
+      const glm::dvec3 a = ctx.acceleration(static_cast<int>(i));
+      const glm::dvec3 alpha = ctx.angularAcceleration(static_cast<int>(i));
+      b.v += h * a;
+      b.w += h * alpha;
+    }
+  });
 }
 
 namespace {
@@ -158,7 +163,7 @@ void contactStep(StepContext& ctx, double h) {
   for (auto& g : ctx.groups) g.clear();
   ctx.lookPoses.resize(pairs.size());
   ctx.lookCount.assign(pairs.size(), 0);
-  Scratch scratch;
+  std::vector<Scratch> scratch(static_cast<size_t>(ctx.workers()));
   const bool reporting = !ctx.reportContacts.empty();
   std::vector<double> pushed(reporting ? pairs.size() : 0, 0.0);
   thread_local std::vector<glm::dvec3> v0, w0;
@@ -173,46 +178,53 @@ void contactStep(StepContext& ctx, double h) {
   }
   const int n = std::max(1, ctx.settings.contactPasses);
   const int refresh = std::max(1, ctx.settings.contactRefresh);
-  for (int pass = 1; pass <= n; ++pass) {
-    const double eps = -1.0 + static_cast<double>(pass) / n;
-    const bool find = (pass - 1) % refresh == 0;
-    // Alternate sweeps (forward, then backward): a one-way order pushes every
-    // stack the same way, a little each pass.
-    for (size_t k = 0; k < pairs.size(); ++k) {
-      const size_t pi = pass % 2 ? k : pairs.size() - 1 - k;
-      const Pair& pair = pairs[pi];
-      bool look = find;
-      bool reuse = false;
-      Pose pa, pb;
-      if (look) {
-        // The collision step's last look at this pair was at the poses the
-        // first pass predicts now (x + h (v + h a) either way) if no impulse
-        // has touched either body since: its contacts are reused, with the
-        // poses they were found at (levers must match the geometry). Fresh
-        // contacts are found at the poses the current velocities predict.
-        const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
-                                                ctx.version[static_cast<size_t>(pair.b)]};
-        reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-        pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
-        pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);
-        if (pass > 1) {
-          // A refresh re-finds the geometry only where the predicted poses have
-          // moved since the last look; resting contact keeps its groups (their
-          // depths follow to first order, endOfStepDepths).
-          const RigidBody& A = ctx.body(pair.a);
-          const RigidBody& B = ctx.body(pair.b);
-          const double ra = A.shape->boundingRadius + glm::length(A.localCom);
-          const double rb = B.shape->boundingRadius + glm::length(B.localCom);
-          look = relativeDisplacementBound(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb) >
-                 ctx.settings.contactRefreshTolerance;
+  // Island by island (islands.cpp; in parallel on the World's threads): each
+  // island's pairs in the order of the sweep over all pairs.
+  ctx.forEachIsland([&](size_t island, int worker) {
+    Scratch& s = scratch[static_cast<size_t>(worker)];
+    const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
+    const size_t count = ctx.islandStart[island + 1] - ctx.islandStart[island];
+    for (int pass = 1; pass <= n; ++pass) {
+      const double eps = -1.0 + static_cast<double>(pass) / n;
+      const bool find = (pass - 1) % refresh == 0;
+      // Alternate sweeps (forward, then backward): a one-way order pushes every
+      // stack the same way, a little each pass.
+      for (size_t k = 0; k < count; ++k) {
+        const size_t pi = first[pass % 2 ? k : count - 1 - k];
+        const Pair& pair = pairs[pi];
+        bool look = find;
+        bool reuse = false;
+        Pose pa, pb;
+        if (look) {
+          // The collision step's last look at this pair was at the poses the
+          // first pass predicts now (x + h (v + h a) either way) if no impulse
+          // has touched either body since: its contacts are reused, with the
+          // poses they were found at (levers must match the geometry). Fresh
+          // contacts are found at the poses the current velocities predict.
+          const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
+                                                  ctx.version[static_cast<size_t>(pair.b)]};
+          reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
+          pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
+          pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);
+          if (pass > 1) {
+            // A refresh re-finds the geometry only where the predicted poses have
+            // moved since the last look; resting contact keeps its groups (their
+            // depths follow to first order, endOfStepDepths).
+            const RigidBody& A = ctx.body(pair.a);
+            const RigidBody& B = ctx.body(pair.b);
+            const double ra = A.shape->boundingRadius + glm::length(A.localCom);
+            const double rb = B.shape->boundingRadius + glm::length(B.localCom);
+            look = relativeDisplacementBound(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb) >
+                   ctx.settings.contactRefreshTolerance;
+          }
         }
+        if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
+        const bool report = reporting && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
+                                          ctx.reportContacts[static_cast<size_t>(pair.b)]);
+        solvePair(ctx, pi, eps, report ? &pushed[pi] : nullptr);
       }
-      if (look) refreshGroups(ctx, pi, pa, pb, reuse, scratch);
-      const bool report = reporting && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
-                                        ctx.reportContacts[static_cast<size_t>(pair.b)]);
-      solvePair(ctx, pi, eps, report ? &pushed[pi] : nullptr);
     }
-  }
+  });
   if (resting) restingSolve(ctx, v0, w0);
   for (int c : ctx.lookCount) ctx.stats.contacts += c;  // each pair's last look
   if (reporting) reportContacts(ctx, pushed);

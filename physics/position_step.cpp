@@ -34,11 +34,14 @@ void endOfStepDepths(StepContext& ctx, double h) {
 }
 
 void integratePositions(StepContext& ctx, double h) {
-  for (RigidBody& b : ctx.bodies) {
-    if (!b.movable()) continue;
-    b.x += h * b.v;
-    b.q = integrateOrientation(b.q, b.w, h);
-  }
+  ctx.parallelRange(ctx.bodies.size(), 256, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      RigidBody& b = ctx.bodies[i];
+      if (!b.movable()) continue;
+      b.x += h * b.v;
+      b.q = integrateOrientation(b.q, b.w, h);
+    }
+  });
 }
 
 // Positional projection on the contact step's groups (depths at the new

@@ -122,12 +122,26 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
   auto key = [&](size_t pi) {
     return static_cast<uint64_t>(ctx.pairs[pi].a) << 32 | static_cast<uint32_t>(ctx.pairs[pi].b);
   };
-  std::vector<IslandGroup> groups;
-  std::vector<Row> rows;
-  thread_local std::vector<double> scratchLambda, scratchDiag;
-  thread_local std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>> scratchKept;
-  for (size_t root = 0; root < nb; ++root) {
-    if (rowCount[root] == 0 || skip[root] || rowCount[root] > maxRows) continue;
+  // Each island on its own (in parallel on the World's threads): an island writes only its own bodies and
+  // groups, and its warm-start totals into its worker's list; the lists are merged by key (a pair's groups
+  // all come from one island, in their order).
+  struct Work {
+    std::vector<IslandGroup> groups;
+    std::vector<Row> rows;
+    std::vector<double> lambda, diag;
+    std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>> kept;
+    std::vector<RestingWarm> warm;
+    int solves = 0;
+  };
+  std::vector<Work> work(static_cast<size_t>(ctx.workers()));
+  std::vector<size_t> roots;
+  for (size_t root = 0; root < nb; ++root)
+    if (rowCount[root] != 0 && !skip[root] && rowCount[root] <= maxRows) roots.push_back(root);
+  ctx.parallel(roots.size(), [&](size_t item, int worker) {
+    const size_t root = roots[item];
+    Work& wk = work[static_cast<size_t>(worker)];
+    std::vector<IslandGroup>& groups = wk.groups;
+    std::vector<Row>& rows = wk.rows;
     groups.clear();
     rows.clear();
     // Solved when the contact step left an approach at one of its groups, or when it was solved last substep,
@@ -142,7 +156,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
         masonry = masonry || (ctx.body(i).dynamic() && shape.type == ShapeType::Mesh && shape.polytope);
       }
     }
-    if (!masonry) continue;
+    if (!masonry) return;
     for (int k = first[root]; k < first[root + 1] && !needed; ++k) {
       const size_t pi = islandPairs[static_cast<size_t>(k)];
       const uint64_t pk = key(pi);
@@ -153,7 +167,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
             -ctx.settings.restingSolveTrigger)
           needed = true;
     }
-    if (!needed) continue;
+    if (!needed) return;
     for (int k = first[root]; k < first[root + 1]; ++k) {
       const size_t pi = islandPairs[static_cast<size_t>(k)];
       for (size_t gi = 0; gi < ctx.groups[pi].size(); ++gi) {
@@ -203,15 +217,15 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     // from the velocities the contact step began with, in alternating sweeps until no row changes its velocity
     // by more than the tolerance.
     const size_t m = rows.size();
-    std::vector<double>& lambda = scratchLambda;
-    std::vector<double>& diag = scratchDiag;
+    std::vector<double>& lambda = wk.lambda;
+    std::vector<double>& diag = wk.diag;
     lambda.assign(m, 0.0);
     diag.assign(m, 0.0);
     for (size_t r = 0; r < m; ++r)
       for (const Slot& s : rows[r].s)
         if (s.dof) diag[r] += glm::dot(s.jl, s.ml) + glm::dot(s.ja, s.ma);
     // The contact step's velocities, kept in case the solve does not converge.
-    std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>>& kept = scratchKept;
+    std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>>& kept = wk.kept;
     kept.clear();
     for (const Row& row : rows)
       for (const Slot& s : row.s)
@@ -354,7 +368,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
         const glm::dvec3 axes[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
         (rows[r].kind < 3 ? J : T) += lambda[r] * axes[rows[r].kind];
       }
-      ctx.restingWarm.push_back({key(ig.pair), ab ? e.n : -e.n, ab ? J : -J, ab ? T : -T});
+      wk.warm.push_back({key(ig.pair), ab ? e.n : -e.n, ab ? J : -J, ab ? T : -T});
     }
     if (!converged) {
       // Stiff mass ratios (a heavy body on a light one) converge slowly: the contact step's result stands.
@@ -362,15 +376,19 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
         ctx.body(it->first).v = it->second.first;
         ctx.body(it->first).w = it->second.second;
       }
-      continue;
+      return;
     }
-    ++ctx.stats.restingSolves;
+    ++wk.solves;
     for (const IslandGroup& ig : groups) {
       ContactGroup& g = ctx.groups[ig.pair][ig.index];
       const double* lam = &lambda[static_cast<size_t>(ig.rowStart)];
       g.totals.normal = lam[0];
       g.totals.tangential = lam[1] * g.patch.t1 + lam[2] * g.patch.t2;
     }
+  });
+  for (Work& wk : work) {
+    ctx.restingWarm.insert(ctx.restingWarm.end(), wk.warm.begin(), wk.warm.end());
+    ctx.stats.restingSolves += wk.solves;
   }
   std::stable_sort(ctx.restingWarm.begin(), ctx.restingWarm.end(),
                    [](const RestingWarm& x, const RestingWarm& y) { return x.key < y.key; });

@@ -7,6 +7,7 @@
 //
 // The stages, one file each, in the order World::substep runs them:
 //   broad_phase.cpp        findPairs, findCandidates
+//   islands.cpp            findIslands       (the units the passes run in parallel)
 //   collision_step.cpp     collide           (narrow_phase.cpp finds the contacts)
 //   contact_step.cpp       integrateVelocities
 //   joint_step.cpp         preStabilize      (joints: motors, limits, end-of-step targets)
@@ -23,6 +24,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -31,6 +33,7 @@
 #include "physics/contact_groups.h"
 #include "physics/impulse.h"
 #include "physics/joint.h"
+#include "physics/thread_pool.h"
 #include "physics/world.h"
 
 namespace crumple::detail {
@@ -159,6 +162,45 @@ struct StepContext {
   std::vector<int> sweepOrder;
   std::vector<uint64_t> pairKeys;
   std::vector<Pair> pairs, previousPairs;
+
+  // Threads: the World's pool (null: one thread), set at each step. Work runs
+  // on it only where every item writes its own slots (results never depend on
+  // the thread count; islands.cpp says why).
+  ThreadPool* pool = nullptr;
+  // The substep's islands (islands.cpp): island k's pairs are
+  // islandPairs[islandStart[k], islandStart[k + 1]), in pair order.
+  std::vector<uint32_t> islandStart, islandPairs, islandOrder;
+  std::vector<int> islandParent, islandOfBody, islandOfPair;  // scratch of findIslands
+  size_t islandCount() const { return islandStart.empty() ? 0 : islandStart.size() - 1; }
+  int workers() const { return pool ? pool->size() : 1; }
+  // fn(item, worker) for every item in [0, count), on the pool when there is one.
+  template <class F>
+  void parallel(size_t count, F&& fn) {
+    if (!pool || pool->size() < 2 || count < 2) {
+      for (size_t i = 0; i < count; ++i) fn(i, 0);
+      return;
+    }
+    const std::function<void(size_t, int)> f(std::ref(fn));
+    pool->run(count, f);
+  }
+  // fn(begin, end, worker) over [0, count) in chunks of about `grain` items.
+  template <class F>
+  void parallelRange(size_t count, size_t grain, F&& fn) {
+    const size_t chunks = (count + grain - 1) / std::max<size_t>(grain, 1);
+    parallel(chunks, [&](size_t k, int worker) { fn(k * grain, std::min(count, (k + 1) * grain), worker); });
+  }
+  // fn(island, worker) for every island, largest first. One thread while a
+  // normal modifier is set: the narrow phase calls it, and the user's function
+  // need not be safe to call from several threads at once.
+  template <class F>
+  void forEachIsland(F&& fn) {
+    const bool serial = normalModifier && !bumpNormals.empty();
+    if (serial) {
+      for (size_t k = 0; k < islandCount(); ++k) fn(k, 0);
+      return;
+    }
+    parallel(islandOrder.size(), [&](size_t k, int worker) { fn(static_cast<size_t>(islandOrder[k]), worker); });
+  }
 
   // Per body, this substep.
   std::vector<glm::dmat3> invInertia;  // world inverse inertias: orientations stay put until the position update
@@ -294,6 +336,8 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
 // broad_phase.cpp
 void findPairs(StepContext& ctx, double h);
 void findCandidates(StepContext& ctx, double h);
+// islands.cpp
+void findIslands(StepContext& ctx);
 // collision_step.cpp
 bool collide(StepContext& ctx, double h);
 // contact_step.cpp

@@ -7,8 +7,10 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <thread>
 
 #include "physics/step_context.h"
+#include "physics/thread_pool.h"
 
 namespace crumple {
 
@@ -448,6 +450,9 @@ uint64_t World::stateHash() const {
 }
 
 namespace {
+// Bodies per item of the per-body loops that run on the pool.
+constexpr size_t kBodyGrain = 256;
+
 // Adds the milliseconds since `since` to `ms` and restarts the clock.
 class StageClock {
  public:
@@ -468,9 +473,12 @@ void World::substep(double h) {
   StageClock clock;
   // World inverse inertias: orientations stay fixed until the position update.
   c.invInertia.resize(c.bodies.size());
-  for (size_t i = 0; i < c.bodies.size(); ++i) c.invInertia[i] = c.bodies[i].invInertiaWorld();
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) c.invInertia[i] = c.bodies[i].invInertiaWorld();
+  });
   detail::findPairs(c, h);
   c.stats.pairs += static_cast<int>(c.pairs.size());
+  detail::findIslands(c);
   clock.lap(ms.broadPhase);
   detail::findCandidates(c, h);
   clock.lap(ms.candidates);
@@ -493,7 +501,9 @@ void World::substep(double h) {
   clock.lap(ms.joints);
   // 5. positions, then the positional projection
   c.stepStart.resize(c.bodies.size());
-  for (size_t i = 0; i < c.bodies.size(); ++i) c.stepStart[i] = {c.bodies[i].x, c.bodies[i].q};
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) c.stepStart[i] = {c.bodies[i].x, c.bodies[i].q};
+  });
   detail::endOfStepDepths(c, h);
   detail::integratePositions(c, h);
   detail::projectPositions(c);
@@ -510,6 +520,16 @@ void World::step(double h) {
   if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
   const auto start = std::chrono::steady_clock::now();
   detail::StepContext& c = *ctx_;
+  // The pool: WorldSettings::threads in all (0: the hardware's), made again when the count changes.
+  int threads = c.settings.threads > 0 ? c.settings.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 256);
+  if (threads == 1) {
+    pool_.reset();
+  } else if (!pool_ || pool_->size() != threads) {
+    pool_.reset();
+    pool_ = std::make_unique<detail::ThreadPool>(threads);
+  }
+  c.pool = pool_.get();
   c.events.clear();
   c.contactReports.clear();
   c.jointBreaks.clear();

@@ -25,8 +25,10 @@
 //
 // Steps are split into substeps when a body would move more than a fraction of
 // the thinnest body's half thickness (no tunnelling; see `maxSubsteps`).
-// Everything runs single-threaded in a fixed order: the same input gives
-// bit-identical states (tests/test_physics_determinism.cpp pins one).
+// Everything runs in a fixed order: the same input gives bit-identical states
+// (tests/test_physics_determinism.cpp pins one), whatever WorldSettings::threads
+// is: islands of pairs (no movable body in common) and bodies run side by
+// side on a pool of threads, each writing its own slots (physics/islands.cpp).
 //
 // One file per stage, each opening with what it guarantees; what they share is
 // physics/step_context.h (internal), which lists them.
@@ -93,6 +95,11 @@ struct WorldSettings {
   int jointIterations = 10;
   double jointTolerance = 1e-5;  // m, and rad for the angular parts
   int jointPostIterations = 4;
+  // Threads the step runs on (the caller's included; 0: the machine's hardware
+  // threads). The results are the same bits for every count: work is split by
+  // island and by body, each writing its own slots, merged in a fixed order.
+  // With more than one, a NormalModifier is still called from one thread at a time.
+  int threads = 1;
 };
 
 struct CollisionEvent {
@@ -151,6 +158,7 @@ struct StepStats {
 
 namespace detail {
 struct StepContext;
+class ThreadPool;
 }
 
 // The whole state of a World (bodies, joints, filters, the caches kept between
@@ -282,6 +290,8 @@ class World {
   // Everything else: the bodies, the caches kept between steps and the state
   // the stages share (physics/step_context.h).
   std::unique_ptr<detail::StepContext> ctx_;
+  // The threads of WorldSettings::threads beyond the caller's (made at the first step that asks for them).
+  std::unique_ptr<detail::ThreadPool> pool_;
 };
 
 }  // namespace crumple

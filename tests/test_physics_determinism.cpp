@@ -15,9 +15,11 @@
 
 #include <cinttypes>
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 #include "physics_fixture.h"
+#include "test_meshes.h"
 
 using namespace crumple;
 using namespace crumple::test;
@@ -85,4 +87,73 @@ TEST_CASE("the same scene twice gives bit-identical states") {
     return w.stateHash();
   };
   CHECK(run() == run());
+}
+
+namespace {
+// A heap for the thread counts: columns of boxes, spheres, capsules and convex
+// mesh blocks (voussoirs) dropped side by side onto the ground, so the pairs
+// split into many islands that merge as the columns topple into one another;
+// a chain of five boxes on ball joints hangs from the world among them;
+// sleeping on. Returns the state hash after `steps`, with every event's
+// bodies and impulse folded in (their order matters too).
+uint64_t threadedHeap(int threads, int steps) {
+  WorldSettings settings;
+  settings.threads = threads;
+  settings.restingSolveIterations = 60;  // the masonry islands' solve runs, but briefly (a fast test)
+  World w(settings);
+  addGround(w, 0.6, 0.2);
+  const double pi = 3.14159265358979323846;
+  const auto block = makeMeshShape(voussoirMesh(1.0, 0.25, 0.3, 0.3 * pi, 0.4 * pi), 24);
+  for (int col = 0; col < 12; ++col) {
+    const double cx = (col % 4) * 0.62 - 0.9, cz = (col / 4) * 0.62 - 0.6;
+    for (int k = 0; k < 5; ++k) {
+      BodyDef d;
+      switch ((col + k) % 4) {
+        case 0: d.shape = makeBox({0.3, 0.2, 0.35}); break;
+        case 1: d.shape = makeSphere(0.14); break;
+        case 2: d.shape = makeCapsule(0.1, 0.2); break;
+        default: d.shape = block; break;
+      }
+      d.origin = {cx + 0.03 * (k % 3), 0.2 + 0.42 * k, cz + 0.02 * (k % 2)};
+      d.angularVelocity = {0.3 * (k % 3), 0.1 * col, 0.2};
+      d.linearVelocity = {0.15 * ((col + k) % 3 - 1), 0, 0.1 * (col % 2)};
+      d.friction = 0.5;
+      d.restitution = 0.2;
+      w.addBody(d);
+    }
+  }
+  int previous = -1;
+  for (int k = 0; k < 5; ++k) {
+    BodyDef d;
+    d.shape = makeBox({0.12, 0.3, 0.12});
+    d.origin = {1.6, 2.6 - 0.32 * k, 0};
+    const int body = w.addBody(d);
+    JointDef j;
+    j.a = previous;
+    j.b = body;
+    j.anchor = {1.6, 2.6 - 0.32 * k + 0.16, 0};
+    w.addJoint(j);
+    previous = body;
+  }
+  w.setVelocity(previous, {-2, 0, 0.5});
+  uint64_t events = 1469598103934665603ull;
+  for (int s = 0; s < steps; ++s) {
+    w.step(1.0 / 240);
+    for (const CollisionEvent& e : w.events()) {
+      events = (events ^ static_cast<uint64_t>(e.a * 7919 + e.b)) * 1099511628211ull;
+      uint64_t bits;
+      std::memcpy(&bits, &e.impulse, sizeof bits);
+      events = (events ^ bits) * 1099511628211ull;
+    }
+  }
+  return w.stateHash() ^ (events * 31);
+}
+}  // namespace
+
+TEST_CASE("threads: 1, 2, 4 and 8 threads give bit-identical states and events") {
+  const uint64_t one = threadedHeap(1, 360);
+  for (int threads : {4, 2, 8}) {
+    CAPTURE(threads);
+    CHECK_MESSAGE(threadedHeap(threads, 360) == one, "the state or the events differ from one thread's");
+  }
 }

@@ -2,7 +2,9 @@
 //   physics: crumple vs Bullet 3 on a 20-level box pyramid (210 boxes), piles
 //            of 1000, 4000 and 10000 boxes (10 high), a heap of 500 mixed bodies
 //            (boxes, spheres, capsules, 12 tori), 200 nonconvex mesh bodies (tori)
-//            and 10 chains of 20 ball-jointed links; ms per step
+//            and 10 chains of 20 ball-jointed links; ms per step (on --threads threads);
+//            the 4000 and 10000 piles again on 1, 2, 4, 8 and 16 threads (--thread-counts), with
+//            the speedup over one thread and whether every count ended in the same bits
 //   deform:  the GPU path vs the paper's read-back path, ms per deformation
 //            (both sides of one event) at address maps of 256..2048
 //   render:  ms per 1280x720 frame of the sandbox scene: everything on (parallax occlusion, sky light, FXAA),
@@ -17,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -303,12 +306,15 @@ int gSteps = 240;
 
 // crumple's stage times (World::lastStats().ms) per case: mean ms per step.
 std::map<std::string, StepProfile> gStageMs;
+// The state hash each crumple run ended with, per benchmark name (thread rows: the same bits for every count).
+std::map<std::string, uint64_t> gEndHash;
 
 // Besides the time, each engine's end state: how many bodies are still awake
 // and the highest centre (a pyramid or column that fell would show here), so
 // that the two figures are seen to time the same work.
-void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
+void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, int threads) {
   auto w = crumpleWorld(spec);
+  w->settings().threads = threads;
   StepProfile sum;
   for (auto _ : state) {
     w->step(kStep);
@@ -335,6 +341,7 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name) {
   mean.joints = sum.joints / n;
   mean.total = sum.total / n;
   gStageMs[name] = mean;
+  gEndHash[name] = w->stateHash();
   double top = 0;
   for (const RigidBody& b : w->bodies())
     if (!b.isStatic) top = std::max(top, b.x.y);
@@ -473,10 +480,18 @@ int main(int argc, char** argv) {
       "prints ms per step/deformation/frame and the ratios."};
   bool quick = false, noGl = false, deformPhases = false;
   std::string filter;
+  int threads = 1;
+  std::vector<int> threadCounts = {1, 2, 4, 8, 16};
   app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
   app.add_flag("--no-gl", noGl, "Physics only");
   app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, every path");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
+  app.add_option("--threads", threads, "Threads of crumple's physics rows (WorldSettings::threads; 0: the hardware's)")
+      ->check(CLI::Range(0, 256));
+  app.add_option("--thread-counts", threadCounts,
+                 "Thread counts of the scaling rows (the 4000 and 10000 piles; --quick: the small pile)")
+      ->check(CLI::Range(1, 256))
+      ->delimiter(',');
   app.set_version_flag("--version", std::string("crumple-bench ") + versionString());
   try {
     app.parse(argc, argv);
@@ -505,13 +520,28 @@ int main(int argc, char** argv) {
   cases.push_back({"tori_" + std::to_string(tori) + "meshes", toriScene(tori)});
   cases.push_back({"chains_" + std::to_string(quick ? 2 : 10) + "x20links", chainScene(quick ? 2 : 10, 20)});
   for (const auto& c : cases) {
-    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name)
+    benchmark::RegisterBenchmark(("physics/crumple/" + c.name).c_str(), crumplePhysics, c.spec, c.name, threads)
         ->Iterations(gSteps)
         ->Unit(benchmark::kMillisecond);
     benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)
         ->Iterations(gSteps)
         ->Unit(benchmark::kMillisecond);
   }
+  // Scaling: the big piles on each thread count (crumple only).
+  std::vector<PhysicsCase> scaling;
+  if (quick) {
+    scaling.push_back(pileCase(4, 3));
+  } else {
+    scaling.push_back(pileCase(20, 20));
+    scaling.push_back(pileCase(40, 25));
+  }
+  auto threadsName = [](const PhysicsCase& c, int t) { return c.name + "/threads:" + std::to_string(t); };
+  for (const auto& c : scaling)
+    for (int t : threadCounts)
+      benchmark::RegisterBenchmark(("physics/crumple_threads/" + threadsName(c, t)).c_str(), crumplePhysics, c.spec,
+                                   threadsName(c, t), t)
+          ->Iterations(gSteps)
+          ->Unit(benchmark::kMillisecond);
   std::unique_ptr<render::GlContext> gl;
   std::unique_ptr<DeformStage> stage;
   if (!noGl) {
@@ -563,6 +593,22 @@ int main(int argc, char** argv) {
           "positions %.3f  sleep %.3f  joints %.3f  (total %.3f)\n",
           p.broadPhase, p.candidates, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep, p.joints, p.total);
     }
+  }
+  for (const auto& c : scaling) {
+    const double one = ms("physics/crumple_threads/" + threadsName(c, threadCounts.front()));
+    bool sameBits = true;
+    int measured = 0;
+    for (int t : threadCounts) {
+      const double a = ms("physics/crumple_threads/" + threadsName(c, t));
+      if (std::isnan(a)) continue;
+      ++measured;
+      std::printf("threads %-22s %3d threads %8.3f ms/step  speedup over %d %6.2fx\n", c.name.c_str(), t, a,
+                  threadCounts.front(), one / a);
+      sameBits = sameBits && gEndHash[threadsName(c, t)] == gEndHash[threadsName(c, threadCounts.front())];
+    }
+    if (measured > 0)
+      std::printf("        %s: every thread count ended in the %s (state hash)\n", c.name.c_str(),
+                  sameBits ? "same bits" : "DIFFERENT bits");
   }
   for (int size : {256, 512, 1024, 2048}) {
     const std::string s = "/" + std::to_string(size);

@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
   std::string antialias = "fxaa";
   double duration = -1, fps = 30;
   long steps = -1;
-  int gpu = -1;
+  int gpu = -1, threads = -1;
   std::vector<std::string> sets;
   bool renderFrames = false, quiet = false, verbose = false;
   bool displace = false;
@@ -109,6 +109,10 @@ int main(int argc, char** argv) {
                  "Use this EGL device (0 = the first hardware GPU; default: CRUMPLE_EGL_DEVICE, else the first GPU, "
                  "else software)")
       ->check(CLI::Range(0, 1023));
+  app.add_option("--threads", threads,
+                 "Threads of the physics step, overriding the scene's threads (0: the hardware's); the results are "
+                 "the same bits for every count")
+      ->check(CLI::Range(0, 256));
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
   app.add_option("--export", exportFormat,
                  "gltf: also write export/scene.gltf (every body at its final pose, its atlas, normal and height maps)")
@@ -162,6 +166,7 @@ int main(int argc, char** argv) {
     if (deformPath == "scatter") scene.deformation.options.path = deform::Path::Scatter;
     if (deformPath == "readback") scene.deformation.options.path = deform::Path::Readback;
     if (duration > 0) scene.duration = duration;
+    if (threads >= 0) scene.threads = threads;
     const long totalSteps = steps > 0 ? steps : std::max(1L, std::lround(scene.duration / scene.timestep));
     if (outDir.empty()) outDir = "out/" + scene.name;
     // --video: the camera whose frames are encoded (checked before the run).

@@ -159,6 +159,7 @@ struct Scene {
   glm::dvec3 gravity{0, -9.81, 0};
   double timestep = 1.0 / 240;
   double duration = 2.0;
+  int threads = 1;  // the physics step's threads (WorldSettings::threads; 0: the hardware's)
   std::map<std::string, Material> materials;
   DeformationSettings deformation;
   std::vector<BodyDesc> bodies;

@@ -517,8 +517,8 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   Node n(root, "", file);
   if (!root.is_object())
     throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
-  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "materials", "deformation", "bodies", "joints",
-               "no_collide", "cameras"});
+  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "threads", "materials", "deformation", "bodies",
+               "joints", "no_collide", "cameras"});
   Scene s;
   s.file = file;
   if (n.has("format")) {
@@ -531,6 +531,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   if (n.has("timestep") && !(n.raw("timestep").get<double>() > 0)) n.fail("timestep", "must be positive");
   s.duration = n.number("duration", s.duration, 0, 1e5, true);
   if (s.duration / s.timestep > 1e8) n.fail("duration", "more than 10^8 steps");
+  s.threads = n.integer("threads", s.threads, 0, 256);
 
   if (n.has("materials")) {
     Node mats = n.child("materials");

@@ -42,6 +42,7 @@ namespace {}  // namespace
 
 Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), assets_(scene.file) {
   world_.settings().gravity = scene.gravity;
+  world_.settings().threads = scene.threads;
   if (gl_) {
     deformer_ = std::make_unique<deform::Deformer>(scene.deformation.options);
   }

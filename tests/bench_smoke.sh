@@ -20,6 +20,8 @@ expect 1 '^render +1280x720 +fxaa +[0-9.]+ ms/frame +no aa +[0-9.]+ ms/frame +fx
 expect 1 '^render +1280x720 +displace +[0-9.]+ ms/frame +pom alone +[0-9.]+ ms/frame +displace/pom +[0-9.]+x$' "displacement ratio"
 expect 1 '^render +1280x720 +simplified meshes +[0-9.]+ ms/frame +full +[0-9.]+ ms/frame +simplified/full +[0-9.]+x$' "simplified ratio"
 expect 1 '^render +sandbox view 336x189 .* +[0-9.]+ ms/frame +\([0-9.]+ frames/s of rendering\)$' "sandbox view"
+expect 5 '^threads +pile_[0-9]+boxes +[0-9]+ threads +[0-9.]+ ms/step +speedup over 1 +[0-9.]+x$' "thread-count"
+expect 1 '^ +pile_[0-9]+boxes: every thread count ended in the same bits \(state hash\)$' "same-bits"
 if echo "$out" | grep -qi nan; then echo "bench_smoke: a figure is NaN" >&2; exit 1; fi
 # A filter that matches nothing is an error (exit 2), not a table of NaN.
 set +e

@@ -59,6 +59,8 @@ TEST_CASE("the good scene loads") {
   CHECK(s.bodies[0].bumpMap.resolution == 128);
   CHECK(s.materials.at("clay").restitution == doctest::Approx(0.2));
   CHECK(s.deformation.options.addressMap == 256);
+  CHECK(s.threads == 1);
+  CHECK(parseScene(mutate("\"duration\": 1", "\"duration\": 1, \"threads\": 4"), "good.json", ".").threads == 4);
 }
 
 TEST_CASE("a camera's displace key turns displacement on for that camera only") {
@@ -88,6 +90,8 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"timestep\": 0.004", "\"timestep\": 0"), "timestep", "must be in"},
       {mutate("\"timestep\": 0.004", "\"timestep\": -1"), "timestep", "must be in"},
       {mutate("\"duration\": 1", "\"duration\": 1e300"), "duration", "must be in"},
+      {mutate("\"duration\": 1", "\"duration\": 1, \"threads\": -1"), "threads", "must be in [0, 256]"},
+      {mutate("\"duration\": 1", "\"duration\": 1, \"threads\": 2.5"), "threads", "must be an integer"},
       {mutate("\"address_map\": 256", "\"address_map\": 100000"), "deformation.address_map", "must be in [16, 4096]"},
       {mutate("\"address_map\": 256", "\"address_map\": 256.5"), "deformation.address_map", "must be an integer"},
       {mutate("\"path\": \"gather\"", "\"path\": \"cpu\""), "deformation.path",

@@ -68,8 +68,9 @@ ojson sceneJson(const Scene& s) {
 
 class PySimulation {
  public:
-  PySimulation(const std::optional<std::string>& path, const Overrides& overrides, int gpu) {
+  PySimulation(const std::optional<std::string>& path, const Overrides& overrides, int gpu, int threads) {
     scene_ = loadWithOverrides(path, overrides);
+    if (threads >= 0) scene_.threads = threads;
     bool bumpMaps = false;
     for (const auto& b : scene_.bodies) bumpMaps = bumpMaps || b.bumpMap.present;
     // A context always when one can be made (render() needs it); without one, a scene without bump maps
@@ -245,8 +246,8 @@ PYBIND11_MODULE(_crumple, m) {
       py::arg("path"), py::arg("overrides"));
 
   py::class_<PySimulation>(m, "_Simulation")
-      .def(py::init<const std::optional<std::string>&, const Overrides&, int>(), py::arg("path"),
-           py::arg("overrides"), py::arg("gpu"))
+      .def(py::init<const std::optional<std::string>&, const Overrides&, int, int>(), py::arg("path"),
+           py::arg("overrides"), py::arg("gpu"), py::arg("threads"))
       .def("step", &PySimulation::step, py::arg("n") = 1)
       .def("run", &PySimulation::run)
       .def_property_readonly("time", &PySimulation::time)

@@ -66,15 +66,20 @@ class Simulation(_crumple._Simulation):
     onto a clay plate). overrides: {key path: value}, the key paths of crumple-sim's --set
     ("bodies[ball].velocity", "materials.clay.kappa"), values as Python objects (lists, numbers, str...).
     gpu: the EGL device, as crumple-sim --gpu (None: CRUMPLE_EGL_DEVICE, else the first GPU, else software).
+    threads: the physics step's threads, as crumple-sim --threads (None: the scene's "threads", default 1;
+    0: the machine's hardware threads). Every count gives the same bits.
 
     Raises SceneError for bad input, RuntimeError when no OpenGL context can be made for a scene with bump
     maps.
     """
 
-    def __init__(self, path=None, overrides=None, *, gpu=None):
+    def __init__(self, path=None, overrides=None, *, gpu=None, threads=None):
         if gpu is not None and (not isinstance(gpu, int) or gpu < 0):
             raise ValueError(f"gpu must be a device number >= 0, got {gpu!r}")
-        super().__init__(None if path is None else str(path), _overrides(overrides), -1 if gpu is None else gpu)
+        if threads is not None and (not isinstance(threads, int) or isinstance(threads, bool) or not 0 <= threads <= 256):
+            raise ValueError(f"threads must be an int in [0, 256], got {threads!r}")
+        super().__init__(None if path is None else str(path), _overrides(overrides), -1 if gpu is None else gpu,
+                         -1 if threads is None else threads)
         self._scene = _json.loads(self._scene_json)
 
     @property

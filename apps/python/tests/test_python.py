@@ -135,6 +135,16 @@ class Overrides(unittest.TestCase):
         self.assertLess(slow.height_map("plate").min(), 0.5)
         self.assertLess(fast.height_map("plate").min(), slow.height_map("plate").min())
 
+    def test_threads_give_the_same_run(self):
+        one = crumple.Simulation(DROP, threads=1)
+        two = crumple.Simulation(DROP, threads=2)
+        for s in (one, two):
+            s.run()
+        self.assertEqual(one.bodies(), two.bodies())
+        self.assertTrue(np.array_equal(one.height_map("plate"), two.height_map("plate")))
+        with self.assertRaises(ValueError):
+            crumple.Simulation(DROP, threads=-1)
+
     def test_load_scene(self):
         info = crumple.load_scene(DROP, {"bodies[pebble].bump_map": {"resolution": 32}, "duration": 0.5})
         self.assertEqual(info["name"], "drop")

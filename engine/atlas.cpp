@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <limits>
 #include <tuple>
 
 namespace crumple {
@@ -265,12 +266,22 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
     }
     return cm;
   };
-  // Pack; a chart whose projection folds over itself is split into triangles.
+  // Pack. A chart whose projection folds over itself (a lip over a bumper, both facing one axis) is cut into
+  // pieces: its connected triangles within one cube of a sixteenth of the mesh's size, so layers further apart
+  // than that part; pieces that still fold are split into triangles, and if the atlas still overlaps, every
+  // triangle is a chart of its own.
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const glm::vec3& p : mesh.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const glm::vec3 size = hi - lo;
+  const float cell = std::max(std::max({size.x, size.y, size.z}) / 16.0f, 1e-6f);
   std::vector<int> ids = chartOf;
-  for (int attempt = 0; attempt < 3; ++attempt) {
+  for (int attempt = 0; attempt < 4; ++attempt) {
     TriangleMesh packed = packCharts(buildCharts(ids), resolution);
     const AtlasCheck check = checkAtlas(packed, resolution);
-    if (check.oneToOne || attempt == 2) return packed;
+    if (check.oneToOne || attempt == 3) return packed;
     // Find the charts with overlaps by checking each alone.
     int next = *std::max_element(ids.begin(), ids.end()) + 1;
     std::vector<char> bad(static_cast<size_t>(next), 0);
@@ -289,10 +300,42 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
       if (!one.triangles.empty() && !checkAtlas(one, resolution).oneToOne) bad[static_cast<size_t>(c)] = 1;
     }
     bool any = false;
-    for (size_t t = 0; t < nt; ++t) {
-      if (bad[static_cast<size_t>(ids[t])] || attempt == 1) {
-        ids[t] = next++;
+    if (attempt == 0) {
+      // Pieces: flood fill over the bad charts' triangles, within one chart and one cube.
+      auto cube = [&](size_t t) {
+        const auto& tri = mesh.triangles[t];
+        const glm::vec3 c = (mesh.positions[tri.x] + mesh.positions[tri.y] + mesh.positions[tri.z]) / 3.0f;
+        return glm::ivec3(glm::floor((c - lo) / cell));
+      };
+      std::vector<int> piece(nt, -1);
+      std::vector<int> stack;
+      for (size_t seed = 0; seed < nt; ++seed) {
+        if (!bad[static_cast<size_t>(ids[seed])] || piece[seed] >= 0) continue;
+        const glm::ivec3 home = cube(seed);
+        piece[seed] = next;
+        stack.assign(1, static_cast<int>(seed));
+        while (!stack.empty()) {
+          const size_t t = static_cast<size_t>(stack.back());
+          stack.pop_back();
+          for (int u : adjacent[t]) {
+            const size_t uu = static_cast<size_t>(u);
+            if (piece[uu] < 0 && ids[uu] == ids[seed] && cube(uu) == home) {
+              piece[uu] = next;
+              stack.push_back(u);
+            }
+          }
+        }
+        ++next;
         any = true;
+      }
+      for (size_t t = 0; t < nt; ++t)
+        if (piece[t] >= 0) ids[t] = piece[t];
+    } else {
+      for (size_t t = 0; t < nt; ++t) {
+        if (bad[static_cast<size_t>(ids[t])] || attempt == 2) {
+          ids[t] = next++;
+          any = true;
+        }
       }
     }
     if (!any) return packed;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <unordered_set>
 
@@ -70,6 +71,64 @@ using meshio::lower;
 // OBJ is read here rather than through OpenMesh, whose reader skips what it
 // cannot parse (bad indices, unparsable numbers) with a message on stderr and
 // goes on: a broken file must be an error naming the line.
+namespace {
+// Vertex normals that keep creases: each corner averages (area-weighted) the faces around its vertex that turn
+// less than kCreaseDegrees from its own face, and a vertex whose corners get different normals is split (its
+// other attributes copied). Smooth bodies shade smooth; a box keeps its edges. A vertex of more than
+// kCreaseValence faces (fans, degenerate files) gets their plain average: the test is quadratic in the valence.
+void removeDuplicateFaces(TriangleMesh& m, const std::string& path);  // below
+constexpr float kCreaseDegrees = 45.0f;
+constexpr size_t kCreaseValence = 32;
+void creaseNormals(TriangleMesh& m) {
+  const size_t nv = m.positions.size(), nt = m.triangles.size();
+  std::vector<glm::vec3> face(nt);
+  std::vector<std::vector<unsigned>> around(nv);
+  for (size_t t = 0; t < nt; ++t) {
+    const glm::uvec3 tri = m.triangles[t];
+    face[t] = glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]);
+    for (unsigned v : {tri.x, tri.y, tri.z}) around[v].push_back(static_cast<unsigned>(t));
+  }
+  const float cosCrease = std::cos(glm::radians(kCreaseDegrees));
+  auto unit = [](const glm::vec3& n) {
+    const float len = glm::length(n);
+    return len > 0 ? n / len : glm::vec3(0);
+  };
+  TriangleMesh out;
+  out.triangles.resize(nt);
+  std::vector<std::vector<std::pair<glm::vec3, unsigned>>> made(nv);  // per vertex: normals given, new index
+  for (size_t t = 0; t < nt; ++t) {
+    const glm::vec3 own = unit(face[t]);
+    for (int k = 0; k < 3; ++k) {
+      const unsigned v = m.triangles[t][k];
+      glm::vec3 sum(0);
+      const bool creases = around[v].size() <= kCreaseValence;
+      for (unsigned f : around[v])
+        if (f == t || !creases || glm::dot(unit(face[f]), own) >= cosCrease) sum += face[f];
+      glm::vec3 n = unit(sum);
+      if (n == glm::vec3(0)) n = own == glm::vec3(0) ? glm::vec3(0, 1, 0) : own;
+      unsigned index = 0;
+      bool found = false;
+      for (const auto& [given, at] : made[v])
+        if (glm::dot(given, n) > 0.99999f) {
+          index = at;
+          found = true;
+          break;
+        }
+      if (!found) {
+        index = static_cast<unsigned>(out.positions.size());
+        made[v].emplace_back(n, index);
+        out.positions.push_back(m.positions[v]);
+        out.normals.push_back(n);
+        if (!m.uvs.empty()) out.uvs.push_back(m.uvs[v]);
+        if (!m.colors.empty()) out.colors.push_back(m.colors[v]);
+      }
+      out.triangles[t][k] = index;
+    }
+  }
+  m = std::move(out);
+}
+}  // namespace
+
 TriangleMesh loadObj(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw MeshError(path + ": cannot be opened");
@@ -78,6 +137,7 @@ TriangleMesh loadObj(const std::string& path) {
   std::vector<glm::vec2> vt;
   TriangleMesh out;
   bool anyUv = false, allUv = true;
+  std::map<std::pair<long, long>, unsigned> corner;  // (vertex, texture coordinate) -> vertex of `out`
   std::string line;
   meshio::LineReader lines(in, path, "OBJ");
   auto fail = [&](const std::string& why) { lines.fail(why); };
@@ -139,15 +199,20 @@ TriangleMesh loadObj(const std::string& path) {
           const std::string t = tok.substr(s1 + 1, s2 == std::string::npos ? std::string::npos : s2 - s1 - 1);
           if (!t.empty()) ti = index(t, vt.size(), "texture coordinate");
         }
-        out.positions.push_back(v[static_cast<size_t>(vi)]);
-        if (!vc.empty()) {
-          out.colors.resize(out.positions.size() - 1, glm::vec3(1));
-          out.colors.push_back(static_cast<size_t>(vi) < vc.size() ? vc[static_cast<size_t>(vi)] : glm::vec3(1));
-        }
-        out.uvs.push_back(ti >= 0 ? vt[static_cast<size_t>(ti)] : glm::vec2(-1));
         anyUv = anyUv || ti >= 0;
         allUv = allUv && ti >= 0;
-        corners.push_back(static_cast<unsigned>(out.positions.size() - 1));
+        // Corners naming the same vertex and texture coordinate share one vertex (the faces around it are
+        // shaded together; creaseNormals splits it again where they meet at an edge).
+        const auto [at, added] = corner.try_emplace({vi, ti}, static_cast<unsigned>(out.positions.size()));
+        if (added) {
+          out.positions.push_back(v[static_cast<size_t>(vi)]);
+          if (!vc.empty()) {
+            out.colors.resize(out.positions.size() - 1, glm::vec3(1));
+            out.colors.push_back(static_cast<size_t>(vi) < vc.size() ? vc[static_cast<size_t>(vi)] : glm::vec3(1));
+          }
+          out.uvs.push_back(ti >= 0 ? vt[static_cast<size_t>(ti)] : glm::vec2(-1));
+        }
+        corners.push_back(at->second);
       }
       if (corners.size() < 3) fail("a face needs at least 3 vertices");
       for (size_t i = 1; i + 1 < corners.size(); ++i) out.triangles.push_back({corners[0], corners[i], corners[i + 1]});
@@ -159,7 +224,8 @@ TriangleMesh loadObj(const std::string& path) {
   if (out.triangles.empty()) throw MeshError(path + ": no faces");
   if (!anyUv || !allUv) out.uvs.clear();
   if (!out.colors.empty()) out.colors.resize(out.positions.size(), glm::vec3(1));
-  out.computeNormals();
+  removeDuplicateFaces(out, path);  // before the normals: a face listed a million times is a vertex of a million faces
+  creaseNormals(out);
   return out;
 }
 

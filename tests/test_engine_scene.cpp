@@ -337,6 +337,40 @@ TEST_CASE("OBJ, OFF and broken OBJ") {
   CHECK(polyhedralMassProperties(rel).volume == doctest::Approx(1.0 / 6));
 }
 
+TEST_CASE("OBJ without normals: corners of one vertex are shared, smooth surfaces shade smooth, edges stay sharp") {
+  // A cube: each corner meets three faces at 90 degrees, so it is split into three vertices with face normals.
+  std::string cube;
+  for (int i = 0; i < 8; ++i) cube += "v " + std::to_string(i & 1) + " " + std::to_string(i >> 1 & 1) + " " + std::to_string(i >> 2 & 1) + "\n";
+  cube += "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+  const TriangleMesh box = loadMeshFile(tempFile("cube.obj", cube).string());
+  CHECK(box.triangles.size() == 12);
+  CHECK(box.positions.size() == 24);
+  for (const glm::vec3& n : box.normals) CHECK(std::max({std::abs(n.x), std::abs(n.y), std::abs(n.z)}) == doctest::Approx(1.0));
+  // A sphere of 32 x 16 quads: one vertex per position (poles aside), normals within 3 degrees of the radius.
+  std::string ball;
+  const int nu = 32, nv = 16;
+  for (int j = 0; j <= nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const double th = M_PI * j / nv, ph = 2 * M_PI * i / nu;
+      ball += "v " + std::to_string(std::sin(th) * std::cos(ph)) + " " + std::to_string(std::cos(th)) + " " +
+              std::to_string(std::sin(th) * std::sin(ph)) + "\n";
+    }
+  for (int j = 0; j < nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const int a = j * nu + i + 1, b = j * nu + (i + 1) % nu + 1, c = a + nu, d = b + nu;
+      if (j > 0) ball += "f " + std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(d) + "\n";
+      if (j < nv - 1) ball += "f " + std::to_string(a) + " " + std::to_string(d) + " " + std::to_string(c) + "\n";
+    }
+  const TriangleMesh sphere = loadMeshFile(tempFile("ball.obj", ball).string());
+  CHECK(sphere.triangles.size() == static_cast<size_t>(2 * nu * (nv - 1)));
+  CHECK(sphere.positions.size() <= static_cast<size_t>(nu * (nv - 1) + 2 * nu));  // shared, not 3 per triangle
+  double worst = 1;
+  for (size_t i = 0; i < sphere.positions.size(); ++i)
+    if (std::abs(sphere.positions[i].y) < 0.99f)
+      worst = std::min(worst, static_cast<double>(glm::dot(sphere.normals[i], glm::normalize(sphere.positions[i]))));
+  CHECK(worst > std::cos(3.0 * M_PI / 180));
+}
+
 TEST_CASE("mesh files that are not what they claim are refused at once: NUL bytes, no glTF magic, over 1 GiB") {
   auto errorOfMesh = [](const fs::path& p) {
     try {

@@ -316,8 +316,13 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, i
   auto w = crumpleWorld(spec);
   w->settings().threads = threads;
   StepProfile sum;
+  int largestIsland = 0, islandsThen = 0;  // over the run: the largest island, and the island count of that step
   for (auto _ : state) {
     w->step(kStep);
+    if (w->lastStats().largestIsland > largestIsland) {
+      largestIsland = w->lastStats().largestIsland;
+      islandsThen = w->lastStats().islands;
+    }
     const StepProfile& p = w->lastStats().ms;
     sum.broadPhase += p.broadPhase;
     sum.candidates += p.candidates;
@@ -347,6 +352,8 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, i
     if (!b.isStatic) top = std::max(top, b.x.y);
   state.counters["bodies"] = static_cast<double>(w->size());
   state.counters["awake"] = w->lastStats().awake;
+  state.counters["islands"] = islandsThen;
+  state.counters["largest_island"] = largestIsland;
   state.counters["top_m"] = top;
 }
 void bulletPhysics(benchmark::State& state, SceneSpec spec) {
@@ -579,6 +586,7 @@ int main(int argc, char** argv) {
   std::printf("\n== ratios ==\n");
   for (const auto& c : cases) {
     const double a = ms("physics/crumple/" + c.name), b = ms("physics/bullet/" + c.name);
+    if (std::isnan(a) && std::isnan(b)) continue;  // filtered out
     std::printf("physics %-22s crumple %8.3f ms/step  bullet %8.3f ms/step  crumple/bullet %6.2fx\n", c.name.c_str(), a,
                 b, a / b);
     auto& ca = collector.counters["physics/crumple/" + c.name];
@@ -604,6 +612,15 @@ int main(int argc, char** argv) {
       ++measured;
       std::printf("threads %-22s %3d threads %8.3f ms/step  speedup over %d %6.2fx\n", c.name.c_str(), t, a,
                   threadCounts.front(), one / a);
+      if (gStageMs.count(threadsName(c, t))) {
+        const StepProfile& p = gStageMs[threadsName(c, t)];
+        auto& counters = collector.counters["physics/crumple_threads/" + threadsName(c, t)];
+        std::printf(
+            "        ms/step: broad phase %.3f  candidates %.3f  collide %.3f  contact %.3f  shock %.3f  positions %.3f  "
+            "sleep %.3f  joints %.3f; largest island %.0f pairs (of %.0f islands then)\n",
+            p.broadPhase, p.candidates, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep, p.joints,
+            counters["largest_island"], counters["islands"]);
+      }
       sameBits = sameBits && gEndHash[threadsName(c, t)] == gEndHash[threadsName(c, threadCounts.front())];
     }
     if (measured > 0)

@@ -67,6 +67,11 @@ void findIslands(StepContext& ctx) {
   std::iota(ctx.islandOrder.begin(), ctx.islandOrder.end(), 0u);
   std::stable_sort(ctx.islandOrder.begin(), ctx.islandOrder.end(),
                    [&](uint32_t x, uint32_t y) { return start[x + 1] - start[x] > start[y + 1] - start[y]; });
+  ctx.stats.islands = std::max(ctx.stats.islands, islands);
+  if (islands > 0) {
+    const uint32_t k = ctx.islandOrder.front();
+    ctx.stats.largestIsland = std::max(ctx.stats.largestIsland, static_cast<int>(start[k + 1] - start[k]));
+  }
 }
 
 }  // namespace crumple::detail

@@ -153,6 +153,9 @@ struct StepStats {
   int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
   int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
   int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)
+  // Islands of pairs (no movable body in common: the units the threads share out), most in a substep,
+  // and the pairs of the largest (a step cannot go faster than that island alone).
+  int islands = 0, largestIsland = 0;
   StepProfile ms;
 };
 

@@ -301,17 +301,18 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
     }
     bool any = false;
     if (attempt == 0) {
-      // Pieces: flood fill over the bad charts' triangles, within one chart and one cube.
-      auto cube = [&](size_t t) {
+      // Pieces: flood fill over the bad charts' triangles, within one chart and one cube (of the centroid).
+      std::vector<glm::ivec3> cube(nt);
+      for (size_t t = 0; t < nt; ++t) {
         const auto& tri = mesh.triangles[t];
         const glm::vec3 c = (mesh.positions[tri.x] + mesh.positions[tri.y] + mesh.positions[tri.z]) / 3.0f;
-        return glm::ivec3(glm::floor((c - lo) / cell));
-      };
+        cube[t] = glm::ivec3(glm::floor((c - lo) / cell));
+      }
       std::vector<int> piece(nt, -1);
       std::vector<int> stack;
       for (size_t seed = 0; seed < nt; ++seed) {
         if (!bad[static_cast<size_t>(ids[seed])] || piece[seed] >= 0) continue;
-        const glm::ivec3 home = cube(seed);
+        const glm::ivec3 home = cube[seed];
         piece[seed] = next;
         stack.assign(1, static_cast<int>(seed));
         while (!stack.empty()) {
@@ -319,7 +320,7 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
           stack.pop_back();
           for (int u : adjacent[t]) {
             const size_t uu = static_cast<size_t>(u);
-            if (piece[uu] < 0 && ids[uu] == ids[seed] && cube(uu) == home) {
+            if (piece[uu] < 0 && ids[uu] == ids[seed] && cube[uu] == home) {
               piece[uu] = next;
               stack.push_back(u);
             }

@@ -81,29 +81,30 @@ constexpr float kCreaseDegrees = 45.0f;
 constexpr size_t kCreaseValence = 32;
 void creaseNormals(TriangleMesh& m) {
   const size_t nv = m.positions.size(), nt = m.triangles.size();
-  std::vector<glm::vec3> face(nt);
-  std::vector<std::vector<unsigned>> around(nv);
-  for (size_t t = 0; t < nt; ++t) {
-    const glm::uvec3 tri = m.triangles[t];
-    face[t] = glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]);
-    for (unsigned v : {tri.x, tri.y, tri.z}) around[v].push_back(static_cast<unsigned>(t));
-  }
-  const float cosCrease = std::cos(glm::radians(kCreaseDegrees));
   auto unit = [](const glm::vec3& n) {
     const float len = glm::length(n);
     return len > 0 ? n / len : glm::vec3(0);
   };
+  std::vector<glm::vec3> face(nt), faceUnit(nt);  // area-weighted and unit face normals
+  std::vector<std::vector<unsigned>> around(nv);
+  for (size_t t = 0; t < nt; ++t) {
+    const glm::uvec3 tri = m.triangles[t];
+    face[t] = glm::cross(m.positions[tri.y] - m.positions[tri.x], m.positions[tri.z] - m.positions[tri.x]);
+    faceUnit[t] = unit(face[t]);
+    for (unsigned v : {tri.x, tri.y, tri.z}) around[v].push_back(static_cast<unsigned>(t));
+  }
+  const float cosCrease = std::cos(glm::radians(kCreaseDegrees));
   TriangleMesh out;
   out.triangles.resize(nt);
   std::vector<std::vector<std::pair<glm::vec3, unsigned>>> made(nv);  // per vertex: normals given, new index
   for (size_t t = 0; t < nt; ++t) {
-    const glm::vec3 own = unit(face[t]);
+    const glm::vec3 own = faceUnit[t];
     for (int k = 0; k < 3; ++k) {
       const unsigned v = m.triangles[t][k];
       glm::vec3 sum(0);
       const bool creases = around[v].size() <= kCreaseValence;
       for (unsigned f : around[v])
-        if (f == t || !creases || glm::dot(unit(face[f]), own) >= cosCrease) sum += face[f];
+        if (f == t || !creases || glm::dot(faceUnit[f], own) >= cosCrease) sum += face[f];
       glm::vec3 n = unit(sum);
       if (n == glm::vec3(0)) n = own == glm::vec3(0) ? glm::vec3(0, 1, 0) : own;
       unsigned index = 0;

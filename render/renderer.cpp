@@ -391,7 +391,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     glPolygonOffset(2.0f, 4.0f);
     glViewport(0, 0, kShadowSize, kShadowSize);
     // Draws the items whose `still` flag is `which` (all of them without a cache).
-    auto casters = [&](bool cached, bool which) {
+    auto drawCasters = [&](bool cached, bool which) {
       for (size_t i = 0; i < items.size(); ++i) {
         if (cached && m.shadowCache.casters[i].still != which) continue;
         const RenderItem& it = items[i];
@@ -405,17 +405,17 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     if (m.shadowCache.update(items, s, lightVP)) {
       glBindFramebuffer(GL_FRAMEBUFFER, m.shadowCache.stillFbo.id());
       glClear(GL_DEPTH_BUFFER_BIT);
-      casters(true, true);
+      drawCasters(true, true);
       stats_.shadowCacheRedrawn = true;
     }
     glBindFramebuffer(GL_FRAMEBUFFER, m.shadowFbo.id());
     if (m.shadowCache.valid) {
       glCopyImageSubData(m.shadowCache.still.id(), GL_TEXTURE_2D, 0, 0, 0, 0, m.shadowMap.id(), GL_TEXTURE_2D, 0, 0, 0,
                          0, kShadowSize, kShadowSize, 1);
-      casters(true, false);
+      drawCasters(true, false);
     } else {
       glClear(GL_DEPTH_BUFFER_BIT);
-      casters(false, false);
+      drawCasters(false, false);
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
   }

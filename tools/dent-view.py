@@ -12,41 +12,17 @@ the dented region, darker where deeper, optionally beside a second map's
   tools/dent-view.py A/car.png --compare B/car.png --png side-by-side.png
 
 Standard library only."""
-import argparse, struct, sys, zlib
+import argparse, os, struct, sys, zlib
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import png_decode  # noqa: E402
 
 
 def read_png16(path):
-    data = open(path, "rb").read()
-    if data[:8] != b"\x89PNG\r\n\x1a\n":
-        sys.exit("%s: not a PNG" % path)
-    pos, idat, w, h, depth, ctype = 8, b"", 0, 0, 0, 0
-    while pos < len(data):
-        n = struct.unpack(">I", data[pos:pos + 4])[0]
-        tag, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
-        pos += 12 + n
-        if tag == b"IHDR":
-            w, h, depth, ctype = struct.unpack(">IIBB", body[:10])
-        elif tag == b"IDAT":
-            idat += body
+    w, h, depth, ctype, raw = png_decode.decode(path)
     if depth != 16 or ctype != 0:
         sys.exit("%s: not a 16-bit grey height map" % path)
-    raw, stride, rows, prev, i = zlib.decompress(idat), w * 2, [], bytearray(w * 2), 0
-    for _ in range(h):
-        f, line = raw[i], bytearray(raw[i + 1:i + 1 + stride])
-        i += 1 + stride
-        for x in range(stride):
-            a = line[x - 2] if x >= 2 else 0
-            b = prev[x]
-            c = prev[x - 2] if x >= 2 else 0
-            if f == 1: line[x] = (line[x] + a) & 255
-            elif f == 2: line[x] = (line[x] + b) & 255
-            elif f == 3: line[x] = (line[x] + (a + b) // 2) & 255
-            elif f == 4:
-                p = a + b - c
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append([struct.unpack(">H", bytes(line[2 * x:2 * x + 2]))[0] / 65535 for x in range(w)])
-        prev = line
+    rows = [[struct.unpack(">H", bytes(line[2 * x:2 * x + 2]))[0] / 65535 for x in range(w)] for line in raw]
     return w, h, rows
 
 

@@ -1,44 +1,20 @@
 #!/usr/bin/env python3
 """Puts PNG pictures (8-bit RGB or RGBA, same height) side by side into one RGB PNG: side-by-side.py OUT IN..."""
+import os
 import struct
 import sys
 import zlib
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import png_decode  # noqa: E402
+
 
 def read_png(path):
-    data = open(path, "rb").read()
-    pos, idat = 8, b""
-    while pos < len(data):
-        n = struct.unpack(">I", data[pos:pos + 4])[0]
-        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
-        pos += 12 + n
-        if kind == b"IHDR":
-            w, h, depth, colour = struct.unpack(">IIBB", body[:10])
-            if depth != 8 or colour not in (2, 6):
-                sys.exit(path + ": only 8-bit RGB or RGBA")
-        elif kind == b"IDAT":
-            idat += body
-    raw, bpp = zlib.decompress(idat), 3 if colour == 2 else 4
-    stride, rows, prev, at = w * bpp, [], bytearray(w * bpp), 0
-    for _ in range(h):
-        f, line = raw[at], bytearray(raw[at + 1:at + 1 + stride])
-        at += 1 + stride
-        for x in range(stride):
-            a = line[x - bpp] if x >= bpp else 0
-            b, c = prev[x], prev[x - bpp] if x >= bpp else 0
-            if f == 1:
-                line[x] = (line[x] + a) & 255
-            elif f == 2:
-                line[x] = (line[x] + b) & 255
-            elif f == 3:
-                line[x] = (line[x] + (a + b) // 2) & 255
-            elif f == 4:
-                p = a + b - c
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(bytes(line[i:i + 3]) for i in range(0, stride, bpp))
-        rows[-1] = b"".join(rows[-1])
-        prev = line
+    w, h, depth, colour, raw = png_decode.decode(path)
+    if depth != 8 or colour not in (2, 6):
+        sys.exit(path + ": only 8-bit RGB or RGBA")
+    bpp = 3 if colour == 2 else 4
+    rows = [b"".join(bytes(line[i:i + 3]) for i in range(0, w * bpp, bpp)) for line in raw]
     return w, h, rows
 
 

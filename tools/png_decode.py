@@ -1,0 +1,46 @@
+"""PNG decoding shared by the tools' scripts (no Pillow on a bare machine): chunks, zlib, the five row filters."""
+import struct
+import sys
+import zlib
+
+CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}  # colour type -> channels (palettes are not read)
+
+
+def decode(path):
+    """Returns (width, height, bit depth, colour type, rows): each row the unfiltered bytes of one image row."""
+    data = open(path, "rb").read()
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        sys.exit("%s: not a PNG" % path)
+    pos, idat, w, h, depth, colour = 8, b"", 0, 0, 0, 0
+    while pos < len(data):
+        n = struct.unpack(">I", data[pos:pos + 4])[0]
+        tag, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        pos += 12 + n
+        if tag == b"IHDR":
+            w, h, depth, colour = struct.unpack(">IIBB", body[:10])
+        elif tag == b"IDAT":
+            idat += body
+    if colour not in CHANNELS or depth not in (8, 16):
+        sys.exit("%s: only 8- or 16-bit grey, grey-alpha, RGB or RGBA PNGs" % path)
+    bpp = CHANNELS[colour] * depth // 8
+    raw, stride, rows, prev, i = zlib.decompress(idat), w * bpp, [], bytearray(w * bpp), 0
+    for _ in range(h):
+        f, line = raw[i], bytearray(raw[i + 1:i + 1 + stride])
+        i += 1 + stride
+        for x in range(stride):
+            a = line[x - bpp] if x >= bpp else 0
+            b = prev[x]
+            c = prev[x - bpp] if x >= bpp else 0
+            if f == 1:
+                line[x] = (line[x] + a) & 255
+            elif f == 2:
+                line[x] = (line[x] + b) & 255
+            elif f == 3:
+                line[x] = (line[x] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append(line)
+        prev = line
+    return w, h, depth, colour, rows

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
@@ -14,6 +16,11 @@ namespace {
 Program program(const char* vs, const char* fs) {
   return Program(
       {{GL_VERTEX_SHADER, vs, std::string(renderShader(vs))}, {GL_FRAGMENT_SHADER, fs, std::string(renderShader(fs))}});
+}
+// `source` with `defines` after its #version line (line numbers in messages stay the file's).
+std::string withDefines(std::string_view source, const std::string& defines) {
+  const size_t eol = source.find('\n') + 1;
+  return std::string(source.substr(0, eol)) + defines + "#line 2\n" + std::string(source.substr(eol));
 }
 constexpr int kShadowSize = 2048;
 constexpr int kEnvSize = 64, kEnvLevels = 7;            // the sky as rendered, mipmapped
@@ -133,12 +140,44 @@ struct ShadowCache {
   }
 };
 
+// The features of one draw of the main pass, as pom.frag's defines: the item's (maps, look, procedural
+// surface, displaced geometry) and the frame's (parallax mode, debug view, shadows, self-shadowing, sky light).
+struct PomFeatures {
+  bool maps = false, look = false, displaced = false, shadows = false, selfShadow = false, ibl = false;
+  int texture = 0, mode = 0, debug = 0;
+  uint32_t key() const {
+    return uint32_t(maps) | uint32_t(look) << 1 | uint32_t(displaced) << 2 | uint32_t(shadows) << 3 |
+           uint32_t(selfShadow) << 4 | uint32_t(ibl) << 5 | uint32_t(texture) << 6 | uint32_t(mode) << 8 |
+           uint32_t(debug) << 10;
+  }
+  std::string defines() const {
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "#define HAS_MAPS %d\n#define HAS_LOOK %d\n#define DISPLACED %d\n#define SHADOWS %d\n"
+                  "#define SELF_SHADOW %d\n#define IBL %d\n#define TEXTURE %d\n#define MODE %d\n#define DEBUG %d\n",
+                  maps, look, displaced, shadows, selfShadow, ibl, texture, mode, debug);
+    return text;
+  }
+};
+
 struct Renderer::Impl {
-  Program pom = program("pom.vert", "pom.frag");
-  Program pomDisplace{{{GL_VERTEX_SHADER, "pom_displace.vert", std::string(renderShader("pom_displace.vert"))},
-                       {GL_TESS_CONTROL_SHADER, "pom_displace.tesc", std::string(renderShader("pom_displace.tesc"))},
-                       {GL_TESS_EVALUATION_SHADER, "pom_displace.tese", std::string(renderShader("pom_displace.tese"))},
-                       {GL_FRAGMENT_SHADER, "pom.frag", std::string(renderShader("pom.frag"))}}};
+  // The main pass's programs, one per combination of features, made on first use (a handful per scene).
+  std::map<uint32_t, Program> pomVariants;
+  const Program& pom(const PomFeatures& f) {
+    auto found = pomVariants.find(f.key());
+    if (found != pomVariants.end()) return found->second;
+    const std::string fragment = withDefines(renderShader("pom.frag"), f.defines());
+    std::vector<Program::Stage> stages;
+    if (f.displaced)
+      stages = {{GL_VERTEX_SHADER, "pom_displace.vert", std::string(renderShader("pom_displace.vert"))},
+                {GL_TESS_CONTROL_SHADER, "pom_displace.tesc", std::string(renderShader("pom_displace.tesc"))},
+                {GL_TESS_EVALUATION_SHADER, "pom_displace.tese", std::string(renderShader("pom_displace.tese"))},
+                {GL_FRAGMENT_SHADER, "pom.frag", fragment}};
+    else
+      stages = {{GL_VERTEX_SHADER, "pom.vert", std::string(renderShader("pom.vert"))},
+                {GL_FRAGMENT_SHADER, "pom.frag", fragment}};
+    return pomVariants.emplace(f.key(), Program(stages)).first->second;
+  }
   Program shadow = program("shadow.vert", "shadow.frag");
   Program addressView = program("fullscreen.vert", "address_view.frag");
   Program sky = program("sky.vert", "sky.frag");
@@ -175,65 +214,9 @@ struct Renderer::Impl {
     flatNormal.upload(GL_RGBA, GL_UNSIGNED_BYTE, up);
     glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
   }
-  // The displaced path (RendererSettings::displace): `pomDisplace` gets every uniform `pom` has at this point
-  // (both run pom.frag), then its own, and draws the item as patches.
-  void drawDisplaced(const RenderItem& it, const RendererSettings& s, int w, int h) {
-    copyUniforms(pom, pomDisplace);
-    pomDisplace.use();
-    glUniform1i(pomDisplace.uniform("uDisplaced"), 1);
-    glUniform2f(pomDisplace.uniform("uViewport"), static_cast<float>(w), static_cast<float>(h));
-    glUniform1f(pomDisplace.uniform("uSegmentPixels"), std::max(s.displaceSegmentPixels, 0.5f));
-    glUniform1f(pomDisplace.uniform("uMaxLevel"), 32.0f);  // llvmpipe drew torn, flickering faces at 64
-    glPatchParameteri(GL_PATCH_VERTICES, 3);
-    glDrawElements(GL_PATCHES, it.indexCount, GL_UNSIGNED_INT, nullptr);
-    pom.use();
-  }
-  // Copies the values of `from`'s active uniforms to the uniforms of the same name in `to`.
-  static void copyUniforms(const Program& from, const Program& to) {
-    GLint count = 0;
-    glGetProgramiv(from.id(), GL_ACTIVE_UNIFORMS, &count);
-    for (GLint i = 0; i < count; ++i) {
-      char name[256];
-      GLsizei len = 0;
-      GLint size = 0;
-      GLenum type = 0;
-      glGetActiveUniform(from.id(), static_cast<GLuint>(i), sizeof name, &len, &size, &type, name);
-      std::string base(name, static_cast<size_t>(len));
-      if (base.size() > 3 && base.compare(base.size() - 3, 3, "[0]") == 0) base.resize(base.size() - 3);
-      for (GLint e = 0; e < size; ++e) {
-        const std::string n = size > 1 ? base + "[" + std::to_string(e) + "]" : base;
-        const GLint src = glGetUniformLocation(from.id(), n.c_str()), dst = glGetUniformLocation(to.id(), n.c_str());
-        if (src < 0 || dst < 0) continue;
-        float f[16];
-        GLint k[4];
-        switch (type) {
-          case GL_FLOAT: glGetUniformfv(from.id(), src, f); glProgramUniform1fv(to.id(), dst, 1, f); break;
-          case GL_FLOAT_VEC2: glGetUniformfv(from.id(), src, f); glProgramUniform2fv(to.id(), dst, 1, f); break;
-          case GL_FLOAT_VEC3: glGetUniformfv(from.id(), src, f); glProgramUniform3fv(to.id(), dst, 1, f); break;
-          case GL_FLOAT_VEC4: glGetUniformfv(from.id(), src, f); glProgramUniform4fv(to.id(), dst, 1, f); break;
-          case GL_FLOAT_MAT3:
-            glGetUniformfv(from.id(), src, f);
-            glProgramUniformMatrix3fv(to.id(), dst, 1, GL_FALSE, f);
-            break;
-          case GL_FLOAT_MAT4:
-            glGetUniformfv(from.id(), src, f);
-            glProgramUniformMatrix4fv(to.id(), dst, 1, GL_FALSE, f);
-            break;
-          case GL_INT_VEC2: case GL_BOOL_VEC2: glGetUniformiv(from.id(), src, k); glProgramUniform2iv(to.id(), dst, 1, k); break;
-          case GL_INT_VEC3: case GL_BOOL_VEC3: glGetUniformiv(from.id(), src, k); glProgramUniform3iv(to.id(), dst, 1, k); break;
-          case GL_INT_VEC4: case GL_BOOL_VEC4: glGetUniformiv(from.id(), src, k); glProgramUniform4iv(to.id(), dst, 1, k); break;
-          default:  // int, bool, samplers
-            glGetUniformiv(from.id(), src, k);
-            glProgramUniform1iv(to.id(), dst, 1, k);
-            break;
-        }
-      }
-    }
-  }
   // The item's look (render/look.h): its materials' uniforms and its two texture arrays (units 8, 9).
   void bindLook(const Program& p, const RenderItem& it) {
     const GpuLook* look = it.look;
-    glUniform1i(p.uniform("uHasLook"), look != nullptr && look->materialCount() > 0);
     if (!look || look->materialCount() == 0) return;
     const int n = look->materialCount();
     glUniform3i(p.uniform("uLookOwn"), it.ownColor, it.ownMetallic, it.ownRoughness);
@@ -440,32 +423,43 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   const glm::mat4 viewM = glm::lookAt(view.eye, view.target, view.up);
   const glm::mat4 proj = glm::perspective(glm::radians(view.fovDegrees), aspect, view.zNear, view.zFar);
   const glm::mat4 vp = proj * viewM;
-  m.pom.use();
-  auto u = [&](const char* n) { return m.pom.uniform(n); };
-  glUniformMatrix4fv(u("uViewProjection"), 1, GL_FALSE, glm::value_ptr(vp));
-  glUniformMatrix4fv(u("uLightViewProjection"), 1, GL_FALSE, glm::value_ptr(lightVP));
-  glUniform3fv(u("uEye"), 1, glm::value_ptr(view.eye));
-  const glm::vec3 toSun = -sunDir;
-  glUniform3fv(u("uToSun"), 1, glm::value_ptr(toSun));
-  glUniform3fv(u("uSunColor"), 1, glm::value_ptr(s.sunColor));
-  glUniform3fv(u("uSkyColor"), 1, glm::value_ptr(s.skyColor));
-  glUniform3fv(u("uGroundColor"), 1, glm::value_ptr(s.groundColor));
-  glUniform1i(u("uIbl"), s.ibl);
-  glUniform1f(u("uExposure"), s.exposure);
-  glUniform1f(u("uPrefilteredMaxLod"), static_cast<float>(kPrefilterLevels - 1));
+  PomFeatures frame;
+  frame.mode = static_cast<int>(s.parallax);
+  frame.debug = static_cast<int>(s.debug);
+  frame.shadows = s.shadows && s.debug == DebugView::Shaded;
+  frame.selfShadow = s.selfShadow;
+  frame.ibl = s.ibl;
+  // The frame's uniforms, given to each program the first time this frame that it draws.
+  std::vector<GLuint> prepared;
+  auto prepare = [&](const Program& p) {
+    if (std::find(prepared.begin(), prepared.end(), p.id()) != prepared.end()) return;
+    prepared.push_back(p.id());
+    auto u = [&](const char* n) { return p.uniform(n); };
+    glUniformMatrix4fv(u("uViewProjection"), 1, GL_FALSE, glm::value_ptr(vp));
+    glUniformMatrix4fv(u("uLightViewProjection"), 1, GL_FALSE, glm::value_ptr(lightVP));
+    glUniform3fv(u("uEye"), 1, glm::value_ptr(view.eye));
+    const glm::vec3 toSun = -sunDir;
+    glUniform3fv(u("uToSun"), 1, glm::value_ptr(toSun));
+    glUniform3fv(u("uSunColor"), 1, glm::value_ptr(s.sunColor));
+    glUniform3fv(u("uSkyColor"), 1, glm::value_ptr(s.skyColor));
+    glUniform3fv(u("uGroundColor"), 1, glm::value_ptr(s.groundColor));
+    glUniform1f(u("uExposure"), s.exposure);
+    glUniform1f(u("uPrefilteredMaxLod"), static_cast<float>(kPrefilterLevels - 1));
+    glUniform1i(u("uMinSteps"), s.minSteps);
+    glUniform1i(u("uMaxSteps"), s.maxSteps);
+    glUniform2f(u("uLodFade"), s.lodFadeStart, s.lodFadeEnd);
+    // The displaced path's tessellation.
+    glUniform2f(u("uViewport"), static_cast<float>(width_), static_cast<float>(height_));
+    glUniform1f(u("uSegmentPixels"), std::max(s.displaceSegmentPixels, 0.5f));
+    glUniform1f(u("uMaxLevel"), 32.0f);  // llvmpipe drew torn, flickering faces at 64
+  };
+  glBindTextureUnit(2, m.shadowMap.id());
   glBindTextureUnit(3, m.prefiltered.id());
   glBindTextureUnit(4, m.irradiance.id());
   glBindTextureUnit(5, m.lut.id());
-  glUniform1i(u("uMode"), static_cast<int>(s.parallax));
-  glUniform1i(u("uDebug"), static_cast<int>(s.debug));
-  glUniform1i(u("uMinSteps"), s.minSteps);
-  glUniform1i(u("uMaxSteps"), s.maxSteps);
-  glUniform1i(u("uShadows"), s.shadows && s.debug == DebugView::Shaded);
-  glUniform1i(u("uSelfShadow"), s.selfShadow);
-  glUniform2f(u("uLodFade"), s.lodFadeStart, s.lodFadeEnd);
-  glBindTextureUnit(2, m.shadowMap.id());
   if (s.debug == DebugView::Wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
   glVertexAttrib3f(3, 1.0f, 1.0f, 1.0f);  // the colour of vertex arrays without one: white
+  GLuint current = 0;
   for (const auto& it : items) {
     const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
     // Items wholly outside the view are skipped (displaced ones with their bounds grown by the map's range).
@@ -475,24 +469,35 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       continue;
     }
     ++stats_.drawn;
+    PomFeatures f = frame;
+    f.maps = it.height != 0;
+    f.look = it.look != nullptr && it.look->materialCount() > 0;
+    f.texture = static_cast<int>(it.texture);
+    f.displaced = displaced;
+    const Program& p = m.pom(f);
+    if (p.id() != current) {
+      p.use();
+      current = p.id();
+      prepare(p);
+    }
+    auto u = [&](const char* n) { return p.uniform(n); };
     const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
     glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));
     glUniformMatrix3fv(u("uNormalMatrix"), 1, GL_FALSE, glm::value_ptr(nrm));
-    glUniform1i(u("uHasMaps"), it.height != 0);
     glUniform1f(u("uBumpDepth"), it.bumpDepth);
     glUniform3fv(u("uColor"), 1, glm::value_ptr(it.color));
     glUniform1f(u("uMetallic"), it.metallic);
     glUniform1f(u("uRoughness"), it.roughness);
-    glUniform1i(u("uTexture"), static_cast<int>(it.texture));
     const glm::mat4 toModel = glm::inverse(it.model);
     glUniformMatrix4fv(u("uWorldToModel"), 1, GL_FALSE, glm::value_ptr(toModel));
     glUniform1f(u("uTextureScale"), it.textureScale);
-    m.bindLook(m.pom, it);
+    m.bindLook(p, it);
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
     if (displaced) {
       glBindVertexArray(it.vao);
-      m.drawDisplaced(it, s, width_, height_);
+      glPatchParameteri(GL_PATCH_VERTICES, 3);
+      glDrawElements(GL_PATCHES, it.indexCount, GL_UNSIGNED_INT, nullptr);
     } else {
       glBindVertexArray(itemVao(it, s));
       glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);

@@ -21,13 +21,18 @@ out vec4 fragColor;
 
 float luma(vec3 c) { return sqrt(dot(c, vec3(0.299, 0.587, 0.114))); }
 float lumaAt(vec2 uv) { return luma(textureLod(uScene, uv, 0.0).rgb); }
-float lumaOff(vec2 uv, float x, float y) { return lumaAt(uv + vec2(x, y) * uTexel); }
+// The 3x3 neighbourhood by texel fetches (no filtering: on a software rasteriser a filtered fetch costs
+// several times an unfiltered one), clamped to the frame's edge as the sampler would.
+ivec2 gPixel, gLast;
+float lumaOff(int x, int y) { return luma(texelFetch(uScene, clamp(gPixel + ivec2(x, y), ivec2(0), gLast), 0).rgb); }
 
 void main() {
   vec2 uv = vUV;
-  vec3 cM = textureLod(uScene, uv, 0.0).rgb;
+  gPixel = ivec2(gl_FragCoord.xy);
+  gLast = textureSize(uScene, 0) - 1;
+  vec3 cM = texelFetch(uScene, gPixel, 0).rgb;
   float lM = luma(cM);
-  float lN = lumaOff(uv, 0.0, 1.0), lS = lumaOff(uv, 0.0, -1.0), lE = lumaOff(uv, 1.0, 0.0), lW = lumaOff(uv, -1.0, 0.0);
+  float lN = lumaOff(0, 1), lS = lumaOff(0, -1), lE = lumaOff(1, 0), lW = lumaOff(-1, 0);
   float lo = min(lM, min(min(lN, lS), min(lE, lW)));
   float hi = max(lM, max(max(lN, lS), max(lE, lW)));
   float range = hi - lo;
@@ -35,8 +40,8 @@ void main() {
     fragColor = vec4(cM, 1.0);
     return;
   }
-  float lNE = lumaOff(uv, 1.0, 1.0), lNW = lumaOff(uv, -1.0, 1.0), lSE = lumaOff(uv, 1.0, -1.0);
-  float lSW = lumaOff(uv, -1.0, -1.0);
+  float lNE = lumaOff(1, 1), lNW = lumaOff(-1, 1), lSE = lumaOff(1, -1);
+  float lSW = lumaOff(-1, -1);
 
   // Sub-pixel blend: how much the pixel stands out from the mean of its neighbourhood.
   float mean = (2.0 * (lN + lS + lE + lW) + (lNE + lNW + lSE + lSW)) / 12.0;

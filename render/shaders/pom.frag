@@ -9,6 +9,11 @@
 // in:  vWorld, vNormal, vUV, vShadow; maps uHeight (R32F), uNormalMap (RGBA8), uShadowMap,
 //      uPrefiltered, uIrradiance (cube maps), uBrdfLut (RG)
 // out: fragColor (tone mapped, linear; the sRGB target encodes it)
+// Compiled once per combination of the features a draw uses (the renderer prepends the defines): HAS_MAPS,
+// HAS_LOOK, TEXTURE (0 none, 1 asphalt, 2 concrete, 3 clay), DISPLACED, MODE (parallax: 0 occlusion,
+// 1 offset limited, 2 none), DEBUG (0 shaded, 1 height, 2 normal, 4 wireframe), SHADOWS, SELF_SHADOW, IBL.
+// A software rasteriser runs both sides of a branch under a mask, so what a draw does not use must not be
+// in its shader at all.
 in vec3 vWorld;
 in vec3 vNormal;
 in vec2 vUV;
@@ -18,7 +23,6 @@ in vec2 vMaterialUV;    // the mesh file's own uv
 flat in int vMaterial;  // its material in the look, -1 none
 // The look (render/look.h): per material the base colour factor (linear), metallic, roughness, normal scale,
 // occlusion strength, emissive (rgb, sRGB layer), and the layers of its images (-1 none).
-uniform bool uHasLook;
 uniform bvec3 uLookOwn;  // the look's base colour, metallic, roughness apply (the scene did not set them)
 uniform vec4 uLookBase[16], uLookParams[16], uLookEmissive[16];
 uniform ivec4 uLookLayers[16];  // base colour (sRGB array), metallic-roughness, normal, occlusion (linear array)
@@ -33,21 +37,14 @@ layout(binding = 5) uniform sampler2D uBrdfLut;
 uniform float uPrefilteredMaxLod;  // its last level: roughness 1
 uniform float uMetallic, uRoughness;
 uniform float uExposure;
-uniform bool uIbl;  // false: a hemisphere of uSkyColor over uGroundColor instead of the cube maps
 uniform vec3 uSkyColor, uGroundColor;
-uniform bool uHasMaps;
-uniform bool uDisplaced;  // the geometry was moved by the height map (pom_displace.tese): no parallax march
 uniform float uBumpDepth;
 uniform vec3 uColor;  // sRGB material colour
 uniform vec3 uEye;
 uniform vec3 uToSun;
 uniform vec3 uSunColor;
-uniform int uMode;   // 0 occlusion, 1 offset limited, 2 none
-uniform int uDebug;  // 0 shaded, 1 height, 2 normal, 4 wireframe
 uniform int uMinSteps, uMaxSteps;
-uniform bool uShadows, uSelfShadow;
 uniform vec2 uLodFade;
-uniform int uTexture;         // procedural surface: 0 none, 1 asphalt, 2 concrete, 3 clay
 uniform float uTextureScale;  // its features' size, times their natural size
 uniform mat4 uWorldToModel;   // the surface is laid in the mesh's frame
 out vec4 fragColor;
@@ -81,8 +78,9 @@ float fbm(vec3 p, float frequency, int octaves, float footprint) {
 }
 // A procedural surface at q (metres in the mesh's frame over the scale): x multiplies the albedo (about 1 on
 // average), y is added to the roughness.
-vec2 surfaceTexture(int kind, vec3 q, float footprint) {
-  if (kind == 1) {
+vec2 surfaceTexture(vec3 q, float footprint) {
+#if TEXTURE == 1
+  {
     // Asphalt: worn and tar-darkened patches of a metre or two, 2 cm grain, pale stone chips.
     float patches = fbm(q, 0.6, 3, footprint);
     float grain = fbm(q, 45.0, 2, footprint);
@@ -91,7 +89,8 @@ vec2 surfaceTexture(int kind, vec3 q, float footprint) {
     float albedo = mix(1.1, 0.84, tar) * mix(0.82, 1.18, grain) + 0.7 * chips;
     return vec2(albedo, 0.12 * (grain - 0.5) - 0.15 * tar);
   }
-  if (kind == 2) {
+#elif TEXTURE == 2
+  {
     // Concrete: cloudy mottling, faint larger stains, pores of a centimetre or so.
     float mottle = fbm(q, 0.9, 4, footprint);
     float stains = fbm(q + 31.0, 0.18, 2, footprint);
@@ -99,18 +98,24 @@ vec2 surfaceTexture(int kind, vec3 q, float footprint) {
     float albedo = mix(0.82, 1.14, mottle) * mix(0.88, 1.06, stains) * (1.0 - 0.45 * pores);
     return vec2(albedo, 0.14 * (mottle - 0.5) + 0.1 * pores);
   }
-  if (kind == 3) {
+#elif TEXTURE == 3
+  {
     // Clay: broad damp and dry areas, clods of a few centimetres.
     float damp = fbm(q, 0.7, 4, footprint);
     float clods = fbm(q + 7.0, 9.0, 3, footprint);
     float albedo = mix(0.72, 1.2, damp) * mix(0.82, 1.12, clods);
     return vec2(albedo, 0.08 * (clods - 0.5) - 0.15 * smoothstep(0.55, 0.75, 1.0 - damp));
   }
+#else
   return vec2(1.0, 0.0);
+#endif
 }
 
 void main() {
-  if (uDebug == 4) { fragColor = vec4(0.05, 0.9, 0.3, 1.0); return; }
+#if DEBUG == 4
+  fragColor = vec4(0.05, 0.9, 0.3, 1.0);
+  return;
+#endif
   vec3 N = normalize(vNormal);
   if (!gl_FrontFacing) N = -N;
   vec3 V = normalize(vWorld - uEye);  // from the eye into the surface
@@ -125,14 +130,16 @@ void main() {
   vec3 shift = vec3(0.0);  // where parallax moved the surface point (world), for the look's uv
   float surfaceHeight = 0.0;
   float fade = 1.0;
-  if (uHasMaps) {
+#if HAS_MAPS
+  {
     float lod = textureQueryLod(uHeight, vUV).x;
     fade = 1.0 - smoothstep(uLodFade.x, uLodFade.y, lod);
     float cosV = max(-dot(V, N), 0.05);
     vec2 uvPerDepth = vec2(dot(gradU, V), dot(gradV, V)) / cosV;  // uv change per metre of descent
-    if (uDisplaced) {
-      // The surface is where the map puts it already: shade it where it is.
-    } else if (uMode == 0 && fade > 0.0) {
+#if DISPLACED
+    // The surface is where the map puts it already: shade it where it is.
+#elif MODE == 0
+    if (fade > 0.0) {
       // Linear march from the top of the height field (+k/2) down to its bottom (-k/2).
       int steps = int(mix(float(uMaxSteps), float(uMinSteps), cosV));
       float stepDepth = uBumpDepth / float(steps);
@@ -155,22 +162,30 @@ void main() {
       }
       uv = mix(vUV, hitUV, fade);
       shift = V / cosV * (depth - 0.5 * uBumpDepth) * fade;
-    } else if (uMode == 1) {
+    }
+#elif MODE == 1
+    {
       // Offset limiting (Welsh 2004), as the paper renders: no division by the view angle.
       float h = heightAt(vUV, duv1, duv2);
       uv = vUV - vec2(dot(gradU, V), dot(gradV, V)) * h * fade;
       shift = -V * h * fade;
     }
+#endif
     surfaceHeight = heightAt(uv, duv1, duv2);
   }
-  if (uDebug == 1) { float h = uHasMaps ? textureGrad(uHeight, uv, duv1, duv2).r : 0.5; fragColor = vec4(vec3(h), 1.0); return; }
+#endif
+#if DEBUG == 1
+  fragColor = vec4(vec3(HAS_MAPS != 0 ? textureGrad(uHeight, uv, duv1, duv2).r : 0.5), 1.0);
+  return;
+#endif
   // The look: base colour, metallic, roughness and occlusion from the file's material and images, and its normal
   // map, which tilts the surface the dent normal map then bends.
   vec3 baseColor = pow(uColor * vColor, vec3(2.2));
   float metallic = uMetallic, roughness = uRoughness, occlusion = 1.0;
   vec3 emissive = vec3(0.0);
   vec3 Nl = N;
-  if (uHasLook && vMaterial >= 0) {
+#if HAS_LOOK
+  if (vMaterial >= 0) {
     int mi = min(vMaterial, 15);
     vec2 m1 = dFdx(vMaterialUV), m2 = dFdy(vMaterialUV);
     vec3 gradMU = (dp2perp * m1.x + dp1perp * m2.x) / (abs(det) > 1e-20 ? det : 1e-20);
@@ -198,25 +213,34 @@ void main() {
       Nl = normalize(T * nt.x - B * nt.y + N * nt.z);
     }
   }
-  if (uTexture != 0) {
+#endif
+#if TEXTURE != 0
+  {
     vec3 q = (uWorldToModel * vec4(vWorld, 1.0)).xyz / max(uTextureScale, 1e-3);
     float footprint = max(length(dFdx(q)), length(dFdy(q)));
-    vec2 t = surfaceTexture(uTexture, q, footprint);
+    vec2 t = surfaceTexture(q, footprint);
     baseColor *= t.x;
     roughness = clamp(roughness + t.y, 0.0, 1.0);
   }
+#endif
   vec3 Nb = Nl;
-  if (uHasMaps) {
+#if HAS_MAPS
+  {
     vec3 nt = textureGrad(uNormalMap, uv, duv1, duv2).xyz * 2.0 - 1.0;
     vec3 T = normalize(gradU - Nl * dot(gradU, Nl));
     vec3 B = normalize(gradV - Nl * dot(gradV, Nl));
     Nb = normalize(T * nt.x + B * nt.y + Nl * nt.z);
   }
-  if (uDebug == 2) { fragColor = vec4(uHasMaps ? textureGrad(uNormalMap, uv, duv1, duv2).xyz : vec3(0.5, 0.5, 1.0), 1.0); return; }
+#endif
+#if DEBUG == 2
+  fragColor = vec4(HAS_MAPS != 0 ? textureGrad(uNormalMap, uv, duv1, duv2).xyz : vec3(0.5, 0.5, 1.0), 1.0);
+  return;
+#endif
 
   vec3 L = normalize(uToSun);
   float shadow = 1.0;
-  if (uShadows) {
+#if SHADOWS
+  {
     vec3 s = vShadow.xyz / vShadow.w * 0.5 + 0.5;
     if (all(greaterThan(s, vec3(0.0))) && all(lessThan(s, vec3(1.0)))) {
       float bias = 0.0015 + 0.003 * (1.0 - max(dot(N, L), 0.0));
@@ -227,8 +251,10 @@ void main() {
       shadow = sum / 9.0;
     }
   }
+#endif
   float selfShadow = 1.0;
-  if (uHasMaps && uSelfShadow && uMode == 0 && fade > 0.0 && dot(N, L) > 0.0) {
+#if HAS_MAPS && SELF_SHADOW && MODE == 0
+  if (fade > 0.0 && dot(N, L) > 0.0) {
     // March towards the sun; the deepest obstruction, weighted by nearness, darkens (soft shadow).
     float cosL = max(dot(L, N), 0.05);
     vec2 uvPerRise = vec2(dot(gradU, L), dot(gradV, L)) / cosL;
@@ -242,6 +268,7 @@ void main() {
     }
     selfShadow = 1.0 - clamp(occlusion, 0.0, 1.0) * fade;
   }
+#endif
   const float PI = 3.14159265;
   vec3 albedo = baseColor;
   float rough = clamp(roughness, 0.045, 1.0);
@@ -264,11 +291,18 @@ void main() {
   vec3 Fr = F0 + (max(vec3(1.0 - rough), F0) - F0) * pow(1.0 - NV, 5.0);
   vec3 R = reflect(V, Nb);
   float horizon = clamp(1.0 + 1.5 * dot(R, N), 0.0, 1.0);  // reflections from below the mesh's surface fade
-  vec3 prefiltered = uIbl ? textureLod(uPrefiltered, R, rough * uPrefilteredMaxLod).rgb
-                          : mix(uGroundColor, uSkyColor, 0.5 + 0.5 * R.y);
+#if IBL
+  vec3 prefiltered = textureLod(uPrefiltered, R, rough * uPrefilteredMaxLod).rgb;
+#else
+  vec3 prefiltered = mix(uGroundColor, uSkyColor, 0.5 + 0.5 * R.y);
+#endif
   prefiltered *= horizon * horizon;
   vec2 ab = texture(uBrdfLut, vec2(NV, rough)).rg;
-  vec3 irradiance = uIbl ? texture(uIrradiance, Nb).rgb : mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
+#if IBL
+  vec3 irradiance = texture(uIrradiance, Nb).rgb;
+#else
+  vec3 irradiance = mix(uGroundColor, uSkyColor, 0.5 + 0.5 * Nb.y);
+#endif
   vec3 ambient = (1.0 - Fr) * (1.0 - metallic) * albedo * irradiance + prefiltered * (F0 * ab.x + ab.y);
   c += ambient * mix(1.0, selfShadow, 0.5) * occlusion + emissive;
   c *= uExposure;

@@ -1,6 +1,6 @@
 #version 450 core
 // pom_displace.tese: each new vertex moved along the normal by the height map, (h - 0.5) k, so dents change the
-// silhouette; then what pom.vert hands the fragment stage (pom.frag, told with uDisplaced to skip its march).
+// silhouette; then what pom.vert hands the fragment stage (pom.frag, compiled with DISPLACED to skip its march).
 // The direction is the normal averaged over the vertices at a position, so hard edges (a box's) do not split open.
 layout(triangles, equal_spacing, ccw) in;
 in vec3 tePosition[];

@@ -436,6 +436,7 @@ int main(int argc, char** argv) {
     long frame = 0;
     double renderTotal = 0;
     const auto loopStart = Clock::now();
+    double physicsTotal = 0, deformTotal = 0;  // ms over the loop
     bool prevKeys[512] = {};
     auto pressed = [&](int key) {
       const bool down = glfwGetKey(window.window(), key) == GLFW_PRESS;
@@ -484,6 +485,8 @@ int main(int argc, char** argv) {
       app.stepOnce = false;
       const double p0 = app.sim->timings().physicsMs, d0 = app.sim->timings().deformMs;
       for (int s = 0; s < steps; ++s) app.sim->step();
+      physicsTotal += app.sim->timings().physicsMs - p0;
+      deformTotal += app.sim->timings().deformMs - d0;
       if (steps) {
         app.physicsMs = (app.sim->timings().physicsMs - p0) / steps;
         app.deformMs = app.sim->timings().deformMs - d0;
@@ -520,6 +523,7 @@ int main(int argc, char** argv) {
       ++frame;
     }
     const double loopSeconds = std::chrono::duration<double>(Clock::now() - loopStart).count();
+    auto perFrame = [&](double ms) { return frame ? ms / double(frame) : 0.0; };
     if (!saveScenePath.empty()) {
       saveScene(app, saveScenePath);
       logInfo("scene saved: ", saveScenePath);
@@ -533,10 +537,12 @@ int main(int argc, char** argv) {
     ImGui::DestroyContext();
     if (!quiet)
       std::printf(
-          "crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; render %.1f ms a frame "
-          "(view scale %.2f at the end), %.1f fps\n",
-          frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations,
-          frame ? renderTotal / double(frame) : 0.0, app.renderScale, loopSeconds > 0 ? frame / loopSeconds : 0.0);
+          "crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; a frame: physics %.1f ms, "
+          "deformation %.1f, render %.1f (view scale %.2f at the end), the rest (panel, upscale, swap) %.1f; "
+          "%.1f fps\n",
+          frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations, perFrame(physicsTotal),
+          perFrame(deformTotal), perFrame(renderTotal), app.renderScale,
+          perFrame(loopSeconds * 1e3 - physicsTotal - deformTotal - renderTotal), loopSeconds > 0 ? frame / loopSeconds : 0.0);
     app.sim.reset();
     app.renderer.reset();
     return 0;

@@ -7,7 +7,8 @@ namespace crumple::deform {
 CommitPass::CommitPass()
     : dispatch_(computeProgram("region_dispatch.comp")),
       commit_(computeProgram("dent_commit.comp")),
-      normals_(computeProgram("normal_map.comp")) {
+      normals_(computeProgram("normal_map.comp")),
+      bound_(computeProgram("height_bound.comp")) {
   dSide_ = dispatch_.uniform("uSide");
   dResolution_ = dispatch_.uniform("uResolution");
   dGrow_ = dispatch_.uniform("uGrow");
@@ -59,19 +60,42 @@ void CommitPass::run(int side, Surface& x, int grow, render::Texture2D& scratch,
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
   phase("normal map");
+  bounds(x.maps(), res, side, {0, 0}, {res - 1, res - 1});
+  phase("height bound");
 }
 
-void CommitPass::normals(const render::Texture2D& height, const render::Texture2D& normal, int resolution,
-                         float slopeScale, glm::ivec2 lo, glm::ivec2 hi) {
+void CommitPass::bounds(const SurfaceMaps& maps, int resolution, int side, glm::ivec2 lo, glm::ivec2 hi) {
+  bound_.use();
+  glBindTextureUnit(0, maps.height.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
+  glUniform1i(bound_.uniform("uSide"), side);
+  glUniform4i(bound_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
+  glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  glUniform1i(bound_.uniform("uResolution"), resolution);
+  for (int level = 0; level < maps.boundLevels(); ++level) {
+    glUniform1i(bound_.uniform("uLevel"), level);
+    glBindImageTexture(1, maps.bound.id(), level, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
+    glBindImageTexture(2, maps.bound.id(), std::max(level - 1, 0), GL_FALSE, 0, GL_READ_ONLY, GL_R32F);
+    // A region known here is dispatched over its tiles; the commit's (on the GPU) over the whole level, the
+    // invocations outside it returning at once.
+    const int span = SurfaceMaps::kBoundTile << level, size = maps.bound.width() >> level;
+    const int nx = side < 0 ? hi.x / span - lo.x / span + 1 : size, ny = side < 0 ? hi.y / span - lo.y / span + 1 : size;
+    glDispatchCompute(static_cast<GLuint>((nx + 7) / 8), static_cast<GLuint>((ny + 7) / 8), 1);
+    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+  }
+}
+
+void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi) {
   normals_.use();
-  glBindTextureUnit(0, height.id());
-  glBindImageTexture(1, normal.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
+  glBindTextureUnit(0, maps.height.id());
+  glBindImageTexture(1, maps.normal.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
   glUniform1i(nSide_, -1);
   glUniform4i(nFullRegion_, lo.x, lo.y, hi.x, hi.y);
   glUniform1i(nResolution_, resolution);
   glUniform1f(nSlopeScale_, slopeScale);
   glDispatchCompute(dispatchGroups(hi.x - lo.x + 1), dispatchGroups(hi.y - lo.y + 1), 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
+  bounds(maps, resolution, -1, lo, hi);
 }
 
 }  // namespace crumple::deform

@@ -200,13 +200,13 @@ std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::
     const float half = 0.5f;
     glClearTexImage(maps->height.id(), 0, GL_RED, GL_FLOAT, &half);
   }
-  impl_->commit.normals(maps->height, maps->normal, resolution, bumpDepth / (2 * texelSize), {0, 0},
+  impl_->commit.normals(*maps, resolution, bumpDepth / (2 * texelSize), {0, 0},
                         {resolution - 1, resolution - 1});
   return maps;
 }
 
 void Deformer::regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi) {
-  impl_->commit.normals(s.height(), s.normal(), s.resolution(), s.bumpDepth() / (2 * s.texelSize()), lo, hi);
+  impl_->commit.normals(s.maps(), s.resolution(), s.bumpDepth() / (2 * s.texelSize()), lo, hi);
 }
 
 int Deformer::Impl::updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,

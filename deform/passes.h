@@ -140,12 +140,13 @@ class CommitPass {
   // into stats entry `statsIndex`, puts the scratch back to untouched, and regenerates the normals there.
   void run(int side, Surface& x, int grow, render::Texture2D& scratch, const render::Buffer& region,
            const render::Buffer& stats, int statsIndex, const PhaseMark& phase);
-  // Normals over texels [lo, hi] of a map (inclusive).
-  void normals(const render::Texture2D& height, const render::Texture2D& normal, int resolution, float slopeScale,
-               glm::ivec2 lo, glm::ivec2 hi);
+  // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
+  void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);
 
  private:
-  render::Program dispatch_, commit_, normals_;
+  // The bound pyramid over the region of `side` (normalRegion_, on the GPU) or, for side < 0, [lo, hi].
+  void bounds(const SurfaceMaps& maps, int resolution, int side, glm::ivec2 lo, glm::ivec2 hi);
+  render::Program dispatch_, commit_, normals_, bound_;
   GLint dSide_, dResolution_, dGrow_;
   GLint cSide_, cStatsIndex_, cBumpDepth_;
   GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;

@@ -147,8 +147,29 @@ void GpuMesh::draw() const {
   glDrawElements(GL_TRIANGLES, indexCount, GL_UNSIGNED_INT, nullptr);
 }
 
+namespace {
+int log2Floor(int n) {
+  int l = 0;
+  while ((2 << l) <= n) ++l;
+  return l;
+}
+}  // namespace
+
+int SurfaceMaps::boundSize(int resolution) {
+  const int tiles = (resolution + kBoundTile - 1) / kBoundTile;
+  int size = 1;
+  while (size < tiles) size *= 2;
+  return size;
+}
+int SurfaceMaps::boundLevels() const { return log2Floor(bound.width()) + 1; }
+
 SurfaceMaps::SurfaceMaps(int resolution)
-    : height(resolution, resolution, GL_R32F), normal(resolution, resolution, GL_RGBA8) {}
+    : height(resolution, resolution, GL_R32F),
+      normal(resolution, resolution, GL_RGBA8),
+      bound(boundSize(resolution), boundSize(resolution), GL_R32F, log2Floor(boundSize(resolution)) + 1) {
+  const float zero = 0.0f;  // the padding past the map's tiles stays 0; the rest is written with the normals
+  for (int level = 0; level < boundLevels(); ++level) glClearTexImage(bound.id(), level, GL_RED, GL_FLOAT, &zero);
+}
 
 Surface::Surface(std::shared_ptr<const GpuMesh> mesh, int resolution, float bumpDepth, float bumpDepthCollide,
                  std::shared_ptr<SurfaceMaps> shared)
@@ -165,6 +186,11 @@ void Surface::makeUnique() {
                      resolution_, resolution_, 1);
   glCopyImageSubData(maps_->normal.id(), GL_TEXTURE_2D, 0, 0, 0, 0, own->normal.id(), GL_TEXTURE_2D, 0, 0, 0, 0,
                      resolution_, resolution_, 1);
+  for (int level = 0; level < own->boundLevels(); ++level) {
+    const int size = own->bound.width() >> level;
+    glCopyImageSubData(maps_->bound.id(), GL_TEXTURE_2D, level, 0, 0, 0, own->bound.id(), GL_TEXTURE_2D, level, 0, 0,
+                       0, size, size, 1);
+  }
   maps_ = std::move(own);
 }
 

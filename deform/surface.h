@@ -42,7 +42,14 @@ struct GpuMesh {
 struct SurfaceMaps {
   render::Texture2D height;  // R32F
   render::Texture2D normal;  // RGBA8, tangent space
-  SurfaceMaps(int resolution);
+  // The height's bound pyramid (height_bound.comp, R32F, kept with the normals): level 0 holds per tile of
+  // kBoundTile x kBoundTile texels the largest |h - 0.5| there, each level above the largest of 2 x 2 below
+  // (sizes powers of two; texels past the map 0). The renderer's parallax march skips rays it bounds at 0.
+  static constexpr int kBoundTile = 16;
+  render::Texture2D bound;
+  explicit SurfaceMaps(int resolution);
+  static int boundSize(int resolution);  // level 0's width and height
+  int boundLevels() const;
 };
 
 class Surface {
@@ -61,6 +68,7 @@ class Surface {
   }
   const render::Texture2D& height() const { return maps_->height; }
   const render::Texture2D& normal() const { return maps_->normal; }
+  const SurfaceMaps& maps() const { return *maps_; }
   // Gives this surface its own maps (copies of the shared ones) before it is changed.
   void makeUnique();
   bool isShared() const { return maps_.use_count() > 1; }

@@ -40,6 +40,8 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     if (b.surface) {
       it.height = b.surface->height().id();
       it.normal = b.surface->normal().id();
+      it.heightBound = b.surface->maps().bound.id();
+      it.boundTile = deform::SurfaceMaps::kBoundTile;
       it.bumpDepth = b.surface->bumpDepth();
     }
     items.push_back(it);

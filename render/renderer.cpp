@@ -201,6 +201,7 @@ struct Renderer::Impl {
   ShadowCache shadowCache;
   glm::vec3 sunFitLo{1e30f}, sunFitHi{-1e30f};  // the box the sun's frustum is fitted to (drawTo)
   Texture2D flatHeight{1, 1, GL_R32F}, flatNormal{1, 1, GL_RGBA8};
+  Texture2D noBound{1, 1, GL_R32F};  // the bound of a map that has none: 1 everywhere (march every ray)
   GlName<detail::deleteTexture> flatArray{makeFlatArray()};  // bound where a look has no images of a kind
   Impl() {
     glTextureParameteri(shadowMap.id(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
@@ -210,6 +211,8 @@ struct Renderer::Impl {
     shadowFbo.checkComplete();
     const float half = 0.5f;
     flatHeight.upload(GL_RED, GL_FLOAT, &half);
+    const float one = 1.0f;
+    noBound.upload(GL_RED, GL_FLOAT, &one);
     const unsigned char up[4] = {128, 128, 255, 255};
     flatNormal.upload(GL_RGBA, GL_UNSIGNED_BYTE, up);
     glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
@@ -494,6 +497,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     m.bindLook(p, it);
     glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
+    glBindTextureUnit(6, it.height && it.heightBound ? it.heightBound : m.noBound.id());
+    glUniform1i(u("uBoundTile"), it.height && it.heightBound ? it.boundTile : 1 << 20);
     if (displaced) {
       glBindVertexArray(it.vao);
       glPatchParameteri(GL_PATCH_VERTICES, 3);

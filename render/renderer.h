@@ -41,6 +41,10 @@ struct RenderItem {
   glm::mat4 model{1};
   GLuint height = 0;  // R32F, 0 = flat
   GLuint normal = 0;  // RGBA8 tangent space, 0 = flat
+  // The height's bound pyramid (deform::SurfaceMaps::bound: per tile of boundTile texels the largest
+  // |h - 0.5|, mipmapped by max): parallax rays over undented texels skip their march; 0: march everywhere.
+  GLuint heightBound = 0;
+  int boundTile = 16;
   glm::vec3 color{0.7f};   // sRGB base colour
   float metallic = 0.0f;   // glTF metallic-roughness
   float roughness = 0.6f;  // perceptual roughness

@@ -47,6 +47,8 @@ struct Stage {
     p.indexCount = plateGpu->indexCount;
     p.height = plate->height().id();
     p.normal = plate->normal().id();
+    p.heightBound = plate->maps().bound.id();
+    p.boundTile = deform::SurfaceMaps::kBoundTile;
     p.color = {0.72f, 0.55f, 0.42f};
     p.boundsMin = plateGpu->boundsMin;
     p.boundsMax = plateGpu->boundsMax;
@@ -165,6 +167,76 @@ TEST_CASE("a dent shows in the pixels while the silhouette stays the same") {
   CHECK(changedCentre > 40);
   CHECK(changedFar < changedCentre);
   CHECK(fractionOff(wireBefore, wireAfter) == 0.0);  // the mesh did not change
+}
+
+TEST_CASE("the height bound pyramid holds each tile's largest deviation, and skipping flat rays changes no pixel") {
+  test::glContext();
+  Stage s;
+  s.dent(0.03, {0.5, 0, 0.3});
+  s.dent(0.02, {-0.6, 0, -0.4});
+  const deform::SurfaceMaps& maps = s.plate->maps();
+  const Image height = s.plate->downloadHeight();
+  const int tile = deform::SurfaceMaps::kBoundTile;
+  REQUIRE(maps.bound.width() == 16);  // 256 texels in tiles of 16
+  REQUIRE(maps.boundLevels() == 5);
+  std::vector<std::vector<float>> levels;
+  for (int level = 0; level < maps.boundLevels(); ++level) {
+    const int n = maps.bound.width() >> level;
+    levels.emplace_back(static_cast<size_t>(n) * n);
+    glGetTextureImage(maps.bound.id(), level, GL_RED, GL_FLOAT, static_cast<GLsizei>(levels.back().size() * 4),
+                      levels.back().data());
+  }
+  int dented = 0, flat = 0;
+  for (int ty = 0; ty < 16; ++ty)
+    for (int tx = 0; tx < 16; ++tx) {
+      float m = 0;
+      for (int y = ty * tile; y < (ty + 1) * tile; ++y)
+        for (int x = tx * tile; x < (tx + 1) * tile; ++x) m = std::max(m, std::abs(height.at(x, y) - 0.5f));
+      CHECK(levels[0][static_cast<size_t>(ty) * 16 + tx] == m);
+      (m > 0 ? dented : flat)++;
+    }
+  MESSAGE("tiles dented: " << dented << ", flat: " << flat);
+  CHECK(dented > 2);
+  CHECK(flat > dented);
+  for (size_t level = 1; level < levels.size(); ++level) {
+    const int n = maps.bound.width() >> level;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        auto below = [&](int dx, int dy) { return levels[level - 1][static_cast<size_t>(2 * y + dy) * (2 * n) + 2 * x + dx]; };
+        CHECK(levels[level][static_cast<size_t>(y) * n + x] ==
+              std::max(std::max(below(0, 0), below(1, 0)), std::max(below(0, 1), below(1, 1))));
+      }
+  }
+  // The same frames with every ray marched (no bound), from above and at a grazing angle, self-shadowing on.
+  Renderer r(200, 150);
+  r.settings().sunDirection = glm::normalize(glm::vec3(-1.0f, -0.4f, 0.2f));
+  View grazing = topView();
+  grazing.eye = {0.0f, 0.35f, 2.2f};
+  for (const View& view : {topView(), grazing}) {
+    std::vector<RenderItem> items = s.items(true);
+    r.draw(items, view);
+    const Image skipping = r.readPixels();
+    items[0].heightBound = 0;
+    r.draw(items, view);
+    const Image marching = r.readPixels();
+    float worst = 0;
+    for (size_t i = 0; i < skipping.pixels.size(); ++i)
+      worst = std::max(worst, std::abs(skipping.pixels[i] - marching.pixels[i]));
+    MESSAGE("largest difference, skipping vs marching every ray: " << worst * 255 << "/255");
+    CHECK(worst <= 1.0f / 255.0f + 1e-6f);
+  }
+  // The shader does skip by the bound: a pyramid of zeros (a false one) hides the dents' parallax.
+  Texture2D zeros(16, 16, GL_R32F, 5);
+  const float zero = 0.0f;
+  for (int level = 0; level < 5; ++level) glClearTexImage(zeros.id(), level, GL_RED, GL_FLOAT, &zero);
+  std::vector<RenderItem> items = s.items(false);
+  r.draw(items, topView());
+  const Image marched = r.readPixels();
+  items[0].heightBound = zeros.id();
+  r.draw(items, topView());
+  const double hidden = fractionOff(marched, r.readPixels());
+  MESSAGE("pixels changed by a false zero bound: " << hidden * 100 << "%");
+  CHECK(hidden > 0.002);
 }
 
 TEST_CASE("self-shadowing: a deep dent lit at a grazing angle has shadowed texels inside it") {

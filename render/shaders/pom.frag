@@ -34,6 +34,10 @@ layout(binding = 2) uniform sampler2DShadow uShadowMap;
 layout(binding = 3) uniform samplerCube uPrefiltered;
 layout(binding = 4) uniform samplerCube uIrradiance;
 layout(binding = 5) uniform sampler2D uBrdfLut;
+// The height's bound pyramid: level 0 one texel per uBoundTile x uBoundTile height texels holding the largest
+// |h - 0.5| there, each level the largest of 2 x 2 below.
+layout(binding = 6) uniform sampler2D uHeightBound;
+uniform int uBoundTile;
 uniform float uPrefilteredMaxLod;  // its last level: roughness 1
 uniform float uMetallic, uRoughness;
 uniform float uExposure;
@@ -50,6 +54,21 @@ uniform mat4 uWorldToModel;   // the surface is laid in the mesh's frame
 out vec4 fragColor;
 
 float heightAt(vec2 uv, vec2 gx, vec2 gy) { return (textureGrad(uHeight, uv, gx, gy).r - 0.5) * uBumpDepth; }
+
+// The largest |h - 0.5| that filtered reads of the height map along the segment a..b (uv) can return: the
+// pyramid's level whose texels span the segment's box (grown by the one texel a bilinear read reaches), where
+// that box covers at most 2 x 2 texels. 0: the map is flat all along it, and a march there would find the mesh.
+float boundAlong(vec2 a, vec2 b) {
+  vec2 res = vec2(textureSize(uHeight, 0));
+  vec2 lo = clamp(min(a, b) * res - 1.0, vec2(0.0), res - 1.0), hi = clamp(max(a, b) * res + 1.0, vec2(0.0), res - 1.0);
+  float extent = max(hi.x - lo.x, hi.y - lo.y) / float(uBoundTile);
+  int level = min(int(ceil(log2(max(extent, 1.0)))), textureQueryLevels(uHeightBound) - 1);
+  ivec2 last = textureSize(uHeightBound, level) - 1;
+  float texels = 1.0 / (float(uBoundTile) * exp2(float(level)));  // pyramid texels per height texel
+  ivec2 t0 = min(ivec2(lo * texels), last), t1 = min(ivec2(hi * texels), last);
+  return max(max(texelFetch(uHeightBound, t0, level).r, texelFetch(uHeightBound, ivec2(t1.x, t0.y), level).r),
+             max(texelFetch(uHeightBound, ivec2(t0.x, t1.y), level).r, texelFetch(uHeightBound, t1, level).r));
+}
 
 // Value noise: a hash per lattice point, smoothly interpolated; fbm: octaves of it, each fading to its mean
 // once its features are smaller than about two pixels (`footprint`: metres per pixel), so that nothing aliases.
@@ -139,11 +158,13 @@ void main() {
 #if DISPLACED
     // The surface is where the map puts it already: shade it where it is.
 #elif MODE == 0
-    if (fade > 0.0) {
+    vec2 top = vUV - uvPerDepth * (0.5 * uBumpDepth);
+    // Over undented texels the march would end on the mesh itself: skipped (a software rasteriser runs a
+    // loop until every pixel of its block is done, so this is most of a frame's parallax work).
+    if (fade > 0.0 && boundAlong(top, top + uvPerDepth * uBumpDepth) > 0.0) {
       // Linear march from the top of the height field (+k/2) down to its bottom (-k/2).
       int steps = int(mix(float(uMaxSteps), float(uMinSteps), cosV));
       float stepDepth = uBumpDepth / float(steps);
-      vec2 top = vUV - uvPerDepth * (0.5 * uBumpDepth);
       float prevDiff = 0.5 * uBumpDepth - heightAt(top, duv1, duv2);
       float depth = 0.0;
       vec2 hitUV = top + uvPerDepth * uBumpDepth;
@@ -254,11 +275,12 @@ void main() {
 #endif
   float selfShadow = 1.0;
 #if HAS_MAPS && SELF_SHADOW && MODE == 0
-  if (fade > 0.0 && dot(N, L) > 0.0) {
+  float cosL = max(dot(L, N), 0.05);
+  vec2 uvPerRise = vec2(dot(gradU, L), dot(gradV, L)) / cosL;
+  float rise = 0.5 * uBumpDepth - surfaceHeight;
+  // Nothing rises over a flat stretch towards the sun: no march there.
+  if (fade > 0.0 && dot(N, L) > 0.0 && boundAlong(uv, uv + uvPerRise * rise) > 0.0) {
     // March towards the sun; the deepest obstruction, weighted by nearness, darkens (soft shadow).
-    float cosL = max(dot(L, N), 0.05);
-    vec2 uvPerRise = vec2(dot(gradU, L), dot(gradV, L)) / cosL;
-    float rise = 0.5 * uBumpDepth - surfaceHeight;
     const int n = 12;
     float occlusion = 0.0;
     for (int i = 1; i <= n; ++i) {

@@ -29,6 +29,7 @@
 #include "engine/simulation.h"
 #include "core/log.h"
 #include "core/version.h"
+#include "render/auto_quality.h"
 #include "render/capture.h"
 #include "render/gl_context.h"
 #include "render/renderer.h"
@@ -53,28 +54,9 @@ struct App {
   glm::vec3 orbitTarget{0};
   double physicsMs = 0, deformMs = 0, renderMs = 0;
   long shots = 0;
-  // The 3D view renders at renderScale times the window's size and is scaled
-  // up to it. Automatic: the scale follows the render time, so that a software
-  // renderer (llvmpipe) still gives a fluid picture; a GPU keeps 1.
-  float renderScale = 1.0f;
-  bool autoScale = true;
-  double renderAverage = 0;
-  long lastScaleChange = 0;
-
-  // Called once per frame with that frame's render time (ms).
-  void adaptScale(long frame) {
-    renderAverage = renderAverage == 0 ? renderMs : 0.85 * renderAverage + 0.15 * renderMs;
-    if (!autoScale || frame - lastScaleChange < 10) return;
-    float next = renderScale;
-    if (renderAverage > 25.0)
-      next = std::max(0.35f, renderScale * 0.85f);
-    else if (renderAverage < 10.0)
-      next = std::min(1.0f, renderScale * 1.1f);
-    if (next != renderScale) {
-      renderScale = next;
-      lastScaleChange = frame;
-    }
-  }
+  // The 3D view renders at quality.scale times the window's size and is scaled up to it; automatic by
+  // default (render/auto_quality.h: the scale, then FXAA and self-shadowing, follow the frame time).
+  render::AutoQuality quality;
 
   void reset() {
     sim = std::make_unique<Simulation>(scene, true);
@@ -242,8 +224,8 @@ void panel(App& app) {
   ImGui::Text("t = %.2f s   step %ld", app.sim->world().time(), app.sim->steps());
   ImGui::Text("physics %.2f ms  deform %.2f ms  render %.2f ms", app.physicsMs, app.deformMs, app.renderMs);
   ImGui::Text("%.1f fps", ImGui::GetIO().Framerate);
-  ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.renderScale,
-              app.autoScale ? ", auto" : "");
+  ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.quality.scale,
+              app.quality.enabled ? ", auto" : "");
   const render::RendererStats& rs = app.renderer->stats();
   ImGui::Text("bodies drawn %d (%d outside the view), shadow casters drawn %d", rs.drawn, rs.culled, rs.shadowCasters);
   ImGui::Text("collisions %zu  deformations %ld", app.sim->events().size(), app.sim->timings().deformations);
@@ -327,21 +309,23 @@ void panel(App& app) {
       s.parallax = static_cast<render::ParallaxMode>(mode);
     if (ImGui::Combo("view", &debug, "shaded\0height map\0normal map\0address map\0wireframe\0"))
       s.debug = static_cast<render::DebugView>(debug);
-    bool iblOn = s.ibl, aaOn = s.antialias == render::Antialias::Fxaa;
+    bool iblOn = s.ibl;
     if (ImGui::Checkbox("sky light (IBL)", &iblOn)) s.ibl = iblOn;
     ImGui::SameLine();
-    if (ImGui::Checkbox("antialiasing (FXAA)", &aaOn)) s.antialias = aaOn ? render::Antialias::Fxaa : render::Antialias::None;
+    ImGui::Checkbox("antialiasing (FXAA)", &app.quality.wantFxaa);
     ImGui::SliderFloat("exposure", &s.exposure, 0.1f, 3.0f, "%.2f", ImGuiSliderFlags_Logarithmic);
     ImGui::Checkbox("shadows", &s.shadows);
     ImGui::SameLine();
-    ImGui::Checkbox("self-shadowing", &s.selfShadow);
+    ImGui::Checkbox("self-shadowing", &app.quality.wantSelfShadow);
     ImGui::Checkbox("simplified meshes", &s.simplified);
     if (ImGui::IsItemHovered())
       ImGui::SetTooltip("Draw large meshes with fewer triangles (at most 3 mm off the surface; dents stay in the maps)");
     ImGui::SliderInt("max steps", &s.maxSteps, 8, 128);
-    if (ImGui::SliderFloat("render scale", &app.renderScale, 0.25f, 1.0f)) app.autoScale = false;
+    if (ImGui::SliderFloat("render scale", &app.quality.scale, 0.25f, 1.0f)) app.quality.enabled = false;
     ImGui::SameLine();
-    ImGui::Checkbox("auto", &app.autoScale);
+    ImGui::Checkbox("auto", &app.quality.enabled);
+    if (app.quality.shed() > 0)
+      ImGui::TextDisabled("auto: %s shed to keep the frame rate", app.quality.shed() > 1 ? "FXAA and self-shadowing" : "FXAA");
   }
   ImGui::End();
 }
@@ -373,8 +357,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"fxaa", "none"}))
       ->capture_default_str();
   cli.add_option("--render-scale", renderScale,
-                 "The 3D view's resolution as a fraction of the window's (0.25 to 1), or 'auto': lowered while "
-                 "rendering takes over 25 ms a frame (software GL), raised again below 10 ms")
+                 "The 3D view's resolution as a fraction of the window's (0.25 to 1), or 'auto': while a frame takes "
+                 "over 30 ms (software GL) the scale falls to 0.35, then FXAA and parallax self-shadowing are shed, then "
+                 "the scale falls on to 0.25; below 18 ms each comes back in reverse order")
       ->capture_default_str();
   cli.set_version_flag("--version", std::string("crumple-sandbox ") + versionString());
   try {
@@ -394,8 +379,8 @@ int main(int argc, char** argv) {
                 << renderScale << "'\n";
       return 2;
     }
-    app.renderScale = static_cast<float>(value);
-    app.autoScale = false;
+    app.quality.scale = static_cast<float>(value);
+    app.quality.enabled = false;
   }
   try {
     for (const std::string& a : sets) app.overrides.push_back(parseOverride(a));
@@ -420,7 +405,7 @@ int main(int argc, char** argv) {
     logInfo("GL: ", window.description());
     app.reset();
     app.renderer = std::make_unique<render::Renderer>(width, height);
-    app.renderer->settings().antialias = antialias == "none" ? render::Antialias::None : render::Antialias::Fxaa;
+    app.quality.wantFxaa = antialias != "none";
     app.renderer->settings().simplified = true;  // interactive: large meshes drawn simplified (panel)
 
     IMGUI_CHECKVERSION();
@@ -436,6 +421,7 @@ int main(int argc, char** argv) {
     long frame = 0;
     double renderTotal = 0;
     const auto loopStart = Clock::now();
+    auto frameStart = loopStart, secondHalf = loopStart;
     double physicsTotal = 0, deformTotal = 0;  // ms over the loop
     bool prevKeys[512] = {};
     auto pressed = [&](int key) {
@@ -494,15 +480,18 @@ int main(int argc, char** argv) {
 
       int fw = 0, fh = 0;
       window.framebufferSize(fw, fh);
-      const int sw = std::max(1, static_cast<int>(std::lround(fw * app.renderScale)));
-      const int sh = std::max(1, static_cast<int>(std::lround(fh * app.renderScale)));
+      const int sw = std::max(1, static_cast<int>(std::lround(fw * app.quality.scale)));
+      const int sh = std::max(1, static_cast<int>(std::lround(fh * app.quality.scale)));
       if (fw > 0 && fh > 0) app.renderer->resize(sw, sh);
       if (app.sim->deformer()) app.renderer->settings().addressMap = app.sim->deformer()->lastAddressMap().id();
+      app.quality.apply(app.renderer->settings());
       app.renderMs = drawFrame(*app.sim, *app.renderer, app.view());
       ++app.sim->timings().frames;
       glBlitNamedFramebuffer(app.renderer->framebuffer(), 0, 0, 0, sw, sh, 0, 0, fw, fh, GL_COLOR_BUFFER_BIT,
                              sw == fw && sh == fh ? GL_NEAREST : GL_LINEAR);
-      app.adaptScale(frame);
+      const auto frameEnd = Clock::now();
+      app.quality.frame(std::chrono::duration<double, std::milli>(frameEnd - frameStart).count());
+      frameStart = frameEnd;
       renderTotal += app.renderMs;
 
       ImGui_ImplOpenGL3_NewFrame();
@@ -521,8 +510,14 @@ int main(int argc, char** argv) {
       }
       window.swapBuffers();
       ++frame;
+      if (frames && frame == frames / 2) secondHalf = Clock::now();
     }
     const double loopSeconds = std::chrono::duration<double>(Clock::now() - loopStart).count();
+    // --frames runs: the frame rate over the second half too (the automatic scale has settled by then).
+    const double lateSeconds = std::chrono::duration<double>(Clock::now() - secondHalf).count();
+    char late[64] = "";
+    if (frames >= 20 && frame == frames && lateSeconds > 0)
+      std::snprintf(late, sizeof late, " (%.1f over the second half)", (frames - frames / 2) / lateSeconds);
     auto perFrame = [&](double ms) { return frame ? ms / double(frame) : 0.0; };
     if (!saveScenePath.empty()) {
       saveScene(app, saveScenePath);
@@ -538,11 +533,12 @@ int main(int argc, char** argv) {
     if (!quiet)
       std::printf(
           "crumple-sandbox: %ld frames, %ld steps, %zu collisions, %ld deformations; a frame: physics %.1f ms, "
-          "deformation %.1f, render %.1f (view scale %.2f at the end), the rest (panel, upscale, swap) %.1f; "
-          "%.1f fps\n",
+          "deformation %.1f, render %.1f (view scale %.2f%s at the end), the rest (panel, upscale, swap) %.1f; "
+          "%.1f fps%s\n",
           frame, app.sim->steps(), app.sim->events().size(), app.sim->timings().deformations, perFrame(physicsTotal),
-          perFrame(deformTotal), perFrame(renderTotal), app.renderScale,
-          perFrame(loopSeconds * 1e3 - physicsTotal - deformTotal - renderTotal), loopSeconds > 0 ? frame / loopSeconds : 0.0);
+          perFrame(deformTotal), perFrame(renderTotal), app.quality.scale,
+          app.quality.shed() == 2 ? ", FXAA and self-shadowing shed" : app.quality.shed() == 1 ? ", FXAA shed" : "",
+          perFrame(loopSeconds * 1e3 - physicsTotal - deformTotal - renderTotal), loopSeconds > 0 ? frame / loopSeconds : 0.0, late);
     app.sim.reset();
     app.renderer.reset();
     return 0;

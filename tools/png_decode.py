@@ -1,4 +1,5 @@
-"""PNG decoding shared by the tools' scripts (no Pillow on a bare machine): chunks, zlib, the five row filters."""
+"""PNG reading and writing shared by the tools' scripts (no Pillow on a bare machine): chunks, zlib, the five row
+filters; 8-bit RGB out."""
 import struct
 import sys
 import zlib
@@ -44,3 +45,24 @@ def decode(path):
         rows.append(line)
         prev = line
     return w, h, depth, colour, rows
+
+
+def read_rgb(path):
+    """(width, height, rows): an 8-bit RGB or RGBA PNG's rows as RGB bytes (width * 3 each)."""
+    w, h, depth, colour, raw = decode(path)
+    if depth != 8 or colour not in (2, 6):
+        sys.exit(path + ": only 8-bit RGB or RGBA")
+    bpp = 3 if colour == 2 else 4
+    return w, h, [b"".join(bytes(line[i:i + 3]) for i in range(0, w * bpp, bpp)) for line in raw]
+
+
+def write_rgb(path, width, height, rows):
+    """Writes 8-bit RGB rows (bytes of width * 3 each) as a PNG."""
+    raw = b"".join(b"\x00" + bytes(rows[y]) for y in range(height))
+
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
+
+    with open(path, "wb") as out:
+        out.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)) +
+                  chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))

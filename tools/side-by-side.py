@@ -8,6 +8,9 @@ import png_decode  # noqa: E402
 
 
 def main():
+    if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
+        print(__doc__)
+        return
     if len(sys.argv) < 3:
         sys.exit(__doc__)
     pictures = [png_decode.read_rgb(p) for p in sys.argv[2:]]

@@ -12,6 +12,9 @@ THRESHOLD = 30  # summed |r g b| difference from the background that counts as m
 
 
 def main():
+    if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
+        print(__doc__)
+        return
     if len(sys.argv) < 4:
         sys.exit(__doc__)
     frames = [png_decode.read_rgb(p) for p in sys.argv[2:]]

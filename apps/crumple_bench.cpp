@@ -317,8 +317,11 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, i
   w->settings().threads = threads;
   StepProfile sum;
   int largestIsland = 0, islandsThen = 0;  // over the run: the largest island, and the island count of that step
+  double substeps = 0, pairs = 0;         // summed over the run: substeps, and pairs per substep
   for (auto _ : state) {
     w->step(kStep);
+    substeps += w->lastStats().substeps;
+    pairs += w->lastStats().pairs;
     if (w->lastStats().largestIsland > largestIsland) {
       largestIsland = w->lastStats().largestIsland;
       islandsThen = w->lastStats().islands;
@@ -353,6 +356,8 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, i
   state.counters["bodies"] = static_cast<double>(w->size());
   state.counters["awake"] = w->lastStats().awake;
   state.counters["islands"] = islandsThen;
+  state.counters["substeps"] = substeps / n;
+  state.counters["pairs"] = pairs / std::max(1.0, substeps);
   state.counters["largest_island"] = largestIsland;
   state.counters["top_m"] = top;
 }

@@ -18,6 +18,13 @@
 // - ctx.predicted holds each body's predicted pose x + h (v + h a) (version 0),
 //   for the collision step's first look.
 // The order is unique whichever sort made it (ties by index): same input, same pairs.
+//
+// stepTravel (before the substeps): over every pair of bodies whose bounds,
+// swept over the whole step, overlap, the largest ratio of their relative
+// travel within the step to what a substep may take (substepFraction of the
+// thinner one's half thickness); likewise every pair of joined bodies. Bodies
+// falling side by side, or one far from everything, ask for no substeps
+// however fast they move.
 #include <algorithm>
 #include <numeric>
 
@@ -141,6 +148,80 @@ void findPairs(StepContext& ctx, double h) {
       p.builtMargin = -1;
     }
   }
+}
+
+double stepTravel(StepContext& ctx, double h) {
+  const std::vector<RigidBody>& bodies = ctx.bodies;
+  const size_t n = bodies.size();
+  // Per body: bounds swept over the step (the pose now and moved by h v + h^2 a, widened by how far a turn at
+  // |omega| moves its points) and the bound of its own travel's parts.
+  struct Swept {
+    Aabb box;
+    glm::dvec3 v{0}, a{0};
+    double turn = 0;  // |omega| R h
+  };
+  std::vector<Swept> swept(n);
+  std::vector<int> order;
+  order.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    const RigidBody& b = bodies[i];
+    if (b.removed) continue;
+    Swept& s = swept[i];
+    s.box = worldBounds(*b.shape, b.localCom, {b.x, b.q});
+    if (b.movable()) {
+      s.v = b.v;
+      s.a = ctx.acceleration(static_cast<int>(i));
+      s.turn = glm::length(b.w) * b.shape->boundingRadius * h;
+      const glm::dvec3 d = h * s.v + h * h * s.a;
+      s.box.lo = glm::min(s.box.lo, s.box.lo + d) - s.turn - 0.005;
+      s.box.hi = glm::max(s.box.hi, s.box.hi + d) + s.turn + 0.005;
+    }
+    order.push_back(static_cast<int>(i));
+  }
+  std::sort(order.begin(), order.end(), [&](int x, int y) {
+    const double bx = swept[static_cast<size_t>(x)].box.lo.x, by = swept[static_cast<size_t>(y)].box.lo.x;
+    return bx != by ? bx < by : x < y;
+  });
+  double worst = 0;
+  const double fraction = ctx.settings.substepFraction;
+  for (size_t oi = 0; oi < order.size(); ++oi) {
+    const size_t i = static_cast<size_t>(order[oi]);
+    const Swept& si = swept[i];
+    const RigidBody& A = bodies[i];
+    for (size_t oj = oi + 1; oj < order.size(); ++oj) {
+      const size_t j = static_cast<size_t>(order[oj]);
+      const Swept& sj = swept[j];
+      if (sj.box.lo.x > si.box.hi.x) break;
+      if (sj.box.lo.y > si.box.hi.y || si.box.lo.y > sj.box.hi.y || sj.box.lo.z > si.box.hi.z ||
+          si.box.lo.z > sj.box.hi.z)
+        continue;
+      const RigidBody& B = bodies[j];
+      if (!A.movable() && !B.movable()) continue;
+      const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;
+      const double allowed =
+          fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
+      worst = std::max(worst, travel / allowed);
+    }
+  }
+  // Joined bodies, wherever they are, by each one's own travel (not the relative one): the joint solve is
+  // linearised about the substep's start, and a swinging chain's links move together but turn (a 100 kg body
+  // on 1 kg links tore the chain apart when its substeps went by relative travel).
+  const double g = glm::length(ctx.settings.gravity);
+  auto own = [&](int i) {
+    const Swept& s = swept[static_cast<size_t>(i)];
+    return bodies[static_cast<size_t>(i)].movable() ? h * (glm::length(s.v) + g * h) + s.turn : 0.0;
+  };
+  for (const Joint& jt : ctx.joints) {
+    if (jt.removed || jt.broken || jt.def.b < 0) continue;
+    const RigidBody& B = bodies[static_cast<size_t>(jt.def.b)];
+    double travel = own(jt.def.b), thinner = B.shape->halfThickness();
+    if (jt.def.a >= 0) {
+      travel = std::max(travel, own(jt.def.a));
+      thinner = std::min(thinner, bodies[static_cast<size_t>(jt.def.a)].shape->halfThickness());
+    }
+    worst = std::max(worst, travel / (fraction * std::max(thinner, 1e-4)));
+  }
+  return worst;
 }
 
 void findCandidates(StepContext& ctx, double h) {

@@ -147,8 +147,9 @@ double Shape::halfThickness() const {
       return std::min(radius, halfHeight);
     case ShapeType::Mesh: {
       const glm::dvec3 e = (boundsMax - boundsMin) * 0.5;
-      // A conservative guess for thin-walled meshes: a tenth of the smallest extent.
-      return std::min({e.x, e.y, e.z}) * 0.25;
+      // A conservative guess for thin-walled meshes, a quarter of the smallest half extent, unless every
+      // part of the mesh was found thicker (a torus: its tube's radius).
+      return std::max(std::min({e.x, e.y, e.z}) * 0.25, localHalfThickness);
     }
   }
   return 0;
@@ -278,6 +279,39 @@ std::shared_ptr<Shape> makeCylinder(double radius, double height) {
   return s;
 }
 
+namespace {
+// The thinnest local half thickness of a mesh: from each sample, up the field's depth (against its gradient),
+// the deepest it gets (the medial axis: half the thickness there); the least over the samples.
+double localHalfThickness(const SdfGrid& grid, const std::vector<glm::dvec3>& samples, const glm::dvec3& extent) {
+  const glm::ivec3 dims = grid.dims();
+  const double cell = std::max({extent.x / std::max(1, dims.x - 1), extent.y / std::max(1, dims.y - 1),
+                                extent.z / std::max(1, dims.z - 1)});
+  const double reach = 0.5 * glm::length(extent);
+  const double stepLength = 0.25 * cell;
+  const int steps = static_cast<int>(std::ceil(reach / stepLength));
+  double thinnest = reach;
+  for (const glm::dvec3& sample : samples) {
+    glm::dvec3 p = sample;
+    double deepest = 0;
+    int flat = 0;  // steps since the depth last grew
+    for (int k = 0; k < steps && flat < 4 && deepest < thinnest; ++k) {
+      glm::dvec3 g;
+      const double depth = -grid.distance(p, &g);
+      if (depth > deepest + 1e-3 * stepLength) {
+        deepest = depth;
+        flat = 0;
+      } else {
+        ++flat;
+      }
+      if (!(glm::dot(g, g) > 0.5)) break;
+      p -= g * stepLength;
+    }
+    thinnest = std::min(thinnest, deepest);
+  }
+  return thinnest;
+}
+}  // namespace
+
 std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolution) {
   if (mesh.triangles.empty()) throw std::invalid_argument("mesh has no triangles");
   auto s = std::make_shared<Shape>();
@@ -313,6 +347,7 @@ std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolutio
     s->grid->distance(p, &g);
     s->sampleNormals.push_back(g);
   }
+  s->localHalfThickness = localHalfThickness(*s->grid, s->samples, s->boundsMax - s->boundsMin);
   finishBounds(*s);
   return s;
 }

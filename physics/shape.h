@@ -54,6 +54,8 @@ struct Shape {
   // The distance from the shape's thinnest section centre to its surface: the
   // penetration a sample may reach before the field points it out the far side.
   double halfThickness() const;
+  // Meshes: the thinnest local half thickness found from the samples inward (makeMeshShape; 0: unknown).
+  double localHalfThickness = 0;
 };
 
 std::shared_ptr<Shape> makeBox(const glm::dvec3& size);

@@ -336,6 +336,9 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
 // broad_phase.cpp
 void findPairs(StepContext& ctx, double h);
 void findCandidates(StepContext& ctx, double h);
+// The largest ratio, over pairs whose bounds swept over a step of h overlap, of their relative travel in the
+// step to what one substep may take (0: no such pair).
+double stepTravel(StepContext& ctx, double h);
 // islands.cpp
 void findIslands(StepContext& ctx);
 // collision_step.cpp

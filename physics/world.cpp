@@ -538,7 +538,9 @@ void World::step(double h) {
   if (!c.bumpNormals.empty()) c.bumpNormals.resize(c.bodies.size(), 0);
   c.stats = {};
   c.frozen.assign(c.bodies.size(), 0);
-  // Substeps: no body may move more than a fraction of the thinnest half thickness.
+  // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
+  // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
+  // the thinner one's half thickness (stepTravel).
   double maxTravel = 0;
   for (const RigidBody& b : c.bodies) {
     if (!b.movable()) continue;
@@ -546,9 +548,10 @@ void World::step(double h) {
         glm::length(b.v) + glm::length(c.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
     maxTravel = std::max(maxTravel, speed * h);
   }
-  const double allowed = c.settings.substepFraction * std::max(c.minHalfThickness, 1e-4);
-  const int n = std::clamp(static_cast<int>(std::ceil(maxTravel / allowed)), 1, std::max(1, c.settings.maxSubsteps));
-  c.substepsCapped = maxTravel / n > allowed;
+  double ratio = maxTravel / (c.settings.substepFraction * std::max(c.minHalfThickness, 1e-4));
+  if (ratio > 1) ratio = detail::stepTravel(c, h);
+  const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, c.settings.maxSubsteps));
+  c.substepsCapped = ratio > n;
   for (int s = 0; s < n; ++s) substep(h / n);
   c.stats.substeps = n;
   for (size_t i = 0; i < c.bodies.size(); ++i) {

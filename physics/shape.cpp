@@ -280,33 +280,27 @@ std::shared_ptr<Shape> makeCylinder(double radius, double height) {
 }
 
 namespace {
-// The thinnest local half thickness of a mesh: from each sample, up the field's depth (against its gradient),
-// the deepest it gets (the medial axis: half the thickness there); the least over the samples.
-double localHalfThickness(const SdfGrid& grid, const std::vector<glm::dvec3>& samples, const glm::dvec3& extent) {
-  const glm::ivec3 dims = grid.dims();
-  const double cell = std::max({extent.x / std::max(1, dims.x - 1), extent.y / std::max(1, dims.y - 1),
-                                extent.z / std::max(1, dims.z - 1)});
-  const double reach = 0.5 * glm::length(extent);
-  const double stepLength = 0.25 * cell;
-  const int steps = static_cast<int>(std::ceil(reach / stepLength));
+// The thinnest local half thickness of a mesh (the shape diameter function's least value, halved): from the
+// centre of each triangle, straight in against its normal, half the way to where the ray leaves the body
+// (sphere tracing through the field); the least over the triangles. A torus: its tube's radius.
+double localHalfThickness(const SdfGrid& grid, const TriangleMesh& mesh, const glm::dvec3& extent) {
+  const double reach = glm::length(extent);
+  const double tol = 1e-4 * reach;
   double thinnest = reach;
-  for (const glm::dvec3& sample : samples) {
-    glm::dvec3 p = sample;
-    double deepest = 0;
-    int flat = 0;  // steps since the depth last grew
-    for (int k = 0; k < steps && flat < 4 && deepest < thinnest; ++k) {
-      glm::dvec3 g;
-      const double depth = -grid.distance(p, &g);
-      if (depth > deepest + 1e-3 * stepLength) {
-        deepest = depth;
-        flat = 0;
-      } else {
-        ++flat;
-      }
-      if (!(glm::dot(g, g) > 0.5)) break;
-      p -= g * stepLength;
+  for (const glm::uvec3& t : mesh.triangles) {
+    const glm::dvec3 a(mesh.positions[t.x]), b(mesh.positions[t.y]), c(mesh.positions[t.z]);
+    const glm::dvec3 cross = glm::cross(b - a, c - a);
+    const double area2 = glm::length(cross);
+    if (!(area2 > 1e-12 * reach * reach)) continue;  // degenerate
+    const glm::dvec3 n = cross / area2;
+    const glm::dvec3 start = (a + b + c) / 3.0;
+    double t0 = 2 * tol;
+    for (int k = 0; k < 256 && t0 < 2 * thinnest; ++k) {
+      const double phi = grid.distance(start - n * t0, nullptr);
+      if (phi > -tol) break;  // out (or on the far side)
+      t0 += std::max(-phi, tol);
     }
-    thinnest = std::min(thinnest, deepest);
+    thinnest = std::min(thinnest, 0.5 * t0);
   }
   return thinnest;
 }
@@ -347,7 +341,7 @@ std::shared_ptr<Shape> makeMeshShape(const TriangleMesh& mesh, int gridResolutio
     s->grid->distance(p, &g);
     s->sampleNormals.push_back(g);
   }
-  s->localHalfThickness = localHalfThickness(*s->grid, s->samples, s->boundsMax - s->boundsMin);
+  s->localHalfThickness = localHalfThickness(*s->grid, mesh, s->boundsMax - s->boundsMin);
   finishBounds(*s);
   return s;
 }

@@ -271,3 +271,56 @@ TEST_CASE("sample tree: bodies on a mesh step to the same bits with the tree and
   };
   CHECK(run(true) == run(false));
 }
+
+TEST_CASE("a mesh's half thickness is its thinnest part's: a torus's tube, an L's thinner arm") {
+  // Torus of tube radius 0.1 (16 x 8 segments: the tube's octagon has an inscribed radius of 0.092).
+  const auto torus = makeMeshShape(torusMesh(0.3f, 0.1f, 16, 8), 32);
+  MESSAGE("torus tube 0.1: half thickness " << torus->halfThickness());
+  CHECK(torus->halfThickness() > 0.08);
+  CHECK(torus->halfThickness() < 0.12);
+  // An L-shaped prism 0.6 deep: a 1 x 0.2 arm and a 0.6 x 0.6 block at its end. Its thinnest part is the arm
+  // (half thickness 0.1), never the block's 0.3.
+  const glm::vec2 outline[7] = {{0, 0}, {1, 0}, {1.6f, 0}, {1.6f, 0.6f}, {1, 0.6f}, {1, 0.2f}, {0, 0.2f}};
+  TriangleMesh l;
+  for (float z : {0.0f, 0.6f})
+    for (const glm::vec2& p : outline) l.positions.push_back({p.x, p.y, z});
+  const unsigned caps[5][3] = {{0, 1, 5}, {0, 5, 6}, {1, 2, 3}, {1, 3, 4}, {1, 4, 5}};  // counter-clockwise
+  for (const auto& t : caps) {
+    l.triangles.push_back({t[0], t[2], t[1]});         // bottom, seen from below
+    l.triangles.push_back({t[0] + 7, t[1] + 7, t[2] + 7});  // top
+  }
+  for (unsigned i = 0; i < 7; ++i) {
+    const unsigned j = (i + 1) % 7;
+    l.triangles.push_back({i, j, j + 7});
+    l.triangles.push_back({i, j + 7, i + 7});
+  }
+  l.computeNormals();
+  const auto shape = makeMeshShape(l, 48);
+  MESSAGE("L: half thickness " << shape->halfThickness());
+  CHECK(shape->halfThickness() <= 0.11);
+  CHECK(shape->halfThickness() > 0.05);
+}
+
+TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take none, one closing on a plate does") {
+  auto substeps = [](bool plate) {
+    World w;
+    w.settings().gravity = {0, 0, 0};
+    // Two small boxes (half thickness 0.05) 5 mm apart side by side at 30 m/s: 0.125 m a step at 240 Hz, 5
+    // times what one substep may move (half the thinnest half thickness).
+    const int a = addBox(w, {0.1, 0.1, 0.1}, {0, 10, 0}, 0.5, 0.5);
+    const int b = addBox(w, {0.1, 0.1, 0.1}, {0.105, 10, 0}, 0.5, 0.5);
+    w.setVelocity(a, {0, -30, 0});
+    w.setVelocity(b, {0, -30, 0});
+    if (plate) {
+      BodyDef d;
+      d.shape = makeBox({2, 0.1, 2});
+      d.origin = {0, 9.8, 0};
+      d.isStatic = true;
+      w.addBody(d);
+    }
+    w.step(1.0 / 240);
+    return w.lastStats().substeps;
+  };
+  CHECK(substeps(false) == 1);
+  CHECK(substeps(true) == 5);  // 0.125 m / (0.5 x 0.05 m)
+}

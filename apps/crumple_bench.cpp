@@ -447,7 +447,8 @@ void deformProfile(int iterations) {
 // ---- rendering --------------------------------------------------------------
 // The sandbox's scene (the built-in highway) after its car has hit the rail,
 // seen from its chase camera. `off`: the feature turned off ("" none, "parallax", "ibl", "aa"), or "+displace":
-// displacement (tessellation) turned on, "+simplified": simplified meshes (RendererSettings::simplified),
+// displacement (tessellation) turned on, "+simplified": simplified meshes (RendererSettings::simplified), "+msaa":
+// MSAA (4 samples) instead of FXAA,
 // "sandbox": the sandbox's view at its smallest automatic scale (960x540 x 0.35, simplified meshes, FXAA).
 void renderBench(benchmark::State& state, const std::string& off) {
   Simulation sim(builtinHighway(), true);
@@ -459,7 +460,9 @@ void renderBench(benchmark::State& state, const std::string& off) {
   r.settings().parallax = pom ? render::ParallaxMode::Occlusion : render::ParallaxMode::None;
   r.settings().selfShadow = pom;
   r.settings().ibl = off != "ibl";
-  r.settings().antialias = off == "aa" ? render::Antialias::None : render::Antialias::Fxaa;
+  r.settings().antialias = off == "aa"      ? render::Antialias::None
+                           : off == "+msaa" ? render::Antialias::Msaa
+                                            : render::Antialias::Fxaa;
   r.settings().displace = off == "+displace";
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
@@ -571,7 +574,7 @@ int main(int argc, char** argv) {
             ->Unit(benchmark::kMillisecond);
     }
     for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
-             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"displace", "+displace"},
+             {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"msaa", "+msaa"}, {"displace", "+displace"},
              {"simplified", "+simplified"}, {"sandbox_336x189", "sandbox"}})
       benchmark::RegisterBenchmark(("render/" + std::string(off == "sandbox" ? "" : "1280x720/") + name).c_str(),
                                    renderBench, off)
@@ -652,6 +655,10 @@ int main(int argc, char** argv) {
     std::printf("render  1280x720   ibl %8.3f ms/frame  no ibl %8.3f ms/frame  ibl/none %6.2fx\n", p, noIbl, p / noIbl);
   if (!std::isnan(p) && !std::isnan(noAa))
     std::printf("render  1280x720   fxaa %8.3f ms/frame  no aa %8.3f ms/frame  fxaa/none %6.2fx\n", p, noAa, p / noAa);
+  const double msaa = ms("render/1280x720/msaa");
+  if (!std::isnan(msaa) && !std::isnan(noAa) && !std::isnan(p))
+    std::printf("render  1280x720   msaa4 %8.3f ms/frame  no aa %8.3f ms/frame  msaa/none %6.2fx  msaa/fxaa %6.2fx\n", msaa,
+                noAa, msaa / noAa, msaa / p);
   const double displaced = ms("render/1280x720/displace");
   if (!std::isnan(p) && !std::isnan(displaced))
     std::printf("render  1280x720   displace %8.3f ms/frame  pom alone %8.3f ms/frame  displace/pom %6.2fx\n", displaced, p,

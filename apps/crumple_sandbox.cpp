@@ -312,7 +312,10 @@ void panel(App& app) {
     bool iblOn = s.ibl;
     if (ImGui::Checkbox("sky light (IBL)", &iblOn)) s.ibl = iblOn;
     ImGui::SameLine();
-    ImGui::Checkbox("antialiasing (FXAA)", &app.quality.wantFxaa);
+    int aa = static_cast<int>(app.quality.antialias);
+    ImGui::SetNextItemWidth(110);
+    if (ImGui::Combo("antialiasing", &aa, "none\0FXAA\0MSAA 4x\0"))
+      app.quality.antialias = static_cast<render::Antialias>(aa);
     ImGui::SliderFloat("exposure", &s.exposure, 0.1f, 3.0f, "%.2f", ImGuiSliderFlags_Logarithmic);
     ImGui::Checkbox("shadows", &s.shadows);
     ImGui::SameLine();
@@ -353,8 +356,9 @@ int main(int argc, char** argv) {
   cli.add_option("--height", height, "Window height")->check(CLI::Range(64, 8192));
   cli.add_flag("--quiet,-q", quiet, "Only errors");
   std::string renderScale = "auto", antialias = "fxaa";
-  cli.add_option("--antialias", antialias, "fxaa (default: an FXAA pass over the 3D view) or none")
-      ->check(CLI::IsMember({"fxaa", "none"}))
+  cli.add_option("--antialias", antialias,
+                 "fxaa (default: an FXAA pass over the 3D view), msaa (4 samples a pixel; on a GPU) or none")
+      ->check(CLI::IsMember({"fxaa", "msaa", "none"}))
       ->capture_default_str();
   cli.add_option("--render-scale", renderScale,
                  "The 3D view's resolution as a fraction of the window's (0.25 to 1), or 'auto': while a frame takes "
@@ -405,7 +409,7 @@ int main(int argc, char** argv) {
     logInfo("GL: ", window.description());
     app.reset();
     app.renderer = std::make_unique<render::Renderer>(width, height);
-    app.quality.wantFxaa = antialias != "none";
+    app.quality.antialias = render::antialiasNamed(antialias);
     app.renderer->settings().simplified = true;  // interactive: large meshes drawn simplified (panel)
 
     IMGUI_CHECKVERSION();

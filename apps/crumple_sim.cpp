@@ -95,8 +95,9 @@ int main(int argc, char** argv) {
                "Draw every camera with displacement (dents change silhouettes; tessellation shaders), as a camera's "
                "\"displace\": true does for that camera");
   app.add_option("--antialias", antialias,
-                 "Antialiasing of the rendered frames: fxaa (default: an FXAA pass over each frame) or none")
-      ->check(CLI::IsMember({"fxaa", "none"}))
+                 "Antialiasing of the rendered frames: fxaa (default: an FXAA pass over each frame), msaa (4 "
+                 "samples a pixel, resolved; slower on a CPU rasteriser) or none")
+      ->check(CLI::IsMember({"fxaa", "msaa", "none"}))
       ->capture_default_str();
   app.add_option("--fps", fps, "Frames per simulated second for --render")
       ->check(CLI::Range(0.01, 1000.0))
@@ -202,7 +203,7 @@ int main(int argc, char** argv) {
       if (scene.cameras.empty()) logInfo("--render: the scene has no cameras; a default view frames its moving bodies");
       renderer = std::make_unique<render::Renderer>(width, height);
       renderer->settings().displace = displace;
-      renderer->settings().antialias = antialias == "none" ? render::Antialias::None : render::Antialias::Fxaa;
+      renderer->settings().antialias = render::antialiasNamed(antialias);
       fs::create_directories(framesDir);
     }
     auto interrupted = [&](long step) {

@@ -35,7 +35,7 @@ void AutoQuality::frame(double ms) {
 }
 
 void AutoQuality::apply(RendererSettings& s) const {
-  s.antialias = wantFxaa && shed() < 1 ? Antialias::Fxaa : Antialias::None;
+  s.antialias = shed() < 1 ? antialias : Antialias::None;
   s.selfShadow = wantSelfShadow && shed() < 2;
 }
 

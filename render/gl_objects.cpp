@@ -70,6 +70,23 @@ void Framebuffer::attachColor(const Texture2D& t, int index) {
   glNamedFramebufferTexture(id(), GL_COLOR_ATTACHMENT0 + static_cast<GLenum>(index), t.id(), 0);
 }
 void Framebuffer::attachDepth(const Texture2D& t) { glNamedFramebufferTexture(id(), GL_DEPTH_ATTACHMENT, t.id(), 0); }
+void Framebuffer::attachColor(const Renderbuffer& r) {
+  glNamedFramebufferRenderbuffer(id(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, r.id());
+}
+void Framebuffer::attachDepth(const Renderbuffer& r) {
+  glNamedFramebufferRenderbuffer(id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, r.id());
+}
+
+static GLuint makeRenderbuffer() {
+  GLuint id = 0;
+  glCreateRenderbuffers(1, &id);
+  return id;
+}
+
+Renderbuffer::Renderbuffer(int width, int height, GLenum internalFormat, int samples) : GlName(makeRenderbuffer()) {
+  if (width <= 0 || height <= 0) throw std::invalid_argument("renderbuffer size must be positive");
+  glNamedRenderbufferStorageMultisample(id(), samples, internalFormat, width, height);
+}
 
 void Framebuffer::checkComplete() const {
   GLenum status = glCheckNamedFramebufferStatus(id(), GL_FRAMEBUFFER);

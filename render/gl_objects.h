@@ -43,6 +43,7 @@ inline void deleteTexture(GLuint id) { glDeleteTextures(1, &id); }
 inline void deleteFramebuffer(GLuint id) { glDeleteFramebuffers(1, &id); }
 inline void deleteVertexArray(GLuint id) { glDeleteVertexArrays(1, &id); }
 inline void deleteProgram(GLuint id) { glDeleteProgram(id); }
+inline void deleteRenderbuffer(GLuint id) { glDeleteRenderbuffers(1, &id); }
 }  // namespace detail
 
 class Buffer : public GlName<detail::deleteBuffer> {
@@ -79,11 +80,20 @@ class Texture2D : public GlName<detail::deleteTexture> {
   GLenum format_ = 0;
 };
 
+// A multisampled render target (MSAA colour or depth): drawn into, resolved by a blit, never sampled.
+class Renderbuffer : public GlName<detail::deleteRenderbuffer> {
+ public:
+  Renderbuffer() = default;
+  Renderbuffer(int width, int height, GLenum internalFormat, int samples);
+};
+
 class Framebuffer : public GlName<detail::deleteFramebuffer> {
  public:
   Framebuffer();
   void attachColor(const Texture2D& t, int index = 0);
   void attachDepth(const Texture2D& t);
+  void attachColor(const Renderbuffer& r);
+  void attachDepth(const Renderbuffer& r);
   // Throws std::runtime_error naming the status when incomplete.
   void checkComplete() const;
   void bind() const;

@@ -196,6 +196,30 @@ struct Renderer::Impl {
   Framebuffer fbo;
   Texture2D sceneColor;  // antialiased views: the frame before the FXAA pass (sharing `depth`)
   Framebuffer sceneFbo;
+  // MSAA: the frame's multisampled colour and depth (made on first use, at the renderer's size).
+  Renderbuffer msaaColor, msaaDepth;
+  Framebuffer msaaFbo;
+  int msaaWidth = 0, msaaHeight = 0;
+  GLuint multisampled(int w, int h) {
+    if (msaaWidth != w || msaaHeight != h || !msaaFbo) {
+      msaaColor = Renderbuffer(w, h, GL_SRGB8_ALPHA8, kMsaaSamples);
+      msaaDepth = Renderbuffer(w, h, GL_DEPTH_COMPONENT32F, kMsaaSamples);
+      msaaFbo = Framebuffer();
+      msaaFbo.attachColor(msaaColor);
+      msaaFbo.attachDepth(msaaDepth);
+      msaaFbo.checkComplete();
+      msaaWidth = w;
+      msaaHeight = h;
+    }
+    return msaaFbo.id();
+  }
+  // The MSAA resolve: each pixel the mean of its samples, into `target`.
+  void resolve(GLuint target, int w, int h) {
+    glEnable(GL_FRAMEBUFFER_SRGB);
+    glBlitNamedFramebuffer(msaaFbo.id(), target, 0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    if (target == fbo.id())  // our own target keeps a depth (one sample's) for whoever reads it
+      glBlitNamedFramebuffer(msaaFbo.id(), target, 0, 0, w, h, 0, 0, w, h, GL_DEPTH_BUFFER_BIT, GL_NEAREST);
+  }
   Texture2D shadowMap{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
   Framebuffer shadowFbo;
   ShadowCache shadowCache;
@@ -336,8 +360,9 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   const RendererSettings& s = settings_;
   // The shaded view draws into sceneFbo when antialiased, filtered into the target at the end.
   const bool fxaa = s.antialias == Antialias::Fxaa && s.debug == DebugView::Shaded;
+  const bool msaa = s.antialias == Antialias::Msaa && s.debug == DebugView::Shaded;
   stats_ = {};
-  const GLuint target = fxaa ? m.sceneFbo.id() : finalTarget;
+  const GLuint target = fxaa ? m.sceneFbo.id() : msaa ? m.multisampled(width_, height_) : finalTarget;
   // Fit the sun's orthographic frustum around everything.
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (const auto& it : items) {
@@ -529,6 +554,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     glDepthFunc(GL_LESS);
   }
   if (fxaa) m.antialias(finalTarget, width_, height_);
+  if (msaa) m.resolve(finalTarget, width_, height_);
   glDisable(GL_FRAMEBUFFER_SRGB);
 }
 

@@ -75,8 +75,15 @@ struct View {
 
 enum class ParallaxMode { Occlusion = 0, OffsetLimited = 1, None = 2 };
 enum class DebugView { Shaded = 0, Height = 1, Normal = 2, Address = 3, Wireframe = 4 };
-// Antialiasing of the shaded view (debug views are never filtered).
-enum class Antialias { None = 0, Fxaa = 1 };
+// Antialiasing of the shaded view (debug views are never filtered): an FXAA pass over the finished frame, or
+// MSAA (the frame drawn into 4-sample colour and depth, resolved into the target: every edge, also those
+// within a surface the filter cannot see, at about 4 times the fragment work on a CPU rasteriser).
+enum class Antialias { None = 0, Fxaa = 1, Msaa = 2 };
+constexpr int kMsaaSamples = 4;
+// "none", "fxaa" or "msaa" (the command lines' names); anything else is FXAA.
+inline Antialias antialiasNamed(const std::string& name) {
+  return name == "none" ? Antialias::None : name == "msaa" ? Antialias::Msaa : Antialias::Fxaa;
+}
 
 struct RendererSettings {
   ParallaxMode parallax = ParallaxMode::Occlusion;

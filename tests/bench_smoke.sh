@@ -17,6 +17,7 @@ expect 4 '^deform +address map +[0-9]+ +gather +[0-9.]+ ms +scatter +[0-9.]+ ms 
 expect 1 '^render +1280x720 +pom +[0-9.]+ ms/frame +no parallax +[0-9.]+ ms/frame +pom/none +[0-9.]+x$' "render ratio"
 expect 1 '^render +1280x720 +ibl +[0-9.]+ ms/frame +no ibl +[0-9.]+ ms/frame +ibl/none +[0-9.]+x$' "IBL ratio"
 expect 1 '^render +1280x720 +fxaa +[0-9.]+ ms/frame +no aa +[0-9.]+ ms/frame +fxaa/none +[0-9.]+x$' "FXAA ratio"
+expect 1 '^render +1280x720 +msaa4 +[0-9.]+ ms/frame +no aa +[0-9.]+ ms/frame +msaa/none +[0-9.]+x +msaa/fxaa +[0-9.]+x$' "MSAA ratio"
 expect 1 '^render +1280x720 +displace +[0-9.]+ ms/frame +pom alone +[0-9.]+ ms/frame +displace/pom +[0-9.]+x$' "displacement ratio"
 expect 1 '^render +1280x720 +simplified meshes +[0-9.]+ ms/frame +full +[0-9.]+ ms/frame +simplified/full +[0-9.]+x$' "simplified ratio"
 expect 1 '^render +sandbox view 336x189 .* +[0-9.]+ ms/frame +\([0-9.]+ frames/s of rendering\)$' "sandbox view"

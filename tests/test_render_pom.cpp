@@ -363,6 +363,61 @@ TEST_CASE("FXAA: edges are smoothed, flat areas keep their pixels, and it can be
   CHECK(fractionOff(heightOn, r.readPixels()) == 0.0);
 }
 
+TEST_CASE("MSAA: edge pixels take their covered share, flat areas keep their pixels, debug views are not resolved") {
+  test::glContext();
+  Stage s;
+  s.dent(0.03, {0.3, 0, 0.2});
+  Renderer r(192, 128);
+  View v = topView();
+  v.eye = {0.9f, 1.2f, 1.9f};
+  r.settings().antialias = Antialias::None;
+  r.draw(s.items(true), v);
+  const Image off = r.readPixels();
+  r.settings().antialias = Antialias::Msaa;
+  r.draw(s.items(true), v);
+  const Image on = r.readPixels();
+  r.draw(s.items(true), v);
+  CHECK(fractionOff(on, r.readPixels()) == 0.0);  // the same every time
+  auto luma = [](const Image& img, int x, int y) {
+    return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
+  };
+  // Edge pixels of the aliased frame (a strong step in the 3x3 neighbourhood) whose MSAA value lies between
+  // the two sides, and pixels of flat regions that moved.
+  long edge = 0, mid = 0, midOff = 0, flat = 0, flatMoved = 0;
+  for (int y = 1; y + 1 < off.height; ++y)
+    for (int x = 1; x + 1 < off.width; ++x) {
+      float lo = 1, hi = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          lo = std::min(lo, luma(off, x + dx, y + dy));
+          hi = std::max(hi, luma(off, x + dx, y + dy));
+        }
+      if (hi - lo < 0.02f) {
+        ++flat;
+        // Flat pixels are every sample the same surface: their mean is the one sample (to rounding).
+        flatMoved += std::abs(luma(on, x, y) - luma(off, x, y)) > 3.0f / 255.0f;
+      }
+      if (hi - lo < 0.08f) continue;
+      ++edge;
+      const float t = (luma(on, x, y) - lo) / (hi - lo), t0 = (luma(off, x, y) - lo) / (hi - lo);
+      mid += t > 0.2f && t < 0.8f;
+      midOff += t0 > 0.2f && t0 < 0.8f;
+    }
+  MESSAGE("MSAA: edge pixels between their sides " << 100.0 * midOff / edge << "% -> " << 100.0 * mid / edge
+                                                   << "%; flat pixels moved " << flatMoved << " of " << flat);
+  CHECK(edge > 100);
+  CHECK(mid > 1.5 * midOff);
+  CHECK(flat > off.width * off.height / 4);
+  CHECK(flatMoved < flat / 100);
+  // Debug views draw straight into the target.
+  r.settings().debug = DebugView::Height;
+  r.draw(s.items(true), v);
+  const Image heightMsaa = r.readPixels();
+  r.settings().antialias = Antialias::None;
+  r.draw(s.items(true), v);
+  CHECK(fractionOff(heightMsaa, r.readPixels()) == 0.0);
+}
+
 TEST_CASE("procedural textures vary the surface, each its own way, the same every time") {
   test::glContext();
   Stage s;

@@ -75,11 +75,17 @@ TEST_CASE("automatic quality: frames within the band change nothing; by hand not
   RendererSettings s;
   slow.apply(s);
   CHECK(s.antialias == Antialias::Fxaa);
-  slow.wantFxaa = false;  // FXAA turned off by the user stays off however fast the frames
+  slow.antialias = Antialias::None;  // antialiasing turned off by the user stays off however fast the frames
   slow.enabled = true;
   run(slow, 5.0, 2000);
   slow.apply(s);
   CHECK(s.antialias == Antialias::None);
   CHECK(s.selfShadow);
   CHECK(slow.scale == doctest::Approx(1.0f));
+  slow.antialias = Antialias::Msaa;  // MSAA chosen: kept while fast, shed first when slow
+  slow.apply(s);
+  CHECK(s.antialias == Antialias::Msaa);
+  run(slow, 60.0, 200);
+  slow.apply(s);
+  CHECK(s.antialias == Antialias::None);
 }

@@ -8,8 +8,11 @@
                    distance field, polygonised by surface nets. Closed, no uvs.
   ramp.png         a 16-bit grey ramp (0 to 1 along the image's x), a slope that
                    exists only in the bump map (the figure-10 scene)
-  cow-bumps.png    a 16-bit grey bump pattern (0.5 flat) of raised spots, for the
-                   figure-7 scene (a patterned box printing itself into a wall).
+  cow-bumps.png    a 16-bit grey bump pattern (0.5 flat) of raised spots across
+                   the whole image.
+  stamp-spots.png  a 3 x 3 grid of raised domes in a raised ring, laid on the +x
+                   face of a 0.6 m box's 256-texel atlas: the figure-7 scene's
+                   stamp (a patterned box printing itself into a wall).
   sedan.obj        a four-door saloon that reads as a car (hood, raked windscreen,
                    greenhouse with tumblehome, trunk, four wheel-arch recesses for
                    wheels of radius 0.33 at x = +-1.3, y = -0.32, z = +-0.8): a
@@ -500,6 +503,26 @@ def spots(x, y, n=256):
             h = max(h, 0.5 + 0.45 * math.cos(d / r * math.pi / 2))
     return h
 
+def stamp_spots(x, y):
+    """A 3 x 3 grid of raised domes (5 cm radius, 15 cm apart) on the +x face of a 0.6 m box whose 256-texel atlas
+    puts that face's chart at columns and rows 3 to 84.33 (docs/maps.md: primitive_atlas.py box 0.6 0.6 0.6),
+    and a raised ring around them: the face pattern-box's bronze stamp prints into the wall."""
+    texels_per_metre = (84.33 - 3.0) / 0.6
+    centre = (3.0 + 84.33) / 2
+    px, py = x + 0.5, y + 0.5
+    h = 0.5
+    r = 0.05 * texels_per_metre
+    for i in (-1, 0, 1):
+        for j in (-1, 0, 1):
+            d = math.hypot(px - (centre + i * 0.15 * texels_per_metre), py - (centre + j * 0.15 * texels_per_metre))
+            if d < r:
+                h = max(h, 0.5 + 0.45 * math.cos(d / r * math.pi / 2))
+    ring = abs(math.hypot(px - centre, py - centre) - 0.26 * texels_per_metre)
+    w = 0.018 * texels_per_metre
+    if ring < w:
+        h = max(h, 0.5 + 0.3 * math.cos(ring / w * math.pi / 2))
+    return h
+
 def check_mesh(path):
     """Reads an OBJ's triangles and returns its topology and geometry: counts of
     boundary, non-manifold and inconsistently oriented edges, of singular
@@ -588,7 +611,7 @@ def print_check(path):
     return ok
 
 ASSETS = ("car.obj", "cow.obj", "sedan.obj", "sedan-body.obj", "sedan-door-left.obj", "sedan-door-right.obj",
-          "wbeam.obj", "cow-bumps.png", "ramp.png")
+          "wbeam.obj", "cow-bumps.png", "stamp-spots.png", "ramp.png")
 
 if __name__ == "__main__":
     import argparse
@@ -602,6 +625,7 @@ if __name__ == "__main__":
               "sedan-door-left.obj": lambda p: sedan_door_obj(p, 1),
               "sedan-door-right.obj": lambda p: sedan_door_obj(p, -1), "wbeam.obj": wbeam_obj,
               "cow-bumps.png": lambda p: png16(p, 256, 256, spots),
+              "stamp-spots.png": lambda p: png16(p, 256, 256, stamp_spots),
               "ramp.png": lambda p: png16(p, 256, 256, lambda x, y: (x + 0.5) / 256)}
     ok = True
     for name in ASSETS:

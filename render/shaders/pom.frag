@@ -63,7 +63,9 @@ float boundAlong(vec2 a, vec2 b) {
   vec2 lo = clamp(min(a, b) * res - 1.0, vec2(0.0), res - 1.0), hi = clamp(max(a, b) * res + 1.0, vec2(0.0), res - 1.0);
   float extent = max(hi.x - lo.x, hi.y - lo.y) / float(uBoundTile);
   int level = min(int(ceil(log2(max(extent, 1.0)))), textureQueryLevels(uHeightBound) - 1);
-  ivec2 last = textureSize(uHeightBound, level) - 1;
+  // The level's size from level 0's (a uniform query): llvmpipe answers textureSize at a lod that varies across
+  // a block's pixels with one pixel's lod, and a pixel clamped to another level's size fetched the wrong tile.
+  ivec2 last = max(textureSize(uHeightBound, 0) >> level, ivec2(1)) - 1;
   float texels = 1.0 / (float(uBoundTile) * exp2(float(level)));  // pyramid texels per height texel
   ivec2 t0 = min(ivec2(lo * texels), last), t1 = min(ivec2(hi * texels), last);
   return max(max(texelFetch(uHeightBound, t0, level).r, texelFetch(uHeightBound, ivec2(t1.x, t0.y), level).r),

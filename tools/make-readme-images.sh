@@ -40,7 +40,10 @@ shoot tank-tracks side 4
 # slope that exists only in the bump map.
 build/apps/crumple-sim scenes/bump-ramp.json --out "$tmp/bump-ramp" --render --fps 4 --size 640x360 --duration 3 -q
 tools/strobe.py docs/images/bump-ramp.png $(ls "$tmp"/bump-ramp/frames/main_*.png | awk 'NR % 2 == 1')
-shoot cow-drop main 2
+# The cow stands in its prints: beside the frame, the turf's height map under it (four hoof prints).
+build/apps/crumple-sim scenes/cow-drop.json --out "$tmp/cow-drop" --render --fps 2 --size 640x360 --duration 2 -q
+tools/dent-view.py "$tmp/cow-drop/heightmaps/ground.png" --crop 196,168,316,347 --scale 2 --png "$tmp/cow-turf.png"
+tools/side-by-side.py docs/images/cow-drop.png "$(ls "$tmp"/cow-drop/frames/main_*.png | tail -1)" "$tmp/cow-turf.png"
 shoot car-doors main 3
 shoot wrecking-ball main 1.3
 shoot wrecking-ball wall 2.4 wrecking-ball-dent

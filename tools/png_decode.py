@@ -48,11 +48,13 @@ def decode(path):
 
 
 def read_rgb(path):
-    """(width, height, rows): an 8-bit RGB or RGBA PNG's rows as RGB bytes (width * 3 each)."""
+    """(width, height, rows): an 8-bit RGB, RGBA, grey or grey-alpha PNG's rows as RGB bytes (width * 3 each)."""
     w, h, depth, colour, raw = decode(path)
-    if depth != 8 or colour not in (2, 6):
-        sys.exit(path + ": only 8-bit RGB or RGBA")
-    bpp = 3 if colour == 2 else 4
+    if depth != 8 or colour not in (0, 2, 4, 6):
+        sys.exit(path + ": only 8-bit RGB, RGBA, grey or grey-alpha")
+    bpp = CHANNELS[colour]
+    if colour in (0, 4):  # grey: each value three times
+        return w, h, [b"".join(bytes((line[i],)) * 3 for i in range(0, w * bpp, bpp)) for line in raw]
     return w, h, [b"".join(bytes(line[i:i + 3]) for i in range(0, w * bpp, bpp)) for line in raw]
 
 

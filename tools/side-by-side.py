@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Puts PNG pictures (8-bit RGB or RGBA, same height) side by side into one RGB PNG: side-by-side.py OUT IN..."""
+"""Puts PNG pictures (8-bit RGB, RGBA or grey, same height) side by side into one RGB PNG: side-by-side.py OUT IN..."""
 import os
 import sys
 

@@ -7,7 +7,7 @@ smooth procedural body with glass and lights in its vertex colours (both from
 tools/make-assets.py). Around the impact the left rail is held by joints:
 its segments are bolted (welded) to their posts and the posts are welded to the
 ground by welds that break, so a hard enough hit tears posts out. Cameras: a chase camera that follows the car, a close
-camera at the impact, and one that follows the car's dented side.
+camera at the impact, and one that follows the car's dented front-left corner and side (turning with the car).
 Rerun on purpose after changing it; the scene file is committed."""
 import argparse, json, os
 
@@ -98,7 +98,8 @@ def scene():
              "target": [2.5, 0.4, 0], "fov": 50},
             {"name": "impact", "position": [36.0, 1.25, -3.1], "target": [39.0, 0.55, -4.9], "fov": 45},
             {"name": "torn", "position": [41.5, 2.6, -2.0], "target": [37.8, 0.2, -5.8], "fov": 50},
-            {"name": "side", "follow": "car", "position": [3.4, 0.55, -2.9], "target": [-0.3, -0.1, -0.7], "fov": 45, "displace": True},
+            {"name": "side", "follow": "car", "follow_heading": True, "position": [3.3, 0.7, -2.6],
+             "target": [0.3, -0.05, -0.7], "fov": 45, "displace": True},
         ],
     }
 

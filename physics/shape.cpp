@@ -97,6 +97,7 @@ double cylinderDistance(const glm::dvec3& p, double r, double hh, glm::dvec3* gr
 // Also the samples' tree, where there are enough of them.
 void finishBounds(Shape& s) {
   s.boundingRadius = glm::length(glm::max(glm::abs(s.boundsMin), glm::abs(s.boundsMax)));
+  s.cachedHalfThickness = s.computeHalfThickness();
   if (s.samples.size() > SampleTree::kMinSamples) s.sampleTree = std::make_shared<const SampleTree>(s.samples);
 }
 
@@ -136,7 +137,7 @@ double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dve
   return 0;
 }
 
-double Shape::halfThickness() const {
+double Shape::computeHalfThickness() const {
   switch (type) {
     case ShapeType::Box:
       return std::min({halfExtents.x, halfExtents.y, halfExtents.z});

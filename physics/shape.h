@@ -53,8 +53,11 @@ struct Shape {
   double distance(const glm::dvec3& p, glm::dvec3* gradient = nullptr, const glm::dvec3* hint = nullptr) const;
   // The distance from the shape's thinnest section centre to its surface: the
   // penetration a sample may reach before the field points it out the far side.
-  double halfThickness() const;
-  // Meshes: the thinnest local half thickness found from the samples inward (makeMeshShape; 0: unknown).
+  // (The make functions keep it in `cachedHalfThickness`: the narrow phase asks for it per pair and look.)
+  double halfThickness() const { return cachedHalfThickness > 0 ? cachedHalfThickness : computeHalfThickness(); }
+  double computeHalfThickness() const;
+  double cachedHalfThickness = 0;
+  // Meshes: the thinnest local half thickness, from the triangles inward (makeMeshShape; 0: unknown).
   double localHalfThickness = 0;
 };
 

@@ -38,6 +38,17 @@
 
 namespace crumple::detail {
 
+// The broad phase's hashed grid (broad_phase.cpp), kept for its allocations.
+struct BroadGrid {
+  struct Cell {
+    int64_t x = 0, y = 0, z = 0;
+  };
+  std::vector<double> sides;
+  std::vector<Cell> lo, hi;  // per box, its cell range (lo > hi: a large box, kept aside)
+  std::vector<int> large, items;
+  std::vector<uint32_t> start, fill;
+};
+
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.
 struct Pair {
   int a = -1, b = -1;
@@ -159,7 +170,7 @@ struct StepContext {
   // keys (a << 32 | b), the pairs (sorted by a, b) with their candidate lists
   // and the last substep's (whose lists the pairs found again take over).
   std::vector<Aabb> boxes;
-  std::vector<int> sweepOrder;
+  BroadGrid grid;
   std::vector<uint64_t> pairKeys;
   std::vector<Pair> pairs, previousPairs;
 

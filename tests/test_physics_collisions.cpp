@@ -324,3 +324,51 @@ TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take 
   CHECK(substeps(false) == 1);
   CHECK(substeps(true) == 5);  // 0.125 m / (0.5 x 0.05 m)
 }
+
+TEST_CASE("broad phase: the hashed grid finds exactly the pairs whose bounds overlap, large bodies among them") {
+  // Boxes of many sizes (1 cm to 3 m, and a 60 m slab and a 40 m pole that span many cells), some static, at
+  // rest without gravity: a pair is every two bodies, one of them dynamic, whose bounds (a movable body's
+  // widened by 5 mm) overlap. Counted by brute force against StepStats::pairs.
+  World w;
+  w.settings().gravity = {0, 0, 0};
+  w.settings().sleeping = false;
+  uint64_t state = 7;
+  auto u = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  std::vector<std::pair<glm::dvec3, glm::dvec3>> bounds;  // lo, hi
+  std::vector<bool> dynamic;
+  auto add = [&](const glm::dvec3& size, const glm::dvec3& at, bool isStatic) {
+    BodyDef d;
+    d.shape = makeBox(size);
+    d.origin = at;
+    d.isStatic = isStatic;
+    w.addBody(d);
+    const double margin = isStatic ? 0.0 : 0.005;
+    bounds.push_back({at - size * 0.5 - margin, at + size * 0.5 + margin});
+    dynamic.push_back(!isStatic);
+  };
+  add({60, 0.5, 60}, {0, -0.25, 0}, true);
+  add({0.3, 40, 0.3}, {1, 20, 1}, true);
+  for (int k = 0; k < 600; ++k) {
+    const double s = u() < 0.1 ? 0.5 + 2.5 * u() : 0.01 + 0.4 * u();
+    add({s, s * (0.5 + u()), s * (0.5 + u())}, {8 * u() - 4, 4 * u(), 8 * u() - 4}, u() < 0.2);
+  }
+  size_t expected = 0;
+  for (size_t i = 0; i < bounds.size(); ++i)
+    for (size_t j = i + 1; j < bounds.size(); ++j) {
+      if (!dynamic[i] && !dynamic[j]) continue;
+      const auto& a = bounds[i];
+      const auto& b = bounds[j];
+      if (b.first.x > a.second.x || a.first.x > b.second.x || b.first.y > a.second.y || a.first.y > b.second.y ||
+          b.first.z > a.second.z || a.first.z > b.second.z)
+        continue;
+      ++expected;
+    }
+  w.step(1.0 / 240);
+  MESSAGE("overlapping pairs: " << expected);
+  CHECK(expected > 600);
+  CHECK(w.lastStats().substeps == 1);
+  CHECK(static_cast<size_t>(w.lastStats().pairs) == expected);
+}

@@ -15,22 +15,16 @@ ThreadPool::~ThreadPool() {
   for (std::thread& t : workers_) t.join();
 }
 
-// Takes items until none is left (`lock` holds mutex_ on entry and on return).
-void ThreadPool::drain(std::unique_lock<std::mutex>& lock, int worker) {
-  while (next_ < count_) {
-    const size_t item = next_++;
-    const std::function<void(size_t, int)>* fn = job_;
-    lock.unlock();
-    std::exception_ptr error;
+void ThreadPool::drain(const std::function<void(size_t, int)>* fn, size_t count, int worker) {
+  for (;;) {
+    const size_t item = next_.fetch_add(1, std::memory_order_relaxed);
+    if (item >= count) return;
     try {
       (*fn)(item, worker);
     } catch (...) {
-      error = std::current_exception();
-    }
-    lock.lock();
-    if (error) {
-      if (!error_) error_ = error;
-      next_ = count_;  // the rest is skipped
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!error_) error_ = std::current_exception();
+      next_.store(count, std::memory_order_relaxed);  // the rest is skipped
     }
   }
 }
@@ -43,7 +37,12 @@ void ThreadPool::work(int worker) {
     if (stop_) return;
     seen = generation_;
     ++busy_;
-    drain(lock, worker);
+    // The job as run() set it (a worker that wakes after the job was done finds none).
+    const std::function<void(size_t, int)>* fn = job_;
+    const size_t count = count_;
+    lock.unlock();
+    if (fn) drain(fn, count, worker);
+    lock.lock();
     if (--busy_ == 0) done_.notify_all();
   }
 }
@@ -54,17 +53,20 @@ void ThreadPool::run(size_t count, const std::function<void(size_t, int)>& fn) {
     for (size_t i = 0; i < count; ++i) fn(i, 0);
     return;
   }
-  std::unique_lock<std::mutex> lock(mutex_);
-  job_ = &fn;
-  count_ = count;
-  next_ = 0;
-  error_ = nullptr;
-  ++generation_;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    job_ = &fn;
+    count_ = count;
+    next_.store(0, std::memory_order_relaxed);
+    error_ = nullptr;
+    ++generation_;
+  }
   wake_.notify_all();
-  drain(lock, 0);
+  drain(&fn, count, 0);
+  std::unique_lock<std::mutex> lock(mutex_);
   done_.wait(lock, [&] { return busy_ == 0; });
   job_ = nullptr;
-  count_ = next_ = 0;
+  count_ = 0;
   std::exception_ptr error = error_;
   error_ = nullptr;
   lock.unlock();

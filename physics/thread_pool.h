@@ -12,6 +12,7 @@
 // nested parallelism or arena-dependent partitioning to reason about, needs
 // no extra package, and runs clean under ThreadSanitizer.
 #pragma once
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <exception>
@@ -35,12 +36,14 @@ class ThreadPool {
 
  private:
   void work(int worker);
-  void drain(std::unique_lock<std::mutex>& lock, int worker);
+  // Takes items (an atomic counter: no lock per item) until none is left.
+  void drain(const std::function<void(size_t, int)>* fn, size_t count, int worker);
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
   const std::function<void(size_t, int)>* job_ = nullptr;
-  size_t count_ = 0, next_ = 0;
+  size_t count_ = 0;
+  std::atomic<size_t> next_{0};
   unsigned long generation_ = 0;
   int busy_ = 0;
   bool stop_ = false;

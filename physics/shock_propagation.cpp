@@ -15,6 +15,12 @@
 //   frozen level below is held against tilting by that patch; on two, the
 //   patches hold only the tilt about the line through them.
 // - Afterwards no body is frozen.
+// - The levels are found over all bodies; the passes run island by island
+//   (islands.cpp; in parallel on the World's threads), each island's levels
+//   from 1 up: a level's groups in pair order within each island, so every
+//   body gets the same impulses in the same order as level by level over all
+//   pairs (static, kinematic and sleeping bodies are frozen throughout and
+//   never written).
 #include <algorithm>
 #include <cmath>
 
@@ -35,19 +41,28 @@ struct LevelContact {
   PatchMatrix patch;  // valid only for a body's one or two support patches
 };
 
+// One island's work, on one worker: its pairs and bodies by level.
+struct IslandScratch {
+  std::vector<size_t> pairs;         // by level (levelStart), in pair order within a level
+  std::vector<uint32_t> levelStart;  // pairs[levelStart[l], levelStart[l + 1]): level l's
+  std::vector<int> bodies, byLevel;  // its levelled dynamic bodies, and the same by level (bodyStart)
+  std::vector<uint32_t> bodyStart, fill;
+  std::vector<LevelContact> lc;
+  std::vector<std::pair<int, size_t>> supports;
+  std::vector<glm::dvec3> dj, dt;
+};
+
 // Working arrays kept from one substep to the next (no allocation per substep).
 struct Scratch {
   std::vector<uint32_t> start, neighbours;  // the contact graph, compressed rows: body i's are [start[i], start[i+1])
   std::vector<int> queue, stack;
   std::vector<std::vector<int>> joined;
-  std::vector<size_t> touching;        // pairs with groups, by level (levelStart), in pair order within a level
-  std::vector<uint32_t> levelStart;    // touching[levelStart[l], levelStart[l+1]): level l's pairs
+  std::vector<uint32_t> fill;
   std::vector<int> byLevel;            // bodies by level (bodyStart), in index order within a level
   std::vector<uint32_t> bodyStart;
-  std::vector<int> share;
-  std::vector<LevelContact> lc;
-  std::vector<std::pair<int, size_t>> supports;
-  std::vector<glm::dvec3> dj, dt;
+  std::vector<int> share;              // per body: its groups on the level under way
+  std::vector<uint32_t> stamp;          // per body: the island (+1) that last counted it
+  std::vector<IslandScratch> islands;  // per worker
 };
 Scratch& scratch() {
   thread_local Scratch s;
@@ -70,7 +85,7 @@ int computeLevels(StepContext& ctx, Scratch& s) {
   for (size_t i = 0; i < n; ++i) s.start[i + 1] += s.start[i];
   s.neighbours.resize(s.start[n]);
   {
-    std::vector<uint32_t>& fill = s.levelStart;  // borrowed as the fill cursors
+    std::vector<uint32_t>& fill = s.fill;
     fill.assign(s.start.begin(), s.start.end() - 1);
     for (size_t pi = 0; pi < pairs; ++pi) {
       if (ctx.groups[pi].empty()) continue;
@@ -127,23 +142,8 @@ int computeLevels(StepContext& ctx, Scratch& s) {
       if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
     }
   }
-  // The pairs with groups by the level of their upper body (both levelled), in pair order.
-  const size_t levels = static_cast<size_t>(maxLevel) + 1;
-  auto pairLevel = [&](size_t pi) {
-    const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
-    return std::min(la, lb) < 0 ? -1 : std::max(la, lb);
-  };
-  s.levelStart.assign(levels + 1, 0);
-  for (size_t pi = 0; pi < pairs; ++pi)
-    if (!ctx.groups[pi].empty() && pairLevel(pi) >= 0) ++s.levelStart[static_cast<size_t>(pairLevel(pi)) + 1];
-  for (size_t l = 0; l < levels; ++l) s.levelStart[l + 1] += s.levelStart[l];
-  s.touching.resize(s.levelStart[levels]);
-  {
-    std::vector<uint32_t> fill(s.levelStart.begin(), s.levelStart.end() - 1);
-    for (size_t pi = 0; pi < pairs; ++pi)
-      if (!ctx.groups[pi].empty() && pairLevel(pi) >= 0) s.touching[fill[static_cast<size_t>(pairLevel(pi))]++] = pi;
-  }
   // The levelled bodies by level.
+  const size_t levels = static_cast<size_t>(maxLevel) + 1;
   s.bodyStart.assign(levels + 1, 0);
   for (size_t i = 0; i < n; ++i)
     if (level[i] >= 0) ++s.bodyStart[static_cast<size_t>(level[i]) + 1];
@@ -159,11 +159,11 @@ int computeLevels(StepContext& ctx, Scratch& s) {
 
 // This level's contact groups (a pair whose upper body is on this level), with
 // K for the frozen bodies of the levels below, and each body's count of them.
-void levelContacts(const StepContext& ctx, const Scratch& s, int level, std::vector<LevelContact>& lc,
+void levelContacts(const StepContext& ctx, const size_t* first, const size_t* last, std::vector<LevelContact>& lc,
                    std::vector<int>& share) {
   lc.clear();
-  for (uint32_t t = s.levelStart[static_cast<size_t>(level)]; t < s.levelStart[static_cast<size_t>(level) + 1]; ++t) {
-    const size_t pi = s.touching[t];
+  for (const size_t* t = first; t != last; ++t) {
+    const size_t pi = *t;
     const Pair& pair = ctx.pairs[pi];
     const double mu = std::sqrt(ctx.body(pair.a).friction * ctx.body(pair.b).friction);
     for (const ContactGroup& g : ctx.groups[pi]) {
@@ -238,24 +238,81 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
   }
 }
 
+
+
+void shockIsland(StepContext& ctx, size_t island, IslandScratch& w, std::vector<int>& share,
+                 std::vector<uint32_t>& stamp) {
+  const std::vector<int>& level = ctx.level;
+  auto pairLevel = [&](size_t pi) {
+    const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
+    return std::min(la, lb) < 0 ? -1 : std::max(la, lb);
+  };
+  const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
+  const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
+  // Its pairs with groups by level, and its levelled dynamic bodies (each in some such pair) by level.
+  int top = 0;
+  for (const uint32_t* p = first; p != last; ++p)
+    if (!ctx.groups[*p].empty()) top = std::max(top, pairLevel(*p));
+  if (top < 1) return;
+  const size_t levels = static_cast<size_t>(top) + 1;
+  w.levelStart.assign(levels + 1, 0);
+  w.bodyStart.assign(levels + 1, 0);
+  const uint32_t mark = static_cast<uint32_t>(island) + 1;
+  auto levelled = [&](int b) {  // a dynamic body of this island not yet counted
+    return level[static_cast<size_t>(b)] >= 1 && stamp[static_cast<size_t>(b)] != mark;
+  };
+  w.bodies.clear();
+  for (const uint32_t* p = first; p != last; ++p) {
+    if (ctx.groups[*p].empty() || pairLevel(*p) < 0) continue;
+    ++w.levelStart[static_cast<size_t>(pairLevel(*p)) + 1];
+    for (int b : {ctx.pairs[*p].a, ctx.pairs[*p].b})
+      if (levelled(b)) {
+        stamp[static_cast<size_t>(b)] = mark;
+        w.bodies.push_back(b);
+        ++w.bodyStart[static_cast<size_t>(level[static_cast<size_t>(b)]) + 1];
+      }
+  }
+  for (size_t l = 0; l < levels; ++l) {
+    w.levelStart[l + 1] += w.levelStart[l];
+    w.bodyStart[l + 1] += w.bodyStart[l];
+  }
+  w.pairs.resize(w.levelStart[levels]);
+  std::vector<uint32_t>& fill = w.fill;
+  fill.assign(w.levelStart.begin(), w.levelStart.end() - 1);
+  for (const uint32_t* p = first; p != last; ++p)
+    if (!ctx.groups[*p].empty() && pairLevel(*p) >= 0) w.pairs[fill[static_cast<size_t>(pairLevel(*p))]++] = *p;
+  std::vector<int>& byLevel = w.byLevel;
+  byLevel.resize(w.bodies.size());
+  fill.assign(w.bodyStart.begin(), w.bodyStart.end() - 1);
+  for (int b : w.bodies) byLevel[fill[static_cast<size_t>(level[static_cast<size_t>(b)])]++] = b;
+  for (int l = 1; l <= top; ++l) {
+    // Frozen: every level below this one (the one just below joins the frozen; level 0 always was).
+    for (uint32_t k = w.bodyStart[static_cast<size_t>(l) - 1]; k < w.bodyStart[static_cast<size_t>(l)]; ++k)
+      ctx.frozen[static_cast<size_t>(byLevel[k])] = 1;
+    levelContacts(ctx, w.pairs.data() + w.levelStart[static_cast<size_t>(l)],
+                  w.pairs.data() + w.levelStart[static_cast<size_t>(l) + 1], w.lc, share);
+    supportPatches(ctx, share, w.lc, w.supports);
+    jacobiPasses(ctx, w.lc, share, w.dj, w.dt);
+    for (const LevelContact& x : w.lc) share[static_cast<size_t>(x.c.a)] = share[static_cast<size_t>(x.c.b)] = 0;
+  }
+}
+
 }  // namespace
 
 void shockPropagation(StepContext& ctx) {
   if (ctx.settings.shockPasses <= 0) return;
   const size_t n = ctx.bodies.size();
   Scratch& s = scratch();
-  const int maxLevel = computeLevels(ctx, s);
+  computeLevels(ctx, s);
   std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
+  // Level 0 (static, kinematic and sleeping bodies, shared by islands) is frozen before the islands start.
+  for (uint32_t k = s.bodyStart[0]; k < s.bodyStart[1]; ++k) ctx.frozen[static_cast<size_t>(s.byLevel[k])] = 1;
   s.share.assign(n, 0);
-  for (int level = 1; level <= maxLevel; ++level) {
-    // Frozen: every level below this one (the one just below joins the frozen).
-    for (uint32_t k = s.bodyStart[static_cast<size_t>(level) - 1]; k < s.bodyStart[static_cast<size_t>(level)]; ++k)
-      ctx.frozen[static_cast<size_t>(s.byLevel[k])] = 1;
-    levelContacts(ctx, s, level, s.lc, s.share);
-    supportPatches(ctx, s.share, s.lc, s.supports);
-    jacobiPasses(ctx, s.lc, s.share, s.dj, s.dt);
-    for (const LevelContact& x : s.lc) s.share[static_cast<size_t>(x.c.a)] = s.share[static_cast<size_t>(x.c.b)] = 0;
-  }
+  s.stamp.assign(n, 0);
+  s.islands.resize(static_cast<size_t>(ctx.workers()));
+  ctx.forEachIsland([&](size_t island, int worker) {
+    shockIsland(ctx, island, s.islands[static_cast<size_t>(worker)], s.share, s.stamp);
+  });
   std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
 }
 

@@ -15,6 +15,9 @@
 //   iteration loses its approach (an inelastic, frictionless normal impulse;
 //   it never adds energy). Each iteration ends with projectJoints: what it
 //   moved apart, the joints' anchors, is brought together again (translations).
+// - Without joints to bring together, the depths and the projection run island
+//   by island (islands.cpp; in parallel on the World's threads): each body gets
+//   the same corrections in the same order as over all pairs at once.
 #include "physics/step_context.h"
 
 namespace crumple::detail {
@@ -26,11 +29,14 @@ namespace crumple::detail {
 // between the contact step and the position update, it spares the projection
 // a look of its own.
 void endOfStepDepths(StepContext& ctx, double h) {
-  for (size_t pi = 0; pi < ctx.groups.size() && pi < ctx.pairs.size(); ++pi)
-    for (ContactGroup& g : ctx.groups[pi]) {
-      Contact& c = g.contact;
-      c.phi += h * (glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal) - g.speed);
-    }
+  const size_t pairs = std::min(ctx.groups.size(), ctx.pairs.size());
+  ctx.parallelRange(pairs, 256, [&](size_t begin, size_t end, int) {
+    for (size_t pi = begin; pi < end; ++pi)
+      for (ContactGroup& g : ctx.groups[pi]) {
+        Contact& c = g.contact;
+        c.phi += h * (glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal) - g.speed);
+      }
+  });
 }
 
 void integratePositions(StepContext& ctx, double h) {
@@ -51,32 +57,51 @@ void integratePositions(StepContext& ctx, double h) {
 void projectPositions(StepContext& ctx) {
   const WorldSettings& settings = ctx.settings;
   if (settings.projectionIterations <= 0) return;
-  std::vector<glm::dvec3> moved(ctx.bodies.size(), glm::dvec3(0));
-  for (int it = 0; it < settings.projectionIterations; ++it) {
-    for (size_t pi = 0; pi < ctx.groups.size() && pi < ctx.pairs.size(); ++pi) {
-      for (const ContactGroup& g : ctx.groups[pi]) {
-        const Contact& c = g.contact;
-        const size_t ia = static_cast<size_t>(c.a), ib = static_cast<size_t>(c.b);
-        const double depth = -(c.phi + glm::dot(moved[ib] - moved[ia], c.normal)) - settings.penetrationSlop;
-        if (depth <= 0) continue;
-        RigidBody& ca = ctx.bodies[ia];
-        RigidBody& cb = ctx.bodies[ib];
-        const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
-        if (wa + wb <= 0) continue;
-        if (it == 0) {
-          // A contact still sinking after the contact step would sink again
-          // next step and be pushed out again: the approach goes too
-          // (inelastic, normal only: it never adds energy).
-          const glm::dvec3 j = frictionlessImpulse(g.matrix.K, ctx.relativeVelocity(c.a, c.b, g.levers), c.normal, 0.0);
-          if (glm::dot(j, j) > 0) ctx.applyImpulse(c.a, c.b, g.levers, j);
-        }
-        const double corr = settings.penetrationCorrection * depth / (wa + wb);
-        ca.x -= c.normal * corr * wa;
-        cb.x += c.normal * corr * wb;
-        moved[ia] -= c.normal * corr * wa;
-        moved[ib] += c.normal * corr * wb;
-      }
+  std::vector<glm::dvec3>& moved = ctx.projected;
+  moved.assign(ctx.bodies.size(), glm::dvec3(0));
+  // One group's correction in iteration `it` (a body that cannot move is not written: islands share them).
+  auto project = [&](const ContactGroup& g, int it) {
+    const Contact& c = g.contact;
+    const size_t ia = static_cast<size_t>(c.a), ib = static_cast<size_t>(c.b);
+    const double depth = -(c.phi + glm::dot(moved[ib] - moved[ia], c.normal)) - settings.penetrationSlop;
+    if (depth <= 0) return;
+    RigidBody& ca = ctx.bodies[ia];
+    RigidBody& cb = ctx.bodies[ib];
+    const double wa = ca.movable() ? ca.invMass : 0, wb = cb.movable() ? cb.invMass : 0;
+    if (wa + wb <= 0) return;
+    if (it == 0) {
+      // A contact still sinking after the contact step would sink again
+      // next step and be pushed out again: the approach goes too
+      // (inelastic, normal only: it never adds energy).
+      const glm::dvec3 j = frictionlessImpulse(g.matrix.K, ctx.relativeVelocity(c.a, c.b, g.levers), c.normal, 0.0);
+      if (glm::dot(j, j) > 0) ctx.applyImpulse(c.a, c.b, g.levers, j);
     }
+    const double corr = settings.penetrationCorrection * depth / (wa + wb);
+    if (wa > 0) {
+      ca.x -= c.normal * corr * wa;
+      moved[ia] -= c.normal * corr * wa;
+    }
+    if (wb > 0) {
+      cb.x += c.normal * corr * wb;
+      moved[ib] += c.normal * corr * wb;
+    }
+  };
+  const bool joints = std::any_of(ctx.joints.begin(), ctx.joints.end(), [&](const Joint& jt) {
+    return !jt.removed && !jt.broken && ((jt.def.a >= 0 && ctx.body(jt.def.a).dynamic()) || ctx.body(jt.def.b).dynamic());
+  });
+  if (!joints && ctx.groups.size() >= ctx.pairs.size()) {
+    ctx.forEachIsland([&](size_t island, int) {
+      const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
+      const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
+      for (int it = 0; it < settings.projectionIterations; ++it)
+        for (const uint32_t* p = first; p != last; ++p)
+          for (const ContactGroup& g : ctx.groups[*p]) project(g, it);
+    });
+    return;
+  }
+  for (int it = 0; it < settings.projectionIterations; ++it) {
+    for (size_t pi = 0; pi < ctx.groups.size() && pi < ctx.pairs.size(); ++pi)
+      for (const ContactGroup& g : ctx.groups[pi]) project(g, it);
     // The translations above pulled joined bodies apart: the joints' anchors
     // are brought together again, translations only (joint_step.cpp).
     projectJoints(ctx, moved);

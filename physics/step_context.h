@@ -223,6 +223,7 @@ struct StepContext {
   std::vector<Pose> predicted;
   std::vector<uint32_t> predictedVersion;
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
+  std::vector<glm::dvec3> projected;  // the positional projection's translations so far
 
   // Per pair, this substep. The collision step's last contacts, found when the
   // two bodies' impulse counts were foundVersion; the contact step's first

@@ -63,7 +63,7 @@ bool overlap(const Aabb& a, const Aabb& b) {
 // before, tested every box of a pile's row of columns against each other (a 10000-box pile: 1.25 million
 // tests a substep); the grid tests the boxes of a few cells.
 template <class F>
-void gridOverlaps(BroadGrid& g, const std::vector<Aabb>& boxes, F&& pair) {
+void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, F&& pair) {
   constexpr int64_t kLargeCells = 64;
   const size_t n = boxes.size();
   g.large.clear();
@@ -121,19 +121,30 @@ void gridOverlaps(BroadGrid& g, const std::vector<Aabb>& boxes, F&& pair) {
   g.items.resize(g.start[buckets]);
   g.fill.assign(g.start.begin(), g.start.end() - 1);
   for (size_t i = 0; i < n; ++i) eachBucket(i, [&](uint32_t b) { g.items[g.fill[b]++] = static_cast<int>(i); });
-  // Pairs within each bucket, each from the bucket of its overlap's lowest corner.
-  for (uint32_t b = 0; b < buckets; ++b) {
-    const int* first = g.items.data() + g.start[b];
-    const int* last = g.items.data() + g.start[b + 1];
-    for (const int* p = first; p != last; ++p)
-      for (const int* q = p + 1; q != last; ++q) {
-        const Aabb& bp = boxes[static_cast<size_t>(*p)];
-        const Aabb& bq = boxes[static_cast<size_t>(*q)];
-        if (!overlap(bp, bq)) continue;
-        if (bucketOf(cellOf(glm::max(bp.lo, bq.lo), origin, inverse), mask) != b) continue;
-        pair(std::min(*p, *q), std::max(*p, *q));
-      }
-  }
+  // Pairs within each bucket, each from the bucket of its overlap's lowest corner: ranges of buckets on the
+  // World's threads, each into its own list, reported in range order.
+  constexpr uint32_t kBucketsPerRange = 4096;
+  const uint32_t ranges = (buckets + kBucketsPerRange - 1) / kBucketsPerRange;
+  g.found.resize(ranges);
+  ctx.parallel(ranges, [&](size_t r, int) {
+    std::vector<uint64_t>& found = g.found[r];
+    found.clear();
+    const uint32_t end = std::min(buckets, static_cast<uint32_t>((r + 1) * kBucketsPerRange));
+    for (uint32_t b = static_cast<uint32_t>(r * kBucketsPerRange); b < end; ++b) {
+      const int* first = g.items.data() + g.start[b];
+      const int* last = g.items.data() + g.start[b + 1];
+      for (const int* p = first; p != last; ++p)
+        for (const int* q = p + 1; q != last; ++q) {
+          const Aabb& bp = boxes[static_cast<size_t>(*p)];
+          const Aabb& bq = boxes[static_cast<size_t>(*q)];
+          if (!overlap(bp, bq)) continue;
+          if (bucketOf(cellOf(glm::max(bp.lo, bq.lo), origin, inverse), mask) != b) continue;
+          found.push_back(static_cast<uint64_t>(std::min(*p, *q)) << 32 | static_cast<uint64_t>(std::max(*p, *q)));
+        }
+    }
+  });
+  for (const std::vector<uint64_t>& found : g.found)
+    for (uint64_t key : found) pair(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu));
   // The large boxes against every other (each pair of two large ones once).
   for (size_t k = 0; k < g.large.size(); ++k) {
     const int i = g.large[k];
@@ -175,7 +186,7 @@ void findPairs(StepContext& ctx, double h) {
   std::vector<uint64_t>& pairKeys = ctx.pairKeys;
   pairKeys.clear();
   std::vector<int> wakeList;
-  gridOverlaps(ctx.grid, boxes, [&](int i, int j) {
+  gridOverlaps(ctx, ctx.grid, boxes, [&](int i, int j) {
     const RigidBody& A = bodies[static_cast<size_t>(i)];
     const RigidBody& B = bodies[static_cast<size_t>(j)];
     if (!A.dynamic() && !B.dynamic()) {

@@ -47,6 +47,7 @@ struct BroadGrid {
   std::vector<Cell> lo, hi;  // per box, its cell range (lo > hi: a large box, kept aside)
   std::vector<int> large, items;
   std::vector<uint32_t> start, fill;
+  std::vector<std::vector<uint64_t>> found;  // per range of buckets, the overlapping pairs (a << 32 | b)
 };
 
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.

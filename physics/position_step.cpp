@@ -15,9 +15,9 @@
 //   iteration loses its approach (an inelastic, frictionless normal impulse;
 //   it never adds energy). Each iteration ends with projectJoints: what it
 //   moved apart, the joints' anchors, is brought together again (translations).
-// - Without joints to bring together, the depths and the projection run island
-//   by island (islands.cpp; in parallel on the World's threads): each body gets
-//   the same corrections in the same order as over all pairs at once.
+// - Without joints to bring together, the depths and the projection run by
+//   runs of whole islands (islands.cpp; in parallel on the World's threads):
+//   each body gets the same corrections in the same order as over all pairs.
 #include "physics/step_context.h"
 
 namespace crumple::detail {
@@ -90,9 +90,9 @@ void projectPositions(StepContext& ctx) {
     return !jt.removed && !jt.broken && ((jt.def.a >= 0 && ctx.body(jt.def.a).dynamic()) || ctx.body(jt.def.b).dynamic());
   });
   if (!joints && ctx.groups.size() >= ctx.pairs.size()) {
-    ctx.forEachIsland([&](size_t island, int) {
-      const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
-      const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
+    ctx.forEachIslandRun(256, [&](size_t k0, size_t k1, size_t, int) {
+      const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[k0];
+      const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[k1];
       for (int it = 0; it < settings.projectionIterations; ++it)
         for (const uint32_t* p = first; p != last; ++p)
           for (const ContactGroup& g : ctx.groups[*p]) project(g, it);

@@ -240,15 +240,17 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
 
 
 
-void shockIsland(StepContext& ctx, size_t island, IslandScratch& w, std::vector<int>& share,
-                 std::vector<uint32_t>& stamp) {
+// Islands [k0, k1) (their pairs lie side by side in ctx.islandPairs), level by level: bodies of different
+// islands share nothing, so each body's impulses come in its own island's pair order as over all pairs.
+void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandScratch& w, std::vector<int>& share,
+                  std::vector<uint32_t>& stamp) {
   const std::vector<int>& level = ctx.level;
   auto pairLevel = [&](size_t pi) {
     const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
     return std::min(la, lb) < 0 ? -1 : std::max(la, lb);
   };
-  const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
-  const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
+  const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[k0];
+  const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[k1];
   // Its pairs with groups by level, and its levelled dynamic bodies (each in some such pair) by level.
   int top = 0;
   for (const uint32_t* p = first; p != last; ++p)
@@ -257,7 +259,6 @@ void shockIsland(StepContext& ctx, size_t island, IslandScratch& w, std::vector<
   const size_t levels = static_cast<size_t>(top) + 1;
   w.levelStart.assign(levels + 1, 0);
   w.bodyStart.assign(levels + 1, 0);
-  const uint32_t mark = static_cast<uint32_t>(island) + 1;
   auto levelled = [&](int b) {  // a dynamic body of this island not yet counted
     return level[static_cast<size_t>(b)] >= 1 && stamp[static_cast<size_t>(b)] != mark;
   };
@@ -310,8 +311,11 @@ void shockPropagation(StepContext& ctx) {
   s.share.assign(n, 0);
   s.stamp.assign(n, 0);
   s.islands.resize(static_cast<size_t>(ctx.workers()));
-  ctx.forEachIsland([&](size_t island, int worker) {
-    shockIsland(ctx, island, s.islands[static_cast<size_t>(worker)], s.share, s.stamp);
+  // Runs of whole islands (a pile's columns are islands of a few pairs: one at a time, the per-level work
+  // of each cost more than its impulses).
+  ctx.forEachIslandRun(256, [&](size_t first, size_t last, size_t run, int worker) {
+    shockIslands(ctx, first, last, static_cast<uint32_t>(run) + 1, s.islands[static_cast<size_t>(worker)], s.share,
+                 s.stamp);
   });
   std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
 }

@@ -214,6 +214,25 @@ struct StepContext {
     parallel(islandOrder.size(), [&](size_t k, int worker) { fn(static_cast<size_t>(islandOrder[k]), worker); });
   }
 
+  // fn(first, last, run, worker) for runs of whole islands [first, last) of at least `minPairs` pairs each (the
+  // last may have fewer; their pairs lie side by side in islandPairs), numbered `run` from 0, in island order:
+  // for stages whose work per island is too small to hand out alone (a pile's columns). One thread while a
+  // normal modifier is set, as forEachIsland.
+  std::vector<size_t> islandRuns;
+  template <class F>
+  void forEachIslandRun(uint32_t minPairs, F&& fn) {
+    std::vector<size_t>& cuts = islandRuns;
+    cuts.assign(1, 0);
+    const size_t islands = islandCount();
+    for (size_t k = 1; k <= islands; ++k)
+      if (islandStart[k] - islandStart[cuts.back()] >= minPairs || k == islands) cuts.push_back(k);
+    if (normalModifier && !bumpNormals.empty()) {
+      for (size_t c = 0; c + 1 < cuts.size(); ++c) fn(cuts[c], cuts[c + 1], c, 0);
+      return;
+    }
+    parallel(cuts.size() - 1, [&](size_t c, int worker) { fn(cuts[c], cuts[c + 1], c, worker); });
+  }
+
   // Per body, this substep.
   std::vector<glm::dmat3> invInertia;  // world inverse inertias: orientations stay put until the position update
   std::vector<char> frozen;            // infinite mass for the impulses (shock propagation's lower levels)

@@ -87,6 +87,39 @@ double fractionOff(const Image& a, const Image& b) {
   return static_cast<double>(off) / (a.width * a.height);
 }
 
+float luma(const Image& img, int x, int y) {
+  return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
+}
+
+// The darkest and brightest luma of the 3x3 neighbourhood of (x, y).
+void neighbourhood(const Image& img, int x, int y, float& lo, float& hi) {
+  lo = 1;
+  hi = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      lo = std::min(lo, luma(img, x + dx, y + dy));
+      hi = std::max(hi, luma(img, x + dx, y + dy));
+    }
+}
+
+// Of the pixels on an edge of `edges` (a step of 0.08 within their 3x3 neighbourhood), the share whose value
+// in `img` lies between its two sides: partly covered pixels. An aliased edge has almost none; a smoothed
+// staircase has many. `count`: how many edge pixels there were.
+double edgeShare(const Image& img, const Image& edges, long* count = nullptr) {
+  long edge = 0, mid = 0;
+  for (int y = 1; y + 1 < img.height; ++y)
+    for (int x = 1; x + 1 < img.width; ++x) {
+      float lo, hi;
+      neighbourhood(edges, x, y, lo, hi);
+      if (hi - lo < 0.08f) continue;
+      ++edge;
+      const float t = (luma(img, x, y) - lo) / (hi - lo);
+      mid += t > 0.2f && t < 0.8f;
+    }
+  if (count) *count = edge;
+  return static_cast<double>(mid) / std::max(edge, 1L);
+}
+
 void compareGolden(const Image& img, const std::string& name) {
   const std::string path = std::string(CRUMPLE_GOLDEN_DIR) + "/" + name;
   if (std::getenv("CRUMPLE_UPDATE_GOLDEN")) {
@@ -303,37 +336,11 @@ TEST_CASE("FXAA: edges are smoothed, flat areas keep their pixels, and it can be
   r.settings().antialias = Antialias::Fxaa;
   r.draw(s.items(true), v);
   const Image on = r.readPixels();
-  auto luma = [](const Image& img, int x, int y) {
-    return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
-  };
-  // Pixels on an edge (a strong step within their 3x3 neighbourhood) whose value lies between its two
-  // sides: partly covered pixels. An aliased edge has almost none; a smoothed staircase has many.
-  auto between = [&](const Image& img, const Image& edges) {
-    long edge = 0, mid = 0;
-    for (int y = 1; y + 1 < img.height; ++y)
-      for (int x = 1; x + 1 < img.width; ++x) {
-        float lo = 1, hi = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            lo = std::min(lo, luma(edges, x + dx, y + dy));
-            hi = std::max(hi, luma(edges, x + dx, y + dy));
-          }
-        if (hi - lo < 0.08f) continue;
-        ++edge;
-        const float t = (luma(img, x, y) - lo) / (hi - lo);
-        mid += t > 0.2f && t < 0.8f;
-      }
-    return static_cast<double>(mid) / std::max(edge, 1L);
-  };
   long changed = 0, flatChanged = 0, flat = 0;
   for (int y = 1; y + 1 < off.height; ++y)
     for (int x = 1; x + 1 < off.width; ++x) {
-      float lo = 1, hi = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          lo = std::min(lo, luma(off, x + dx, y + dy));
-          hi = std::max(hi, luma(off, x + dx, y + dy));
-        }
+      float lo, hi;
+      neighbourhood(off, x, y, lo, hi);
       bool diff = false;
       for (int c = 0; c < 3; ++c) diff = diff || std::abs(on.at(x, y, c) - off.at(x, y, c)) > 1.5f / 255.0f;
       changed += diff;
@@ -342,7 +349,7 @@ TEST_CASE("FXAA: edges are smoothed, flat areas keep their pixels, and it can be
         flatChanged += diff;
       }
     }
-  const double midOff = between(off, off), midOn = between(on, off);
+  const double midOff = edgeShare(off, off), midOn = edgeShare(on, off);
   if (const char* dir = std::getenv("CRUMPLE_FXAA_DUMP")) {
     writePng(std::string(dir) + "/fxaa_off.png", off, 8);
     writePng(std::string(dir) + "/fxaa_on.png", on, 8);
@@ -378,35 +385,22 @@ TEST_CASE("MSAA: edge pixels take their covered share, flat areas keep their pix
   const Image on = r.readPixels();
   r.draw(s.items(true), v);
   CHECK(fractionOff(on, r.readPixels()) == 0.0);  // the same every time
-  auto luma = [](const Image& img, int x, int y) {
-    return 0.299f * img.at(x, y, 0) + 0.587f * img.at(x, y, 1) + 0.114f * img.at(x, y, 2);
-  };
-  // Edge pixels of the aliased frame (a strong step in the 3x3 neighbourhood) whose MSAA value lies between
-  // the two sides, and pixels of flat regions that moved.
-  long edge = 0, mid = 0, midOff = 0, flat = 0, flatMoved = 0;
+  // Edge pixels of the aliased frame whose MSAA value lies between the two sides, and pixels of flat regions
+  // that moved (every sample of a flat pixel sees the same surface: their mean is the one sample, to rounding).
+  long edge = 0, flat = 0, flatMoved = 0;
+  const double midOff = edgeShare(off, off), midOn = edgeShare(on, off, &edge);
   for (int y = 1; y + 1 < off.height; ++y)
     for (int x = 1; x + 1 < off.width; ++x) {
-      float lo = 1, hi = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          lo = std::min(lo, luma(off, x + dx, y + dy));
-          hi = std::max(hi, luma(off, x + dx, y + dy));
-        }
-      if (hi - lo < 0.02f) {
-        ++flat;
-        // Flat pixels are every sample the same surface: their mean is the one sample (to rounding).
-        flatMoved += std::abs(luma(on, x, y) - luma(off, x, y)) > 3.0f / 255.0f;
-      }
-      if (hi - lo < 0.08f) continue;
-      ++edge;
-      const float t = (luma(on, x, y) - lo) / (hi - lo), t0 = (luma(off, x, y) - lo) / (hi - lo);
-      mid += t > 0.2f && t < 0.8f;
-      midOff += t0 > 0.2f && t0 < 0.8f;
+      float lo, hi;
+      neighbourhood(off, x, y, lo, hi);
+      if (hi - lo >= 0.02f) continue;
+      ++flat;
+      flatMoved += std::abs(luma(on, x, y) - luma(off, x, y)) > 3.0f / 255.0f;
     }
-  MESSAGE("MSAA: edge pixels between their sides " << 100.0 * midOff / edge << "% -> " << 100.0 * mid / edge
+  MESSAGE("MSAA: edge pixels between their sides " << 100.0 * midOff << "% -> " << 100.0 * midOn
                                                    << "%; flat pixels moved " << flatMoved << " of " << flat);
   CHECK(edge > 100);
-  CHECK(mid > 1.5 * midOff);
+  CHECK(midOn > 1.5 * midOff);
   CHECK(flat > off.width * off.height / 4);
   CHECK(flatMoved < flat / 100);
   // Debug views draw straight into the target.

@@ -123,7 +123,7 @@ void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes
   for (size_t i = 0; i < n; ++i) eachBucket(i, [&](uint32_t b) { g.items[g.fill[b]++] = static_cast<int>(i); });
   // Pairs within each bucket, each from the bucket of its overlap's lowest corner: ranges of buckets on the
   // World's threads, each into its own list, reported in range order.
-  constexpr uint32_t kBucketsPerRange = 4096;
+  constexpr uint32_t kBucketsPerRange = 1024;
   const uint32_t ranges = (buckets + kBucketsPerRange - 1) / kBucketsPerRange;
   g.found.resize(ranges);
   ctx.parallel(ranges, [&](size_t r, int) {

@@ -166,3 +166,28 @@ TEST_CASE("threads without joints: 1, 2 and 4 threads give bit-identical states 
     CHECK(threadedHeap(threads, 240, false) == one);
   }
 }
+
+TEST_CASE("threads: a pile of 2000 boxes (the broad phase's grid tested in ranges) gives the same bits on 1 and 4 threads") {
+  auto run = [](int threads) {
+    WorldSettings settings;
+    settings.threads = threads;
+    World w(settings);
+    addGround(w, 0.6, 0.2);
+    for (int l = 0; l < 5; ++l)
+      for (int z = 0; z < 20; ++z)
+        for (int x = 0; x < 20; ++x) {
+          BodyDef d;
+          d.shape = makeBox({0.4, 0.4, 0.4});
+          d.origin = {x * 0.5 - 4.75 + 0.05 * (l % 2), 0.3 + 0.5 * l, z * 0.5 - 4.75};
+          w.addBody(d);
+        }
+    int most = 0;
+    for (int s = 0; s < 120; ++s) {
+      w.step(1.0 / 240);
+      most = std::max(most, w.lastStats().pairs);
+    }
+    CHECK(most > 1500);
+    return w.stateHash();
+  };
+  CHECK(run(4) == run(1));
+}

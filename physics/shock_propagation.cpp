@@ -294,7 +294,10 @@ void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandS
                   w.pairs.data() + w.levelStart[static_cast<size_t>(l) + 1], w.lc, share);
     supportPatches(ctx, share, w.lc, w.supports);
     jacobiPasses(ctx, w.lc, share, w.dj, w.dt);
-    for (const LevelContact& x : w.lc) share[static_cast<size_t>(x.c.a)] = share[static_cast<size_t>(x.c.b)] = 0;
+    // (Level 0 bodies are shared by the islands and never counted: only this island's are written.)
+    for (const LevelContact& x : w.lc)
+      for (int b : {x.c.a, x.c.b})
+        if (level[static_cast<size_t>(b)] >= 1) share[static_cast<size_t>(b)] = 0;
   }
 }
 

@@ -248,53 +248,37 @@ double stepTravel(StepContext& ctx, double h) {
   // Per body: bounds swept over the step (the pose now and moved by h v + h^2 a, widened by how far a turn at
   // |omega| moves its points) and the bound of its own travel's parts.
   struct Swept {
-    Aabb box;
     glm::dvec3 v{0}, a{0};
     double turn = 0;  // |omega| R h
   };
   std::vector<Swept> swept(n);
-  std::vector<int> order;
-  order.reserve(n);
+  std::vector<Aabb>& boxes = ctx.boxes;  // (findPairs makes them again for the substeps)
+  boxes.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = bodies[i];
-    if (b.removed) continue;
     Swept& s = swept[i];
-    s.box = worldBounds(*b.shape, b.localCom, {b.x, b.q});
+    boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
     if (b.movable()) {
       s.v = b.v;
       s.a = ctx.acceleration(static_cast<int>(i));
       s.turn = glm::length(b.w) * b.shape->boundingRadius * h;
       const glm::dvec3 d = h * s.v + h * h * s.a;
-      s.box.lo = glm::min(s.box.lo, s.box.lo + d) - s.turn - 0.005;
-      s.box.hi = glm::max(s.box.hi, s.box.hi + d) + s.turn + 0.005;
+      boxes[i].lo = glm::min(boxes[i].lo, boxes[i].lo + d) - s.turn - 0.005;
+      boxes[i].hi = glm::max(boxes[i].hi, boxes[i].hi + d) + s.turn + 0.005;
     }
-    order.push_back(static_cast<int>(i));
   }
-  std::sort(order.begin(), order.end(), [&](int x, int y) {
-    const double bx = swept[static_cast<size_t>(x)].box.lo.x, by = swept[static_cast<size_t>(y)].box.lo.x;
-    return bx != by ? bx < by : x < y;
-  });
   double worst = 0;
   const double fraction = ctx.settings.substepFraction;
-  for (size_t oi = 0; oi < order.size(); ++oi) {
-    const size_t i = static_cast<size_t>(order[oi]);
-    const Swept& si = swept[i];
-    const RigidBody& A = bodies[i];
-    for (size_t oj = oi + 1; oj < order.size(); ++oj) {
-      const size_t j = static_cast<size_t>(order[oj]);
-      const Swept& sj = swept[j];
-      if (sj.box.lo.x > si.box.hi.x) break;
-      if (sj.box.lo.y > si.box.hi.y || si.box.lo.y > sj.box.hi.y || sj.box.lo.z > si.box.hi.z ||
-          si.box.lo.z > sj.box.hi.z)
-        continue;
-      const RigidBody& B = bodies[j];
-      if (!A.movable() && !B.movable()) continue;
-      const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;
-      const double allowed =
-          fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
-      worst = std::max(worst, travel / allowed);
-    }
-  }
+  gridOverlaps(ctx, ctx.grid, boxes, [&](int ia, int ib) {
+    const RigidBody& A = bodies[static_cast<size_t>(ia)];
+    const RigidBody& B = bodies[static_cast<size_t>(ib)];
+    if ((!A.movable() && !B.movable()) || A.removed || B.removed) return;
+    const Swept& si = swept[static_cast<size_t>(ia)];
+    const Swept& sj = swept[static_cast<size_t>(ib)];
+    const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;
+    const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
+    worst = std::max(worst, travel / allowed);
+  });
   // Joined bodies, wherever they are, by each one's own travel (not the relative one): the joint solve is
   // linearised about the substep's start, and a swinging chain's links move together but turn (a 100 kg body
   // on 1 kg links tore the chain apart when its substeps went by relative travel).

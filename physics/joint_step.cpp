@@ -990,4 +990,8 @@ bool mayCollide(StepContext& ctx, int a, int b) {
   return true;
 }
 
+bool anyJointActive(const StepContext& ctx) {
+  return std::any_of(ctx.joints.begin(), ctx.joints.end(), [&](const Joint& jt) { return active(ctx, jt); });
+}
+
 }  // namespace crumple::detail

@@ -86,11 +86,8 @@ void projectPositions(StepContext& ctx) {
       moved[ib] += c.normal * corr * wb;
     }
   };
-  const bool joints = std::any_of(ctx.joints.begin(), ctx.joints.end(), [&](const Joint& jt) {
-    return !jt.removed && !jt.broken && ((jt.def.a >= 0 && ctx.body(jt.def.a).dynamic()) || ctx.body(jt.def.b).dynamic());
-  });
   // (On one thread, in pair order: the islands' order walks the groups out of memory order, 50% slower.)
-  if (!joints && ctx.workers() > 1 && ctx.groups.size() >= ctx.pairs.size()) {
+  if (!anyJointActive(ctx) && ctx.workers() > 1 && ctx.groups.size() >= ctx.pairs.size()) {
     ctx.forEachIslandRun(256, [&](size_t k0, size_t k1, size_t, int) {
       const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[k0];
       const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[k1];

@@ -58,8 +58,6 @@ struct Scratch {
   std::vector<int> queue, stack;
   std::vector<std::vector<int>> joined;
   std::vector<uint32_t> fill;
-  std::vector<int> byLevel;            // bodies by level (bodyStart), in index order within a level
-  std::vector<uint32_t> bodyStart;
   std::vector<int> share;              // per body: its groups on the level under way
   std::vector<uint32_t> stamp;          // per body: the island (+1) that last counted it
   std::vector<IslandScratch> islands;  // per worker
@@ -71,8 +69,8 @@ Scratch& scratch() {
 
 // The contact graph of the contact step's last look (positions moved with the
 // velocities of then); levels from the static (and sleeping) bodies up by
-// breadth-first search. Returns the highest level.
-int computeLevels(StepContext& ctx, Scratch& s) {
+// breadth-first search (ctx.level; -1: touching nothing).
+void computeLevels(StepContext& ctx, Scratch& s) {
   const size_t n = ctx.bodies.size();
   const size_t pairs = std::min(ctx.pairs.size(), ctx.groups.size());
   // Each body's neighbours, in pair order.
@@ -115,10 +113,8 @@ int computeLevels(StepContext& ctx, Scratch& s) {
     joined[static_cast<size_t>(jt.def.a)].push_back(jt.def.b);
     joined[static_cast<size_t>(jt.def.b)].push_back(jt.def.a);
   }
-  int maxLevel = 0;
   auto assign = [&](int j, int l) {
     level[static_cast<size_t>(j)] = l;
-    maxLevel = std::max(maxLevel, l);
     queue.push_back(j);
     if (joined.empty()) return;
     // The joined unit, depth first, all at level l.
@@ -142,19 +138,6 @@ int computeLevels(StepContext& ctx, Scratch& s) {
       if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
     }
   }
-  // The levelled bodies by level.
-  const size_t levels = static_cast<size_t>(maxLevel) + 1;
-  s.bodyStart.assign(levels + 1, 0);
-  for (size_t i = 0; i < n; ++i)
-    if (level[i] >= 0) ++s.bodyStart[static_cast<size_t>(level[i]) + 1];
-  for (size_t l = 0; l < levels; ++l) s.bodyStart[l + 1] += s.bodyStart[l];
-  s.byLevel.resize(s.bodyStart[levels]);
-  {
-    std::vector<uint32_t> fill(s.bodyStart.begin(), s.bodyStart.end() - 1);
-    for (size_t i = 0; i < n; ++i)
-      if (level[i] >= 0) s.byLevel[fill[static_cast<size_t>(level[i])]++] = static_cast<int>(i);
-  }
-  return maxLevel;
 }
 
 // This level's contact groups (a pair whose upper body is on this level), with
@@ -238,8 +221,6 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
   }
 }
 
-
-
 // Islands [k0, k1) (their pairs lie side by side in ctx.islandPairs), level by level: bodies of different
 // islands share nothing, so each body's impulses come in its own island's pair order as over all pairs.
 void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandScratch& w, std::vector<int>& share,
@@ -308,9 +289,8 @@ void shockPropagation(StepContext& ctx) {
   const size_t n = ctx.bodies.size();
   Scratch& s = scratch();
   computeLevels(ctx, s);
-  std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
   // Level 0 (static, kinematic and sleeping bodies, shared by islands) is frozen before the islands start.
-  for (uint32_t k = s.bodyStart[0]; k < s.bodyStart[1]; ++k) ctx.frozen[static_cast<size_t>(s.byLevel[k])] = 1;
+  for (size_t i = 0; i < n; ++i) ctx.frozen[i] = ctx.level[i] == 0;
   s.share.assign(n, 0);
   s.stamp.assign(n, 0);
   s.islands.resize(static_cast<size_t>(ctx.workers()));

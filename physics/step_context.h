@@ -1,7 +1,7 @@
 // What the stages of a step share (internal to the physics library; Box2D's
 // b2StepContext). The World is a facade over one StepContext: the bodies and
 // what the API reads back live here too, beside the caches kept from one step
-// to the next (pairs and their candidate lists, the sweep order) and the state
+// to the next (pairs and their candidate lists, the broad phase's grid) and the state
 // of the substep under way (world inverse inertias, frozen flags, predicted
 // poses, the contact groups, the poses at the start of the position update).
 //
@@ -167,7 +167,7 @@ struct StepContext {
   std::vector<char> anchored;
   StepStats stats;
 
-  // Broad phase, kept between substeps: bounds per body, the sweep order, pair
+  // Broad phase, kept between substeps: bounds per body, the grid's arrays, pair
   // keys (a << 32 | b), the pairs (sorted by a, b) with their candidate lists
   // and the last substep's (whose lists the pairs found again take over).
   std::vector<Aabb> boxes;
@@ -386,6 +386,7 @@ void shockPropagation(StepContext& ctx);
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
 void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved);
+bool anyJointActive(const StepContext& ctx);  // a joint not removed or broken with a dynamic body
 void findAnchored(StepContext& ctx);
 // Whether bodies a and b may collide (groups, joints, the user's filter).
 bool mayCollide(StepContext& ctx, int a, int b);

@@ -26,6 +26,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <tuple>
 
 #include "core/version.h"
 #include "deform/deformer.h"
@@ -174,9 +175,13 @@ std::unique_ptr<World> crumpleWorld(const SceneSpec& spec) {
   std::shared_ptr<Shape> torus;
   for (const auto& b : spec.bodies)
     if (b.kind == Kind::Torus && !torus) torus = makeMeshShape(benchTorus(), 32);
+  // One shape per distinct kind and size, shared by its bodies (as the scene loader and Bullet's side do).
+  std::map<std::tuple<int, double, double, double>, std::shared_ptr<Shape>> shapes;
   for (const auto& b : spec.bodies) {
     BodyDef d;
-    d.shape = crumpleShape(b, torus);
+    std::shared_ptr<Shape>& shape = shapes[{static_cast<int>(b.kind), b.size.x, b.size.y, b.size.z}];
+    if (!shape) shape = crumpleShape(b, torus);
+    d.shape = shape;
     d.origin = b.position;
     d.orientation = b.orientation;
     d.friction = b.friction;
@@ -226,7 +231,7 @@ struct BulletWorld {
     gDeactivationTime = btScalar(0.5);
     btGImpactCollisionAlgorithm::registerAlgorithm(&dispatcher);
     world.setGravity(btVector3(0, -9.81f, 0));
-    add(new btBoxShape(btVector3(30, 0.5f, 30)), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity(), 0.6, 0.1);
+    add(own(new btBoxShape(btVector3(30, 0.5f, 30))), 0, btVector3(0, -0.5f, 0), btQuaternion::getIdentity(), 0.6, 0.1);
     double torusVolume = 0;
     for (const auto& b : spec.bodies) {
       if (b.kind != Kind::Torus || torusArray) continue;
@@ -238,26 +243,31 @@ struct BulletWorld {
                                                                 torusVertices.data(), 3 * sizeof(btScalar));
       torusVolume = polyhedralMassProperties(torus).volume;
     }
+    // One shape per distinct kind and size, shared by its bodies (as crumple's side does).
+    std::map<std::tuple<int, double, double, double>, btCollisionShape*> shared;
     for (const auto& b : spec.bodies) {
-      btCollisionShape* shape = nullptr;
+      btCollisionShape*& shape = shared[{static_cast<int>(b.kind), b.size.x, b.size.y, b.size.z}];
+      const bool known = shape != nullptr;
       double volume = 0;
       switch (b.kind) {
         case Kind::Box:
-          shape = new btBoxShape(bt(b.size * 0.5));
+          if (!known) shape = own(new btBoxShape(bt(b.size * 0.5)));
           volume = b.size.x * b.size.y * b.size.z;
           break;
         case Kind::Sphere:
-          shape = new btSphereShape(btScalar(b.size.x));
+          if (!known) shape = own(new btSphereShape(btScalar(b.size.x)));
           volume = makeSphere(b.size.x)->unitMass.volume;
           break;
         case Kind::Capsule:  // both along y, height = the straight part
-          shape = new btCapsuleShape(btScalar(b.size.x), btScalar(b.size.y));
+          if (!known) shape = own(new btCapsuleShape(btScalar(b.size.x), btScalar(b.size.y)));
           volume = makeCapsule(b.size.x, b.size.y)->unitMass.volume;
           break;
         case Kind::Torus: {
-          auto* mesh = new btGImpactMeshShape(torusArray.get());
-          mesh->updateBound();
-          shape = mesh;
+          if (!known) {
+            auto* mesh = new btGImpactMeshShape(torusArray.get());
+            mesh->updateBound();
+            shape = own(mesh);
+          }
           volume = torusVolume;
           break;
         }
@@ -266,11 +276,13 @@ struct BulletWorld {
       add(shape, btScalar(volume * b.density), bt(b.position),
           btQuaternion(btScalar(q.x), btScalar(q.y), btScalar(q.z), btScalar(q.w)), b.friction, b.restitution);
     }
+    btCollisionShape* linkShape = nullptr;
     for (int c = 0; c < spec.chains; ++c) {
       btRigidBody* previous = nullptr;
       for (int k = 0; k < spec.links; ++k) {
         const glm::dvec3 p = chainPivot(c) + glm::dvec3((k + 0.5) * kLink, 0, 0);
-        add(new btBoxShape(btVector3(btScalar(kLink / 2), 0.02f, 0.02f)), 1, bt(p), btQuaternion::getIdentity(), 0.5,
+        if (!linkShape) linkShape = own(new btBoxShape(btVector3(btScalar(kLink / 2), 0.02f, 0.02f)));
+        add(linkShape, 1, bt(p), btQuaternion::getIdentity(), 0.5,
             0.5);
         btRigidBody* body = bodies.back().get();
         const btVector3 own(btScalar(-kLink / 2), 0, 0);
@@ -284,9 +296,12 @@ struct BulletWorld {
       }
     }
   }
+  btCollisionShape* own(btCollisionShape* shape) {
+    shapes.emplace_back(shape);
+    return shape;
+  }
   void add(btCollisionShape* shape, btScalar mass, const btVector3& pos, const btQuaternion& q, double friction,
            double restitution) {
-    shapes.emplace_back(shape);
     btVector3 inertia(0, 0, 0);
     if (mass > 0) shape->calculateLocalInertia(mass, inertia);
     motions.push_back(std::make_unique<btDefaultMotionState>(btTransform(q, pos)));

@@ -25,30 +25,30 @@
 
 namespace crumple::detail {
 
-namespace {
-// An event as a worker first made it: the pass and pair it came from give its place in ctx.events.
-struct PendingEvent {
-  int pass = 0;
-  size_t pair = 0;
-  CollisionEvent event;
-};
-}  // namespace
-
-bool collide(StepContext& ctx, double h) {
-  const WorldSettings& settings = ctx.settings;
-  const std::vector<Pair>& pairs = ctx.pairs;
-  const double restingSpeed = glm::length(settings.gravity) * h;
-  std::vector<int> eventOfPair(pairs.size(), -1);
+CollisionRun::CollisionRun(StepContext& ctx, double h)
+    : ctx_(ctx), h_(h), eventOfPair_(ctx.pairs.size(), -1), pending_(static_cast<size_t>(ctx.workers())),
+      anyOf_(pending_.size(), 0) {
   // A pair whose two bodies kept their velocities since it was last checked
   // would find the same (no) collision again: skip it. Exact, so runs stay
   // bit-identical; it saves the repeated passes most of their work. Only
   // movable bodies count their impulses (a static one's velocity never
   // changes), so islands never write a shared counter.
+  ctx.version.assign(ctx.bodies.size(), 0);
+  ctx.foundVersion.assign(ctx.pairs.size(), {UINT32_MAX, UINT32_MAX});
+  ctx.found.resize(ctx.pairs.size());
+}
+
+// Each island on its own (islands.cpp): a pass over all pairs that applied
+// nothing in an island left every pair of it seen at its bodies' versions,
+// so the island's later passes would skip every pair; the island stops.
+void CollisionRun::island(size_t island, int worker) {
+  StepContext& ctx = ctx_;
+  const double h = h_;
+  const WorldSettings& settings = ctx.settings;
+  const std::vector<Pair>& pairs = ctx.pairs;
+  const double restingSpeed = glm::length(settings.gravity) * h;
   std::vector<uint32_t>& version = ctx.version;
-  version.assign(ctx.bodies.size(), 0);
   std::vector<std::pair<uint32_t, uint32_t>>& seen = ctx.foundVersion;
-  seen.assign(pairs.size(), {UINT32_MAX, UINT32_MAX});
-  ctx.found.resize(pairs.size());
   // Each body's predicted pose (findPairs made the first), kept while no
   // impulse has changed its velocity.
   auto predicted = [&](int i) -> const Pose& {
@@ -59,116 +59,117 @@ bool collide(StepContext& ctx, double h) {
     }
     return ctx.predicted[k];
   };
-  // Per worker: the events made, whether any impulse was applied.
-  std::vector<std::vector<PendingEvent>> pending(static_cast<size_t>(ctx.workers()));
-  std::vector<char> anyOf(pending.size(), 0);
-  // Each island on its own (islands.cpp): a pass over all pairs that applied
-  // nothing in an island left every pair of it seen at its bodies' versions,
-  // so the island's later passes would skip every pair; the island stops.
-  ctx.forEachIsland([&](size_t island, int worker) {
-    std::vector<PendingEvent>& events = pending[static_cast<size_t>(worker)];
-    const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
-    const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
-    for (int pass = 0; pass < settings.collisionPasses; ++pass) {
-      bool passAny = false;
-      for (const uint32_t* p = first; p != last; ++p) {
-        const size_t pi = *p;
-        const int ia = pairs[pi].a, ib = pairs[pi].b;
-        const std::pair<uint32_t, uint32_t> now{version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
-        if (seen[pi] == now) continue;
-        for (int it = 0; it < settings.collisionIterations; ++it) {
-          const RigidBody& A = ctx.body(ia);
-          const RigidBody& B = ctx.body(ib);
-          const Pose pa = predicted(ia), pb = predicted(ib);
-          std::vector<Contact>& contacts = ctx.found[pi];
-          pairContacts(ctx, pairs[pi], pa, pb, contacts);
-          seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
-          const Contact* hit = nullptr;
-          double approach = 0;
-          // Levers from the centres of mass at the poses the contacts were found at.
-          auto leversOf = [&](const Contact& c) { return levers(c, c.a == ia ? pa : pb, c.b == ib ? pb : pa); };
-          for (const Contact& c : contacts) {
-            const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, leversOf(c));
-            // Approaches slower than gravity adds in one step are resting contact:
-            // the contact step handles them (no restitution, no event).
-            if (glm::dot(u, c.normal) < -restingSpeed) {
-              hit = &c;
-              approach = -glm::dot(u, c.normal);
-              break;
-            }
+  std::vector<PendingEvent>& events = pending_[static_cast<size_t>(worker)];
+  const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
+  const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
+  for (int pass = 0; pass < settings.collisionPasses; ++pass) {
+    bool passAny = false;
+    for (const uint32_t* p = first; p != last; ++p) {
+      const size_t pi = *p;
+      const int ia = pairs[pi].a, ib = pairs[pi].b;
+      const std::pair<uint32_t, uint32_t> now{version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
+      if (seen[pi] == now) continue;
+      for (int it = 0; it < settings.collisionIterations; ++it) {
+        const RigidBody& A = ctx.body(ia);
+        const RigidBody& B = ctx.body(ib);
+        const Pose pa = predicted(ia), pb = predicted(ib);
+        std::vector<Contact>& contacts = ctx.found[pi];
+        pairContacts(ctx, pairs[pi], pa, pb, contacts);
+        seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
+        const Contact* hit = nullptr;
+        double approach = 0;
+        // Levers from the centres of mass at the poses the contacts were found at.
+        auto leversOf = [&](const Contact& c) { return levers(c, c.a == ia ? pa : pb, c.b == ib ? pb : pa); };
+        for (const Contact& c : contacts) {
+          const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, leversOf(c));
+          // Approaches slower than gravity adds in one step are resting contact:
+          // the contact step handles them (no restitution, no event).
+          if (glm::dot(u, c.normal) < -restingSpeed) {
+            hit = &c;
+            approach = -glm::dot(u, c.normal);
+            break;
           }
-          if (!hit) break;
-          // The impulse acts at the centre of the hit's group: the approaching
-          // points whose normals agree with the hit's, weighted by depth (as the
-          // contact step's groups). A box landing flat on another presses with
-          // its whole face; an impulse at whichever equally deep corner sorts
-          // first would spin it, and a tower of such landings leans and falls.
-          Contact at = *hit;
-          {
-            GroupSum group{*hit};
-            for (const Contact& c : contacts)
-              if (group.agrees(c) && glm::dot(ctx.relativeVelocity(c.a, c.b, leversOf(c)), c.normal) < 0) group.add(c);
-            if (group.weight > 0) {
-              at = group.result();
-              if (glm::dot(ctx.relativeVelocity(at.a, at.b, leversOf(at)), at.normal) >= 0) at = *hit;
-            }
-          }
-          const double eps = std::min(A.restitution, B.restitution);
-          double elastic = 0;
-          const Levers hitLevers = leversOf(at);
-          const glm::dvec3 j = ctx.contactImpulse(at.a, at.b, at, hitLevers, eps, false, false, &elastic);
-          if (!ctx.anchored.empty()) {
-            // A body welded to the world is, while its welds hold, part of it: the
-            // elastic impulse (the deformation's |j_eps=1|) sees it as immovable.
-            const bool fa = ctx.anchored[static_cast<size_t>(at.a)] != 0, fb = ctx.anchored[static_cast<size_t>(at.b)] != 0;
-            // (Only against a body that impulses move: a kinematic hammer meeting a welded block keeps its own.)
-            const bool otherMoves = fa ? ctx.body(at.b).dynamic() : ctx.body(at.a).dynamic();
-            if (fa != fb && otherMoves) {
-              const glm::dmat3 K = ctx.collisionMatrixAt(at.a, at.b, hitLevers, fa, fb);
-              elastic = glm::length(frictionlessImpulse(K, ctx.relativeVelocity(at.a, at.b, hitLevers), at.normal, 1.0));
-            }
-          }
-          if (glm::dot(j, j) == 0) break;
-          ctx.applyImpulse(at.a, at.b, hitLevers, j);
-          if (A.movable()) ++version[static_cast<size_t>(ia)];
-          if (B.movable()) ++version[static_cast<size_t>(ib)];
-          passAny = true;
-          int& ev = eventOfPair[pi];
-          if (ev < 0 && approach >= settings.eventMinApproachSpeed) {
-            PendingEvent& pe = events.emplace_back();
-            pe.pass = pass;
-            pe.pair = pi;
-            CollisionEvent& e = pe.event;
-            e.time = ctx.time;
-            e.a = hit->a;
-            e.b = hit->b;
-            e.point = hit->point;
-            e.normal = hit->normal;
-            e.penetration = -hit->phi;
-            e.elasticImpulse = elastic;
-            e.poseA = hit->a == ia ? pa : pb;
-            e.poseB = hit->a == ia ? pb : pa;
-            ev = static_cast<int>(events.size() - 1);
-          }
-          if (ev < 0) continue;
-          CollisionEvent& e = events[static_cast<size_t>(ev)].event;
-          e.impulseVector += hit->a == e.a ? j : -j;
-          e.impulse = glm::length(e.impulseVector);
         }
+        if (!hit) break;
+        // The impulse acts at the centre of the hit's group: the approaching
+        // points whose normals agree with the hit's, weighted by depth (as the
+        // contact step's groups). A box landing flat on another presses with
+        // its whole face; an impulse at whichever equally deep corner sorts
+        // first would spin it, and a tower of such landings leans and falls.
+        Contact at = *hit;
+        {
+          GroupSum group{*hit};
+          for (const Contact& c : contacts)
+            if (group.agrees(c) && glm::dot(ctx.relativeVelocity(c.a, c.b, leversOf(c)), c.normal) < 0) group.add(c);
+          if (group.weight > 0) {
+            at = group.result();
+            if (glm::dot(ctx.relativeVelocity(at.a, at.b, leversOf(at)), at.normal) >= 0) at = *hit;
+          }
+        }
+        const double eps = std::min(A.restitution, B.restitution);
+        double elastic = 0;
+        const Levers hitLevers = leversOf(at);
+        const glm::dvec3 j = ctx.contactImpulse(at.a, at.b, at, hitLevers, eps, false, false, &elastic);
+        if (!ctx.anchored.empty()) {
+          // A body welded to the world is, while its welds hold, part of it: the
+          // elastic impulse (the deformation's |j_eps=1|) sees it as immovable.
+          const bool fa = ctx.anchored[static_cast<size_t>(at.a)] != 0, fb = ctx.anchored[static_cast<size_t>(at.b)] != 0;
+          // (Only against a body that impulses move: a kinematic hammer meeting a welded block keeps its own.)
+          const bool otherMoves = fa ? ctx.body(at.b).dynamic() : ctx.body(at.a).dynamic();
+          if (fa != fb && otherMoves) {
+            const glm::dmat3 K = ctx.collisionMatrixAt(at.a, at.b, hitLevers, fa, fb);
+            elastic = glm::length(frictionlessImpulse(K, ctx.relativeVelocity(at.a, at.b, hitLevers), at.normal, 1.0));
+          }
+        }
+        if (glm::dot(j, j) == 0) break;
+        ctx.applyImpulse(at.a, at.b, hitLevers, j);
+        if (A.movable()) ++version[static_cast<size_t>(ia)];
+        if (B.movable()) ++version[static_cast<size_t>(ib)];
+        passAny = true;
+        int& ev = eventOfPair_[pi];
+        if (ev < 0 && approach >= settings.eventMinApproachSpeed) {
+          PendingEvent& pe = events.emplace_back();
+          pe.pass = pass;
+          pe.pair = pi;
+          CollisionEvent& e = pe.event;
+          e.time = ctx.time;
+          e.a = hit->a;
+          e.b = hit->b;
+          e.point = hit->point;
+          e.normal = hit->normal;
+          e.penetration = -hit->phi;
+          e.elasticImpulse = elastic;
+          e.poseA = hit->a == ia ? pa : pb;
+          e.poseB = hit->a == ia ? pb : pa;
+          ev = static_cast<int>(events.size() - 1);
+        }
+        if (ev < 0) continue;
+        CollisionEvent& e = events[static_cast<size_t>(ev)].event;
+        e.impulseVector += hit->a == e.a ? j : -j;
+        e.impulse = glm::length(e.impulseVector);
       }
-      if (passAny) anyOf[static_cast<size_t>(worker)] = 1;
-      if (!passAny) break;
     }
-  });
+    if (passAny) anyOf_[static_cast<size_t>(worker)] = 1;
+    if (!passAny) break;
+  }
+}
+
+bool CollisionRun::finish() {
   // The events in the order one sweep over all pairs makes them: by pass, then pair.
   std::vector<PendingEvent> merged;
-  for (std::vector<PendingEvent>& events : pending)
+  for (std::vector<PendingEvent>& events : pending_)
     for (PendingEvent& e : events) merged.push_back(std::move(e));
   std::sort(merged.begin(), merged.end(),
             [](const PendingEvent& x, const PendingEvent& y) { return x.pass != y.pass ? x.pass < y.pass : x.pair < y.pair; });
-  for (const PendingEvent& e : merged) ctx.events.push_back(e.event);
-  for (int ev : eventOfPair) ctx.stats.collisions += ev >= 0;
-  return std::find(anyOf.begin(), anyOf.end(), 1) != anyOf.end();
+  for (const PendingEvent& e : merged) ctx_.events.push_back(e.event);
+  for (int ev : eventOfPair_) ctx_.stats.collisions += ev >= 0;
+  return std::find(anyOf_.begin(), anyOf_.end(), 1) != anyOf_.end();
+}
+
+bool collide(StepContext& ctx, double h) {
+  CollisionRun run(ctx, h);
+  ctx.forEachIsland([&](size_t island, int worker) { run.island(island, worker); });
+  return run.finish();
 }
 
 }  // namespace crumple::detail

@@ -27,16 +27,18 @@
 
 namespace crumple::detail {
 
+void integrateVelocity(StepContext& ctx, size_t i, double h) {
+  RigidBody& b = ctx.bodies[i];
+  if (!b.movable()) return;
+  const glm::dvec3 a = ctx.acceleration(static_cast<int>(i));
+  const glm::dvec3 alpha = ctx.angularAcceleration(static_cast<int>(i));
+  b.v += h * a;
+  b.w += h * alpha;
+}
+
 void integrateVelocities(StepContext& ctx, double h) {
   ctx.parallelRange(ctx.bodies.size(), 256, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) {
-      RigidBody& b = ctx.bodies[i];
-      if (!b.movable()) continue;
-      const glm::dvec3 a = ctx.acceleration(static_cast<int>(i));
-      const glm::dvec3 alpha = ctx.angularAcceleration(static_cast<int>(i));
-      b.v += h * a;
-      b.w += h * alpha;
-    }
+    for (size_t i = begin; i < end; ++i) integrateVelocity(ctx, i, h);
   });
 }
 
@@ -67,15 +69,9 @@ void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGrou
   }
 }
 
-// Scratch kept over one contact step.
-struct Scratch {
-  std::vector<Contact> fresh;
-  std::vector<ContactGroup> old;
-  std::vector<char> inherited;
-};
-
 // A new look at pair pi's geometry at poses pa, pb: its groups (inheriting the
 // old groups' totals), their levers, matrices, patch matrices and normal speeds.
+template <class Scratch>
 void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, bool reuse, Scratch& s) {
   const Pair& pair = ctx.pairs[pi];
   const std::vector<Contact>* contacts = &s.fresh;
@@ -152,82 +148,100 @@ void reportContacts(StepContext& ctx, const std::vector<double>& pushed) {
 
 }  // namespace
 
-void contactStep(StepContext& ctx, double h) {
-  const std::vector<Pair>& pairs = ctx.pairs;
+ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(static_cast<size_t>(ctx.workers())) {
   // Contact geometry on the positions predicted with the current velocities.
   // Re-finding it costs most of the step; it changes little from one pass to
   // the next, so it is refreshed every `contactRefresh` passes, and then only
   // for pairs whose predicted poses moved (impulses always use the current
   // velocities).
-  ctx.groups.resize(pairs.size());
+  const size_t pairs = ctx.pairs.size();
+  ctx.groups.resize(pairs);
   for (auto& g : ctx.groups) g.clear();
-  ctx.lookPoses.resize(pairs.size());
-  ctx.lookCount.assign(pairs.size(), 0);
-  std::vector<Scratch> scratch(static_cast<size_t>(ctx.workers()));
-  const bool reporting = !ctx.reportContacts.empty();
-  std::vector<double> pushed(reporting ? pairs.size() : 0, 0.0);
-  thread_local std::vector<glm::dvec3> v0, w0;
-  const bool resting = ctx.settings.restingSolveRows > 0;
-  if (resting) {
-    v0.resize(ctx.bodies.size());
-    w0.resize(ctx.bodies.size());
-    for (size_t i = 0; i < ctx.bodies.size(); ++i) {
-      v0[i] = ctx.bodies[i].v;
-      w0[i] = ctx.bodies[i].w;
-    }
+  ctx.lookPoses.resize(pairs);
+  ctx.lookCount.assign(pairs, 0);
+  reporting_ = !ctx.reportContacts.empty();
+  pushed_.assign(reporting_ ? pairs : 0, 0.0);
+  resting_ = ctx.settings.restingSolveRows > 0;
+  if (resting_) {
+    v0_.resize(ctx.bodies.size());
+    w0_.resize(ctx.bodies.size());
   }
+}
+
+void ContactRun::start() {
+  for (size_t i = 0; i < ctx_.bodies.size(); ++i) startBody(i);
+}
+
+void ContactRun::startBody(size_t i) {
+  if (!resting_) return;
+  v0_[i] = ctx_.bodies[i].v;
+  w0_[i] = ctx_.bodies[i].w;
+}
+
+// Island by island (islands.cpp; in parallel on the World's threads): each
+// island's pairs in the order of the sweep over all pairs.
+void ContactRun::island(size_t island, int worker) {
+  StepContext& ctx = ctx_;
+  const double h = h_;
+  const std::vector<Pair>& pairs = ctx.pairs;
   const int n = std::max(1, ctx.settings.contactPasses);
   const int refresh = std::max(1, ctx.settings.contactRefresh);
-  // Island by island (islands.cpp; in parallel on the World's threads): each
-  // island's pairs in the order of the sweep over all pairs.
-  ctx.forEachIsland([&](size_t island, int worker) {
-    Scratch& s = scratch[static_cast<size_t>(worker)];
-    const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
-    const size_t count = ctx.islandStart[island + 1] - ctx.islandStart[island];
-    for (int pass = 1; pass <= n; ++pass) {
-      const double eps = -1.0 + static_cast<double>(pass) / n;
-      const bool find = (pass - 1) % refresh == 0;
-      // Alternate sweeps (forward, then backward): a one-way order pushes every
-      // stack the same way, a little each pass.
-      for (size_t k = 0; k < count; ++k) {
-        const size_t pi = first[pass % 2 ? k : count - 1 - k];
-        const Pair& pair = pairs[pi];
-        bool look = find;
-        bool reuse = false;
-        Pose pa, pb;
-        if (look) {
-          // The collision step's last look at this pair was at the poses the
-          // first pass predicts now (x + h (v + h a) either way) if no impulse
-          // has touched either body since: its contacts are reused, with the
-          // poses they were found at (levers must match the geometry). Fresh
-          // contacts are found at the poses the current velocities predict.
-          const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
-                                                  ctx.version[static_cast<size_t>(pair.b)]};
-          reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-          pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
-          pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);
-          if (pass > 1) {
-            // A refresh re-finds the geometry only where the predicted poses have
-            // moved since the last look; resting contact keeps its groups (their
-            // depths follow to first order, endOfStepDepths).
-            const RigidBody& A = ctx.body(pair.a);
-            const RigidBody& B = ctx.body(pair.b);
-            const double ra = A.shape->boundingRadius + glm::length(A.localCom);
-            const double rb = B.shape->boundingRadius + glm::length(B.localCom);
-            look = relativeDisplacementBound(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb) >
-                   ctx.settings.contactRefreshTolerance;
-          }
+  Scratch& s = scratch_[static_cast<size_t>(worker)];
+  const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
+  const size_t count = ctx.islandStart[island + 1] - ctx.islandStart[island];
+  for (int pass = 1; pass <= n; ++pass) {
+    const double eps = -1.0 + static_cast<double>(pass) / n;
+    const bool find = (pass - 1) % refresh == 0;
+    // Alternate sweeps (forward, then backward): a one-way order pushes every
+    // stack the same way, a little each pass.
+    for (size_t k = 0; k < count; ++k) {
+      const size_t pi = first[pass % 2 ? k : count - 1 - k];
+      const Pair& pair = pairs[pi];
+      bool look = find;
+      bool reuse = false;
+      Pose pa, pb;
+      if (look) {
+        // The collision step's last look at this pair was at the poses the
+        // first pass predicts now (x + h (v + h a) either way) if no impulse
+        // has touched either body since: its contacts are reused, with the
+        // poses they were found at (levers must match the geometry). Fresh
+        // contacts are found at the poses the current velocities predict.
+        const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
+                                                ctx.version[static_cast<size_t>(pair.b)]};
+        reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
+        pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
+        pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);
+        if (pass > 1) {
+          // A refresh re-finds the geometry only where the predicted poses have
+          // moved since the last look; resting contact keeps its groups (their
+          // depths follow to first order, endOfStepDepths).
+          const RigidBody& A = ctx.body(pair.a);
+          const RigidBody& B = ctx.body(pair.b);
+          const double ra = A.shape->boundingRadius + glm::length(A.localCom);
+          const double rb = B.shape->boundingRadius + glm::length(B.localCom);
+          look = relativeDisplacementBound(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb) >
+                 ctx.settings.contactRefreshTolerance;
         }
-        if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
-        const bool report = reporting && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
-                                          ctx.reportContacts[static_cast<size_t>(pair.b)]);
-        solvePair(ctx, pi, eps, report ? &pushed[pi] : nullptr);
       }
+      if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
+      const bool report = reporting_ && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
+                                         ctx.reportContacts[static_cast<size_t>(pair.b)]);
+      solvePair(ctx, pi, eps, report ? &pushed_[pi] : nullptr);
     }
-  });
-  if (resting) restingSolve(ctx, v0, w0);
-  for (int c : ctx.lookCount) ctx.stats.contacts += c;  // each pair's last look
-  if (reporting) reportContacts(ctx, pushed);
+  }
+}
+
+void ContactRun::finish() {
+  if (resting_) restingSolve(ctx_, v0_, w0_);
+  for (int c : ctx_.lookCount) ctx_.stats.contacts += c;  // each pair's last look
+  if (reporting_) reportContacts(ctx_, pushed_);
+}
+
+void contactStep(StepContext& ctx, double h) {
+  ContactRun run(ctx, h);
+  run.start();
+  ctx.forEachIsland([&](size_t island, int worker) { run.island(island, worker); });
+  run.finish();
 }
 
 }  // namespace crumple::detail

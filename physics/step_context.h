@@ -243,6 +243,7 @@ struct StepContext {
   std::vector<Pose> predicted;
   std::vector<uint32_t> predictedVersion;
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
+  std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far
 
   // Per pair, this substep. The collision step's last contacts, found when the
@@ -373,11 +374,56 @@ void findCandidates(StepContext& ctx, double h);
 double stepTravel(StepContext& ctx, double h);
 // islands.cpp
 void findIslands(StepContext& ctx);
-// collision_step.cpp
+// collision_step.cpp: collide runs a CollisionRun over every island. True when any impulse was applied.
 bool collide(StepContext& ctx, double h);
-// contact_step.cpp
+// The collision step island by island: island(k, worker) for every island (any order, any threads), then finish
+// (the events in the order one sweep over all pairs makes them).
+class CollisionRun {
+ public:
+  CollisionRun(StepContext& ctx, double h);
+  void island(size_t island, int worker);
+  bool finish();
+
+ private:
+  // An event as a worker first made it: the pass and pair it came from give its place in ctx.events.
+  struct PendingEvent {
+    int pass = 0;
+    size_t pair = 0;
+    CollisionEvent event;
+  };
+  StepContext& ctx_;
+  double h_;
+  std::vector<int> eventOfPair_;
+  std::vector<std::vector<PendingEvent>> pending_;  // per worker
+  std::vector<char> anyOf_;                          // per worker: an impulse applied
+};
+// contact_step.cpp: integrateVelocities over every body; contactStep runs a ContactRun over every island.
 void integrateVelocities(StepContext& ctx, double h);
+void integrateVelocity(StepContext& ctx, size_t body, double h);  // one movable body's (else nothing)
 void contactStep(StepContext& ctx, double h);
+// The contact step island by island: start (with the velocities it begins from: all bodies', or each island's
+// bodies through startIsland before its island), island(k, worker) for every island, then finish.
+class ContactRun {
+ public:
+  ContactRun(StepContext& ctx, double h);
+  void start();                     // every body's velocities as the step begins
+  void startBody(size_t i);         // one body's (the bodies of an island before it runs)
+  void island(size_t island, int worker);
+  void finish();                    // the island solve, counts and reports
+
+ private:
+  struct Scratch {
+    std::vector<Contact> fresh;
+    std::vector<ContactGroup> old;
+    std::vector<char> inherited;
+  };
+  StepContext& ctx_;
+  double h_;
+  std::vector<Scratch> scratch_;  // per worker
+  bool reporting_ = false, resting_ = false;
+  std::vector<double> pushed_;    // per pair, when reporting
+  std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's)
+};
 // resting_solve.cpp (called by contactStep with the velocities it began with)
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0);
 // shock_propagation.cpp

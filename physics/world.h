@@ -290,6 +290,7 @@ class World {
 
  private:
   void substep(double h);
+  void collideAndContact(double h);  // the collision and contact steps island by island (no joints)
   // Everything else: the bodies, the caches kept between steps and the state
   // the stages share (physics/step_context.h).
   std::unique_ptr<detail::StepContext> ctx_;

@@ -7,8 +7,10 @@ namespace crumple::detail {
 
 void groupContacts(const std::vector<Contact>& contacts, std::vector<ContactGroup>& out) {
   out.clear();
-  thread_local std::vector<char> used;
-  thread_local std::vector<size_t> members;
+  thread_local std::vector<char> usedScratch;
+  thread_local std::vector<size_t> membersScratch;
+  std::vector<char>& used = usedScratch;  // (one thread-local lookup, not one per use)
+  std::vector<size_t>& members = membersScratch;
   used.assign(contacts.size(), 0);
   for (size_t seed = 0; seed < contacts.size(); ++seed) {
     if (used[seed]) continue;

@@ -100,11 +100,9 @@ void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, 
   }
 }
 
-// One pass's impulses on pair pi's groups, with restitution eps. Adds the
+// One pass's impulses on pair pi's groups, with restitution eps and friction mu. Adds the
 // normal impulse at the deepest group to `pushed` when asked.
-void solvePair(StepContext& ctx, size_t pi, double eps, double* pushed) {
-  const Pair& pair = ctx.pairs[pi];
-  const double mu = std::sqrt(ctx.body(pair.a).friction * ctx.body(pair.b).friction);
+void solvePair(StepContext& ctx, size_t pi, double eps, double mu, double* pushed) {
   std::vector<ContactGroup>& groups = ctx.groups[pi];
   for (size_t gi = 0; gi < groups.size(); ++gi) {
     ContactGroup& g = groups[gi];
@@ -189,13 +187,20 @@ void ContactRun::island(size_t island, int worker) {
   Scratch& s = scratch_[static_cast<size_t>(worker)];
   const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
   const size_t count = ctx.islandStart[island + 1] - ctx.islandStart[island];
+  // Each pair's friction, once for all passes.
+  s.mu.resize(count);
+  for (size_t k = 0; k < count; ++k) {
+    const Pair& pair = pairs[first[k]];
+    s.mu[k] = std::sqrt(ctx.body(pair.a).friction * ctx.body(pair.b).friction);
+  }
   for (int pass = 1; pass <= n; ++pass) {
     const double eps = -1.0 + static_cast<double>(pass) / n;
     const bool find = (pass - 1) % refresh == 0;
     // Alternate sweeps (forward, then backward): a one-way order pushes every
     // stack the same way, a little each pass.
     for (size_t k = 0; k < count; ++k) {
-      const size_t pi = first[pass % 2 ? k : count - 1 - k];
+      const size_t at = pass % 2 ? k : count - 1 - k;
+      const size_t pi = first[at];
       const Pair& pair = pairs[pi];
       bool look = find;
       bool reuse = false;
@@ -226,7 +231,7 @@ void ContactRun::island(size_t island, int worker) {
       if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
       const bool report = reporting_ && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
                                          ctx.reportContacts[static_cast<size_t>(pair.b)]);
-      solvePair(ctx, pi, eps, report ? &pushed_[pi] : nullptr);
+      solvePair(ctx, pi, eps, s.mu[at], report ? &pushed_[pi] : nullptr);
     }
   }
 }

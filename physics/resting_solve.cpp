@@ -60,6 +60,11 @@ int find(std::vector<int>& parent, int i) {
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0) {
   const int maxRows = ctx.settings.restingSolveRows;
   if (maxRows <= 0) return;
+  if (!ctx.anyMasonry) {
+    // Only islands holding a convex mesh block are solved (below), and there is none: no totals to keep.
+    ctx.restingWarm.clear();
+    return;
+  }
   const size_t nb = ctx.bodies.size();
   // Islands of dynamic bodies through the pairs that have groups.
   std::vector<int> parent(nb);

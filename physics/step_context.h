@@ -148,6 +148,7 @@ struct StepContext {
   std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
   World::NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
+  bool anyMasonry = false;  // a convex mesh block was ever added (resting_solve.cpp has work only then)
   double time = 0;
   // Joints (index = id; removed ones stay as holes), what the filter keeps apart.
   std::vector<Joint> joints;
@@ -416,6 +417,7 @@ class ContactRun {
     std::vector<Contact> fresh;
     std::vector<ContactGroup> old;
     std::vector<char> inherited;
+    std::vector<double> mu;  // the island's pairs' friction
   };
   StepContext& ctx_;
   double h_;

@@ -79,6 +79,7 @@ int World::addBody(const BodyDef& def) {
   c.force.emplace_back(0);
   c.torque.emplace_back(0);
   c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
+  c.anyMasonry = c.anyMasonry || (def.shape->type == ShapeType::Mesh && def.shape->polytope);
   return static_cast<int>(c.bodies.size() - 1);
 }
 
@@ -94,6 +95,7 @@ BodyId World::add(const BodyDef& def) {
   if (slot < c.reportContacts.size()) c.reportContacts[slot] = 0;
   if (slot < c.bumpNormals.size()) c.bumpNormals[slot] = 0;
   c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
+  c.anyMasonry = c.anyMasonry || (def.shape->type == ShapeType::Mesh && def.shape->polytope);
   // The kept pairs' candidate lists were built for the old body in this slot.
   c.pairs.clear();
   c.previousPairs.clear();

@@ -62,12 +62,17 @@ bool overlap(const Aabb& a, const Aabb& b) {
 // kLargeCells cells (the ground) are tested against every box instead. Sweep and prune along one axis, as
 // before, tested every box of a pile's row of columns against each other (a 10000-box pile: 1.25 million
 // tests a substep); the grid tests the boxes of a few cells.
+// With `active` (one flag per box), only pairs with at least one active box are reported: a world's sleeping
+// and static bodies are neither tested against each other nor against the ground.
 template <class F>
-void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, F&& pair) {
+void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, const std::vector<char>* active,
+                  F&& pair) {
+  const char* on = active ? active->data() : nullptr;
   constexpr int64_t kLargeCells = 64;
   const size_t n = boxes.size();
   g.large.clear();
   if (n < 2) return;
+  if (on && std::find(on, on + n, 1) == on + n) return;  // all asleep or still: no pair
   // Cell size: twice the median largest side.
   g.sides.resize(n);
   for (size_t i = 0; i < n; ++i) {
@@ -135,6 +140,7 @@ void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes
       const int* last = g.items.data() + g.start[b + 1];
       for (const int* p = first; p != last; ++p)
         for (const int* q = p + 1; q != last; ++q) {
+          if (on && !on[*p] && !on[*q]) continue;
           const Aabb& bp = boxes[static_cast<size_t>(*p)];
           const Aabb& bq = boxes[static_cast<size_t>(*q)];
           if (!overlap(bp, bq)) continue;
@@ -153,6 +159,7 @@ void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes
       if (jj == i) continue;
       const bool jLarge = g.lo[j].x > g.hi[j].x;
       if (jLarge && jj < i) continue;  // that pair came from j's turn
+      if (on && !on[static_cast<size_t>(i)] && !on[j]) continue;
       if (overlap(boxes[static_cast<size_t>(i)], boxes[j])) pair(std::min(i, jj), std::max(i, jj));
     }
   }
@@ -167,9 +174,13 @@ void findPairs(StepContext& ctx, double h) {
   boxes.resize(n);
   ctx.predicted.resize(n);
   ctx.predictedVersion.assign(n, 0);
+  // Active: what can make a pair (a dynamic body, or a moving kinematic one that may wake a sleeper).
+  std::vector<char>& active = ctx.grid.active;
+  active.resize(n);
   ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       const RigidBody& b = bodies[i];
+      active[i] = b.dynamic() || (b.kinematic && moving(b));
       ctx.predicted[i] = ctx.predict(b, h, true);
       boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
       if (b.movable()) {
@@ -186,7 +197,7 @@ void findPairs(StepContext& ctx, double h) {
   std::vector<uint64_t>& pairKeys = ctx.pairKeys;
   pairKeys.clear();
   std::vector<int> wakeList;
-  gridOverlaps(ctx, ctx.grid, boxes, [&](int i, int j) {
+  gridOverlaps(ctx, ctx.grid, boxes, &active, [&](int i, int j) {
     const RigidBody& A = bodies[static_cast<size_t>(i)];
     const RigidBody& B = bodies[static_cast<size_t>(j)];
     if (!A.dynamic() && !B.dynamic()) {
@@ -269,7 +280,7 @@ double stepTravel(StepContext& ctx, double h) {
   }
   double worst = 0;
   const double fraction = ctx.settings.substepFraction;
-  gridOverlaps(ctx, ctx.grid, boxes, [&](int ia, int ib) {
+  gridOverlaps(ctx, ctx.grid, boxes, nullptr, [&](int ia, int ib) {
     const RigidBody& A = bodies[static_cast<size_t>(ia)];
     const RigidBody& B = bodies[static_cast<size_t>(ib)];
     if ((!A.movable() && !B.movable()) || A.removed || B.removed) return;

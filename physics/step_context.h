@@ -48,6 +48,7 @@ struct BroadGrid {
   std::vector<int> large, items;
   std::vector<uint32_t> start, fill;
   std::vector<std::vector<uint64_t>> found;  // per range of buckets, the overlapping pairs (a << 32 | b)
+  std::vector<char> active;  // per body: can make a pair (findPairs)
 };
 
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.

@@ -45,3 +45,33 @@ TEST_CASE("a slow body in zero gravity never falls asleep: it keeps its momentum
   CHECK(w.body(i).v.z == Approx(-0.01));
   CHECK(w.body(i).x.x == Approx(0.04).epsilon(0.01));
 }
+
+TEST_CASE("a sleeping stack is still met: a box dropped on it wakes it and rests on top; a moving kinematic body wakes a sleeper") {
+  // The broad phase tests no pair of two bodies that cannot make one (asleep, static, still kinematic) and
+  // builds no grid while nothing can: what wakes must still find the sleepers.
+  PhysicsTestContext c(240);
+  c.addGround(0.6, 0.0);
+  std::vector<int> stack;
+  for (int k = 0; k < 3; ++k) stack.push_back(c.addBox({0.5, 0.5, 0.5}, {0, 0.25 + 0.5 * k, 0}, 0.5, 0.0));
+  const int lone = c.addBox({0.5, 0.5, 0.5}, {3, 0.25, 0}, 0.5, 0.0);
+  c.simulateSteps(3 * 240);
+  for (int i : stack) REQUIRE(c.body(i).asleep);
+  REQUIRE(c.body(lone).asleep);
+  c.simulateSteps(10);  // a world that is all asleep steps on
+  CHECK(c.world().lastStats().pairs == 0);
+  // A box dropped from 1 m onto the stack: it lands on the top box and stays there.
+  const int dropped = c.addBox({0.5, 0.5, 0.5}, {0, 2.75, 0}, 0.5, 0.0);
+  c.simulateSteps(240);
+  CHECK(c.body(dropped).x.y == Approx(1.75).epsilon(0.01));
+  CHECK(std::abs(c.body(dropped).x.x) < 0.05);
+  // A kinematic paddle sliding into the lone sleeping box wakes it and pushes it along.
+  BodyDef k;
+  k.shape = makeBox({0.2, 0.5, 0.5});
+  k.origin = {2.2, 0.3, 0};
+  k.kinematic = true;
+  k.linearVelocity = {1, 0, 0};
+  c.world().addBody(k);
+  c.simulateSteps(240);  // 1 s: the paddle's face travels from 2.3 m to 3.3 m, 0.55 m past the box's near face
+  CHECK_FALSE(c.body(lone).asleep);
+  CHECK(c.body(lone).x.x > 3.45);
+}

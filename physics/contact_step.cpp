@@ -71,8 +71,7 @@ void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGrou
 
 // A new look at pair pi's geometry at poses pa, pb: its groups (inheriting the
 // old groups' totals), their levers, matrices, patch matrices and normal speeds.
-template <class Scratch>
-void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, bool reuse, Scratch& s) {
+void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, bool reuse, ContactScratch& s) {
   const Pair& pair = ctx.pairs[pi];
   const std::vector<Contact>* contacts = &s.fresh;
   ctx.lookPoses[pi] = {pa, pb};
@@ -184,7 +183,7 @@ void ContactRun::island(size_t island, int worker) {
   const std::vector<Pair>& pairs = ctx.pairs;
   const int n = std::max(1, ctx.settings.contactPasses);
   const int refresh = std::max(1, ctx.settings.contactRefresh);
-  Scratch& s = scratch_[static_cast<size_t>(worker)];
+  ContactScratch& s = scratch_[static_cast<size_t>(worker)];
   const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
   const size_t count = ctx.islandStart[island + 1] - ctx.islandStart[island];
   // Each pair's friction, once for all passes.

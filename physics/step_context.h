@@ -403,6 +403,13 @@ class CollisionRun {
 void integrateVelocities(StepContext& ctx, double h);
 void integrateVelocity(StepContext& ctx, size_t body, double h);  // one movable body's (else nothing)
 void contactStep(StepContext& ctx, double h);
+// One worker's scratch over a contact step.
+struct ContactScratch {
+  std::vector<Contact> fresh;
+  std::vector<ContactGroup> old;
+  std::vector<char> inherited;
+  std::vector<double> mu;  // the island's pairs' friction
+};
 // The contact step island by island: start (with the velocities it begins from: all bodies', or each island's
 // bodies through startIsland before its island), island(k, worker) for every island, then finish.
 class ContactRun {
@@ -414,15 +421,9 @@ class ContactRun {
   void finish();                    // the island solve, counts and reports
 
  private:
-  struct Scratch {
-    std::vector<Contact> fresh;
-    std::vector<ContactGroup> old;
-    std::vector<char> inherited;
-    std::vector<double> mu;  // the island's pairs' friction
-  };
   StepContext& ctx_;
   double h_;
-  std::vector<Scratch> scratch_;  // per worker
+  std::vector<ContactScratch> scratch_;  // per worker
   bool reporting_ = false, resting_ = false;
   std::vector<double> pushed_;    // per pair, when reporting
   std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's)

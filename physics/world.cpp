@@ -72,14 +72,21 @@ RigidBody makeBody(const BodyDef& def) {
 }
 }  // namespace
 
+namespace {
+// What the step keeps of every shape ever added: the thinnest half thickness (substeps), any convex mesh block.
+void noteShape(detail::StepContext& c, const Shape& shape) {
+  c.minHalfThickness = std::min(c.minHalfThickness, shape.halfThickness());
+  c.anyMasonry = c.anyMasonry || (shape.type == ShapeType::Mesh && shape.polytope);
+}
+}  // namespace
+
 int World::addBody(const BodyDef& def) {
   RigidBody b = makeBody(def);
   detail::StepContext& c = *ctx_;
   c.bodies.push_back(b);
   c.force.emplace_back(0);
   c.torque.emplace_back(0);
-  c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
-  c.anyMasonry = c.anyMasonry || (def.shape->type == ShapeType::Mesh && def.shape->polytope);
+  noteShape(c, *def.shape);
   return static_cast<int>(c.bodies.size() - 1);
 }
 
@@ -94,8 +101,7 @@ BodyId World::add(const BodyDef& def) {
   c.force[slot] = c.torque[slot] = glm::dvec3(0);
   if (slot < c.reportContacts.size()) c.reportContacts[slot] = 0;
   if (slot < c.bumpNormals.size()) c.bumpNormals[slot] = 0;
-  c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
-  c.anyMasonry = c.anyMasonry || (def.shape->type == ShapeType::Mesh && def.shape->polytope);
+  noteShape(c, *def.shape);
   // The kept pairs' candidate lists were built for the old body in this slot.
   c.pairs.clear();
   c.previousPairs.clear();

@@ -1,5 +1,6 @@
 // crumple-bench: speed, measured side by side in one run.
-//   physics: crumple vs Bullet 3 on a 20-level box pyramid (210 boxes), piles
+//   physics: crumple vs Bullet 3 (and Jolt, when built with CRUMPLE_JOLT_DIR: bench_jolt.cpp)
+//            on a 20-level box pyramid (210 boxes), piles
 //            of 1000, 4000 and 10000 boxes (10 high), a heap of 500 mixed bodies
 //            (boxes, spheres, capsules, 12 tori), 200 nonconvex mesh bodies (tori)
 //            and 10 chains of 20 ball-jointed links; ms per step (on --threads threads);
@@ -28,6 +29,7 @@
 #include <string>
 #include <tuple>
 
+#include "apps/bench_scenes.h"
 #include "core/version.h"
 #include "deform/deformer.h"
 #include "engine/primitives.h"
@@ -39,28 +41,18 @@
 #include "render/renderer.h"
 
 using namespace crumple;
+using namespace crumple::bench;
+
+#ifndef CRUMPLE_BENCH_JOLT
+// Built without CRUMPLE_JOLT_DIR: no Jolt rows.
+std::unique_ptr<PeerWorld> crumple::bench::makeJoltWorld(const SceneSpec&) { return nullptr; }
+bool crumple::bench::joltBuilt() { return false; }
+#endif
 
 namespace {
 
 constexpr double kStep = 1.0 / 240;
 
-// ---- scenes, described once and built in both engines ----------------------
-enum class Kind { Box, Sphere, Capsule, Torus };
-struct BodySpec {
-  Kind kind = Kind::Box;
-  glm::dvec3 size{0};  // box: full size; sphere: radius in x; capsule: radius in x, straight height in y
-  glm::dvec3 position{0};
-  glm::dquat orientation{1, 0, 0, 0};
-  double friction = 0.6, restitution = 0.1, density = 1000;
-};
-struct SceneSpec {
-  std::vector<BodySpec> bodies;
-  // Chains of 0.2 m box links (1 kg), ball-jointed end to end, the first to the world; laid out
-  // horizontally so they fall and swing.
-  int chains = 0, links = 0;
-};
-constexpr double kLink = 0.2;
-glm::dvec3 chainPivot(int c) { return {-2.0, 5.0, -2.0 + 0.5 * c}; }
 SceneSpec chainScene(int chains, int links) {
   SceneSpec s;
   s.chains = chains;
@@ -147,7 +139,6 @@ SceneSpec heapScene(int n) {
   return s;
 }
 
-TriangleMesh benchTorus() { return torusMesh(0.3f, 0.1f, 16, 8); }
 
 std::shared_ptr<Shape> crumpleShape(const BodySpec& b, const std::shared_ptr<Shape>& torus) {
   switch (b.kind) {
@@ -391,6 +382,14 @@ void bulletPhysics(benchmark::State& state, SceneSpec spec) {
   state.counters["top_m"] = top;
 }
 
+void joltPhysics(benchmark::State& state, SceneSpec spec) {
+  std::unique_ptr<PeerWorld> w = makeJoltWorld(spec);
+  for (auto _ : state) w->step(kStep);
+  state.counters["bodies"] = w->bodies();
+  state.counters["awake"] = w->awake();
+  state.counters["top_m"] = w->top();
+}
+
 // ---- deformation ----------------------------------------------------------
 struct DeformStage {
   std::shared_ptr<deform::GpuMesh> plate = std::make_shared<deform::GpuMesh>(boxMesh({2, 0.2, 2}, 1024));
@@ -508,7 +507,7 @@ class Collector : public benchmark::ConsoleReporter {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "crumple-bench: crumple vs Bullet (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
+      "crumple-bench: crumple vs Bullet (and Jolt, if built with CRUMPLE_JOLT_DIR) (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
       "prints ms per step/deformation/frame and the ratios."};
   bool quick = false, noGl = false, deformPhases = false;
   std::string filter;
@@ -558,6 +557,10 @@ int main(int argc, char** argv) {
     benchmark::RegisterBenchmark(("physics/bullet/" + c.name).c_str(), bulletPhysics, c.spec)
         ->Iterations(gSteps)
         ->Unit(benchmark::kMillisecond);
+    if (joltBuilt())
+      benchmark::RegisterBenchmark(("physics/jolt/" + c.name).c_str(), joltPhysics, c.spec)
+          ->Iterations(gSteps)
+          ->Unit(benchmark::kMillisecond);
   }
   // Scaling: the big piles on each thread count (crumple only).
   std::vector<PhysicsCase> scaling;
@@ -614,11 +617,17 @@ int main(int argc, char** argv) {
     if (std::isnan(a) && std::isnan(b)) continue;  // filtered out
     std::printf("physics %-22s crumple %8.3f ms/step  bullet %8.3f ms/step  crumple/bullet %6.2fx\n", c.name.c_str(), a,
                 b, a / b);
+    const double j = ms("physics/jolt/" + c.name);
+    if (!std::isnan(j))
+      std::printf("        %-22s jolt %8.3f ms/step  crumple/jolt %6.2fx  bullet/jolt %6.2fx\n", "", j, a / j, b / j);
     auto& ca = collector.counters["physics/crumple/" + c.name];
     auto& cb = collector.counters["physics/bullet/" + c.name];
     if (!ca.empty() && !cb.empty())
       std::printf("        at the end: crumple %4.0f awake, top centre %.2f m; bullet %4.0f awake, top centre %.2f m\n",
                   ca["awake"], ca["top_m"], cb["awake"], cb["top_m"]);
+    auto& cj = collector.counters["physics/jolt/" + c.name];
+    if (!cj.empty())
+      std::printf("                    jolt %4.0f awake, top centre %.2f m\n", cj["awake"], cj["top_m"]);
     if (gStageMs.count(c.name)) {
       const StepProfile& p = gStageMs[c.name];
       std::printf(

@@ -56,7 +56,7 @@ bool overlap(const Aabb& a, const Aabb& b) {
 }
 }  // namespace
 
-// Calls pair(i, j), i < j, once for every two boxes that overlap. Boxes go into the cells of a uniform grid
+// Every two boxes that overlap, once (i < j). Boxes go into the cells of a uniform grid
 // (twice the median box's largest side), hashed into buckets; two boxes that overlap share the cell of their
 // overlap's lowest corner, and are reported only from that cell's bucket. Boxes spanning more than
 // kLargeCells cells (the ground) are tested against every box instead. Sweep and prune along one axis, as
@@ -64,9 +64,14 @@ bool overlap(const Aabb& a, const Aabb& b) {
 // tests a substep); the grid tests the boxes of a few cells.
 // With `active` (one flag per box), only pairs with at least one active box are reported: a world's sleeping
 // and static bodies are neither tested against each other nor against the ground.
-template <class F>
-void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, const std::vector<char>* active,
-                  F&& pair) {
+// The pairs come out as sorted keys (a << 32 | b, a < b), those `accept(a, b)` keeps: each box asks the buckets
+// of its own cells for the boxes of higher index (and the large boxes for theirs), on the World's threads in
+// ranges of boxes, so the ranges' lists in order are the sorted list (no sort of all pairs, no serial pass over
+// them). `accept` runs on those threads unless `serialAccept`.
+template <class Accept>
+void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, const std::vector<char>* active,
+               Accept&& accept, bool serialAccept, std::vector<uint64_t>& keys) {
+  keys.clear();
   const char* on = active ? active->data() : nullptr;
   constexpr int64_t kLargeCells = 64;
   const size_t n = boxes.size();
@@ -84,30 +89,34 @@ void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes
   const double inverse = 1.0 / cell;
   glm::dvec3 origin(1e300);
   for (const Aabb& b : boxes) origin = glm::min(origin, b.lo);
-  // Each box's cell range; the large ones aside.
+  // Each box's cell range (on the World's threads); the large ones aside.
   g.lo.resize(n);
   g.hi.resize(n);
+  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      const glm::dvec3 e = boxes[i].hi - boxes[i].lo;
+      const bool small = e.x < kLargeCells * cell && e.y < kLargeCells * cell && e.z < kLargeCells * cell;
+      const Cell lo = cellOf(boxes[i].lo, origin, inverse), hi = cellOf(boxes[i].hi, origin, inverse);
+      const int64_t count = small ? (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1) : 0;
+      if (!small || count > kLargeCells) {
+        g.lo[i] = {1, 1, 1};  // no cells
+        g.hi[i] = {0, 0, 0};
+      } else {
+        g.lo[i] = lo;
+        g.hi[i] = hi;
+      }
+    }
+  });
   size_t entries = 0;
   for (size_t i = 0; i < n; ++i) {
-    const glm::dvec3 e = boxes[i].hi - boxes[i].lo;
-    const bool small = e.x < kLargeCells * cell && e.y < kLargeCells * cell && e.z < kLargeCells * cell;
-    const Cell lo = cellOf(boxes[i].lo, origin, inverse), hi = cellOf(boxes[i].hi, origin, inverse);
-    const int64_t count = small ? (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1) : 0;
-    if (!small || count > kLargeCells) {
+    if (g.lo[i].x > g.hi[i].x)
       g.large.push_back(static_cast<int>(i));
-      g.lo[i] = {1, 1, 1};  // no cells
-      g.hi[i] = {0, 0, 0};
-      continue;
-    }
-    g.lo[i] = lo;
-    g.hi[i] = hi;
-    entries += static_cast<size_t>(count);
+    else
+      entries += static_cast<size_t>((g.hi[i].x - g.lo[i].x + 1) * (g.hi[i].y - g.lo[i].y + 1) * (g.hi[i].z - g.lo[i].z + 1));
   }
   uint32_t buckets = 64;
   while (buckets < 2 * entries) buckets *= 2;
   const uint32_t mask = buckets - 1;
-  // Counting sort of (bucket, box), each box once per bucket (cells of one box may share a bucket).
-  g.start.assign(buckets + 1, 0);
   auto eachBucket = [&](size_t i, auto&& fn) {
     uint32_t seen[kLargeCells];
     int count = 0;
@@ -121,48 +130,79 @@ void gridOverlaps(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes
           fn(b);
         }
   };
-  for (size_t i = 0; i < n; ++i) eachBucket(i, [&](uint32_t b) { ++g.start[b + 1]; });
+  // Each box's buckets, once (on the World's threads): up to kInline kept, more found again when asked.
+  constexpr int kInline = 8;
+  g.bucketCount.resize(n);
+  g.bucketList.resize(n * kInline);
+  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      uint32_t c = 0;
+      eachBucket(i, [&](uint32_t b) {
+        if (c < kInline) g.bucketList[i * kInline + c] = b;
+        ++c;
+      });
+      g.bucketCount[i] = c;
+    }
+  });
+  auto forBuckets = [&](size_t i, auto&& fn) {
+    const uint32_t c = g.bucketCount[i];
+    if (c > kInline) return eachBucket(i, fn);
+    for (uint32_t k = 0; k < c; ++k) fn(g.bucketList[i * kInline + k]);
+  };
+  // Counting sort of (bucket, box), each box once per bucket (cells of one box may share a bucket).
+  g.start.assign(buckets + 1, 0);
+  for (size_t i = 0; i < n; ++i) forBuckets(i, [&](uint32_t b) { ++g.start[b + 1]; });
   for (uint32_t b = 0; b < buckets; ++b) g.start[b + 1] += g.start[b];
   g.items.resize(g.start[buckets]);
   g.fill.assign(g.start.begin(), g.start.end() - 1);
-  for (size_t i = 0; i < n; ++i) eachBucket(i, [&](uint32_t b) { g.items[g.fill[b]++] = static_cast<int>(i); });
-  // Pairs within each bucket, each from the bucket of its overlap's lowest corner: ranges of buckets on the
-  // World's threads, each into its own list, reported in range order.
-  constexpr uint32_t kBucketsPerRange = 1024;
-  const uint32_t ranges = (buckets + kBucketsPerRange - 1) / kBucketsPerRange;
+  for (size_t i = 0; i < n; ++i) forBuckets(i, [&](uint32_t b) { g.items[g.fill[b]++] = static_cast<int>(i); });
+  // Each box's partners of higher index: a pair is reported from the bucket of its overlap's lowest corner
+  // (a cell of both boxes, so among the lower box's buckets), once.
+  constexpr size_t kBoxesPerRange = 256;
+  const size_t ranges = (n + kBoxesPerRange - 1) / kBoxesPerRange;
   g.found.resize(ranges);
-  ctx.parallel(ranges, [&](size_t r, int) {
+  auto range = [&](size_t r, int) {
     std::vector<uint64_t>& found = g.found[r];
     found.clear();
-    const uint32_t end = std::min(buckets, static_cast<uint32_t>((r + 1) * kBucketsPerRange));
-    for (uint32_t b = static_cast<uint32_t>(r * kBucketsPerRange); b < end; ++b) {
-      const int* first = g.items.data() + g.start[b];
-      const int* last = g.items.data() + g.start[b + 1];
-      for (const int* p = first; p != last; ++p)
-        for (const int* q = p + 1; q != last; ++q) {
-          if (on && !on[*p] && !on[*q]) continue;
-          const Aabb& bp = boxes[static_cast<size_t>(*p)];
-          const Aabb& bq = boxes[static_cast<size_t>(*q)];
-          if (!overlap(bp, bq)) continue;
-          if (bucketOf(cellOf(glm::max(bp.lo, bq.lo), origin, inverse), mask) != b) continue;
-          found.push_back(static_cast<uint64_t>(std::min(*p, *q)) << 32 | static_cast<uint64_t>(std::max(*p, *q)));
-        }
+    thread_local std::vector<int> partnersScratch;
+    std::vector<int>& partners = partnersScratch;
+    const size_t end = std::min(n, (r + 1) * kBoxesPerRange);
+    for (size_t i = r * kBoxesPerRange; i < end; ++i) {
+      const int ii = static_cast<int>(i);
+      const bool iOn = !on || on[i];
+      const Aabb& bi = boxes[i];
+      partners.clear();
+      if (g.lo[i].x > g.hi[i].x) {
+        // A large box: against every box of higher index.
+        for (size_t j = i + 1; j < n; ++j)
+          if ((iOn || on[j]) && overlap(bi, boxes[j])) partners.push_back(static_cast<int>(j));
+      } else {
+        forBuckets(i, [&](uint32_t b) {
+          const int* first = g.items.data() + g.start[b];
+          const int* last = g.items.data() + g.start[b + 1];
+          for (const int* q = first; q != last; ++q) {
+            if (*q <= ii || (!iOn && !on[*q])) continue;
+            const Aabb& bq = boxes[static_cast<size_t>(*q)];
+            if (!overlap(bi, bq)) continue;
+            if (bucketOf(cellOf(glm::max(bi.lo, bq.lo), origin, inverse), mask) != b) continue;
+            partners.push_back(*q);
+          }
+        });
+        for (int l : g.large)
+          if (l > ii && (iOn || on[l]) && overlap(bi, boxes[static_cast<size_t>(l)])) partners.push_back(l);
+      }
+      std::sort(partners.begin(), partners.end());
+      for (int j : partners)
+        if (serialAccept || accept(ii, j)) found.push_back(static_cast<uint64_t>(i) << 32 | static_cast<uint64_t>(j));
     }
-  });
+  };
+  ctx.parallel(ranges, range);
+  size_t total = 0;
+  for (const std::vector<uint64_t>& found : g.found) total += found.size();
+  keys.reserve(total);
   for (const std::vector<uint64_t>& found : g.found)
-    for (uint64_t key : found) pair(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu));
-  // The large boxes against every other (each pair of two large ones once).
-  for (size_t k = 0; k < g.large.size(); ++k) {
-    const int i = g.large[k];
-    for (size_t j = 0; j < n; ++j) {
-      const int jj = static_cast<int>(j);
-      if (jj == i) continue;
-      const bool jLarge = g.lo[j].x > g.hi[j].x;
-      if (jLarge && jj < i) continue;  // that pair came from j's turn
-      if (on && !on[static_cast<size_t>(i)] && !on[j]) continue;
-      if (overlap(boxes[static_cast<size_t>(i)], boxes[j])) pair(std::min(i, jj), std::max(i, jj));
-    }
-  }
+    for (uint64_t key : found)
+      if (!serialAccept || accept(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu))) keys.push_back(key);
 }
 
 void findPairs(StepContext& ctx, double h) {
@@ -192,27 +232,31 @@ void findPairs(StepContext& ctx, double h) {
       }
     }
   });
-  // Every two boxes that overlap (closed intervals on all three axes), from a hashed grid (gridOverlaps), then
-  // the bodies' filters.
+  // Every two boxes that overlap (closed intervals on all three axes), from a hashed grid (gridPairs), that
+  // the bodies' filters keep; on the World's threads unless a user's filter must be called from this one.
   std::vector<uint64_t>& pairKeys = ctx.pairKeys;
-  pairKeys.clear();
-  std::vector<int> wakeList;
-  gridOverlaps(ctx, ctx.grid, boxes, &active, [&](int i, int j) {
-    const RigidBody& A = bodies[static_cast<size_t>(i)];
-    const RigidBody& B = bodies[static_cast<size_t>(j)];
-    if (!A.dynamic() && !B.dynamic()) {
-      // Neither is pushed by anything: only a moving kinematic body reaching a sleeping one makes a pair (waking it).
-      const bool wakes = (A.kinematic && moving(A) && B.asleep && !B.kinematic) ||
-                         (B.kinematic && moving(B) && A.asleep && !A.kinematic);
-      if (!wakes) return;
-    }
-    if (!mayCollide(ctx, i, j)) return;
-    if (A.asleep) wakeList.push_back(i);
-    if (B.asleep) wakeList.push_back(j);
-    pairKeys.push_back(static_cast<uint64_t>(std::min(i, j)) << 32 | static_cast<uint64_t>(std::max(i, j)));
-  });
-  for (int i : wakeList) ctx.wake(i);
-  std::sort(pairKeys.begin(), pairKeys.end());
+  refreshJointExclusions(ctx);
+  gridPairs(
+      ctx, ctx.grid, boxes, &active,
+      [&](int i, int j) {
+        const RigidBody& A = bodies[static_cast<size_t>(i)];
+        const RigidBody& B = bodies[static_cast<size_t>(j)];
+        if (!A.dynamic() && !B.dynamic()) {
+          // Neither is pushed by anything: only a moving kinematic body reaching a sleeping one makes a pair
+          // (waking it).
+          const bool wakes = (A.kinematic && moving(A) && B.asleep && !B.kinematic) ||
+                             (B.kinematic && moving(B) && A.asleep && !A.kinematic);
+          if (!wakes) return false;
+        }
+        return mayCollide(ctx, i, j);
+      },
+      static_cast<bool>(ctx.filter), pairKeys);
+  // Sleepers in a pair wake (after every pair is known: the filter above saw the bodies as they were).
+  for (uint64_t key : pairKeys) {
+    const int i = static_cast<int>(key >> 32), j = static_cast<int>(key & 0xffffffffu);
+    if (bodies[static_cast<size_t>(i)].asleep) ctx.wake(i);
+    if (bodies[static_cast<size_t>(j)].asleep) ctx.wake(j);
+  }
   // Too many pairs (thousands of bodies piled into one spot): keep maxPairs of
   // them, those with a body that nothing pushes (the ground) first, then in key
   // order; the rest pass through each other this substep (StepStats::droppedPairs).
@@ -226,31 +270,35 @@ void findPairs(StepContext& ctx, double h) {
     pairKeys.resize(maxPairs);
     std::sort(pairKeys.begin(), pairKeys.end());
   }
-  // Pairs that already existed keep their candidate lists (both sorted by a, b).
+  // Pairs that already existed keep their candidate lists (both sorted by a, b: a merge, in ranges on the
+  // World's threads, each range's start found by binary search).
   std::vector<Pair>& pairs = ctx.pairs;
   std::vector<Pair>& previousPairs = ctx.previousPairs;
   std::swap(pairs, previousPairs);
   pairs.resize(pairKeys.size());
-  size_t k = 0;
-  for (size_t pi = 0; pi < pairKeys.size(); ++pi) {
-    Pair& p = pairs[pi];
-    p.a = static_cast<int>(pairKeys[pi] >> 32);
-    p.b = static_cast<int>(pairKeys[pi] & 0xffffffffu);
-    while (k < previousPairs.size() &&
-           (previousPairs[k].a < p.a || (previousPairs[k].a == p.a && previousPairs[k].b < p.b)))
-      ++k;
-    if (k < previousPairs.size() && previousPairs[k].a == p.a && previousPairs[k].b == p.b) {
-      std::swap(p.bInA, previousPairs[k].bInA);
-      std::swap(p.aInB, previousPairs[k].aInB);
-      p.builtA = previousPairs[k].builtA;
-      p.builtB = previousPairs[k].builtB;
-      p.builtMargin = previousPairs[k].builtMargin;
-    } else {
-      p.bInA.clear();
-      p.aInB.clear();
-      p.builtMargin = -1;
+  ctx.parallelRange(pairKeys.size(), 1024, [&](size_t begin, size_t end, int) {
+    auto before = [](const Pair& x, int a, int b) { return x.a < a || (x.a == a && x.b < b); };
+    auto old = std::partition_point(previousPairs.begin(), previousPairs.end(), [&](const Pair& x) {
+      return before(x, static_cast<int>(pairKeys[begin] >> 32), static_cast<int>(pairKeys[begin] & 0xffffffffu));
+    });
+    for (size_t pi = begin; pi < end; ++pi) {
+      Pair& p = pairs[pi];
+      p.a = static_cast<int>(pairKeys[pi] >> 32);
+      p.b = static_cast<int>(pairKeys[pi] & 0xffffffffu);
+      while (old != previousPairs.end() && before(*old, p.a, p.b)) ++old;
+      if (old != previousPairs.end() && old->a == p.a && old->b == p.b) {
+        std::swap(p.bInA, old->bInA);
+        std::swap(p.aInB, old->aInB);
+        p.builtA = old->builtA;
+        p.builtB = old->builtB;
+        p.builtMargin = old->builtMargin;
+      } else {
+        p.bInA.clear();
+        p.aInB.clear();
+        p.builtMargin = -1;
+      }
     }
-  }
+  });
 }
 
 double stepTravel(StepContext& ctx, double h) {
@@ -280,16 +328,19 @@ double stepTravel(StepContext& ctx, double h) {
   }
   double worst = 0;
   const double fraction = ctx.settings.substepFraction;
-  gridOverlaps(ctx, ctx.grid, boxes, nullptr, [&](int ia, int ib) {
+  std::vector<uint64_t>& keys = ctx.pairKeys;  // (findPairs makes them again for the substeps)
+  gridPairs(ctx, ctx.grid, boxes, nullptr, [](int, int) { return true; }, false, keys);
+  for (uint64_t key : keys) {
+    const int ia = static_cast<int>(key >> 32), ib = static_cast<int>(key & 0xffffffffu);
     const RigidBody& A = bodies[static_cast<size_t>(ia)];
     const RigidBody& B = bodies[static_cast<size_t>(ib)];
-    if ((!A.movable() && !B.movable()) || A.removed || B.removed) return;
+    if ((!A.movable() && !B.movable()) || A.removed || B.removed) continue;
     const Swept& si = swept[static_cast<size_t>(ia)];
     const Swept& sj = swept[static_cast<size_t>(ib)];
     const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;
     const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
     worst = std::max(worst, travel / allowed);
-  });
+  }
   // Joined bodies, wherever they are, by each one's own travel (not the relative one): the joint solve is
   // linearised about the substep's start, and a swinging chain's links move together but turn (a 100 kg body
   // on 1 kg links tore the chain apart when its substeps went by relative travel).

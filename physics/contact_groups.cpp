@@ -26,7 +26,7 @@ void groupContacts(const std::vector<Contact>& contacts, std::vector<ContactGrou
     g.contact = group.result();
     // The patch: the members' extent about the group's point in its tangent plane.
     const Contact& m = g.contact;
-    PatchExtent& e = g.patch;
+    PatchExtent& e = g.patchMatrix.patch;
     const glm::dvec3& n = m.normal;
     const glm::dvec3 axis =
         std::abs(n.x) < 0.57 ? glm::dvec3(1, 0, 0) : (std::abs(n.y) < 0.57 ? glm::dvec3(0, 1, 0) : glm::dvec3(0, 0, 1));

@@ -61,12 +61,11 @@ struct ContactGroup {
   ImpulseMatrix matrix;     // K and K^-1 at those levers
   double speed = 0;         // normal relative speed when found
   FrictionTotals totals;    // impulses so far this contact step (Coulomb's cone bounds them)
-  PatchExtent patch;        // the members' extent about the group's point
-  PatchMatrix patchMatrix;  // and its patch impulse system
+  PatchMatrix patchMatrix;  // the patch impulse system, with the members' extent about the group's point (.patch)
 };
 
 // Groups `contacts` (sorted deepest first): sets each group's contact and patch
-// in `out` (cleared first); the other fields are left default.
+// (patchMatrix.patch) in `out` (cleared first); the other fields are left default.
 void groupContacts(const std::vector<Contact>& contacts, std::vector<ContactGroup>& out);
 
 }  // namespace crumple::detail

@@ -94,7 +94,7 @@ void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, 
     ImpulseSide sa, sb;
     ctx.sidesAt(c.a, c.b, g.levers, false, false, sa, sb);
     g.matrix = ImpulseMatrix(collisionMatrix(sa, sb));
-    g.patchMatrix = patchMatrix(sa, sb, g.matrix, g.patch);
+    setPatchMatrix(g.patchMatrix, sa, sb, g.matrix);
     g.speed = glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal);
   }
 }

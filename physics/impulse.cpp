@@ -129,7 +129,16 @@ glm::dvec3 frictionImpulse(const ImpulseMatrix& m, const glm::dvec3& u, const gl
 PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch) {
   PatchMatrix p;
   p.patch = patch;
-  if (patch.flat() || !k.invertible) return p;
+  setPatchMatrix(p, a, b, k);
+  return p;
+}
+
+void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k) {
+  p.valid = false;
+  p.hinge = false;
+  p.s1 = 0;
+  const PatchExtent& patch = p.patch;
+  if (patch.flat() || !k.invertible) return;
   p.C = b.invInertia * cross(b.r) + a.invInertia * cross(a.r);
   p.W = a.invInertia + b.invInertia;
   // The system in (J, y), T = y1 t1 + y2 t2 + y3 n, is [K, B; B^T, D] with
@@ -150,20 +159,20 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
       schur[j][i] = p.w[i][j] - glm::dot(p.b[i], p.kb[j]);
       scale = std::max(scale, std::abs(schur[j][i]));
     }
-  if (!(scale > 0)) return p;
+  if (!(scale > 0)) return;
   const double det2 = schur[0][0] * schur[1][1] - schur[1][0] * schur[1][0];
-  if (!(det2 > 1e-12 * scale * scale)) return p;
+  if (!(det2 > 1e-12 * scale * scale)) return;
   p.s2[0][0] = schur[1][1] / det2;
   p.s2[0][1] = p.s2[1][0] = -schur[1][0] / det2;
   p.s2[1][1] = schur[0][0] / det2;
   const double det3 = glm::determinant(schur);
-  if (!(det3 > 1e-12 * scale * scale * scale)) return p;
+  if (!(det3 > 1e-12 * scale * scale * scale)) return;
   p.s3 = glm::inverse(schur);
   // The lever of torsional friction: the mean distance from the centre of a
   // uniformly pressed rectangle, about 0.77 of its mean half side.
   p.twistRadius = patch.twistRadius();
   p.valid = true;
-  return p;
+  return;
 }
 
 PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch,

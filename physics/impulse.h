@@ -92,6 +92,9 @@ struct PatchMatrix {
   PatchExtent patch;
 };
 PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch);
+// The same, in place: p.patch is the extent; every field a valid matrix uses is written (the contact step
+// keeps one per group and refreshes it at each look, without a 600-byte temporary).
+void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k);
 // For one of a body's two supports: the patch holds only the tilt about the
 // line through the two (`axis`, any direction along it), which the couple of
 // the two supports' point impulses cannot; tilt across the line and twist are

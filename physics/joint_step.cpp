@@ -967,21 +967,24 @@ void findAnchored(StepContext& ctx) {
 }
 
 
+void refreshJointExclusions(StepContext& ctx) {
+  if (!ctx.jointExcludedDirty) return;
+  ctx.jointExcluded.clear();
+  for (const Joint& jt : ctx.joints) {
+    if (jt.removed || jt.broken || jt.def.collideConnected || jt.def.a < 0) continue;
+    const int lo = std::min(jt.def.a, jt.def.b), hi = std::max(jt.def.a, jt.def.b);
+    ctx.jointExcluded.push_back(static_cast<uint64_t>(lo) << 32 | static_cast<uint64_t>(hi));
+  }
+  std::sort(ctx.jointExcluded.begin(), ctx.jointExcluded.end());
+  ctx.jointExcludedDirty = false;
+}
+
 bool mayCollide(StepContext& ctx, int a, int b) {
   const RigidBody& A = ctx.body(a);
   const RigidBody& B = ctx.body(b);
   if (A.removed || B.removed) return false;
   if (!(ctx.groupMasks[static_cast<size_t>(A.group)] >> B.group & 1ull)) return false;
-  if (ctx.jointExcludedDirty) {
-    ctx.jointExcluded.clear();
-    for (const Joint& jt : ctx.joints) {
-      if (jt.removed || jt.broken || jt.def.collideConnected || jt.def.a < 0) continue;
-      const int lo = std::min(jt.def.a, jt.def.b), hi = std::max(jt.def.a, jt.def.b);
-      ctx.jointExcluded.push_back(static_cast<uint64_t>(lo) << 32 | static_cast<uint64_t>(hi));
-    }
-    std::sort(ctx.jointExcluded.begin(), ctx.jointExcluded.end());
-    ctx.jointExcludedDirty = false;
-  }
+  refreshJointExclusions(ctx);
   if (!ctx.jointExcluded.empty()) {
     const uint64_t key = static_cast<uint64_t>(std::min(a, b)) << 32 | static_cast<uint64_t>(std::max(a, b));
     if (std::binary_search(ctx.jointExcluded.begin(), ctx.jointExcluded.end(), key)) return false;

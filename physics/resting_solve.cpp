@@ -177,7 +177,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
       const size_t pi = islandPairs[static_cast<size_t>(k)];
       for (size_t gi = 0; gi < ctx.groups[pi].size(); ++gi) {
         const ContactGroup& g = ctx.groups[pi][gi];
-        const PatchExtent& e = g.patch;
+        const PatchExtent& e = g.patchMatrix.patch;
         IslandGroup ig{pi, gi};
         // Torque about t2 moves the centre of pressure along t1 (and the reverse).
         ig.torque2 = e.hi1 - e.lo1 > 1e-6;
@@ -252,7 +252,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     // group's rows, clamped to this group's limits.
     for (const IslandGroup& ig : groups) {
       const ContactGroup& g = ctx.groups[ig.pair][ig.index];
-      const PatchExtent& e = g.patch;
+      const PatchExtent& e = g.patchMatrix.patch;
       const bool ab = g.contact.a == ctx.pairs[ig.pair].a;
       const glm::dvec3 nAB = ab ? e.n : -e.n;
       const uint64_t pk = key(ig.pair);
@@ -312,7 +312,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
         if (!(diag[r] > 0)) continue;
         const IslandGroup& ig = groups[row.group];
         const ContactGroup& g = ctx.groups[ig.pair][ig.index];
-        const PatchExtent& e = g.patch;
+        const PatchExtent& e = g.patchMatrix.patch;
         double u = 0;
         for (const Slot& s : row.s) {
           const RigidBody& b = ctx.body(s.body);
@@ -365,7 +365,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     }
     for (const IslandGroup& ig : groups) {
       const ContactGroup& g = ctx.groups[ig.pair][ig.index];
-      const PatchExtent& e = g.patch;
+      const PatchExtent& e = g.patchMatrix.patch;
       const bool ab = g.contact.a == ctx.pairs[ig.pair].a;
       glm::dvec3 J(0), T(0);
       for (int k = 0; k < ig.rows; ++k) {
@@ -388,7 +388,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
       ContactGroup& g = ctx.groups[ig.pair][ig.index];
       const double* lam = &lambda[static_cast<size_t>(ig.rowStart)];
       g.totals.normal = lam[0];
-      g.totals.tangential = lam[1] * g.patch.t1 + lam[2] * g.patch.t2;
+      g.totals.tangential = lam[1] * g.patchMatrix.patch.t1 + lam[2] * g.patchMatrix.patch.t2;
     }
   });
   for (Work& wk : work) {

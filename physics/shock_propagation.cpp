@@ -152,7 +152,7 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
     for (const ContactGroup& g : ctx.groups[pi]) {
       const Contact& c = g.contact;
       const bool fa = ctx.frozen[static_cast<size_t>(c.a)] != 0, fb = ctx.frozen[static_cast<size_t>(c.b)] != 0;
-      LevelContact x{c, g.levers, {}, mu, {}, {}, &g.patch, {}};
+      LevelContact x{c, g.levers, {}, mu, {}, {}, &g.patchMatrix.patch, {}};
       ctx.sidesAt(c.a, c.b, g.levers, fa, fb, x.sa, x.sb);
       x.m = ImpulseMatrix(collisionMatrix(x.sa, x.sb));
       lc.push_back(x);

@@ -46,6 +46,7 @@ struct BroadGrid {
   std::vector<double> sides;
   std::vector<Cell> lo, hi;  // per box, its cell range (lo > hi: a large box, kept aside)
   std::vector<int> large, items;
+  std::vector<uint32_t> bucketCount, bucketList;  // per box: its buckets' count and (up to 8 of) them
   std::vector<uint32_t> start, fill;
   std::vector<std::vector<uint64_t>> found;  // per range of buckets, the overlapping pairs (a << 32 | b)
   std::vector<char> active;  // per body: can make a pair (findPairs)
@@ -438,8 +439,11 @@ void postStabilize(StepContext& ctx, double h);
 void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved);
 bool anyJointActive(const StepContext& ctx);  // a joint not removed or broken with a dynamic body
 void findAnchored(StepContext& ctx);
-// Whether bodies a and b may collide (groups, joints, the user's filter).
+// Whether bodies a and b may collide (groups, joints, the user's filter). Safe on several threads at once
+// after refreshJointExclusions (which rebuilds the joined pairs' list when joints changed), unless a user's
+// filter is set (ctx.filter: called as the user gave it).
 bool mayCollide(StepContext& ctx, int a, int b);
+void refreshJointExclusions(StepContext& ctx);
 // position_step.cpp
 void endOfStepDepths(StepContext& ctx, double h);
 void integratePositions(StepContext& ctx, double h);

@@ -89,6 +89,7 @@ void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, c
   const double inverse = 1.0 / cell;
   glm::dvec3 origin(1e300);
   for (const Aabb& b : boxes) origin = glm::min(origin, b.lo);
+  auto cells = [](const Cell& lo, const Cell& hi) { return (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1); };
   // Each box's cell range (on the World's threads); the large ones aside.
   g.lo.resize(n);
   g.hi.resize(n);
@@ -97,7 +98,7 @@ void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, c
       const glm::dvec3 e = boxes[i].hi - boxes[i].lo;
       const bool small = e.x < kLargeCells * cell && e.y < kLargeCells * cell && e.z < kLargeCells * cell;
       const Cell lo = cellOf(boxes[i].lo, origin, inverse), hi = cellOf(boxes[i].hi, origin, inverse);
-      const int64_t count = small ? (hi.x - lo.x + 1) * (hi.y - lo.y + 1) * (hi.z - lo.z + 1) : 0;
+      const int64_t count = small ? cells(lo, hi) : 0;
       if (!small || count > kLargeCells) {
         g.lo[i] = {1, 1, 1};  // no cells
         g.hi[i] = {0, 0, 0};
@@ -112,7 +113,7 @@ void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, c
     if (g.lo[i].x > g.hi[i].x)
       g.large.push_back(static_cast<int>(i));
     else
-      entries += static_cast<size_t>((g.hi[i].x - g.lo[i].x + 1) * (g.hi[i].y - g.lo[i].y + 1) * (g.hi[i].z - g.lo[i].z + 1));
+      entries += static_cast<size_t>(cells(g.lo[i], g.hi[i]));
   }
   uint32_t buckets = 64;
   while (buckets < 2 * entries) buckets *= 2;
@@ -329,12 +330,18 @@ double stepTravel(StepContext& ctx, double h) {
   double worst = 0;
   const double fraction = ctx.settings.substepFraction;
   std::vector<uint64_t>& keys = ctx.pairKeys;  // (findPairs makes them again for the substeps)
-  gridPairs(ctx, ctx.grid, boxes, nullptr, [](int, int) { return true; }, false, keys);
+  gridPairs(
+      ctx, ctx.grid, boxes, nullptr,
+      [&](int ia, int ib) {
+        const RigidBody& A = bodies[static_cast<size_t>(ia)];
+        const RigidBody& B = bodies[static_cast<size_t>(ib)];
+        return (A.movable() || B.movable()) && !A.removed && !B.removed;
+      },
+      false, keys);
   for (uint64_t key : keys) {
     const int ia = static_cast<int>(key >> 32), ib = static_cast<int>(key & 0xffffffffu);
     const RigidBody& A = bodies[static_cast<size_t>(ia)];
     const RigidBody& B = bodies[static_cast<size_t>(ib)];
-    if ((!A.movable() && !B.movable()) || A.removed || B.removed) continue;
     const Swept& si = swept[static_cast<size_t>(ia)];
     const Swept& sj = swept[static_cast<size_t>(ib)];
     const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;

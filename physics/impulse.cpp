@@ -172,7 +172,6 @@ void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, 
   // uniformly pressed rectangle, about 0.77 of its mean half side.
   p.twistRadius = patch.twistRadius();
   p.valid = true;
-  return;
 }
 
 PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k, const PatchExtent& patch,

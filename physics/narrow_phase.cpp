@@ -118,7 +118,7 @@ bool manifoldContacts(int ia, const RigidBody& A, const Pose& pa, int ib, const 
                       std::vector<Contact>& out) {
   const Shape& sa = *A.shape;
   const Shape& sb = *B.shape;
-  if (!sa.polytope || !sb.polytope || (sa.type != ShapeType::Mesh && sb.type != ShapeType::Mesh)) return false;
+  if (!sa.polytope || !sb.polytope) return false;
   const glm::dmat3 ra = glm::mat3_cast(pa.orientation);
   const glm::dmat3 rat = glm::transpose(ra);
   const glm::dmat3 rb = glm::mat3_cast(pb.orientation);
@@ -127,7 +127,10 @@ bool manifoldContacts(int ia, const RigidBody& A, const Pose& pa, int ib, const 
   map.rotation = rat * rb;
   map.translation = rat * (pb.position - pa.position - rb * B.localCom) + A.localCom;
   thread_local std::vector<PolytopeContact> found;
-  polytopeContacts(*sa.polytope, *sb.polytope, map, found);
+  if (sa.type == ShapeType::Box && sb.type == ShapeType::Box)
+    boxContacts(sa.halfExtents, sb.halfExtents, map, found);
+  else
+    polytopeContacts(*sa.polytope, *sb.polytope, map, found);
   for (const PolytopeContact& f : found) {
     Contact c;
     c.a = f.normalOfA ? ia : ib;

@@ -354,4 +354,139 @@ void polytopeContacts(const ConvexPolytope& a, const ConvexPolytope& b, const Ri
   }
 }
 
+
+namespace {
+
+// The reference rectangle's face (axis `axis`, side `sign`, of the box of half extents `hr` about the origin)
+// against the incident box (half extents `hi`; its axes `r[j]` and centre `t` in the reference frame): the face
+// of the incident box most nearly opposite, clipped to the rectangle's sides, its points below the face.
+void clipBoxFace(const glm::dvec3& hr, const glm::dvec3& hi, const glm::dmat3& r, const glm::dvec3& t, int axis,
+                 double sign, bool normalOfA, std::vector<PolytopeContact>& out) {
+  // The incident face: the axis most nearly along the normal, on the side facing the reference body.
+  int j = 0;
+  double best = std::abs(r[0][axis]);
+  for (int k = 1; k < 3; ++k)
+    if (std::abs(r[k][axis]) > best) {
+      best = std::abs(r[k][axis]);
+      j = k;
+    }
+  const double faceSign = sign * r[j][axis] < 0 ? 1.0 : -1.0;
+  const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+  const glm::dvec3 centre = t + r[j] * (faceSign * hi[j]);
+  const glm::dvec3 u = r[j1] * hi[j1], w = r[j2] * hi[j2];
+  // A polygon of at most 8 points (a quadrilateral clipped by four lines).
+  glm::dvec3 poly[8] = {centre + u + w, centre - u + w, centre - u - w, centre + u - w};
+  glm::dvec3 next[8];
+  int count = 4;
+  const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+  for (int plane = 0; plane < 4 && count > 0; ++plane) {
+    const int k = plane < 2 ? a1 : a2;
+    const double side = plane % 2 == 0 ? 1.0 : -1.0;
+    int kept = 0;
+    for (int m = 0; m < count; ++m) {
+      const glm::dvec3& p = poly[m];
+      const glm::dvec3& q = poly[(m + 1) % count];
+      const double dp = side * p[k] - hr[k], dq = side * q[k] - hr[k];
+      if (dp <= 0) next[kept++] = p;
+      if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) next[kept++] = p + (q - p) * (dp / (dp - dq));
+    }
+    count = kept;
+    std::copy(next, next + kept, poly);
+  }
+  glm::dvec3 n(0);
+  n[axis] = sign;
+  for (int m = 0; m < count; ++m) {
+    const double depth = sign * poly[m][axis] - hr[axis];
+    if (depth < 0) out.push_back({normalOfA, poly[m], n, depth});
+  }
+}
+
+}  // namespace
+
+void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bToA, std::vector<PolytopeContact>& out) {
+  out.clear();
+  const glm::dmat3& r = bToA.rotation;  // r[j]: B's axis j in A's frame; r[j][i] its i-th component
+  const glm::dvec3& t = bToA.translation;
+  glm::dmat3 absR;
+  for (int j = 0; j < 3; ++j) absR[j] = glm::abs(r[j]);
+  // A's faces: B's deepest vertex past the face on the side facing B.
+  double sepA = -std::numeric_limits<double>::infinity();
+  int faceA = 0;
+  for (int i = 0; i < 3; ++i) {
+    const double sep = std::abs(t[i]) - ha[i] - (hb.x * absR[0][i] + hb.y * absR[1][i] + hb.z * absR[2][i]);
+    if (sep > 0) return;
+    if (sep > sepA) {
+      sepA = sep;
+      faceA = i;
+    }
+  }
+  double sepB = -std::numeric_limits<double>::infinity();
+  int faceB = 0;
+  for (int j = 0; j < 3; ++j) {
+    const double sep = std::abs(glm::dot(t, r[j])) - hb[j] - glm::dot(ha, absR[j]);
+    if (sep > 0) return;
+    if (sep > sepB) {
+      sepB = sep;
+      faceB = j;
+    }
+  }
+  // Edge pairs: axis e_i x r_j, pointing from A to B. Unnormalised, its components are r_j's (0, -r_j[i2],
+  // r_j[i1]) and its length sqrt(r_j[i1]^2 + r_j[i2]^2); B's axis k != j projects on it as +-r_m[i], m the third.
+  double sepE = -std::numeric_limits<double>::infinity();
+  int edgeA = 0, edgeB = 0;
+  for (int i = 0; i < 3; ++i) {
+    const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
+    for (int j = 0; j < 3; ++j) {
+      const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+      const double len = std::sqrt(r[j][i1] * r[j][i1] + r[j][i2] * r[j][i2]);
+      if (len < 1e-6) continue;  // parallel edges: the face axes cover them
+      const double along = std::abs(t[i2] * r[j][i1] - t[i1] * r[j][i2]);
+      const double reachA = ha[i1] * absR[j][i2] + ha[i2] * absR[j][i1];
+      const double reachB = hb[j1] * absR[j2][i] + hb[j2] * absR[j1][i];
+      const double sep = (along - reachA - reachB) / len;
+      if (sep > 0) return;
+      if (sep > sepE) {
+        sepE = sep;
+        edgeA = i;
+        edgeB = j;
+      }
+    }
+  }
+  const double size = 2 * std::max({ha.x, ha.y, ha.z, hb.x, hb.y, hb.z});
+  const double faceSep = std::max(sepA, sepB);
+  if (sepE > faceSep + 0.05 * std::abs(faceSep) + 1e-5 * size) {
+    // Two edges cross: A's edge along e_i furthest along the axis, B's along r_j least far; one point, on B's edge.
+    glm::dvec3 e(0);
+    e[edgeA] = 1;
+    glm::dvec3 axisE = glm::normalize(glm::cross(e, r[edgeB]));
+    if (glm::dot(axisE, t) < 0) axisE = -axisE;
+    glm::dvec3 a0, a1;
+    for (int k = 0; k < 3; ++k) a0[k] = a1[k] = axisE[k] < 0 ? -ha[k] : ha[k];
+    a0[edgeA] = -ha[edgeA];
+    a1[edgeA] = ha[edgeA];
+    const glm::dvec3 inB = glm::transpose(r) * axisE;
+    glm::dvec3 b0, b1;
+    for (int k = 0; k < 3; ++k) b0[k] = b1[k] = inB[k] < 0 ? hb[k] : -hb[k];
+    b0[edgeB] = -hb[edgeB];
+    b1[edgeB] = hb[edgeB];
+    glm::dvec3 pa, pb;
+    closestPoints(a0, a1, bToA(b0), bToA(b1), pa, pb);
+    const double depth = glm::dot(pb - pa, axisE);
+    if (depth < 0) out.push_back({true, pb, axisE, depth});
+    return;
+  }
+  if (!(sepB > sepA + 0.05 * std::abs(sepA) + 1e-5 * size)) {
+    clipBoxFace(ha, hb, r, t, faceA, t[faceA] > 0 ? 1.0 : -1.0, true, out);
+    return;
+  }
+  // B's face is the reference: clip in B's frame, then bring the points and the normal back into A's.
+  const glm::dmat3 rt = glm::transpose(r);
+  const glm::dvec3 tb = -(rt * t);
+  clipBoxFace(hb, ha, rt, tb, faceB, tb[faceB] > 0 ? 1.0 : -1.0, false, out);
+  for (PolytopeContact& c : out) {
+    c.point = bToA(c.point);
+    c.normal = r * c.normal;
+  }
+}
+
 }  // namespace crumple

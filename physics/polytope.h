@@ -71,4 +71,11 @@ struct PolytopeContact {
 void polytopeContacts(const ConvexPolytope& a, const ConvexPolytope& b, const RigidMap& bToA,
                       std::vector<PolytopeContact>& out);
 
+// The same manifold for two boxes (half extents ha, hb, centred on their frames'
+// origins): the 15 separating axes from the boxes' extents, and the incident
+// face clipped against the reference rectangle, without the polytopes' vertex
+// and edge lists (a pile's pairs are nearly all box on box). The same choices
+// and tolerances as polytopeContacts; the points may come in another order.
+void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bToA, std::vector<PolytopeContact>& out);
+
 }  // namespace crumple

@@ -193,6 +193,49 @@ TEST_CASE("convex meshes become polytopes; nonconvex ones keep the samples") {
   CHECK(box->edgeDirections.size() == 3);
 }
 
+TEST_CASE("box on box: the dedicated manifold finds what the polytopes' finds") {
+  // Random boxes in random relative poses, many of them touching: the same points, normals and depths as the
+  // general polytope manifold (face, face of B, and edge cases all met), up to the order of the points.
+  uint64_t state = 11;
+  auto u = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  int touching = 0, onB = 0, edges = 0;
+  std::vector<PolytopeContact> general, dedicated;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const glm::dvec3 ha(0.1 + u(), 0.1 + u(), 0.1 + u()), hb(0.1 + u(), 0.1 + u(), 0.1 + u());
+    RigidMap map;
+    if (trial % 4 == 0) {
+      // Aligned (a stack), slightly turned about the vertical: faces lying on faces.
+      map.rotation = glm::mat3_cast(glm::angleAxis(0.2 * (u() - 0.5), glm::dvec3(0, 1, 0)));
+    } else {
+      map.rotation = glm::mat3_cast(glm::angleAxis(6.3 * u(), glm::normalize(glm::dvec3(u(), u(), u()) - 0.5)));
+    }
+    const glm::dvec3 dir = glm::normalize(glm::dvec3(u(), u(), u()) - 0.5);
+    map.translation = dir * (0.5 + 2.5 * u()) * (trial % 4 == 0 ? 0.0 : 1.0);
+    if (trial % 4 == 0) map.translation = {0.3 * (u() - 0.5), ha.y + hb.y - 0.02 * u(), 0.3 * (u() - 0.5)};
+    polytopeContacts(*boxPolytope(ha), *boxPolytope(hb), map, general);
+    boxContacts(ha, hb, map, dedicated);
+    REQUIRE(general.size() == dedicated.size());
+    if (general.empty()) continue;
+    ++touching;
+    onB += !general[0].normalOfA;
+    edges += general.size() == 1;
+    for (const PolytopeContact& g : general) {
+      bool matched = false;
+      for (const PolytopeContact& d : dedicated)
+        matched = matched || (d.normalOfA == g.normalOfA && glm::length(d.point - g.point) < 1e-9 &&
+                              glm::length(d.normal - g.normal) < 1e-9 && std::abs(d.depth - g.depth) < 1e-9);
+      CHECK(matched);
+    }
+  }
+  MESSAGE("box on box: " << touching << " touching, " << onB << " on B's face, " << edges << " single points");
+  CHECK(touching > 1000);
+  CHECK(onB > 100);
+  CHECK(edges > 50);
+}
+
 TEST_CASE("two voussoirs lying face on face touch over the whole joint, not at its centre") {
   // The samples of a face lying on a face of the same size sit on the other's edges, neither in nor out:
   // the manifold clips the joint's polygon instead, four corners deep.

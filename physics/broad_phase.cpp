@@ -237,21 +237,55 @@ void findPairs(StepContext& ctx, double h) {
   // the bodies' filters keep; on the World's threads unless a user's filter must be called from this one.
   std::vector<uint64_t>& pairKeys = ctx.pairKeys;
   refreshJointExclusions(ctx);
-  gridPairs(
-      ctx, ctx.grid, boxes, &active,
-      [&](int i, int j) {
-        const RigidBody& A = bodies[static_cast<size_t>(i)];
-        const RigidBody& B = bodies[static_cast<size_t>(j)];
-        if (!A.dynamic() && !B.dynamic()) {
-          // Neither is pushed by anything: only a moving kinematic body reaching a sleeping one makes a pair
-          // (waking it).
-          const bool wakes = (A.kinematic && moving(A) && B.asleep && !B.kinematic) ||
-                             (B.kinematic && moving(B) && A.asleep && !A.kinematic);
-          if (!wakes) return false;
+  auto accept = [&](int i, int j) {
+    const RigidBody& A = bodies[static_cast<size_t>(i)];
+    const RigidBody& B = bodies[static_cast<size_t>(j)];
+    if (!A.dynamic() && !B.dynamic()) {
+      // Neither is pushed by anything: only a moving kinematic body reaching a sleeping one makes a pair
+      // (waking it).
+      const bool wakes = (A.kinematic && moving(A) && B.asleep && !B.kinematic) ||
+                         (B.kinematic && moving(B) && A.asleep && !A.kinematic);
+      if (!wakes) return false;
+    }
+    return mayCollide(ctx, i, j);
+  };
+  // The fat boxes' pairs, kept while they still hold every pair: a resting pile builds no grid. The pairs are
+  // then those of the kept list whose bounds overlap, in the same (sorted) order: the same pairs either way.
+  BroadGrid& grid = ctx.grid;
+  bool reuse = grid.fatValid && grid.fat.size() == n;
+  for (size_t i = 0; i < n && reuse; ++i) {
+    const Aabb& b = boxes[i];
+    const Aabb& f = grid.fat[i];
+    reuse = b.lo.x >= f.lo.x && b.lo.y >= f.lo.y && b.lo.z >= f.lo.z && b.hi.x <= f.hi.x && b.hi.y <= f.hi.y &&
+            b.hi.z <= f.hi.z && (!active[i] || grid.fatActive[i]);
+  }
+  if (!reuse) {
+    // The skin: a tenth of the body's smallest side (at most 5 cm), and four substeps' travel ahead.
+    grid.fat.resize(n);
+    ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
+      for (size_t i = begin; i < end; ++i) {
+        const RigidBody& b = bodies[i];
+        Aabb f = boxes[i];
+        if (b.movable()) {
+          const glm::dvec3 e = b.shape->boundsMax - b.shape->boundsMin;
+          const double skin = std::min(0.1 * std::min({e.x, e.y, e.z}), 0.05);
+          const glm::dvec3 ahead = 4 * h * b.v;
+          f.lo += glm::min(ahead, glm::dvec3(0)) - skin;
+          f.hi += glm::max(ahead, glm::dvec3(0)) + skin;
         }
-        return mayCollide(ctx, i, j);
-      },
-      static_cast<bool>(ctx.filter), pairKeys);
+        grid.fat[i] = f;
+      }
+    });
+    grid.fatActive = active;
+    gridPairs(ctx, grid, grid.fat, &active, [](int, int) { return true; }, false, grid.fatKeys);
+    grid.fatValid = true;
+  }
+  pairKeys.clear();
+  for (uint64_t key : grid.fatKeys) {
+    const size_t i = key >> 32, j = key & 0xffffffffu;
+    if ((active[i] || active[j]) && overlap(boxes[i], boxes[j]) && accept(static_cast<int>(i), static_cast<int>(j)))
+      pairKeys.push_back(key);
+  }
   // Sleepers in a pair wake (after every pair is known: the filter above saw the bodies as they were).
   for (uint64_t key : pairKeys) {
     const int i = static_cast<int>(key >> 32), j = static_cast<int>(key & 0xffffffffu);

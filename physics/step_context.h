@@ -50,6 +50,13 @@ struct BroadGrid {
   std::vector<uint32_t> start, fill;
   std::vector<std::vector<uint64_t>> found;  // per range of buckets, the overlapping pairs (a << 32 | b)
   std::vector<char> active;  // per body: can make a pair (findPairs)
+  // findPairs' kept superset (Box2D's fat AABBs): per body a box around its bounds with a skin, and every pair
+  // of those boxes that overlap with a body active then. Valid while each body's bounds stay in its fat box
+  // and no body inactive then is active now: the pairs are those of the fat list whose bounds overlap.
+  std::vector<Aabb> fat;
+  std::vector<char> fatActive;
+  std::vector<uint64_t> fatKeys;
+  bool fatValid = false;
 };
 
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.

@@ -26,6 +26,8 @@
 #include <Jolt/Physics/PhysicsSystem.h>
 #include <Jolt/RegisterTypes.h>
 
+#include <immintrin.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <map>
@@ -163,6 +165,9 @@ class JoltWorld final : public PeerWorld {
     system_.OptimizeBroadPhase();
   }
   void step(double h) override {
+    const struct Clean {
+      ~Clean() { joltLeaveClean(); }
+    } clean;
     const JPH::EPhysicsUpdateError e = system_.Update(static_cast<float>(h), 1, &temp_, &jobs_);
     if (e != JPH::EPhysicsUpdateError::None) errors_ |= static_cast<unsigned>(e);
   }
@@ -221,5 +226,6 @@ std::unique_ptr<PeerWorld> makeJoltWorld(const SceneSpec& spec) {
   return std::make_unique<JoltWorld>(spec);
 }
 bool joltBuilt() { return true; }
+void joltLeaveClean() { _mm256_zeroupper(); }
 
 }  // namespace crumple::bench

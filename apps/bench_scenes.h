@@ -45,5 +45,9 @@ class PeerWorld {
 // Jolt (when crumple-bench was built with CRUMPLE_JOLT_DIR), single-threaded; nullptr otherwise.
 std::unique_ptr<PeerWorld> makeJoltWorld(const SceneSpec& spec);
 bool joltBuilt();
+// Leaves the vector registers' upper halves clean after Jolt's code (AVX2) has run: crumple and Bullet are
+// SSE2 code, and every SSE instruction after dirty upper halves pays a transition penalty (crumple's rows
+// after a Jolt row ran 1.3-1.5 times slower, its sleep stage 6 times). A no-op without Jolt.
+void joltLeaveClean();
 
 }  // namespace crumple::bench

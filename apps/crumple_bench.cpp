@@ -47,6 +47,7 @@ using namespace crumple::bench;
 // Built without CRUMPLE_JOLT_DIR: no Jolt rows.
 std::unique_ptr<PeerWorld> crumple::bench::makeJoltWorld(const SceneSpec&) { return nullptr; }
 bool crumple::bench::joltBuilt() { return false; }
+void crumple::bench::joltLeaveClean() {}
 #endif
 
 namespace {
@@ -384,10 +385,13 @@ void bulletPhysics(benchmark::State& state, SceneSpec spec) {
 
 void joltPhysics(benchmark::State& state, SceneSpec spec) {
   std::unique_ptr<PeerWorld> w = makeJoltWorld(spec);
-  for (auto _ : state) w->step(kStep);
+  joltLeaveClean();
+  for (auto _ : state) w->step(kStep);  // (each step leaves clean)
   state.counters["bodies"] = w->bodies();
   state.counters["awake"] = w->awake();
   state.counters["top_m"] = w->top();
+  w.reset();
+  joltLeaveClean();
 }
 
 // ---- deformation ----------------------------------------------------------

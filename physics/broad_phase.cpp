@@ -309,6 +309,11 @@ void findPairs(StepContext& ctx, double h) {
   // World's threads, each range's start found by binary search).
   std::vector<Pair>& pairs = ctx.pairs;
   std::vector<Pair>& previousPairs = ctx.previousPairs;
+  // The same pairs as the last substep (a resting pile): each keeps its own lists already.
+  bool same = pairs.size() == pairKeys.size();
+  for (size_t pi = 0; pi < pairs.size() && same; ++pi)
+    same = (static_cast<uint64_t>(pairs[pi].a) << 32 | static_cast<uint64_t>(pairs[pi].b)) == pairKeys[pi];
+  if (same) return;
   std::swap(pairs, previousPairs);
   pairs.resize(pairKeys.size());
   ctx.parallelRange(pairKeys.size(), 1024, [&](size_t begin, size_t end, int) {

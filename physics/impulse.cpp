@@ -283,21 +283,31 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
     y[0] = p.s2[0][0] * q1 + p.s2[0][1] * q2;
     y[1] = p.s2[1][0] * q1 + p.s2[1][1] * q2;
   };
-  if (!exact) solveTilt();
+  if (!exact) {
+    solveTilt();
+    J = j0 - p.kb[0] * y[0] - p.kb[1] * y[1] - p.kb[2] * y[2];  // (else y, and so J, are as above)
+    jn = glm::dot(J, n);
+    if (!(jn > 0)) return false;
+  }
   // The centre of pressure's offset d from the point: the tilt torque is
   // d x (jn n), so d = n x T / jn = (-y2 t1 + y1 t2) / jn.
-  J = j0 - p.kb[0] * y[0] - p.kb[1] * y[1] - p.kb[2] * y[2];
-  jn = glm::dot(J, n);
-  if (!(jn > 0)) return false;
   // Scaling the tilt torque by s scales d's numerator by s and makes the
   // normal impulse A - s B: the largest s that keeps d in the patch is exact.
-  const glm::dvec3 jTwist = j0 - p.kb[2] * y[2], jTilt = p.kb[0] * y[0] + p.kb[1] * y[1];
-  const double A = glm::dot(jTwist, n), B = glm::dot(jTilt, n);
   const double num[2] = {-y[1], y[0]}, lo[2] = {e.lo1, e.lo2}, hi[2] = {e.hi1, e.hi2};
   double s = 1;
+  glm::dvec3 jTwist(0), jTilt(0);
+  double A = 0, B = 0;
+  bool split = false;  // jTwist, jTilt, A and B made (only where d leaves the patch at s = 1)
   for (int k = 0; k < 2; ++k) {
     const double bound = num[k] > 0 ? hi[k] : lo[k];
     if (num[k] == 0 || std::abs(num[k]) <= std::abs(bound) * jn) continue;  // inside at s = 1
+    if (!split) {
+      jTwist = j0 - p.kb[2] * y[2];
+      jTilt = p.kb[0] * y[0] + p.kb[1] * y[1];
+      A = glm::dot(jTwist, n);
+      B = glm::dot(jTilt, n);
+      split = true;
+    }
     const double den = num[k] + bound * B;
     const double sk = den != 0 ? bound * A / den : 0.0;
     s = std::min(s, std::clamp(sk, 0.0, 1.0));

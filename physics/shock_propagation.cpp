@@ -35,9 +35,9 @@ struct LevelContact {
   Contact c;
   Levers l;
   ImpulseMatrix m;  // K with this level's frozen bodies
-  double mu;
+  double mu = 0;
   ImpulseSide sa, sb;
-  const PatchExtent* extent;
+  const PatchExtent* extent = nullptr;
   PatchMatrix patch;  // valid only for a body's one or two support patches
 };
 
@@ -152,10 +152,13 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
     for (const ContactGroup& g : ctx.groups[pi]) {
       const Contact& c = g.contact;
       const bool fa = ctx.frozen[static_cast<size_t>(c.a)] != 0, fb = ctx.frozen[static_cast<size_t>(c.b)] != 0;
-      LevelContact x{c, g.levers, {}, mu, {}, {}, &g.patchMatrix.patch, {}};
+      LevelContact& x = lc.emplace_back();  // (filled in place: it is a kilobyte)
+      x.c = c;
+      x.l = g.levers;
+      x.mu = mu;
+      x.extent = &g.patchMatrix.patch;
       ctx.sidesAt(c.a, c.b, g.levers, fa, fb, x.sa, x.sb);
       x.m = ImpulseMatrix(collisionMatrix(x.sa, x.sb));
-      lc.push_back(x);
       if (!fa) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
       if (!fb) ++share[static_cast<size_t>(c.b)];
     }
@@ -186,7 +189,8 @@ void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::
     if (static_cast<size_t>(share[static_cast<size_t>(body)]) != count) continue;  // touches its own level too
     if (count == 1) {
       LevelContact& x = lc[supports[first].second];
-      x.patch = patchMatrix(x.sa, x.sb, x.m, *x.extent);
+      x.patch.patch = *x.extent;
+      setPatchMatrix(x.patch, x.sa, x.sb, x.m);
     } else if (count == 2) {
       const size_t k0 = supports[first].second, k1 = supports[first + 1].second;
       const glm::dvec3 line = lc[k1].c.point - lc[k0].c.point;

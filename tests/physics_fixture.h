@@ -7,11 +7,22 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <glm/glm.hpp>
 
 #include "physics/world.h"
 
 namespace crumple::test {
+
+// Uniform numbers in [0, 1) from a fixed linear congruential sequence: the same scene on every platform.
+struct Uniform {
+  uint64_t state;
+  explicit Uniform(uint64_t seed) : state(seed) {}
+  double operator()() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  }
+};
 
 // A static 40 x 1 x 40 m slab whose top face is the plane y = 0.
 inline int addGround(World& w, double friction = 0.5, double restitution = 1.0) {

@@ -197,11 +197,7 @@ TEST_CASE("convex meshes become polytopes; nonconvex ones keep the samples") {
 TEST_CASE("box on box: the dedicated manifold finds what the polytopes' finds") {
   // Random boxes in random relative poses, many of them touching: the same points, normals and depths as the
   // general polytope manifold (face, face of B, and edge cases all met), up to the order of the points.
-  uint64_t state = 11;
-  auto u = [&]() {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(11);
   int touching = 0, onB = 0, edges = 0;
   std::vector<PolytopeContact> general, dedicated;
   for (int trial = 0; trial < 4000; ++trial) {
@@ -262,11 +258,7 @@ TEST_CASE("two voussoirs lying face on face touch over the whole joint, not at i
 }
 
 TEST_CASE("sample tree: an oriented box query visits every sample inside it and few of the others") {
-  uint64_t state = 3;
-  auto u = [&]() {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(3);
   std::vector<glm::dvec3> samples;
   for (int i = 0; i < 5000; ++i) samples.push_back({2 * u() - 1, 2 * u() - 1, 0.5 * u()});
   const SampleTree tree(samples);
@@ -377,11 +369,7 @@ TEST_CASE("broad phase: the kept pair list (fat boxes) finds exactly the overlap
   World w;
   w.settings().gravity = {0, 0, 0};
   w.settings().sleeping = false;
-  uint64_t state = 5;
-  auto u = [&]() {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(5);
   std::vector<double> radius;
   for (int k = 0; k < 300; ++k) {
     BodyDef d;
@@ -430,11 +418,7 @@ TEST_CASE("broad phase: the hashed grid finds exactly the pairs whose bounds ove
   World w;
   w.settings().gravity = {0, 0, 0};
   w.settings().sleeping = false;
-  uint64_t state = 7;
-  auto u = [&]() {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(7);
   std::vector<std::pair<glm::dvec3, glm::dvec3>> bounds;  // lo, hi
   std::vector<bool> dynamic;
   auto add = [&](const glm::dvec3& size, const glm::dvec3& at, bool isStatic) {

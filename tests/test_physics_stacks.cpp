@@ -203,11 +203,7 @@ TEST_CASE("a heap of 300 mixed bodies started overlapping gains no energy: it on
   g.isStatic = true;
   g.origin = {0, -0.5, 0};
   w.addBody(g);
-  uint64_t state = 12345;
-  auto u = [&]() {  // a fixed linear congruential sequence: the same heap on every platform
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(12345);
   for (int i = 0; i < 300; ++i) {
     BodyDef b;
     switch (i % 4) {

@@ -374,24 +374,29 @@ void clipBoxFace(const glm::dvec3& hr, const glm::dvec3& hi, const glm::dmat3& r
   const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
   const glm::dvec3 centre = t + r[j] * (faceSign * hi[j]);
   const glm::dvec3 u = r[j1] * hi[j1], w = r[j2] * hi[j2];
-  // A polygon of at most 8 points (a quadrilateral clipped by four lines).
-  glm::dvec3 poly[8] = {centre + u + w, centre - u + w, centre - u - w, centre + u - w};
-  glm::dvec3 next[8];
+  // A polygon of at most 8 points (a quadrilateral clipped by four lines), clipped from one buffer into the other.
+  glm::dvec3 bufferA[8] = {centre + u + w, centre - u + w, centre - u - w, centre + u - w};
+  glm::dvec3 bufferB[8];
+  glm::dvec3* poly = bufferA;
+  glm::dvec3* next = bufferB;
   int count = 4;
   const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
   for (int plane = 0; plane < 4 && count > 0; ++plane) {
     const int k = plane < 2 ? a1 : a2;
     const double side = plane % 2 == 0 ? 1.0 : -1.0;
+    const double limit = hr[k];
     int kept = 0;
+    double dp = side * poly[0][k] - limit;
     for (int m = 0; m < count; ++m) {
       const glm::dvec3& p = poly[m];
-      const glm::dvec3& q = poly[(m + 1) % count];
-      const double dp = side * p[k] - hr[k], dq = side * q[k] - hr[k];
+      const glm::dvec3& q = poly[m + 1 < count ? m + 1 : 0];
+      const double dq = side * q[k] - limit;
       if (dp <= 0) next[kept++] = p;
       if ((dp < 0 && dq > 0) || (dp > 0 && dq < 0)) next[kept++] = p + (q - p) * (dp / (dp - dq));
+      dp = dq;
     }
     count = kept;
-    std::copy(next, next + kept, poly);
+    std::swap(poly, next);
   }
   glm::dvec3 n(0);
   n[axis] = sign;
@@ -432,19 +437,28 @@ void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bTo
   }
   // Edge pairs: axis e_i x r_j, pointing from A to B. Unnormalised, its components are r_j's (0, -r_j[i2],
   // r_j[i1]) and its length sqrt(r_j[i1]^2 + r_j[i2]^2); B's axis k != j projects on it as +-r_m[i], m the third.
+  // An edge pair counts only where it separates (then nothing touches) or where its separation passes the faces'
+  // by the margin below (then two edges cross): the others are told apart without the root and the division.
+  const double size = 2 * std::max({ha.x, ha.y, ha.z, hb.x, hb.y, hb.z});
+  const double faceSep = std::max(sepA, sepB);
+  const double edgeMargin = faceSep + 0.05 * std::abs(faceSep) + 1e-5 * size;  // edges must do better than this
   double sepE = -std::numeric_limits<double>::infinity();
   int edgeA = 0, edgeB = 0;
   for (int i = 0; i < 3; ++i) {
     const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
     for (int j = 0; j < 3; ++j) {
       const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
-      const double len = std::sqrt(r[j][i1] * r[j][i1] + r[j][i2] * r[j][i2]);
-      if (len < 1e-6) continue;  // parallel edges: the face axes cover them
+      const double len2 = r[j][i1] * r[j][i1] + r[j][i2] * r[j][i2];
+      if (len2 < 1e-12) continue;  // parallel edges: the face axes cover them
       const double along = std::abs(t[i2] * r[j][i1] - t[i1] * r[j][i2]);
       const double reachA = ha[i1] * absR[j][i2] + ha[i2] * absR[j][i1];
       const double reachB = hb[j1] * absR[j2][i] + hb[j2] * absR[j1][i];
-      const double sep = (along - reachA - reachB) / len;
-      if (sep > 0) return;
+      const double num = along - reachA - reachB;
+      if (num > 0) return;  // a separating axis
+      // num / len > edgeMargin needs edgeMargin < 0 and num^2 < edgeMargin^2 len^2 (both negative); a little
+      // slack, and the exact test decides.
+      if (!(edgeMargin < 0) || num * num > edgeMargin * edgeMargin * len2 * (1 + 1e-9)) continue;
+      const double sep = num / std::sqrt(len2);
       if (sep > sepE) {
         sepE = sep;
         edgeA = i;
@@ -452,9 +466,7 @@ void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bTo
       }
     }
   }
-  const double size = 2 * std::max({ha.x, ha.y, ha.z, hb.x, hb.y, hb.z});
-  const double faceSep = std::max(sepA, sepB);
-  if (sepE > faceSep + 0.05 * std::abs(faceSep) + 1e-5 * size) {
+  if (sepE > edgeMargin) {
     // Two edges cross: A's edge along e_i furthest along the axis, B's along r_j least far; one point, on B's edge.
     glm::dvec3 e(0);
     e[edgeA] = 1;

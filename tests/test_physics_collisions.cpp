@@ -2,6 +2,7 @@
 // no tunnelling at speed.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <glm/gtc/constants.hpp>
@@ -231,6 +232,56 @@ TEST_CASE("box on box: the dedicated manifold finds what the polytopes' finds") 
   CHECK(touching > 1000);
   CHECK(onB > 100);
   CHECK(edges > 50);
+}
+
+TEST_CASE("a box resting off-centre on a box touches at the corners of the overlap of their faces") {
+  // A 0.4 m cube pressed 1 mm into a 0.6 x 0.2 x 0.6 m slab, 0.35 m off-centre in x and 0.1 m in z, turned 0.3 rad
+  // about the vertical: the contacts are the corners of the overlap of the two faces (the cube's bottom face
+  // clipped to the slab's top), each 1 mm deep along the slab's normal.
+  World w;
+  const int a = addBox(w, {0.6, 0.2, 0.6}, {0, 0, 0}, 0.5, 0);
+  const int b = addBox(w, {0.4, 0.4, 0.4}, {0.35, 0.3 - 0.001, 0.1}, 0.5, 0);
+  const glm::dquat turn = glm::angleAxis(0.3, glm::dvec3(0, 1, 0));
+  std::vector<Contact> contacts;
+  w.findContacts(a, b, {w.body(a).x, w.body(a).q}, {w.body(b).x, turn}, contacts);
+  // The cube's bottom face: its centre c (in x, z) and half axes u, v.
+  const glm::dvec3 c(0.35, 0, 0.1);
+  const glm::dvec3 u = turn * glm::dvec3(0.2, 0, 0), v = turn * glm::dvec3(0, 0, 0.2);
+  double area = 0;  // of the overlap, counted on a grid over the slab's top
+  const int n = 400;
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < n; ++k) {
+      const glm::dvec2 p(-0.3 + 0.6 * (i + 0.5) / n, -0.3 + 0.6 * (k + 0.5) / n);
+      const glm::dvec3 d = glm::dvec3(p.x, 0, p.y) - c;
+      if (std::abs(glm::dot(d, u)) <= 0.04 && std::abs(glm::dot(d, v)) <= 0.04) area += 0.36 / (n * n);
+    }
+  REQUIRE(contacts.size() >= 4);
+  std::vector<glm::dvec2> polygon;
+  for (const Contact& k : contacts) {
+    CHECK(k.phi == Approx(-0.001).epsilon(1e-6));
+    CHECK(std::abs(std::abs(k.normal.y) - 1) < 1e-12);
+    CHECK(k.point.x <= 0.3 + 1e-12);  // on the slab's top face
+    CHECK(std::abs(k.point.z) <= 0.3 + 1e-12);
+    const glm::dvec3 d = k.point - glm::dvec3(0.35, k.point.y, 0.1);
+    CHECK(std::abs(glm::dot(d, u)) <= 0.04 + 1e-12);  // and inside the cube's bottom face
+    CHECK(std::abs(glm::dot(d, v)) <= 0.04 + 1e-12);
+    polygon.push_back({k.point.x, k.point.z});
+  }
+  // The contacts span the overlap: their polygon's area (its corners in angle order, shoelace) is the overlap's.
+  glm::dvec2 mid(0);
+  for (const glm::dvec2& p : polygon) mid += p / static_cast<double>(polygon.size());
+  std::sort(polygon.begin(), polygon.end(), [&](const glm::dvec2& p, const glm::dvec2& q) {
+    return std::atan2(p.y - mid.y, p.x - mid.x) < std::atan2(q.y - mid.y, q.x - mid.x);
+  });
+  double shoelace = 0;
+  for (size_t i = 0; i < polygon.size(); ++i) {
+    const glm::dvec2& p = polygon[i];
+    const glm::dvec2& q = polygon[(i + 1) % polygon.size()];
+    shoelace += p.x * q.y - q.x * p.y;
+  }
+  MESSAGE("overlap " << area << " m^2, contacts' polygon " << std::abs(shoelace) / 2 << " m^2, " << contacts.size()
+                     << " contacts");
+  CHECK(std::abs(shoelace) / 2 == Approx(area).epsilon(0.01));
 }
 
 TEST_CASE("two voussoirs lying face on face touch over the whole joint, not at its centre") {

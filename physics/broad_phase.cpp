@@ -253,11 +253,22 @@ void findPairs(StepContext& ctx, double h) {
   // then those of the kept list whose bounds overlap, in the same (sorted) order: the same pairs either way.
   BroadGrid& grid = ctx.grid;
   bool reuse = grid.fatValid && grid.fat.size() == n;
-  for (size_t i = 0; i < n && reuse; ++i) {
-    const Aabb& b = boxes[i];
-    const Aabb& f = grid.fat[i];
-    reuse = b.lo.x >= f.lo.x && b.lo.y >= f.lo.y && b.lo.z >= f.lo.z && b.hi.x <= f.hi.x && b.hi.y <= f.hi.y &&
-            b.hi.z <= f.hi.z && (!active[i] || grid.fatActive[i]);
+  if (reuse) {
+    // Every body still in its fat box (in ranges on the World's threads, each its own flag).
+    constexpr size_t kBodiesPerRange = 2048;
+    std::vector<char>& inside = grid.rangeInside;
+    inside.assign((n + kBodiesPerRange - 1) / kBodiesPerRange, 1);
+    ctx.parallelRange(n, kBodiesPerRange, [&](size_t begin, size_t end, int) {
+      char ok = 1;
+      for (size_t i = begin; i < end && ok; ++i) {
+        const Aabb& b = boxes[i];
+        const Aabb& f = grid.fat[i];
+        ok = b.lo.x >= f.lo.x && b.lo.y >= f.lo.y && b.lo.z >= f.lo.z && b.hi.x <= f.hi.x && b.hi.y <= f.hi.y &&
+             b.hi.z <= f.hi.z && (!active[i] || grid.fatActive[i]);
+      }
+      inside[begin / kBodiesPerRange] = ok;
+    });
+    reuse = std::find(inside.begin(), inside.end(), 0) == inside.end();
   }
   if (!reuse) {
     // The skin: a tenth of the body's smallest side (at most 5 cm), and four substeps' travel ahead.
@@ -280,11 +291,27 @@ void findPairs(StepContext& ctx, double h) {
     gridPairs(ctx, grid, grid.fat, &active, [](int, int) { return true; }, false, grid.fatKeys);
     grid.fatValid = true;
   }
+  // The kept pairs whose bounds overlap and that the filters keep: in ranges on the World's threads, each its
+  // own list, joined in order (one thread while a user's filter is set: it is called as the user gave it).
   pairKeys.clear();
-  for (uint64_t key : grid.fatKeys) {
+  auto keep = [&](uint64_t key) {
     const size_t i = key >> 32, j = key & 0xffffffffu;
-    if ((active[i] || active[j]) && overlap(boxes[i], boxes[j]) && accept(static_cast<int>(i), static_cast<int>(j)))
-      pairKeys.push_back(key);
+    return (active[i] || active[j]) && overlap(boxes[i], boxes[j]) && accept(static_cast<int>(i), static_cast<int>(j));
+  };
+  const std::vector<uint64_t>& fatKeys = grid.fatKeys;
+  if (ctx.filter || ctx.workers() < 2) {
+    for (uint64_t key : fatKeys)
+      if (keep(key)) pairKeys.push_back(key);
+  } else {
+    constexpr size_t kKeysPerRange = 4096;
+    grid.found.resize((fatKeys.size() + kKeysPerRange - 1) / kKeysPerRange);
+    ctx.parallelRange(fatKeys.size(), kKeysPerRange, [&](size_t begin, size_t end, int) {
+      std::vector<uint64_t>& kept = grid.found[begin / kKeysPerRange];
+      kept.clear();
+      for (size_t k = begin; k < end; ++k)
+        if (keep(fatKeys[k])) kept.push_back(fatKeys[k]);
+    });
+    for (const std::vector<uint64_t>& kept : grid.found) pairKeys.insert(pairKeys.end(), kept.begin(), kept.end());
   }
   // Sleepers in a pair wake (after every pair is known: the filter above saw the bodies as they were).
   for (uint64_t key : pairKeys) {

@@ -48,7 +48,7 @@ struct BroadGrid {
   std::vector<int> large, items;
   std::vector<uint32_t> bucketCount, bucketList;  // per box: its buckets' count and (up to 8 of) them
   std::vector<uint32_t> start, fill;
-  std::vector<std::vector<uint64_t>> found;  // per range of buckets, the overlapping pairs (a << 32 | b)
+  std::vector<std::vector<uint64_t>> found;  // per range (of boxes, of kept pairs): its pairs (a << 32 | b)
   std::vector<char> active;  // per body: can make a pair (findPairs)
   // findPairs' kept superset (Box2D's fat AABBs): per body a box around its bounds with a skin, and every pair
   // of those boxes that overlap with a body active then. Valid while each body's bounds stay in its fat box
@@ -57,6 +57,7 @@ struct BroadGrid {
   std::vector<char> fatActive;
   std::vector<uint64_t> fatKeys;
   bool fatValid = false;
+  std::vector<char> rangeInside;  // per range of bodies: all still in their fat boxes
 };
 
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.

@@ -252,7 +252,7 @@ void findPairs(StepContext& ctx, double h) {
   // The fat boxes' pairs, kept while they still hold every pair: a resting pile builds no grid. The pairs are
   // then those of the kept list whose bounds overlap, in the same (sorted) order: the same pairs either way.
   BroadGrid& grid = ctx.grid;
-  bool reuse = grid.fatValid && grid.fat.size() == n;
+  bool reuse = grid.fat.size() == n;  // (none yet, or bodies added since: build it)
   if (reuse) {
     // Every body still in its fat box (in ranges on the World's threads, each its own flag).
     constexpr size_t kBodiesPerRange = 2048;
@@ -289,7 +289,6 @@ void findPairs(StepContext& ctx, double h) {
     });
     grid.fatActive = active;
     gridPairs(ctx, grid, grid.fat, &active, [](int, int) { return true; }, false, grid.fatKeys);
-    grid.fatValid = true;
   }
   // The kept pairs whose bounds overlap and that the filters keep: in ranges on the World's threads, each its
   // own list, joined in order (one thread while a user's filter is set: it is called as the user gave it).

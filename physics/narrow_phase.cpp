@@ -6,6 +6,10 @@
 //   subtracted): point on the sampled body's surface, unit normal out of the
 //   field's owner (a), depth phi. pairContacts tests only the pair's candidate
 //   samples (broad_phase.cpp guarantees they hold every sample that can touch).
+//   Two convex polytopes (boxes, convex meshes) that neither sweep nor bend
+//   their normals give instead the penetrating corners of their contact
+//   manifold (polytope.h), on the incident body's surface, normal out of the
+//   reference face's body.
 // - Where one body moves, relative to the other, by more than the other's half
 //   thickness within the substep (a plate thinner than the substeps can
 //   cover), each of its samples not penetrating at the end is also marched
@@ -110,10 +114,10 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     out.push_back(c);
   }
 }
-// Two convex polytopes, one of them a mesh: their contact manifold (polytope.h)
+// Two convex polytopes (boxes, convex meshes): their contact manifold (polytope.h)
 // instead of the samples, which cannot hold a face lying on a face of the same
-// size (an arch's joints). Box on box keeps the samples (their face samples
-// give aligned stacks their support). False when the pair is not such a pair.
+// size (an arch's joints) and give a box resting on a box 26 points where its
+// overlap has 4 corners. Box on box by boxContacts. False when the pair is not such a pair.
 bool manifoldContacts(int ia, const RigidBody& A, const Pose& pa, int ib, const RigidBody& B, const Pose& pb,
                       std::vector<Contact>& out) {
   const Shape& sa = *A.shape;

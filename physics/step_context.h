@@ -52,11 +52,11 @@ struct BroadGrid {
   std::vector<char> active;  // per body: can make a pair (findPairs)
   // findPairs' kept superset (Box2D's fat AABBs): per body a box around its bounds with a skin, and every pair
   // of those boxes that overlap with a body active then. Valid while each body's bounds stay in its fat box
-  // and no body inactive then is active now: the pairs are those of the fat list whose bounds overlap.
+  // and no body inactive then is active now (a body added into a removed one's slot is held to the same test):
+  // the pairs are those of the fat list whose bounds overlap.
   std::vector<Aabb> fat;
   std::vector<char> fatActive;
   std::vector<uint64_t> fatKeys;
-  bool fatValid = false;
   std::vector<char> rangeInside;  // per range of bodies: all still in their fat boxes
 };
 

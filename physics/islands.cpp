@@ -8,8 +8,8 @@
 //   sets of bodies and only read the static ones.
 // - ctx.islandPairs[ctx.islandStart[k], ctx.islandStart[k + 1]) are island k's
 //   pairs in pair order; islands are numbered by their first pair.
-// - ctx.islandOrder lists the islands largest first (the order the pool takes
-//   them in: the big ones start early; results never depend on it).
+// - The threads take the islands in blocks of about equal pairs
+//   (StepContext::forEachIsland); results never depend on which thread ran one.
 // Why it keeps results bit-identical: the collision and contact passes visit
 // the pairs in a fixed order (forward, or backward), and an impulse changes
 // only the two bodies of its pair. Running each island's pairs in their own
@@ -63,15 +63,9 @@ void findIslands(StepContext& ctx) {
   ctx.islandPairs.resize(np);
   std::vector<uint32_t> fill(start.begin(), start.end() - 1);
   for (size_t pi = 0; pi < np; ++pi) ctx.islandPairs[fill[static_cast<size_t>(pairIsland[pi])]++] = static_cast<uint32_t>(pi);
-  ctx.islandOrder.resize(static_cast<size_t>(islands));
-  std::iota(ctx.islandOrder.begin(), ctx.islandOrder.end(), 0u);
-  std::stable_sort(ctx.islandOrder.begin(), ctx.islandOrder.end(),
-                   [&](uint32_t x, uint32_t y) { return start[x + 1] - start[x] > start[y + 1] - start[y]; });
   ctx.stats.islands = std::max(ctx.stats.islands, islands);
-  if (islands > 0) {
-    const uint32_t k = ctx.islandOrder.front();
+  for (size_t k = 0; k < static_cast<size_t>(islands); ++k)
     ctx.stats.largestIsland = std::max(ctx.stats.largestIsland, static_cast<int>(start[k + 1] - start[k]));
-  }
 }
 
 }  // namespace crumple::detail

@@ -1,75 +1,124 @@
 #include "physics/thread_pool.h"
 
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
+
 namespace crumple::detail {
 
-ThreadPool::ThreadPool(int threads) {
+namespace {
+// A hint to the core that this thread is spinning (frees the pipeline for a sibling thread).
+inline void relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  _mm_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#else
+  std::this_thread::yield();
+#endif
+}
+
+// Spins until done() or kSpin has passed; true when done() came first.
+template <class Done>
+bool spinFor(Done&& done) {
+  const auto until = std::chrono::steady_clock::now() + ThreadPool::kSpin;
+  for (unsigned k = 1;; ++k) {
+    if (done()) return true;
+    relax();
+    if (k % 64 == 0 && std::chrono::steady_clock::now() > until) return done();
+  }
+}
+}  // namespace
+
+ThreadPool::ThreadPool(int threads) : blocks_(new Block[static_cast<size_t>(threads > 1 ? threads : 1)]) {
   for (int w = 1; w < threads; ++w) workers_.emplace_back([this, w] { work(w); });
 }
 
 ThreadPool::~ThreadPool() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+    stop_.store(true, std::memory_order_release);
   }
   wake_.notify_all();
   for (std::thread& t : workers_) t.join();
 }
 
-void ThreadPool::drain(const std::function<void(size_t, int)>* fn, size_t count, int worker) {
-  for (;;) {
-    const size_t item = next_.fetch_add(1, std::memory_order_relaxed);
-    if (item >= count) return;
-    try {
-      (*fn)(item, worker);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!error_) error_ = std::current_exception();
-      next_.store(count, std::memory_order_relaxed);  // the rest is skipped
+bool ThreadPool::waitForRun(unsigned long seen) {
+  auto ready = [&] {
+    return generation_.load(std::memory_order_acquire) != seen || stop_.load(std::memory_order_acquire);
+  };
+  if (!spinFor(ready)) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ++sleepers_;
+    wake_.wait(lock, ready);
+    --sleepers_;
+  }
+  return !stop_.load(std::memory_order_acquire);
+}
+
+void ThreadPool::drain(int worker) {
+  const size_t threads = static_cast<size_t>(size());
+  for (size_t k = 0; k < threads; ++k) {
+    Block& block = blocks_[(static_cast<size_t>(worker) + k) % threads];
+    for (;;) {
+      const size_t item = block.next.fetch_add(1, std::memory_order_relaxed);
+      if (item >= block.end) break;
+      try {
+        (*job_)(item, worker);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!error_) error_ = std::current_exception();
+        for (size_t b = 0; b < threads; ++b) blocks_[b].next.store(blocks_[b].end, std::memory_order_relaxed);
+      }
     }
   }
 }
 
 void ThreadPool::work(int worker) {
   unsigned long seen = 0;
-  std::unique_lock<std::mutex> lock(mutex_);
-  for (;;) {
-    wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-    if (stop_) return;
-    seen = generation_;
-    ++busy_;
-    // The job as run() set it (a worker that wakes after the job was done finds none).
-    const std::function<void(size_t, int)>* fn = job_;
-    const size_t count = count_;
-    lock.unlock();
-    if (fn) drain(fn, count, worker);
-    lock.lock();
-    if (--busy_ == 0) done_.notify_all();
+  while (waitForRun(seen)) {
+    seen = generation_.load(std::memory_order_acquire);
+    drain(worker);
+    if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (callerAsleep_) done_.notify_one();
+    }
   }
 }
 
-void ThreadPool::run(size_t count, const std::function<void(size_t, int)>& fn) {
+void ThreadPool::run(size_t count, const std::function<void(size_t, int)>& fn, const size_t* cuts) {
   if (count == 0) return;
   if (workers_.empty() || count == 1) {
     for (size_t i = 0; i < count; ++i) fn(i, 0);
     return;
   }
+  const size_t threads = static_cast<size_t>(size());
+  for (size_t w = 0; w < threads; ++w) {
+    blocks_[w].next.store(cuts ? cuts[w] : w * count / threads, std::memory_order_relaxed);
+    blocks_[w].end = cuts ? cuts[w + 1] : (w + 1) * count / threads;
+  }
+  job_ = &fn;
+  pending_.store(static_cast<int>(workers_.size()), std::memory_order_relaxed);
+  generation_.fetch_add(1, std::memory_order_release);
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    job_ = &fn;
-    count_ = count;
-    next_.store(0, std::memory_order_relaxed);
-    error_ = nullptr;
-    ++generation_;
+    if (sleepers_ > 0) wake_.notify_all();
   }
-  wake_.notify_all();
-  drain(&fn, count, 0);
-  std::unique_lock<std::mutex> lock(mutex_);
-  done_.wait(lock, [&] { return busy_ == 0; });
+  drain(0);
+  auto finished = [&] { return pending_.load(std::memory_order_acquire) == 0; };
+  std::exception_ptr error;
+  {
+    const bool spun = spinFor(finished);
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!spun) {
+      callerAsleep_ = true;
+      done_.wait(lock, finished);
+      callerAsleep_ = false;
+    }
+    error = error_;
+    error_ = nullptr;
+  }
   job_ = nullptr;
-  count_ = 0;
-  std::exception_ptr error = error_;
-  error_ = nullptr;
-  lock.unlock();
   if (error) std::rethrow_exception(error);
 }
 

@@ -15,8 +15,10 @@
 //   frozen level below is held against tilting by that patch; on two, the
 //   patches hold only the tilt about the line through them.
 // - Afterwards no body is frozen.
-// - The levels are found over all bodies; the passes run island by island
-//   (islands.cpp; in parallel on the World's threads), each island's levels
+// - The levels are found by runs of islands (in parallel; over all bodies at
+//   once when there are joints): the same levels, as a path from level 0 to a
+//   dynamic body runs through that body's island only. The passes run island
+//   by island (islands.cpp; in parallel on the World's threads), each island's levels
 //   from 1 up: a level's groups in pair order within each island, so every
 //   body gets the same impulses in the same order as level by level over all
 //   pairs (static, kinematic and sleeping bodies are frozen throughout and
@@ -50,6 +52,8 @@ struct IslandScratch {
   std::vector<LevelContact> lc;
   std::vector<std::pair<int, size_t>> supports;
   std::vector<glm::dvec3> dj, dt;
+  std::vector<uint32_t> adjStart, adj;  // islandLevels: the dynamic bodies' neighbours, compressed rows
+  std::vector<int> queue;
 };
 
 // Working arrays kept from one substep to the next (no allocation per substep).
@@ -60,6 +64,7 @@ struct Scratch {
   std::vector<uint32_t> fill;
   std::vector<int> share;              // per body: its groups on the level under way
   std::vector<uint32_t> stamp;          // per body: the island (+1) that last counted it
+  std::vector<uint32_t> local, seen;    // per dynamic body: its index among its run's, and the run (+1) (islandLevels)
   std::vector<IslandScratch> islands;  // per worker
 };
 Scratch& scratch() {
@@ -136,6 +141,66 @@ void computeLevels(StepContext& ctx, Scratch& s) {
     for (uint32_t k = s.start[static_cast<size_t>(i)]; k < s.start[static_cast<size_t>(i) + 1]; ++k) {
       const int j = static_cast<int>(s.neighbours[k]);
       if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
+    }
+  }
+}
+
+// computeLevels for a run of islands [first, last) of pairs (without joints): the same levels, as every path
+// from a level 0 body to a dynamic one runs through the dynamic body's island only. ctx.level holds 0 for
+// the bodies that are not dynamic and -1 for the rest; the run's dynamic bodies get theirs.
+void islandLevels(StepContext& ctx, const uint32_t* first, const uint32_t* last, uint32_t mark, IslandScratch& w,
+                  std::vector<uint32_t>& stamp, std::vector<uint32_t>& local) {
+  std::vector<int>& level = ctx.level;
+  std::vector<int>& bodies = w.bodies;  // (scratch here: shockIslands fills it again)
+  bodies.clear();
+  auto dynamicBody = [&](int b) { return level[static_cast<size_t>(b)] != 0; };
+  for (const uint32_t* p = first; p != last; ++p) {
+    if (ctx.groups[*p].empty()) continue;
+    for (int b : {ctx.pairs[*p].a, ctx.pairs[*p].b})
+      if (dynamicBody(b) && stamp[static_cast<size_t>(b)] != mark) {
+        stamp[static_cast<size_t>(b)] = mark;
+        local[static_cast<size_t>(b)] = static_cast<uint32_t>(bodies.size());
+        bodies.push_back(b);
+      }
+  }
+  if (bodies.empty()) return;
+  // Neighbours among the run's dynamic bodies, in pair order; a body touching level 0 starts at level 1.
+  w.adjStart.assign(bodies.size() + 1, 0);
+  w.queue.clear();
+  for (const uint32_t* p = first; p != last; ++p) {
+    if (ctx.groups[*p].empty()) continue;
+    const int a = ctx.pairs[*p].a, b = ctx.pairs[*p].b;
+    if (dynamicBody(a) && dynamicBody(b)) {
+      ++w.adjStart[local[static_cast<size_t>(a)] + 1];
+      ++w.adjStart[local[static_cast<size_t>(b)] + 1];
+    } else if (dynamicBody(a) || dynamicBody(b)) {
+      const int d = dynamicBody(a) ? a : b;
+      if (level[static_cast<size_t>(d)] < 0) {
+        level[static_cast<size_t>(d)] = 1;
+        w.queue.push_back(d);
+      }
+    }
+  }
+  for (size_t k = 0; k < bodies.size(); ++k) w.adjStart[k + 1] += w.adjStart[k];
+  w.adj.resize(w.adjStart[bodies.size()]);
+  std::vector<uint32_t>& fill = w.fill;
+  fill.assign(w.adjStart.begin(), w.adjStart.end() - 1);
+  for (const uint32_t* p = first; p != last; ++p) {
+    if (ctx.groups[*p].empty()) continue;
+    const int a = ctx.pairs[*p].a, b = ctx.pairs[*p].b;
+    if (!dynamicBody(a) || !dynamicBody(b)) continue;
+    w.adj[fill[local[static_cast<size_t>(a)]]++] = static_cast<uint32_t>(b);
+    w.adj[fill[local[static_cast<size_t>(b)]]++] = static_cast<uint32_t>(a);
+  }
+  for (size_t head = 0; head < w.queue.size(); ++head) {
+    const int i = w.queue[head];
+    const uint32_t li = local[static_cast<size_t>(i)];
+    for (uint32_t k = w.adjStart[li]; k < w.adjStart[li + 1]; ++k) {
+      const int j = static_cast<int>(w.adj[k]);
+      if (level[static_cast<size_t>(j)] < 0) {
+        level[static_cast<size_t>(j)] = level[static_cast<size_t>(i)] + 1;
+        w.queue.push_back(j);
+      }
     }
   }
 }
@@ -227,8 +292,13 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
 
 // Islands [k0, k1) (their pairs lie side by side in ctx.islandPairs), level by level: bodies of different
 // islands share nothing, so each body's impulses come in its own island's pair order as over all pairs.
-void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandScratch& w, std::vector<int>& share,
-                  std::vector<uint32_t>& stamp) {
+void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandScratch& w, Scratch& s,
+                  bool levelsHere) {
+  std::vector<int>& share = s.share;
+  std::vector<uint32_t>& stamp = s.stamp;
+  if (levelsHere)
+    islandLevels(ctx, ctx.islandPairs.data() + ctx.islandStart[k0], ctx.islandPairs.data() + ctx.islandStart[k1], mark,
+                 w, s.seen, s.local);
   const std::vector<int>& level = ctx.level;
   auto pairLevel = [&](size_t pi) {
     const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
@@ -292,19 +362,36 @@ void shockPropagation(StepContext& ctx) {
   if (ctx.settings.shockPasses <= 0) return;
   const size_t n = ctx.bodies.size();
   Scratch& s = scratch();
-  computeLevels(ctx, s);
+  // With joints the levels are found over all bodies (a joined unit can span islands); without, each run of
+  // islands finds its own (islandLevels) on its thread.
+  const bool levelsHere = ctx.joints.empty();
+  if (levelsHere) {
+    ctx.level.resize(n);
+    s.local.resize(n);
+    s.seen.resize(n);
+  } else {
+    computeLevels(ctx, s);
+  }
+  s.share.resize(n);
+  s.stamp.resize(n);
   // Level 0 (static, kinematic and sleeping bodies, shared by islands) is frozen before the islands start.
-  for (size_t i = 0; i < n; ++i) ctx.frozen[i] = ctx.level[i] == 0;
-  s.share.assign(n, 0);
-  s.stamp.assign(n, 0);
+  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      if (levelsHere) ctx.level[i] = ctx.bodies[i].dynamic() ? -1 : 0;
+      ctx.frozen[i] = ctx.level[i] == 0;
+      s.share[i] = 0;
+      s.stamp[i] = 0;
+      if (levelsHere) s.seen[i] = 0;
+    }
+  });
   s.islands.resize(static_cast<size_t>(ctx.workers()));
   // Runs of whole islands (a pile's columns are islands of a few pairs: one at a time, the per-level work
   // of each cost more than its impulses).
   ctx.forEachIslandRun(256, [&](size_t first, size_t last, size_t run, int worker) {
-    shockIslands(ctx, first, last, static_cast<uint32_t>(run) + 1, s.islands[static_cast<size_t>(worker)], s.share,
-                 s.stamp);
+    shockIslands(ctx, first, last, static_cast<uint32_t>(run) + 1, s.islands[static_cast<size_t>(worker)], s,
+                 levelsHere);
   });
-  std::fill(ctx.frozen.begin(), ctx.frozen.end(), 0);
+  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) { std::fill(&ctx.frozen[begin], &ctx.frozen[end - 1] + 1, 0); });
 }
 
 }  // namespace crumple::detail

@@ -30,15 +30,22 @@ void updateSleep(StepContext& ctx, double h) {
   // body resting on another ends each step still approaching it by about g h
   // (the contact step stops penetration at the predicted positions, the
   // projection the rest), which at 60 Hz is more than any sleep threshold.
-  for (size_t i = 0; i < n; ++i) {
-    RigidBody& b = bodies[i];
-    if (!b.movable() || i >= ctx.stepStart.size()) continue;
-    const Pose& start = ctx.stepStart[i];
-    const double speed = glm::length(b.x - start.position) / h, spin = rotationAngle(start.orientation, b.q) / h;
-    const bool still = speed < settings.sleepLinear && spin < settings.sleepAngular;
-    b.stillTime = still ? b.stillTime + h : 0;
-  }
-  if (!settings.sleeping) return;
+  // (Per worker: whether some body has been still long enough to sleep; without one no island can.)
+  std::vector<char> ready(static_cast<size_t>(ctx.workers()), 0);
+  ctx.parallelRange(std::min(n, ctx.stepStart.size()), 256, [&](size_t begin, size_t end, int worker) {
+    bool any = false;
+    for (size_t i = begin; i < end; ++i) {
+      RigidBody& b = bodies[i];
+      if (!b.movable()) continue;
+      const Pose& start = ctx.stepStart[i];
+      const double speed = glm::length(b.x - start.position) / h, spin = rotationAngle(start.orientation, b.q) / h;
+      const bool still = speed < settings.sleepLinear && spin < settings.sleepAngular;
+      b.stillTime = still ? b.stillTime + h : 0;
+      any = any || (!b.kinematic && b.stillTime >= settings.sleepTime);
+    }
+    if (any) ready[static_cast<size_t>(worker)] = 1;
+  });
+  if (!settings.sleeping || std::find(ready.begin(), ready.end(), 1) == ready.end()) return;
   std::vector<int> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {

@@ -506,11 +506,13 @@ void World::collideAndContact(double h) {
     t.second += std::chrono::duration<double>(Clock::now() - t0).count();
   });
   collision.finish();
-  for (size_t b = 0; b < c.bodies.size(); ++b) {
-    if (done[b]) continue;
-    detail::integrateVelocity(c, b, h);
-    contact.startBody(b);
-  }
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t b = begin; b < end; ++b) {
+      if (done[b]) continue;
+      detail::integrateVelocity(c, b, h);
+      contact.startBody(b);
+    }
+  });
   contact.finish();
   // The stage profile: the wall time split as the workers' time was.
   const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -605,24 +607,36 @@ void World::step(double h) {
   // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
   // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
   // the thinner one's half thickness (stepTravel).
-  double maxTravel = 0;
-  for (const RigidBody& b : c.bodies) {
-    if (!b.movable()) continue;
-    const double speed =
-        glm::length(b.v) + glm::length(c.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
-    maxTravel = std::max(maxTravel, speed * h);
-  }
+  std::vector<double> travel(static_cast<size_t>(c.workers()), 0.0);  // the largest per worker
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+    double most = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const RigidBody& b = c.bodies[i];
+      if (!b.movable()) continue;
+      const double speed =
+          glm::length(b.v) + glm::length(c.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
+      most = std::max(most, speed * h);
+    }
+    travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);
+  });
+  const double maxTravel = *std::max_element(travel.begin(), travel.end());
   double ratio = maxTravel / (c.settings.substepFraction * std::max(c.minHalfThickness, 1e-4));
   if (ratio > 1) ratio = detail::stepTravel(c, h);
   const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, c.settings.maxSubsteps));
   c.substepsCapped = ratio > n;
   for (int s = 0; s < n; ++s) substep(h / n);
   c.stats.substeps = n;
-  for (size_t i = 0; i < c.bodies.size(); ++i) {
-    c.force[i] = glm::dvec3(0);
-    c.torque[i] = glm::dvec3(0);
-    c.stats.awake += c.bodies[i].movable();
-  }
+  std::vector<int> awake(static_cast<size_t>(c.workers()), 0);
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+    int count = 0;
+    for (size_t i = begin; i < end; ++i) {
+      c.force[i] = glm::dvec3(0);
+      c.torque[i] = glm::dvec3(0);
+      count += c.bodies[i].movable();
+    }
+    awake[static_cast<size_t>(worker)] += count;
+  });
+  for (int a : awake) c.stats.awake += a;
   c.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 

@@ -93,7 +93,7 @@ void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, c
   // Each box's cell range (on the World's threads); the large ones aside.
   g.lo.resize(n);
   g.hi.resize(n);
-  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) {
+  ctx.parallelRange(n, ctx.grainFor(n, 1024), [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       const glm::dvec3 e = boxes[i].hi - boxes[i].lo;
       const bool small = e.x < kLargeCells * cell && e.y < kLargeCells * cell && e.z < kLargeCells * cell;
@@ -135,7 +135,7 @@ void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, c
   constexpr int kInline = 8;
   g.bucketCount.resize(n);
   g.bucketList.resize(n * kInline);
-  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) {
+  ctx.parallelRange(n, ctx.grainFor(n, 1024), [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       uint32_t c = 0;
       eachBucket(i, [&](uint32_t b) {
@@ -255,7 +255,7 @@ void findPairs(StepContext& ctx, double h) {
   bool reuse = grid.fat.size() == n;  // (none yet, or bodies added since: build it)
   if (reuse) {
     // Every body still in its fat box (in ranges on the World's threads, each its own flag).
-    constexpr size_t kBodiesPerRange = 2048;
+    const size_t kBodiesPerRange = ctx.grainFor(n, 2048);
     std::vector<char>& inside = grid.rangeInside;
     inside.assign((n + kBodiesPerRange - 1) / kBodiesPerRange, 1);
     ctx.parallelRange(n, kBodiesPerRange, [&](size_t begin, size_t end, int) {
@@ -302,7 +302,7 @@ void findPairs(StepContext& ctx, double h) {
     for (uint64_t key : fatKeys)
       if (keep(key)) pairKeys.push_back(key);
   } else {
-    constexpr size_t kKeysPerRange = 4096;
+    const size_t kKeysPerRange = ctx.grainFor(fatKeys.size(), 4096);
     grid.found.resize((fatKeys.size() + kKeysPerRange - 1) / kKeysPerRange);
     ctx.parallelRange(fatKeys.size(), kKeysPerRange, [&](size_t begin, size_t end, int) {
       std::vector<uint64_t>& kept = grid.found[begin / kKeysPerRange];
@@ -342,7 +342,7 @@ void findPairs(StepContext& ctx, double h) {
   if (same) return;
   std::swap(pairs, previousPairs);
   pairs.resize(pairKeys.size());
-  ctx.parallelRange(pairKeys.size(), 1024, [&](size_t begin, size_t end, int) {
+  ctx.parallelRange(pairKeys.size(), ctx.grainFor(pairKeys.size(), 1024), [&](size_t begin, size_t end, int) {
     auto before = [](const Pair& x, int a, int b) { return x.a < a || (x.a == a && x.b < b); };
     auto old = std::partition_point(previousPairs.begin(), previousPairs.end(), [&](const Pair& x) {
       return before(x, static_cast<int>(pairKeys[begin] >> 32), static_cast<int>(pairKeys[begin] & 0xffffffffu));

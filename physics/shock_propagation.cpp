@@ -375,7 +375,7 @@ void shockPropagation(StepContext& ctx) {
   s.share.resize(n);
   s.stamp.resize(n);
   // Level 0 (static, kinematic and sleeping bodies, shared by islands) is frozen before the islands start.
-  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) {
+  ctx.parallelRange(n, ctx.grainFor(n, 1024), [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       if (levelsHere) ctx.level[i] = ctx.bodies[i].dynamic() ? -1 : 0;
       ctx.frozen[i] = ctx.level[i] == 0;
@@ -391,7 +391,7 @@ void shockPropagation(StepContext& ctx) {
     shockIslands(ctx, first, last, static_cast<uint32_t>(run) + 1, s.islands[static_cast<size_t>(worker)], s,
                  levelsHere);
   });
-  ctx.parallelRange(n, 1024, [&](size_t begin, size_t end, int) { std::fill(&ctx.frozen[begin], &ctx.frozen[end - 1] + 1, 0); });
+  ctx.parallelRange(n, ctx.grainFor(n, 1024), [&](size_t begin, size_t end, int) { std::fill(&ctx.frozen[begin], &ctx.frozen[end - 1] + 1, 0); });
 }
 
 }  // namespace crumple::detail

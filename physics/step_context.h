@@ -223,6 +223,13 @@ struct StepContext {
     }
     return workCuts.data();
   }
+  // `grain`, or less where `count` would not give every worker about 8 chunks of it (at least 128 items a
+  // chunk): on many threads a few large chunks would leave most threads idle.
+  size_t grainFor(size_t count, size_t grain) const {
+    if (workers() < 2) return grain;
+    const size_t even = (count + 8 * static_cast<size_t>(workers()) - 1) / (8 * static_cast<size_t>(workers()));
+    return std::min(grain, std::max<size_t>(even, 128));
+  }
   // fn(begin, end, worker) over [0, count) in chunks of about `grain` items.
   template <class F>
   void parallelRange(size_t count, size_t grain, F&& fn) {
@@ -255,6 +262,11 @@ struct StepContext {
     std::vector<size_t>& cuts = islandRuns;
     cuts.assign(1, 0);
     const size_t islands = islandCount();
+    // (Smaller runs where the threads would get few: about 8 each, at least 32 pairs a run.)
+    if (workers() > 1 && islands > 0) {
+      const uint64_t even = islandStart[islands] / (8 * static_cast<uint64_t>(workers()));
+      minPairs = static_cast<uint32_t>(std::min<uint64_t>(minPairs, std::max<uint64_t>(even, 32)));
+    }
     for (size_t k = 1; k <= islands; ++k)
       if (islandStart[k] - islandStart[cuts.back()] >= minPairs || k == islands) cuts.push_back(k);
     if (normalModifier && !bumpNormals.empty()) {

@@ -24,7 +24,13 @@ bool spinFor(Done&& done) {
   const auto until = std::chrono::steady_clock::now() + ThreadPool::kSpin;
   for (unsigned k = 1;; ++k) {
     if (done()) return true;
-    relax();
+    // A short spin, then the core offered to any other thread ready to run (more threads than cores: a
+    // spinning thread would hold up the one it waits for).
+    if (k < 256) {
+      relax();
+    } else {
+      std::this_thread::yield();
+    }
     if (k % 64 == 0 && std::chrono::steady_clock::now() > until) return done();
   }
 }

@@ -182,6 +182,7 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
   s["deformations"] = sim.timings().deformations;
   s["deformed_sides"] = deformedSides;
   s["contact_deformations"] = sim.timings().contactDeformations;
+  sim.gpuTimes(true);  // (the GPU's times of every deformation and frame so far: waits for the last ones)
   const Timings& t = sim.timings();
   json tj;
   tj["physics_ms"] = t.physicsMs;
@@ -190,6 +191,10 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
   tj["deform_ms_per_deformation"] = t.deformations ? t.deformMs / static_cast<double>(t.deformations) : 0.0;
   tj["render_ms"] = t.renderMs;
   tj["render_ms_per_frame"] = t.frames ? t.renderMs / static_cast<double>(t.frames) : 0.0;
+  tj["deform_gpu_ms"] = t.deformGpuMs;
+  tj["deform_gpu_ms_per_deformation"] = t.deformations ? t.deformGpuMs / static_cast<double>(t.deformations) : 0.0;
+  tj["render_gpu_ms"] = t.renderGpuMs;
+  tj["render_gpu_ms_per_frame"] = t.frames ? t.renderGpuMs / static_cast<double>(t.frames) : 0.0;
   tj["frames"] = t.frames;
   // The process's peak resident memory so far (Linux), for soak checks: it must not grow with the steps.
   {

@@ -64,8 +64,9 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
 
 double drawFrame(Simulation& sim, render::Renderer& renderer, const render::View& view) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (sim.renderTimer()) sim.renderTimer()->begin();
   renderer.draw(renderItems(sim), view);
-  glFinish();
+  if (sim.renderTimer()) sim.renderTimer()->end();
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   sim.timings().renderMs += ms;
   return ms;

@@ -17,8 +17,9 @@ render::View cameraView(const CameraDesc& camera, const Simulation* sim = nullpt
 // and the top of the static body each would fall onto. Without moving bodies, every body. Named "default"; vertical fov 45, fitted for frames
 // at least 3:2 wide.
 CameraDesc defaultCamera(const Simulation& sim);
-// One frame of the apps' loops: the simulation's bodies drawn from `view` into the renderer's target, the
-// GPU waited for (an honest time), the milliseconds added to sim.timings().renderMs and returned.
+// One frame of the apps' loops: the simulation's bodies drawn from `view` into the renderer's target; the
+// wall-clock milliseconds of issuing it added to sim.timings().renderMs and returned (the GPU is not waited
+// for: its time per frame comes from sim.renderTimer(), sim.gpuTimes()).
 double drawFrame(Simulation& sim, render::Renderer& renderer, const render::View& view);
 
 }  // namespace crumple

@@ -16,6 +16,7 @@
 #include "physics/sdf_grid.h"
 #include "physics/vehicle.h"
 #include "physics/world.h"
+#include "render/gpu_timer.h"
 
 namespace crumple {
 
@@ -57,8 +58,12 @@ struct JointBreakRecord {
   double impulse = 0;
 };
 
+// Wall-clock milliseconds (deformMs and renderMs: issuing the GL commands; the GPU runs them behind, never
+// waited for in the loop) and the GPU's own milliseconds for the deformations and the frames (timer queries,
+// read when they come back: gpuTimes() brings them up to date).
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
+  double deformGpuMs = 0, renderGpuMs = 0;
   long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;
 };
 
@@ -82,6 +87,10 @@ class Simulation {
   const std::vector<double>& jointPeaks() const { return jointPeaks_; }
   long steps() const { return steps_; }
   Timings& timings() { return timings_; }
+  // Brings timings()' GPU times up to date: the results back so far, or (wait) all of them.
+  void gpuTimes(bool wait);
+  // The frames' GPU timer (drawFrame; null without GL).
+  render::GpuTimer* renderTimer() { return renderTimer_.get(); }
   deform::Deformer* deformer() { return deformer_.get(); }
   std::vector<VehicleRuntime>& vehicles() { return vehicles_; }
   // Live changes (the sandbox's panel).
@@ -153,6 +162,7 @@ class Simulation {
   };
   std::map<int, NormalLookup> normalLookups_;  // by body index in bodies_
   std::unique_ptr<deform::Deformer> deformer_;
+  std::unique_ptr<render::GpuTimer> deformTimer_, renderTimer_;
   AssetCache assets_;
   long steps_ = 0;
   Timings timings_;

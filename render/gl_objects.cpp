@@ -146,6 +146,11 @@ Program::Program(const std::vector<Stage>& stages) : GlName(glCreateProgram()) {
 }
 
 void Program::use() const { glUseProgram(id()); }
-GLint Program::uniform(const char* name) const { return glGetUniformLocation(id(), name); }
+GLint Program::uniform(const char* name) const {
+  const std::string_view key(name);
+  auto found = locations_.find(key);
+  if (found == locations_.end()) found = locations_.emplace(std::string(key), glGetUniformLocation(id(), name)).first;
+  return found->second;
+}
 
 }  // namespace crumple::render

@@ -3,8 +3,10 @@
 #pragma once
 #include <epoxy/gl.h>
 
+#include <functional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -116,10 +118,17 @@ class Program : public GlName<detail::deleteProgram> {
   };
   explicit Program(const std::vector<Stage>& stages);
   void use() const;
+  // glGetUniformLocation's answer, asked once per name (a program's locations are fixed once it is linked:
+  // a frame sets some two thousand uniforms, and the driver's lookup by name is a string hash each time).
   GLint uniform(const char* name) const;
 
  private:
+  struct NameHash {
+    using is_transparent = void;
+    size_t operator()(std::string_view s) const { return std::hash<std::string_view>{}(s); }
+  };
   std::string label_;
+  mutable std::unordered_map<std::string, GLint, NameHash, std::equal_to<>> locations_;
 };
 
 // Source of a shader embedded from render/shaders at build time.

@@ -8,6 +8,7 @@
 #include "gl_fixture.h"
 #include "render/capture.h"
 #include "render/gl_objects.h"
+#include "render/gpu_timer.h"
 
 using namespace crumple;
 using namespace crumple::render;
@@ -104,4 +105,44 @@ TEST_CASE("a shader that fails to compile is an exception naming it") {
   test::glContext();
   CHECK_THROWS_WITH_AS(Program({{GL_FRAGMENT_SHADER, "broken.frag", "#version 450 core\nvoid main() { x = 1; }"}}),
                        doctest::Contains("broken.frag"), std::runtime_error);
+}
+
+TEST_CASE("a program's uniform locations are the driver's, asked once per name") {
+  test::glContext();
+  const char* src = R"(#version 450 core
+layout(local_size_x = 1) in;
+layout(r32ui, binding = 0) uniform uimage2D img;
+uniform uint uA;
+uniform uint uB[3];
+void main() { imageStore(img, ivec2(0, 0), uvec4(uA + uB[0] + uB[2])); }
+)";
+  Program prog({{GL_COMPUTE_SHADER, "uniforms.comp", src}});
+  for (const char* name : {"uA", "uB", "uB[0]", "uB[2]", "uNone", "uA"})
+    CHECK(prog.uniform(name) == glGetUniformLocation(prog.id(), name));
+  CHECK(prog.uniform("uA") >= 0);
+  CHECK(prog.uniform("uNone") == -1);
+  CHECK(prog.uniform("uB[2]") != prog.uniform("uB[0]"));
+}
+
+TEST_CASE("a GPU timer measures every kept stretch without waiting in the loop, more stretches than slots too") {
+  test::glContext();
+  // Work the GPU (llvmpipe: the CPU's threads) takes measurable time over: clears of a large texture.
+  Texture2D t(1024, 1024, GL_RGBA32F);
+  const float value[4] = {1, 2, 3, 4};
+  GpuTimer timer(3);
+  int kept = 0;
+  for (int k = 0; k < 10; ++k) {
+    timer.begin();
+    for (int r = 0; r < 4; ++r) glClearTexImage(t.id(), 0, GL_RGBA, GL_FLOAT, value);
+    const bool keep = k % 3 != 2;
+    timer.end(keep);
+    kept += keep;
+  }
+  const double ms = timer.finish();
+  CHECK(timer.measured() == static_cast<size_t>(kept));
+  CHECK(ms > 0);
+  CHECK(timer.ms() == ms);  // nothing left to come back
+  // An end without a begin is ignored.
+  timer.end();
+  CHECK(timer.finish() == ms);
 }

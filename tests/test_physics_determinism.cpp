@@ -13,11 +13,15 @@
 // when it fails, and say why in the commit.
 #include <doctest/doctest.h>
 
+#include <atomic>
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
+#include "physics/thread_pool.h"
 #include "physics_fixture.h"
 #include "test_meshes.h"
 
@@ -190,4 +194,45 @@ TEST_CASE("threads: a pile of 2000 boxes (the broad phase's grid tested in range
     return w.stateHash();
   };
   CHECK(run(4) == run(1));
+}
+
+TEST_CASE("the thread pool runs every item exactly once, in the workers' blocks or taken from others, and rethrows") {
+  for (int threads : {2, 3, 8}) {
+    CAPTURE(threads);
+    crumple::detail::ThreadPool pool(threads);
+    std::vector<std::atomic<int>> ran(1000);
+    std::vector<std::atomic<int>> byWorker(static_cast<size_t>(threads));
+    // Many short runs one after another (the spinning path), equal blocks and blocks cut by hand (all items in
+    // the last worker's: the others must take them).
+    for (int round = 0; round < 200; ++round) {
+      const size_t count = 1 + static_cast<size_t>(round * 37) % ran.size();
+      std::vector<size_t> cuts(static_cast<size_t>(threads) + 1, 0);
+      cuts.back() = count;
+      for (auto& r : ran) r = 0;
+      pool.run(
+          count,
+          [&](size_t item, int worker) {
+            ran[item].fetch_add(1);
+            if (worker >= 0 && worker < threads) byWorker[static_cast<size_t>(worker)].fetch_add(1);
+          },
+          round % 2 ? cuts.data() : nullptr);
+      int wrong = 0;
+      for (size_t k = 0; k < ran.size(); ++k) wrong += ran[k].load() != (k < count ? 1 : 0);
+      REQUIRE(wrong == 0);
+    }
+    int counted = 0;
+    for (auto& b : byWorker) counted += b.load();
+    int expected = 0;
+    for (int round = 0; round < 200; ++round) expected += 1 + (round * 37) % 1000;
+    CHECK(counted == expected);  // every call named a worker of the pool
+    CHECK_THROWS_WITH_AS(pool.run(100,
+                                  [](size_t item, int) {
+                                    if (item == 57) throw std::runtime_error("item 57");
+                                  }),
+                         "item 57", std::runtime_error);
+    // Still usable after a throw.
+    std::atomic<int> sum{0};
+    pool.run(10, [&](size_t item, int) { sum += static_cast<int>(item); });
+    CHECK(sum.load() == 45);
+  }
 }

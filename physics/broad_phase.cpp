@@ -14,7 +14,9 @@
 //   less than the skin they were built with, rebuilt otherwise). A shape with
 //   a sample tree (sample_tree.h) has only the samples in the other's bounds
 //   looked at: the cost of a list is that of the samples near the other body,
-//   not of all of a big mesh's.
+//   not of all of a big mesh's. Two polytopes (boxes, convex meshes) have
+//   empty lists unless the substeps are capped or a normal modifier bends
+//   their normals: the narrow phase meets them by their manifold then.
 // - ctx.predicted holds each body's predicted pose x + h (v + h a) (version 0),
 //   for the collision step's first look.
 // The order is unique whichever sort made it (ties by index): same input, same pairs.
@@ -442,6 +444,16 @@ void findCandidates(StepContext& ctx, double h) {
     Pair& pair = ctx.pairs[pi];
     const RigidBody& A = ctx.body(pair.a);
     const RigidBody& B = ctx.body(pair.b);
+    // Two polytopes meet by their manifold (narrow_phase.cpp) unless the step sweeps or a normal modifier
+    // bends their normals: no samples are looked at, no lists needed.
+    const bool bumpy = ctx.normalModifier && !ctx.bumpNormals.empty() &&
+                       (ctx.bumpNormals[static_cast<size_t>(pair.a)] || ctx.bumpNormals[static_cast<size_t>(pair.b)]);
+    if (A.shape->polytope && B.shape->polytope && !ctx.substepsCapped && !bumpy) {
+      pair.bInA.clear();
+      pair.aInB.clear();
+      pair.builtMargin = -1;
+      continue;
+    }
     // What matters is B's motion relative to A: two bodies falling side by
     // side do not approach each other however fast they fall.
     auto spin = [&](const RigidBody& b) {
@@ -456,8 +468,10 @@ void findCandidates(StepContext& ctx, double h) {
     if (pair.builtMargin >= 0) {
       const double ra = A.shape->boundingRadius + glm::length(A.localCom) + pair.builtMargin;
       const double rb = B.shape->boundingRadius + glm::length(B.localCom) + pair.builtMargin;
-      const double moved = relativeDisplacementBound(pair.builtA, {A.x, A.q}, ra, pair.builtB, {B.x, B.q}, rb);
-      if (moved + margin <= pair.builtMargin) continue;  // the lists still hold every sample that can touch
+      // (the lists still hold every sample that can touch while moved + margin <= builtMargin)
+      const bool stale = displacementExceeds(pair.builtA, {A.x, A.q}, ra, pair.builtB, {B.x, B.q}, rb,
+                                             [&](double moved) { return !(moved + margin <= pair.builtMargin); });
+      if (!stale) continue;
     }
     const double built = margin + skin;
     auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list) {

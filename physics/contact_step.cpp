@@ -223,8 +223,9 @@ void ContactRun::island(size_t island, int worker) {
           const RigidBody& B = ctx.body(pair.b);
           const double ra = A.shape->boundingRadius + glm::length(A.localCom);
           const double rb = B.shape->boundingRadius + glm::length(B.localCom);
-          look = relativeDisplacementBound(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb) >
-                 ctx.settings.contactRefreshTolerance;
+          const double tolerance = ctx.settings.contactRefreshTolerance;
+          look = displacementExceeds(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb,
+                                     [&](double moved) { return moved > tolerance; });
         }
       }
       if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);

@@ -38,8 +38,10 @@ void updateSleep(StepContext& ctx, double h) {
       RigidBody& b = bodies[i];
       if (!b.movable()) continue;
       const Pose& start = ctx.stepStart[i];
-      const double speed = glm::length(b.x - start.position) / h, spin = rotationAngle(start.orientation, b.q) / h;
-      const bool still = speed < settings.sleepLinear && spin < settings.sleepAngular;
+      const double speed = glm::length(b.x - start.position) / h;
+      const bool still = speed < settings.sleepLinear &&
+                         !angleExceeds(start.orientation, b.q,
+                                       [&](double angle) { return !(angle / h < settings.sleepAngular); });
       b.stillTime = still ? b.stillTime + h : 0;
       any = any || (!b.kinematic && b.stillTime >= settings.sleepTime);
     }

@@ -130,6 +130,19 @@ inline double rotationAngle(const glm::dquat& from, const glm::dquat& to) {
   return 2 * std::acos(std::min(1.0, std::abs(glm::dot(from, to))));
 }
 
+// exceeds(rotationAngle(from, to)) for a predicate that is false up to some angle and true beyond it, mostly
+// without the arc cosine: 2 acos(x) lies in [2 sqrt(2 (1 - x)), pi sqrt(1 - x)] for x in [0, 1], and where the
+// predicate agrees at both ends (widened by far more than rounding) it is the answer. The same answer as
+// exceeds(rotationAngle(from, to)) always (the contact step's refreshes and the sleep test are decided this way,
+// and the results' bits do not change).
+template <class Exceeds>
+bool angleExceeds(const glm::dquat& from, const glm::dquat& to, Exceeds&& exceeds) {
+  const double u = 1 - std::min(1.0, std::abs(glm::dot(from, to)));
+  if (exceeds(2 * std::sqrt(2 * u) * (1 - 1e-9))) return true;
+  if (!exceeds(3.141592653589793 * std::sqrt(u) * (1 + 1e-9))) return false;
+  return exceeds(rotationAngle(from, to));
+}
+
 // How far B's points near A can have moved in A's frame between two pairs of
 // poses: the change of B's offset from A, plus each rotation angle times the
 // reach about that body's centre (A's turn moves the points near A by at most
@@ -139,6 +152,19 @@ inline double relativeDisplacementBound(const Pose& fromA, const Pose& toA, doub
   const glm::dvec3 offsetChange = (toB.position - toA.position) - (fromB.position - fromA.position);
   return glm::length(offsetChange) + rotationAngle(fromA.orientation, toA.orientation) * ra +
          rotationAngle(fromB.orientation, toB.orientation) * rb;
+}
+// exceeds(relativeDisplacementBound(...)) for a predicate false up to some value and true beyond it, as
+// angleExceeds: bounds on the two angles first, the arc cosines only where the bounds leave it open.
+template <class Exceeds>
+bool displacementExceeds(const Pose& fromA, const Pose& toA, double ra, const Pose& fromB, const Pose& toB, double rb,
+                         Exceeds&& exceeds) {
+  const double offset = glm::length((toB.position - toA.position) - (fromB.position - fromA.position));
+  const double ua = 1 - std::min(1.0, std::abs(glm::dot(fromA.orientation, toA.orientation)));
+  const double ub = 1 - std::min(1.0, std::abs(glm::dot(fromB.orientation, toB.orientation)));
+  const double sa = std::sqrt(ua), sb = std::sqrt(ub);
+  if (exceeds((offset + 2 * std::sqrt(2.0) * (sa * ra + sb * rb)) * (1 - 1e-9))) return true;
+  if (!exceeds((offset + 3.141592653589793 * (sa * ra + sb * rb)) * (1 + 1e-9))) return false;
+  return exceeds(relativeDisplacementBound(fromA, toA, ra, fromB, toB, rb));
 }
 
 // A contact group's totals from the last island solve: the pair (key a << 32 | b), its normal from a to b,

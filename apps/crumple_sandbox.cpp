@@ -223,6 +223,13 @@ void panel(App& app) {
   ImGui::Begin("crumple");
   ImGui::Text("t = %.2f s   step %ld", app.sim->world().time(), app.sim->steps());
   ImGui::Text("physics %.2f ms  deform %.2f ms  render %.2f ms", app.physicsMs, app.deformMs, app.renderMs);
+  if (render::GpuTimer* t = app.sim->renderTimer(); t && t->measured() > 0) {
+    // The GPU's own time (timer queries, read a few frames behind): the CPU times above only issue the work.
+    app.sim->gpuTimes(false);
+    const Timings& tm = app.sim->timings();
+    ImGui::Text("GPU: render %.2f ms a frame, deform %.2f ms a deformation", tm.renderGpuMs / t->measured(),
+                tm.deformations ? tm.deformGpuMs / tm.deformations : 0.0);
+  }
   ImGui::Text("%.1f fps", ImGui::GetIO().Framerate);
   ImGui::Text("view %d x %d (scale %.2f%s)", app.renderer->width(), app.renderer->height(), app.quality.scale,
               app.quality.enabled ? ", auto" : "");

@@ -21,7 +21,7 @@ CommitPass::CommitPass()
   nSlopeScale_ = normals_.uniform("uSlopeScale");
 }
 
-void CommitPass::run(int side, Surface& x, int grow, render::Texture2D& scratch, const render::Buffer& region,
+void CommitPass::run(int side, Surface& x, const render::Buffer* rim, render::Texture2D& scratch, const render::Buffer& region,
                      const render::Buffer& stats, int statsIndex, const PhaseMark& phase) {
   const int res = x.resolution();
   // The region becomes indirect dispatch sizes: the commit over it, the normals over it grown by a texel.
@@ -31,7 +31,8 @@ void CommitPass::run(int side, Surface& x, int grow, render::Texture2D& scratch,
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
   glUniform1i(dSide_, side);
   glUniform1i(dResolution_, res);
-  glUniform1i(dGrow_, grow);
+  if (rim) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, rim->id());
+  glUniform1i(dGrow_, rim ? 1 : 0);
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
 

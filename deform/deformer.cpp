@@ -170,8 +170,9 @@ struct Deformer::Impl {
   }
 
   // One side of an event up to its new heights in the scratch (returns the crater ring's width).
-  int updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
-                 const DeformRequest& rq, double depth);
+  // (Returns whether its crater rim was made: the commit then grows the region by the rim's ring.)
+  bool updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
+                  const DeformRequest& rq, double depth);
 };
 
 Deformer::Deformer(const DeformOptions& options)
@@ -209,7 +210,7 @@ void Deformer::regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi) {
   impl_->commit.normals(s.maps(), s.resolution(), s.bumpDepth() / (2 * s.texelSize()), lo, hi);
 }
 
-int Deformer::Impl::updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
+bool Deformer::Impl::updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
                                const DeformRequest& rq, double depth) {
   // The normal as owned by X, pointing towards the other body.
   const glm::dvec3 n = side == 0 ? rq.normal : -rq.normal;
@@ -251,12 +252,14 @@ int Deformer::Impl::updateSide(const DeformOptions& o, int side, const DeformBod
     phase("address pass other");
     if (o.path == Path::Readback) {
       readback.run(u, passes, x.surface->height(), o.craterRims, out, region, phaseMark);
-      return 0;  // the CPU twin grew the region by the rim itself
+      return false;  // the CPU twin grew the region by the rim itself
     }
     scatter.run(u, passes, x.surface->height(), out, region);
     phase("update (compute)");
   }
-  return o.craterRims ? rims.run(side, u.resolution, x.surface->height(), out, region) : 0;
+  if (!o.craterRims) return false;
+  rims.run(side, u.resolution, x.surface->height(), out, region);
+  return true;
 }
 
 int Deformer::deform(const DeformRequest& rq) {
@@ -266,7 +269,7 @@ int Deformer::deform(const DeformRequest& rq) {
   const GLint emptyRegion[8] = {INT_MAX, INT_MAX, -1, -1, INT_MAX, INT_MAX, -1, -1};
   m.region.upload(0, sizeof emptyRegion, emptyRegion);
   bool active[2] = {false, false};
-  int rings[2] = {0, 0};  // crater ring width per side: the commit region grows by it
+  bool rims[2] = {false, false};  // crater rims made per side: the commit region grows by their ring
   GLint savedViewport[4];
   glGetIntegerv(GL_VIEWPORT, savedViewport);
   for (int side = 0; side < 2; ++side) {
@@ -275,7 +278,7 @@ int Deformer::deform(const DeformRequest& rq) {
     const double depth = side == 0 ? rq.deformA : rq.deformB;
     if (!x.surface || !(depth > 0) || !x.mesh || !other.mesh) continue;
     active[side] = true;
-    rings[side] = m.updateSide(options_, side, x, other, rq, depth);
+    rims[side] = m.updateSide(options_, side, x, other, rq, depth);
   }
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
   // Commit both sides only now, so that neither saw the other's new dent.
@@ -283,7 +286,7 @@ int Deformer::deform(const DeformRequest& rq) {
     if (!active[side]) continue;
     Surface& x = *(side == 0 ? rq.a : rq.b).surface;
     x.makeUnique();
-    m.commit.run(side, x, rings[side], m.scratchFor(side, x.resolution()), m.region, m.stats, handle + side,
+    m.commit.run(side, x, rims[side] ? &m.rims.ring() : nullptr, m.scratchFor(side, x.resolution()), m.region, m.stats, handle + side,
                  m.phaseMark);
   }
   glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);

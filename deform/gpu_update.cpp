@@ -103,38 +103,41 @@ void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const 
   glDispatchCompute(dispatchGroups(passes.size()), dispatchGroups(passes.size()), 1);
 }
 
-CraterRims::CraterRims() : program_(computeProgram("crater_rim.comp")) {
+CraterRims::CraterRims()
+    : program_(computeProgram("crater_rim.comp")), dispatch_(computeProgram("rim_dispatch.comp")) {
   uSide_ = program_.uniform("uSide");
-  uRing_ = program_.uniform("uRing");
   uResolution_ = program_.uniform("uResolution");
   uMode_ = program_.uniform("uMode");
+  dSide_ = dispatch_.uniform("uSide");
+  dResolution_ = dispatch_.uniform("uResolution");
 }
 
-int CraterRims::run(int side, int res, const render::Texture2D& height, render::Texture2D& scratch,
-                    const render::Buffer& region) {
-  // The ring width depends on the dent's size: read the region (4 ints) once.
-  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
-  GLint box[4];
-  glGetNamedBufferSubData(region.id(), static_cast<GLintptr>(side) * 4 * sizeof(GLint), sizeof box, box);
-  if (box[2] < box[0]) return 0;
-  const int ring = craterRing(box[2] - box[0] + 1, box[3] - box[1] + 1);
+void CraterRims::run(int side, int res, const render::Texture2D& height, render::Texture2D& scratch,
+                     const render::Buffer& region) {
+  // The ring width depends on the dent's size: found on the GPU from the region, with the dispatch sizes.
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   const GLuint zero[2] = {0, 0};
   sums_.upload(static_cast<size_t>(side) * 2 * sizeof(GLuint), sizeof zero, zero);
+  dispatch_.use();
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, rim_.id());
+  glUniform1i(dSide_, side);
+  glUniform1i(dResolution_, res);
+  glDispatchCompute(1, 1, 1);
+  glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   program_.use();
   glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
   glBindTextureUnit(1, height.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, sums_.id());
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, rim_.id());
   glUniform1i(uSide_, side);
-  glUniform1i(uRing_, ring);
   glUniform1i(uResolution_, res);
-  const int w = std::min(res, box[2] - box[0] + 1 + 2 * ring), h = std::min(res, box[3] - box[1] + 1 + 2 * ring);
   for (int mode = 0; mode < 3; ++mode) {
     glUniform1i(uMode_, mode);
-    glDispatchCompute(dispatchGroups(w), dispatchGroups(h), 1);
+    glDispatchComputeIndirect(static_cast<GLintptr>(side) * 3 * sizeof(GLuint));
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   }
-  return ring;
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
 }
 
 }  // namespace crumple::deform

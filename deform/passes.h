@@ -108,18 +108,22 @@ class ScatterUpdate {
   GLint uSide_, uSize_, uResolution_, uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
 };
 
-// Ring width (texels) of the crater rim for a dent whose touched region is w x h texels: craterRing().
+// Ring width (texels) of the crater rim for a dent whose touched region is w x h texels: craterRing(), found on
+// the GPU (rim_dispatch.comp) with the passes' dispatch sizes: nothing is read back.
 class CraterRims {
  public:
   CraterRims();
-  // Reads the side's region back (4 ints) for the ring's width; returns it (0: nothing dented).
-  int run(int side, int resolution, const render::Texture2D& height, render::Texture2D& scratch,
-          const render::Buffer& region);
+  // The rim of side's dent into the scratch; its ring width stays in ring() for the commit.
+  void run(int side, int resolution, const render::Texture2D& height, render::Texture2D& scratch,
+           const render::Buffer& region);
+  // Per side: the rim passes' indirect dispatch sizes (3 uints each), then the ring widths (2 ints).
+  const render::Buffer& ring() const { return rim_; }
 
  private:
-  render::Program program_;
-  GLint uSide_, uRing_, uResolution_, uMode_;
+  render::Program program_, dispatch_;
+  GLint uSide_, uResolution_, uMode_, dSide_, dResolution_;
   render::Buffer sums_{4 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
+  render::Buffer rim_{8 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
 };
 
 class ReadbackUpdate {
@@ -136,9 +140,10 @@ class ReadbackUpdate {
 class CommitPass {
  public:
   CommitPass();
-  // Writes side's new heights into X's map over its region (grown by `grow` texels), counts what changed
-  // into stats entry `statsIndex`, puts the scratch back to untouched, and regenerates the normals there.
-  void run(int side, Surface& x, int grow, render::Texture2D& scratch, const render::Buffer& region,
+  // Writes side's new heights into X's map over its region (grown by the crater rim's ring when `rim`, a
+  // CraterRims::ring() buffer, is given), counts what changed into stats entry `statsIndex`, puts the scratch
+  // back to untouched, and regenerates the normals there.
+  void run(int side, Surface& x, const render::Buffer* rim, render::Texture2D& scratch, const render::Buffer& region,
            const render::Buffer& stats, int statsIndex, const PhaseMark& phase);
   // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
   void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);

@@ -7,21 +7,22 @@
 //   uMode 0: sum the dent's volume (texels whose new height is below the old)
 //   uMode 1: ring weights w = 1 - d / W (d: texel distance to the nearest dented texel), summed
 //   uMode 2: raise each ring texel by V * w / sum(w)
-// in/out: uNewHeight (float bits), uHeight (old map); uSums[uSide * 2 + 0..1] fixed point 2^-20
+// in/out: uNewHeight (float bits), uHeight (old map); uSums[uSide * 2 + 0..1] fixed point 2^-20; W: uRimRing[uSide]
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(r32ui, binding = 0) uniform uimage2D uNewHeight;
 layout(binding = 1) uniform sampler2D uHeight;
 layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
 layout(std430, binding = 4) buffer Sums { uint uSums[]; };
+layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };  // rim_dispatch.comp's
 uniform int uSide;
 uniform int uMode;
-uniform int uRing;  // W in texels
 uniform int uResolution;
 const float kFixed = 1048576.0;
 bool dented(ivec2 p) { return uintBitsToFloat(imageLoad(uNewHeight, p).r) < texelFetch(uHeight, p, 0).r; }
 void main() {
   ivec4 r = uRegion[uSide];
   if (r.z < r.x) return;
+  int uRing = uRimRing[uSide];  // W in texels
   ivec2 lo = max(r.xy - uRing, ivec2(0)), hi = min(r.zw + uRing, ivec2(uResolution - 1));
   ivec2 p = lo + ivec2(gl_GlobalInvocationID.xy);
   if (any(greaterThan(p, hi))) return;

@@ -9,11 +9,13 @@ layout(std430, binding = 2) buffer Indirect { uint uIndirect[]; };
 layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };
 uniform int uSide;
 uniform int uResolution;
-uniform int uGrow;  // crater rims widen the region by their ring
+uniform int uGrow;  // crater rims widen the region by their ring: 1 takes it from uRimRing (rim_dispatch.comp)
+layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };
 void main() {
   ivec4 r = uRegion[uSide];
-  if (uGrow > 0 && r.z >= r.x) {
-    r = ivec4(max(r.xy - uGrow, ivec2(0)), min(r.zw + uGrow, ivec2(uResolution - 1)));
+  int grow = uGrow > 0 ? uRimRing[uSide] : 0;
+  if (grow > 0 && r.z >= r.x) {
+    r = ivec4(max(r.xy - grow, ivec2(0)), min(r.zw + grow, ivec2(uResolution - 1)));
     uRegion[uSide] = r;
   }
   uint base = uint(uSide) * 6u;

@@ -1,5 +1,7 @@
 // The commit of one side's new heights over its touched region, and the
 // normal map regenerated there (also used for whole maps at creation).
+#include <algorithm>
+
 #include "deform/passes.h"
 
 namespace crumple::deform {
@@ -21,67 +23,88 @@ CommitPass::CommitPass()
   nSlopeScale_ = normals_.uniform("uSlopeScale");
 }
 
-void CommitPass::run(int side, Surface& x, const render::Buffer* rim, render::Texture2D& scratch, const render::Buffer& region,
-                     const render::Buffer& stats, int statsIndex, const PhaseMark& phase) {
-  const int res = x.resolution();
-  // The region becomes indirect dispatch sizes: the commit over it, the normals over it grown by a texel.
+void CommitPass::run(const Side (&sides)[2], const render::Buffer& region, const render::Buffer& stats,
+                     int statsIndex, const PhaseMark& phase) {
+  // Each region becomes indirect dispatch sizes: the commit over it, the normals over it grown by a texel.
   dispatch_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, indirect_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
-  glUniform1i(dSide_, side);
-  glUniform1i(dResolution_, res);
-  if (rim) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, rim->id());
-  glUniform1i(dGrow_, rim ? 1 : 0);
-  glDispatchCompute(1, 1, 1);
+  for (int side = 0; side < 2; ++side) {
+    const Side& s = sides[side];
+    if (!s.x) continue;
+    if (s.rim) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, s.rim->id());
+    glUniform1i(dSide_, side);
+    glUniform1i(dResolution_, s.x->resolution());
+    glUniform1i(dGrow_, s.rim ? 1 : 0);
+    glDispatchCompute(1, 1, 1);
+  }
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
 
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, indirect_.id());
   commit_.use();
-  glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
-  glBindImageTexture(1, x.height().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, stats.id());
-  glUniform1i(cSide_, side);
-  glUniform1i(cStatsIndex_, statsIndex);
-  glUniform1f(cBumpDepth_, x.bumpDepth());
-  glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint));
+  for (int side = 0; side < 2; ++side) {
+    const Side& s = sides[side];
+    if (!s.x) continue;
+    glBindImageTexture(0, s.scratch->id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+    glBindImageTexture(1, s.x->height().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+    glUniform1i(cSide_, side);
+    glUniform1i(cStatsIndex_, statsIndex + side);
+    glUniform1f(cBumpDepth_, s.x->bumpDepth());
+    glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint));
+  }
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("commit");
 
   normals_.use();
-  glBindTextureUnit(0, x.height().id());
-  glBindImageTexture(1, x.normal().id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
-  glUniform1i(nSide_, side);
-  glUniform4i(nFullRegion_, 0, 0, -1, -1);
-  glUniform1i(nResolution_, res);
-  glUniform1f(nSlopeScale_, x.bumpDepth() / (2 * x.texelSize()));
-  glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint) + 3 * sizeof(GLuint));
+  for (int side = 0; side < 2; ++side) {
+    const Side& s = sides[side];
+    if (!s.x) continue;
+    glBindTextureUnit(0, s.x->height().id());
+    glBindImageTexture(1, s.x->normal().id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
+    glUniform1i(nSide_, side);
+    glUniform4i(nFullRegion_, 0, 0, -1, -1);
+    glUniform1i(nResolution_, s.x->resolution());
+    glUniform1f(nSlopeScale_, s.x->bumpDepth() / (2 * s.x->texelSize()));
+    glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint) + 3 * sizeof(GLuint));
+  }
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
   phase("normal map");
-  bounds(x.maps(), res, side, {0, 0}, {res - 1, res - 1});
+  const SurfaceMaps* maps[2] = {sides[0].x ? &sides[0].x->maps() : nullptr, sides[1].x ? &sides[1].x->maps() : nullptr};
+  bounds(maps, 0, {0, 0}, {0, 0});
   phase("height bound");
 }
 
-void CommitPass::bounds(const SurfaceMaps& maps, int resolution, int side, glm::ivec2 lo, glm::ivec2 hi) {
+void CommitPass::bounds(const SurfaceMaps* const (&maps)[2], int side, glm::ivec2 lo, glm::ivec2 hi) {
+  // side >= 0: maps[k] is side k's, over its region on the GPU; side < 0: maps[0] alone over [lo, hi].
   bound_.use();
-  glBindTextureUnit(0, maps.height.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
-  glUniform1i(bound_.uniform("uSide"), side);
-  glUniform4i(bound_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
   glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
-  glUniform1i(bound_.uniform("uResolution"), resolution);
-  for (int level = 0; level < maps.boundLevels(); ++level) {
+  if (side < 0) glUniform4i(bound_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
+  int levels = 0;
+  for (const SurfaceMaps* m : maps)
+    if (m) levels = std::max(levels, m->boundLevels());
+  for (int level = 0; level < levels; ++level) {
     glUniform1i(bound_.uniform("uLevel"), level);
-    glBindImageTexture(1, maps.bound.id(), level, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-    glBindImageTexture(2, maps.bound.id(), std::max(level - 1, 0), GL_FALSE, 0, GL_READ_ONLY, GL_R32F);
-    // A region known here is dispatched over its tiles; the commit's (on the GPU) over the whole level, the
-    // invocations outside it returning at once.
-    const int span = SurfaceMaps::kBoundTile << level, size = maps.bound.width() >> level;
-    const int nx = side < 0 ? hi.x / span - lo.x / span + 1 : size, ny = side < 0 ? hi.y / span - lo.y / span + 1 : size;
-    glDispatchCompute(static_cast<GLuint>((nx + 7) / 8), static_cast<GLuint>((ny + 7) / 8), 1);
+    for (int k = 0; k < 2; ++k) {
+      const SurfaceMaps* m = maps[k];
+      if (!m || level >= m->boundLevels()) continue;
+      const int resolution = m->height.width();
+      glBindTextureUnit(0, m->height.id());
+      glUniform1i(bound_.uniform("uSide"), side < 0 ? -1 : k);
+      glUniform1i(bound_.uniform("uResolution"), resolution);
+      glBindImageTexture(1, m->bound.id(), level, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
+      glBindImageTexture(2, m->bound.id(), std::max(level - 1, 0), GL_FALSE, 0, GL_READ_ONLY, GL_R32F);
+      // A region known here is dispatched over its tiles; the commit's (on the GPU) over the whole level, the
+      // invocations outside it returning at once.
+      const int span = SurfaceMaps::kBoundTile << level, size = m->bound.width() >> level;
+      const int nx = side < 0 ? hi.x / span - lo.x / span + 1 : size, ny = side < 0 ? hi.y / span - lo.y / span + 1 : size;
+      glDispatchCompute(static_cast<GLuint>((nx + 7) / 8), static_cast<GLuint>((ny + 7) / 8), 1);
+    }
     glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   }
 }
@@ -96,7 +119,8 @@ void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeSca
   glUniform1f(nSlopeScale_, slopeScale);
   glDispatchCompute(dispatchGroups(hi.x - lo.x + 1), dispatchGroups(hi.y - lo.y + 1), 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
-  bounds(maps, resolution, -1, lo, hi);
+  const SurfaceMaps* one[2] = {&maps, nullptr};
+  bounds(one, -1, lo, hi);
 }
 
 }  // namespace crumple::deform

@@ -281,14 +281,15 @@ int Deformer::deform(const DeformRequest& rq) {
     rims[side] = m.updateSide(options_, side, x, other, rq, depth);
   }
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
-  // Commit both sides only now, so that neither saw the other's new dent.
+  // Commit both sides only now, so that neither saw the other's new dent (both stage by stage).
+  CommitPass::Side commits[2];
   for (int side = 0; side < 2; ++side) {
     if (!active[side]) continue;
     Surface& x = *(side == 0 ? rq.a : rq.b).surface;
     x.makeUnique();
-    m.commit.run(side, x, rims[side] ? &m.rims.ring() : nullptr, m.scratchFor(side, x.resolution()), m.region, m.stats, handle + side,
-                 m.phaseMark);
+    commits[side] = {&x, rims[side] ? &m.rims.ring() : nullptr, &m.scratchFor(side, x.resolution())};
   }
+  m.commit.run(commits, m.region, m.stats, handle, m.phaseMark);
   glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);
   glDisable(GL_CULL_FACE);
   return handle;

@@ -140,17 +140,25 @@ class ReadbackUpdate {
 class CommitPass {
  public:
   CommitPass();
-  // Writes side's new heights into X's map over its region (grown by the crater rim's ring when `rim`, a
-  // CraterRims::ring() buffer, is given), counts what changed into stats entry `statsIndex`, puts the scratch
-  // back to untouched, and regenerates the normals there.
-  void run(int side, Surface& x, const render::Buffer* rim, render::Texture2D& scratch, const render::Buffer& region,
-           const render::Buffer& stats, int statsIndex, const PhaseMark& phase);
+  // One side of an event to commit: X (null: nothing to commit on this side), its new heights, and the crater
+  // rim's CraterRims::ring() buffer when it has a rim (the region grows by its ring).
+  struct Side {
+    Surface* x = nullptr;
+    const render::Buffer* rim = nullptr;
+    render::Texture2D* scratch = nullptr;
+  };
+  // Writes each side's new heights into its X's map over its region, counts what changed into stats entry
+  // `statsIndex + side`, puts the scratch back to untouched, and regenerates the normals and the bound pyramid
+  // there. The two sides (different maps) go stage by stage, one memory barrier a stage for both.
+  void run(const Side (&sides)[2], const render::Buffer& region, const render::Buffer& stats, int statsIndex,
+           const PhaseMark& phase);
   // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
   void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);
 
  private:
-  // The bound pyramid over the region of `side` (normalRegion_, on the GPU) or, for side < 0, [lo, hi].
-  void bounds(const SurfaceMaps& maps, int resolution, int side, glm::ivec2 lo, glm::ivec2 hi);
+  // The bound pyramid over the region of `side` (normalRegion_, on the GPU) or, for side < 0, [lo, hi]; level
+  // by level, each level for every map of `maps` (null: none) before one barrier.
+  void bounds(const SurfaceMaps* const (&maps)[2], int side, glm::ivec2 lo, glm::ivec2 hi);
   render::Program dispatch_, commit_, normals_, bound_;
   GLint dSide_, dResolution_, dGrow_;
   GLint cSide_, cStatsIndex_, cBumpDepth_;

@@ -301,9 +301,12 @@ SideStats Deformer::stats(int handle, int side) {
   if (handle < 0 || handle + side >= m.statsUsed) return s;
   if (m.statsRead < m.statsUsed) {
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    // Only the entries written since the last read (each event's are written once, by its commit).
+    const size_t from = static_cast<size_t>(std::max(m.statsRead, 0)) * 4;
     m.statsHost.resize(static_cast<size_t>(m.statsUsed) * 4);
-    glGetNamedBufferSubData(m.stats.id(), 0, static_cast<GLsizeiptr>(m.statsHost.size() * sizeof(GLuint)),
-                            m.statsHost.data());
+    glGetNamedBufferSubData(m.stats.id(), static_cast<GLintptr>(from * sizeof(GLuint)),
+                            static_cast<GLsizeiptr>((m.statsHost.size() - from) * sizeof(GLuint)),
+                            m.statsHost.data() + from);
     m.statsRead = m.statsUsed;
   }
   const size_t base = static_cast<size_t>(handle + side) * 4;

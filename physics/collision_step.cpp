@@ -26,8 +26,7 @@
 namespace crumple::detail {
 
 CollisionRun::CollisionRun(StepContext& ctx, double h)
-    : ctx_(ctx), h_(h), eventOfPair_(ctx.pairs.size(), -1), pending_(static_cast<size_t>(ctx.workers())),
-      anyOf_(pending_.size(), 0) {
+    : ctx_(ctx), h_(h), eventOfPair_(ctx.pairs.size(), -1), workers_(static_cast<size_t>(ctx.workers())) {
   // A pair whose two bodies kept their velocities since it was last checked
   // would find the same (no) collision again: skip it. Exact, so runs stay
   // bit-identical; it saves the repeated passes most of their work. Only
@@ -59,7 +58,7 @@ void CollisionRun::island(size_t island, int worker) {
     }
     return ctx.predicted[k];
   };
-  std::vector<PendingEvent>& events = pending_[static_cast<size_t>(worker)];
+  std::vector<PendingEvent>& events = workers_[static_cast<size_t>(worker)].events;
   const uint32_t* first = ctx.islandPairs.data() + ctx.islandStart[island];
   const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[island + 1];
   for (int pass = 0; pass < settings.collisionPasses; ++pass) {
@@ -149,7 +148,7 @@ void CollisionRun::island(size_t island, int worker) {
         e.impulse = glm::length(e.impulseVector);
       }
     }
-    if (passAny) anyOf_[static_cast<size_t>(worker)] = 1;
+    if (passAny) workers_[static_cast<size_t>(worker)].any = true;
     if (!passAny) break;
   }
 }
@@ -157,13 +156,13 @@ void CollisionRun::island(size_t island, int worker) {
 bool CollisionRun::finish() {
   // The events in the order one sweep over all pairs makes them: by pass, then pair.
   std::vector<PendingEvent> merged;
-  for (std::vector<PendingEvent>& events : pending_)
-    for (PendingEvent& e : events) merged.push_back(std::move(e));
+  for (WorkerState& w : workers_)
+    for (PendingEvent& e : w.events) merged.push_back(std::move(e));
   std::sort(merged.begin(), merged.end(),
             [](const PendingEvent& x, const PendingEvent& y) { return x.pass != y.pass ? x.pass < y.pass : x.pair < y.pair; });
   for (const PendingEvent& e : merged) ctx_.events.push_back(e.event);
   for (int ev : eventOfPair_) ctx_.stats.collisions += ev >= 0;
-  return std::find(anyOf_.begin(), anyOf_.end(), 1) != anyOf_.end();
+  return std::any_of(workers_.begin(), workers_.end(), [](const WorkerState& w) { return w.any; });
 }
 
 bool collide(StepContext& ctx, double h) {

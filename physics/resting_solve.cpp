@@ -130,7 +130,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
   // Each island on its own (in parallel on the World's threads): an island writes only its own bodies and
   // groups, and its warm-start totals into its worker's list; the lists are merged by key (a pair's groups
   // all come from one island, in their order).
-  struct Work {
+  struct alignas(64) Work {  // (a cache line of its own per worker)
     std::vector<IslandGroup> groups;
     std::vector<Row> rows;
     std::vector<double> lambda, diag;

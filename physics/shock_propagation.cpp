@@ -44,7 +44,7 @@ struct LevelContact {
 };
 
 // One island's work, on one worker: its pairs and bodies by level.
-struct IslandScratch {
+struct alignas(64) IslandScratch {  // (a cache line of its own: see ContactScratch)
   std::vector<size_t> pairs;         // by level (levelStart), in pair order within a level
   std::vector<uint32_t> levelStart;  // pairs[levelStart[l], levelStart[l + 1]): level l's
   std::vector<int> bodies, byLevel;  // its levelled dynamic bodies, and the same by level (bodyStart)

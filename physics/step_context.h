@@ -464,15 +464,21 @@ class CollisionRun {
   StepContext& ctx_;
   double h_;
   std::vector<int> eventOfPair_;
-  std::vector<std::vector<PendingEvent>> pending_;  // per worker
-  std::vector<char> anyOf_;                          // per worker: an impulse applied
+  // Per worker, each on its own cache line (workers write theirs at every island: shared lines would bounce
+  // between the cores): its events, and whether it applied an impulse.
+  struct alignas(64) WorkerState {
+    std::vector<PendingEvent> events;
+    bool any = false;
+  };
+  std::vector<WorkerState> workers_;
 };
 // contact_step.cpp: integrateVelocities over every body; contactStep runs a ContactRun over every island.
 void integrateVelocities(StepContext& ctx, double h);
 void integrateVelocity(StepContext& ctx, size_t body, double h);  // one movable body's (else nothing)
 void contactStep(StepContext& ctx, double h);
-// One worker's scratch over a contact step.
-struct ContactScratch {
+// One worker's scratch over a contact step (on cache lines of its own: a worker resizes its vectors at every
+// island, and a line shared with the next worker's would bounce between their cores).
+struct alignas(64) ContactScratch {
   std::vector<Contact> fresh;
   std::vector<ContactGroup> old;
   std::vector<char> inherited;

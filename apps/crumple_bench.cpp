@@ -38,6 +38,7 @@
 #include "engine/simulation.h"
 #include "physics/world.h"
 #include "render/gl_context.h"
+#include "render/gpu_timer.h"
 #include "render/renderer.h"
 
 using namespace crumple;
@@ -426,12 +427,41 @@ struct DeformCase {
   }
 };
 
+// Wall time per event (glFinish after each), and the GPU's time (gpu_ms: timer queries around the event).
 void deformBench(benchmark::State& state, deform::Path path) {
   DeformCase c({static_cast<int>(state.range(0)), path});
+  render::GpuTimer timer;
   for (auto _ : state) {
+    timer.begin();
     c.deformer.deform(c.request);
+    timer.end();
     glFinish();
   }
+  const double gpu = timer.finish();
+  state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
+}
+
+// A step with many collisions: `events` deformations issued back to back (the ball along a line over the plate,
+// each event its own place), one glFinish at the end; gpu_ms is the whole batch's GPU time.
+void deformBatchBench(benchmark::State& state, int events) {
+  DeformCase c({static_cast<int>(state.range(0)), deform::Path::Gather});
+  std::vector<deform::DeformRequest> requests;
+  for (int k = 0; k < events; ++k) {
+    deform::DeformRequest rq = c.request;
+    const double x = -0.4 + 0.8 * k / std::max(1, events - 1);
+    rq.b.model = glm::translate(glm::dmat4(1), glm::dvec3(x, 0.35, 0));
+    rq.point = {x, 0.1, 0};
+    requests.push_back(rq);
+  }
+  render::GpuTimer timer;
+  for (auto _ : state) {
+    timer.begin();
+    for (const deform::DeformRequest& rq : requests) c.deformer.deform(rq);
+    timer.end();
+    glFinish();
+  }
+  const double gpu = timer.finish();
+  state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
 }
 
 // Per-phase wall times (glFinish at each boundary) of both paths at each size.
@@ -488,10 +518,15 @@ void renderBench(benchmark::State& state, const std::string& off) {
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   r.draw(items, view);  // untimed: the shaders of this view's features are compiled on first use
   glFinish();
+  render::GpuTimer timer;
   for (auto _ : state) {
+    timer.begin();
     r.draw(items, view);
+    timer.end();
     glFinish();
   }
+  const double gpu = timer.finish();
+  state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
 }
 
 class Collector : public benchmark::ConsoleReporter {
@@ -607,6 +642,11 @@ int main(int argc, char** argv) {
             ->Iterations(quick ? 3 : 20)
             ->Unit(benchmark::kMillisecond);
     }
+    // Issue #14's batch: 100 events in one step at address map 1024.
+    benchmark::RegisterBenchmark("deform/gather_100events", deformBatchBench, quick ? 10 : 100)
+        ->Arg(1024)
+        ->Iterations(quick ? 1 : 3)
+        ->Unit(benchmark::kMillisecond);
     for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
              {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"msaa", "+msaa"}, {"displace", "+displace"},
              {"simplified", "+simplified"}, {"sandbox_336x189", "sandbox"}})

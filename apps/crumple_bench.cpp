@@ -19,6 +19,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -428,8 +429,23 @@ struct DeformCase {
 };
 
 // Wall time per event (glFinish after each), and the GPU's time (gpu_ms: timer queries around the event).
-void deformBench(benchmark::State& state, deform::Path path) {
-  DeformCase c({static_cast<int>(state.range(0)), path});
+// A GPU idles at a low clock (an H200 at 345 MHz) and takes a while under load to ramp up: each GPU row first runs
+// its work, untimed, for gWarmUp seconds (0 with --quick).
+double gWarmUp = 0.3;
+template <typename F>
+void warmUp(F&& work) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(gWarmUp);
+  do {
+    work();
+    glFinish();
+  } while (std::chrono::steady_clock::now() < end);
+}
+
+void deformBench(benchmark::State& state, deform::Path path, deform::AddressRaster raster) {
+  deform::DeformOptions o{static_cast<int>(state.range(0)), path};
+  o.addressRaster = raster;
+  DeformCase c(o);
+  warmUp([&] { c.deformer.deform(c.request); });
   render::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
@@ -443,8 +459,10 @@ void deformBench(benchmark::State& state, deform::Path path) {
 
 // A step with many collisions: `events` deformations issued back to back (the ball along a line over the plate,
 // each event its own place), one glFinish at the end; gpu_ms is the whole batch's GPU time.
-void deformBatchBench(benchmark::State& state, int events) {
-  DeformCase c({static_cast<int>(state.range(0)), deform::Path::Gather});
+void deformBatchBench(benchmark::State& state, int events, deform::AddressRaster raster) {
+  deform::DeformOptions o{static_cast<int>(state.range(0)), deform::Path::Gather};
+  o.addressRaster = raster;
+  DeformCase c(o);
   std::vector<deform::DeformRequest> requests;
   for (int k = 0; k < events; ++k) {
     deform::DeformRequest rq = c.request;
@@ -453,6 +471,9 @@ void deformBatchBench(benchmark::State& state, int events) {
     rq.point = {x, 0.1, 0};
     requests.push_back(rq);
   }
+  warmUp([&] {
+    for (const deform::DeformRequest& rq : requests) c.deformer.deform(rq);
+  });
   render::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
@@ -468,10 +489,15 @@ void deformBatchBench(benchmark::State& state, int events) {
 void deformProfile(int iterations) {
   std::printf("\n== deformation phases: wall ms (GPU ms), mean of %d, glFinish between phases ==\n", iterations);
   for (int size : {256, 512, 1024, 2048})
-    for (deform::Path path : {deform::Path::Gather, deform::Path::Scatter, deform::Path::Readback}) {
+    for (int variant = 0; variant < 4; ++variant) {
+      // The gather with its address pass in compute, the same in the fragment stage, the scatter, the read-back.
+      const deform::Path path = variant < 2 ? deform::Path::Gather : variant == 2 ? deform::Path::Scatter : deform::Path::Readback;
+      const std::string label = variant < 2 ? (variant == 0 ? "gather_compute" : "gather_fragment") : deform::pathName(path);
       deform::DeformOptions o{size, path};
+      o.addressRaster = variant == 0 ? deform::AddressRaster::Compute : deform::AddressRaster::Fragment;
       o.profile = true;
       DeformCase c(o);
+      warmUp([&] { c.deformer.deform(c.request); });
       std::vector<deform::PhaseTime> sum;
       for (int i = 0; i < iterations; ++i) {
         c.deformer.deform(c.request);
@@ -488,7 +514,7 @@ void deformProfile(int iterations) {
       }
       double total = 0, gpuTotal = 0;
       for (const auto& p : sum) total += p.ms / iterations, gpuTotal += p.gpuMs / iterations;
-      std::printf("%-8s %4d  wall %8.3f (gpu %7.3f) :", deform::pathName(path), size, total, gpuTotal);
+      std::printf("%-15s %4d  wall %8.3f (gpu %7.3f) :", label.c_str(), size, total, gpuTotal);
       for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
       std::printf("\n");
     }
@@ -518,6 +544,7 @@ void renderBench(benchmark::State& state, const std::string& off) {
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   r.draw(items, view);  // untimed: the shaders of this view's features are compiled on first use
   glFinish();
+  warmUp([&] { r.draw(items, view); });
   render::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
@@ -527,6 +554,57 @@ void renderBench(benchmark::State& state, const std::string& off) {
   }
   const double gpu = timer.finish();
   state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
+}
+
+// GPU time of each part of the highway frame at 1280x720 (POM, IBL, FXAA: the render/1280x720/pom row), from
+// timestamps at the renderer's pass markers, mean of `iterations` frames after the warm-up.
+void renderProfile(int iterations) {
+  Simulation sim(builtinHighway(), true);
+  for (int s = 0; s < 900; ++s) sim.step();
+  render::Renderer r(1280, 720);
+  const std::vector<render::RenderItem> items = renderItems(sim);
+  const render::View view = cameraView(sim.scene().cameras.front(), &sim);
+  std::vector<std::pair<std::string, GLuint>> marks;
+  std::vector<GLuint> pool;
+  r.setPassMarker([&](const char* part) {
+    if (marks.size() >= pool.size()) {
+      pool.push_back(0);
+      glGenQueries(1, &pool.back());
+    }
+    glQueryCounter(pool[marks.size()], GL_TIMESTAMP);
+    marks.emplace_back(part, pool[marks.size()]);
+  });
+  GLuint start = 0;
+  glGenQueries(1, &start);
+  auto frame = [&] {
+    marks.clear();
+    glQueryCounter(start, GL_TIMESTAMP);
+    r.draw(items, view);
+    glFinish();
+  };
+  frame();
+  warmUp(frame);
+  std::vector<std::pair<std::string, double>> sum;
+  for (int i = 0; i < iterations; ++i) {
+    frame();
+    GLuint64 last = 0;
+    glGetQueryObjectui64v(start, GL_QUERY_RESULT, &last);
+    for (size_t k = 0; k < marks.size(); ++k) {
+      GLuint64 t = 0;
+      glGetQueryObjectui64v(marks[k].second, GL_QUERY_RESULT, &t);
+      if (sum.size() <= k) sum.emplace_back(marks[k].first, 0.0);
+      sum[k].second += static_cast<double>(t - last) * 1e-6;
+      last = t;
+    }
+  }
+  double total = 0;
+  for (const auto& [part, ms] : sum) total += ms / iterations;
+  std::printf("\n== render/1280x720/pom parts: GPU ms, mean of %d frames ==\nframe %.3f :", iterations, total);
+  for (const auto& [part, ms] : sum) std::printf("  %s %.3f", part.c_str(), ms / iterations);
+  std::printf("\n  (%d items drawn, %d culled, %d shadow casters)\n", r.stats().drawn, r.stats().culled,
+              r.stats().shadowCasters);
+  glDeleteQueries(1, &start);
+  glDeleteQueries(static_cast<GLsizei>(pool.size()), pool.data());
 }
 
 class Collector : public benchmark::ConsoleReporter {
@@ -556,11 +634,12 @@ int main(int argc, char** argv) {
   CLI::App app{
       "crumple-bench: crumple vs Bullet (and Jolt, if built with CRUMPLE_JOLT_DIR) (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
       "prints ms per step/deformation/frame and the ratios."};
-  bool quick = false, noGl = false, deformPhases = false;
+  bool quick = false, noGl = false, deformPhases = false, renderParts = false;
   std::string filter;
   int threads = 1, repetitions = 1;
   std::vector<int> threadCounts = {1, 2, 4, 8, 16};
   app.add_flag("--quick", quick, "Fewer steps and smaller scenes (a smoke run)");
+  app.add_flag("--render-profile", renderParts, "Also print the GPU time of each part of the highway frame");
   app.add_flag("--no-gl", noGl, "Physics only");
   app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, every path");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
@@ -582,6 +661,7 @@ int main(int argc, char** argv) {
     return rc == 0 ? 0 : 2;  // bad command-line input is bad input: exit 2
   }
   gSteps = quick ? 24 : 240;
+  if (quick) gWarmUp = 0;
 
   struct PhysicsCase {
     std::string name;
@@ -633,20 +713,34 @@ int main(int argc, char** argv) {
   if (!noGl) {
     gl = render::createHeadlessContext({true, false});
     std::printf("GL: %s\n", gl->description().c_str());
+    std::printf("deform: the gather's address pass is rasterised by %s here (DeformOptions::addressRaster auto)\n",
+                deform::addressRasterName(deform::resolveAddressRaster(
+                    deform::AddressRaster::Auto, reinterpret_cast<const char*>(glGetString(GL_RENDERER)))));
     stage = std::make_unique<DeformStage>();
     gDeformStage = stage.get();
     for (int size : {256, 512, 1024, 2048}) {
       for (deform::Path path : {deform::Path::Gather, deform::Path::Scatter, deform::Path::Readback})
-        benchmark::RegisterBenchmark((std::string("deform/") + deform::pathName(path)).c_str(), deformBench, path)
+        benchmark::RegisterBenchmark((std::string("deform/") + deform::pathName(path)).c_str(), deformBench, path,
+                                     deform::AddressRaster::Auto)
+            ->Arg(size)
+            ->Iterations(quick ? 3 : 20)
+            ->Unit(benchmark::kMillisecond);
+      // The gather with its address pass rasterised by each (DeformOptions::addressRaster; the row above: Auto).
+      for (auto raster : {deform::AddressRaster::Compute, deform::AddressRaster::Fragment})
+        benchmark::RegisterBenchmark(("deform/gather_" + std::string(deform::addressRasterName(raster))).c_str(),
+                                     deformBench, deform::Path::Gather, raster)
             ->Arg(size)
             ->Iterations(quick ? 3 : 20)
             ->Unit(benchmark::kMillisecond);
     }
-    // Issue #14's batch: 100 events in one step at address map 1024.
-    benchmark::RegisterBenchmark("deform/gather_100events", deformBatchBench, quick ? 10 : 100)
-        ->Arg(1024)
-        ->Iterations(quick ? 1 : 3)
-        ->Unit(benchmark::kMillisecond);
+    // Issue #14's batch: 100 events in one step at address map 1024, with each rasteriser.
+    for (auto raster : {deform::AddressRaster::Compute, deform::AddressRaster::Fragment})
+      benchmark::RegisterBenchmark(
+          ("deform/gather_" + std::string(deform::addressRasterName(raster)) + "_100events").c_str(),
+          deformBatchBench, quick ? 10 : 100, raster)
+          ->Arg(1024)
+          ->Iterations(quick ? 1 : 3)
+          ->Unit(benchmark::kMillisecond);
     for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
              {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"msaa", "+msaa"}, {"displace", "+displace"},
              {"simplified", "+simplified"}, {"sandbox_336x189", "sandbox"}})
@@ -673,6 +767,10 @@ int main(int argc, char** argv) {
   }
 
   auto ms = [&](const std::string& k) { return collector.ms.count(k) ? collector.ms[k] : NAN; };
+  auto gpu = [&](const std::string& k) {
+    auto it = collector.counters.find(k);
+    return it != collector.counters.end() && it->second.count("gpu_ms") ? it->second.at("gpu_ms") : NAN;
+  };
   std::printf("\n== ratios ==\n");
   for (const auto& c : cases) {
     const double a = ms("physics/crumple/" + c.name), b = ms("physics/bullet/" + c.name);
@@ -731,7 +829,16 @@ int main(int argc, char** argv) {
           "deform  address map %4d  gather %8.3f ms  scatter %8.3f ms  readback %8.3f ms  gather/scatter %6.2fx  "
           "readback/scatter %6.2fx\n",
           size, g, c, r, g / c, r / c);
+    const double cw = ms("deform/gather_compute" + s), fw = ms("deform/gather_fragment" + s);
+    const double cg = gpu("deform/gather_compute" + s), fg = gpu("deform/gather_fragment" + s);
+    if (!std::isnan(cw) && !std::isnan(fw))
+      std::printf(
+          "deform  address map %4d  gather, address pass in compute %8.3f ms (GPU %7.3f)  in the fragment stage %8.3f "
+          "ms (GPU %7.3f)  compute/fragment %6.2fx (GPU %6.2fx)\n",
+          size, cw, cg, fw, fg, cw / fw, cg / fg);
   }
+  for (const char* n : {"deform/gather_compute_100events/1024", "deform/gather_fragment_100events/1024"})
+    if (!std::isnan(ms(n))) std::printf("deform  %-38s %8.3f ms  (GPU %8.3f ms)\n", n, ms(n), gpu(n));
   const std::string it;
   const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);
   if (!std::isnan(p))
@@ -757,5 +864,6 @@ int main(int argc, char** argv) {
     std::printf("render  sandbox view 336x189 (960x540 x 0.35, simplified)  %8.3f ms/frame  (%.1f frames/s of rendering)\n",
                 sandboxView, 1000.0 / sandboxView);
   if (deformPhases && gDeformStage) deformProfile(quick ? 3 : 20);
+  if (renderParts && gDeformStage) renderProfile(quick ? 3 : 20);
   return 0;
 }

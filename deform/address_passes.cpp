@@ -1,4 +1,5 @@
 // The address-map passes of figure 11 (RenderPassA/B), into per-side targets.
+#include <algorithm>
 #include <glm/gtc/type_ptr.hpp>
 
 #include "deform/passes.h"
@@ -12,7 +13,16 @@ render::Program addressProgram() {
 }
 }  // namespace
 
-AddressPasses::AddressPasses(int size) : program_(addressProgram()) {
+AddressPasses::AddressPasses(int size)
+    : program_(addressProgram()), bin_(computeProgram("address_bin.comp")), raster_(computeProgram("address_raster.comp")) {
+  bMvp_ = bin_.uniform("uModelViewProjection");
+  bSize_ = bin_.uniform("uSize");
+  bTriangles_ = bin_.uniform("uTriangles");
+  bCapacity_ = bin_.uniform("uCapacity");
+  rSize_ = raster_.uniform("uSize");
+  rTriangles_ = raster_.uniform("uTriangles");
+  rCapacity_ = raster_.uniform("uCapacity");
+  rBumpToDepth_ = raster_.uniform("uBumpToDepth");
   uMvp_ = program_.uniform("uModelViewProjection");
   uNormalToWorld_ = program_.uniform("uNormalToWorld");
   uSign_ = program_.uniform("uSign");
@@ -24,6 +34,9 @@ AddressPasses::AddressPasses(int size) : program_(addressProgram()) {
 
 void AddressPasses::resize(int n) {
   size_ = n;
+  const size_t tiles = static_cast<size_t>((n + kTile - 1) / kTile) * static_cast<size_t>((n + kTile - 1) / kTile);
+  tileCount_ = render::Buffer((tiles + 1) * sizeof(GLuint), nullptr);  // then the large triangles' count
+  tileList_ = render::Buffer(tiles * kTileCapacity * sizeof(GLuint), nullptr);
   for (int s = 0; s < 2; ++s) {
     addressX_[s] = render::Texture2D(n, n, GL_RG32F);
     depthX_[s] = render::Texture2D(n, n, GL_R32F);
@@ -109,6 +122,48 @@ void AddressPasses::drawOther(int side, const DeformBody& other, const glm::dmat
   glDepthFunc(GL_LESS);
   glCullFace(GL_BACK);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+void AddressPasses::rasterOther(int side, const DeformBody& other, const glm::dmat4& vp, const glm::dmat4& model,
+                                float bumpToDepth) {
+  const GpuMesh& mesh = *other.mesh;
+  const int triangles = mesh.indexCount / 3;
+  const size_t setupBytes = static_cast<size_t>(std::max(triangles, 1)) * 6 * 4 * sizeof(float);
+  if (setup_.size() < setupBytes) {
+    setup_ = render::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
+    large_ = render::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
+  }
+  const int tilesX = (size_ + kTile - 1) / kTile;
+  glClearNamedBufferData(tileCount_.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, tileCount_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, tileList_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large_.id());
+  if (triangles > 0) {
+    bin_.use();
+    const glm::mat4 mvp = glm::mat4(vp * model);
+    glUniformMatrix4fv(bMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
+    glUniform1i(bSize_, size_);
+    glUniform1i(bTriangles_, triangles);
+    glUniform1i(bCapacity_, kTileCapacity);
+    constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+    glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
+                      static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), 1);
+  }
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  raster_.use();
+  glUniform1i(rSize_, size_);
+  glUniform1i(rTriangles_, triangles);
+  glUniform1i(rCapacity_, kTileCapacity);
+  glUniform1f(rBumpToDepth_, bumpToDepth);
+  glBindTextureUnit(0, other.surface ? other.surface->height().id() : flat_.id());
+  glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
+  glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
+  glDispatchCompute(static_cast<GLuint>(tilesX), static_cast<GLuint>(tilesX), 1);
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
 }
 
 }  // namespace crumple::deform

@@ -10,6 +10,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <chrono>
 #include <map>
+#include <regex>
 
 namespace crumple::deform {
 
@@ -17,6 +18,21 @@ namespace shaders {
 std::string_view shaderSource(std::string_view name);
 }
 std::string_view deformShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
+
+const char* addressRasterName(AddressRaster r) {
+  switch (r) {
+    case AddressRaster::Compute: return "compute";
+    case AddressRaster::Fragment: return "fragment";
+    default: return "auto";
+  }
+}
+
+AddressRaster resolveAddressRaster(AddressRaster r, const char* renderer) {
+  if (r != AddressRaster::Auto) return r;
+  // GH100 (H100, H200, H800, H20), GA100 (A100, A800, A30) and GB100 (B100, B200): graphics on a few TPCs.
+  static const std::regex dataCentre(R"(\b(G?H(100|200|800|20)|A(100|800|30)|G?B(100|200))\b)");
+  return renderer && std::regex_search(renderer, dataCentre) ? AddressRaster::Compute : AddressRaster::Fragment;
+}
 
 const char* pathName(Path p) {
   switch (p) {
@@ -88,6 +104,7 @@ AddressCamera addressCamera(const glm::dvec3& point, const glm::dvec3& n, const 
 int craterRing(int w, int h) { return std::clamp(std::max(w, h) / 4, 2, 16); }
 
 struct Deformer::Impl {
+  AddressRaster raster = AddressRaster::Fragment;  // DeformOptions::addressRaster resolved for this GPU
   // Profile mode: wall time per phase, glFinish at each boundary.
   std::vector<PhaseTime> phases;
   std::chrono::steady_clock::time_point mark;
@@ -176,11 +193,17 @@ struct Deformer::Impl {
 };
 
 Deformer::Deformer(const DeformOptions& options)
-    : impl_(std::make_unique<Impl>(options.addressMap)), options_(options) {}
+    : impl_(std::make_unique<Impl>(options.addressMap)), options_(options) {
+  impl_->raster =
+      resolveAddressRaster(options.addressRaster, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+}
 Deformer::~Deformer() = default;
 
 void Deformer::setOptions(const DeformOptions& options) {
   if (options.addressMap != impl_->passes.size()) impl_->passes.resize(options.addressMap);
+  if (options.addressRaster != options_.addressRaster)
+    impl_->raster =
+        resolveAddressRaster(options.addressRaster, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
   options_ = options;
 }
 
@@ -188,6 +211,7 @@ const render::Texture2D& Deformer::lastAddressMap() const {
   return options_.path == Path::Gather ? impl_->passes.addressOther(0) : impl_->passes.addressX(0);
 }
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
+AddressRaster Deformer::addressRaster() const { return impl_->raster; }
 
 std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::Image* initial, float bumpDepth,
                                                   float texelSize) {
@@ -234,7 +258,10 @@ bool Deformer::Impl::updateSide(const DeformOptions& o, int side, const DeformBo
   render::Texture2D& out = scratchFor(side, u.resolution);
   phase("setup");
   if (o.path == Path::Gather) {
-    passes.drawOther(side, other, vp, other.model, otherBumpToDepth, true);
+    if (raster == AddressRaster::Compute)
+      passes.rasterOther(side, other, vp, other.model, otherBumpToDepth);
+    else
+      passes.drawOther(side, other, vp, other.model, otherBumpToDepth, true);
     phase("address pass other");
     // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
     double farthest = 0;

@@ -87,6 +87,8 @@ class Deformer {
   Deformer& operator=(const Deformer&) = delete;
 
   const DeformOptions& options() const { return options_; }
+  // The rasteriser of the gather's address pass on this GPU (DeformOptions::addressRaster, Auto resolved).
+  AddressRaster addressRaster() const;
   void setOptions(const DeformOptions& options);
 
   // Runs both sides of one event. Returns a handle to its stats (two entries).

@@ -9,6 +9,14 @@ namespace crumple::deform {
 enum class Path { Gather, Scatter, Readback };
 const char* pathName(Path p);  // "gather", "scatter", "readback"
 enum class TangentMode { None, Multiply, Divide };
+// Who rasterises the gather's address pass (the other body's back faces): compute shaders (a binned rasteriser
+// on every multiprocessor) or the fragment stage. Auto: compute on NVIDIA's data-centre GPUs (H100, H200, A100,
+// B200 and kin), whose fragment stage runs on a few of their multiprocessors, else the fragment stage. The two
+// agree up to rounding at triangle edges (tests/test_deform.cpp); a run uses one, so its outputs stay bit-identical.
+enum class AddressRaster { Auto, Compute, Fragment };
+const char* addressRasterName(AddressRaster r);  // "auto", "compute", "fragment"
+// Auto resolved for the OpenGL renderer named `renderer` (GL_RENDERER): Compute or Fragment.
+AddressRaster resolveAddressRaster(AddressRaster r, const char* renderer);
 
 struct DeformOptions {
   int addressMap = 512;
@@ -16,6 +24,7 @@ struct DeformOptions {
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
   bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
+  AddressRaster addressRaster = AddressRaster::Auto;
   // Measure: glFinish at each phase boundary and record the wall time of each
   // phase (profile()). Slows the stage down; for crumple-bench --deform-profile.
   bool profile = false;

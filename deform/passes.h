@@ -60,6 +60,13 @@ class AddressPasses {
   // alone, the farthest back face anywhere (the gather's depth map).
   void drawOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
                  float bumpToDepth, bool alone);
+  // The gather's pass B (drawOther alone) rasterised in compute shaders (address_bin.comp, address_raster.comp):
+  // the same targets, filled by every invocation of the GPU rather than by its fragment stage (on compute GPUs
+  // such as NVIDIA's H100 only a few of the multiprocessors run fragment shaders). A binned rasteriser: each
+  // triangle appended to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list of large
+  // ones every tile tests), then each tile's pixels test their lists.
+  void rasterOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
+                   float bumpToDepth);
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
   const render::Texture2D& normalX(int side) const { return normalX_[side]; }
@@ -69,8 +76,11 @@ class AddressPasses {
  private:
   void draw(const DeformBody& body, const glm::dmat4& viewProjection, const glm::dmat4& model, float sign,
             float bumpToDepth);
-  render::Program program_;
+  render::Program program_, bin_, raster_;
   GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
+  GLint bMvp_, bSize_, bTriangles_, bCapacity_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_;
+  static constexpr int kTile = 8, kTileCapacity = 64;
+  render::Buffer setup_, tileCount_, tileList_, large_;  // the compute pass B's triangles and lists
   render::Texture2D flat_{1, 1, GL_R32F};
   int size_ = 0;
   // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.

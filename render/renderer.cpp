@@ -394,6 +394,10 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   glDisable(GL_BLEND);
   glDisable(GL_CULL_FACE);
   if (s.ibl && s.debug == DebugView::Shaded) m.prepareLight(s);
+  auto mark = [&](const char* part) {
+    if (mark_) mark_(part);
+  };
+  mark("light");
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   if (s.shadows && s.debug == DebugView::Shaded) {
@@ -430,6 +434,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
   }
+  mark("shadow map");
 
   glBindFramebuffer(GL_FRAMEBUFFER, target);
   glViewport(0, 0, width_, height_);
@@ -534,6 +539,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     }
   }
   glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+  mark("items");
   if (s.debug == DebugView::Shaded) {
     // The sky behind everything: only the pixels still at the far plane run it.
     m.sky.use();
@@ -553,8 +559,10 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     glDepthMask(GL_TRUE);
     glDepthFunc(GL_LESS);
   }
+  mark("sky");
   if (fxaa) m.antialias(finalTarget, width_, height_);
   if (msaa) m.resolve(finalTarget, width_, height_);
+  mark("antialias");
   glDisable(GL_FRAMEBUFFER_SRGB);
 }
 

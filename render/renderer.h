@@ -21,6 +21,7 @@
 #pragma once
 #include <glm/glm.hpp>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -130,6 +131,9 @@ class Renderer {
   // given (the window's, 0), at the renderer's size.
   void draw(const std::vector<RenderItem>& items, const View& view);
   void drawTo(GLuint framebuffer, const std::vector<RenderItem>& items, const View& view);
+  // Called at the end of each part of a frame ("light", "shadow map", "items", "sky", "antialias"), once its
+  // commands are issued (crumple-bench --render-profile puts GPU timestamps there); none by default.
+  void setPassMarker(std::function<void(const char*)> mark) { mark_ = std::move(mark); }
   Image readPixels() const;
   void savePng(const std::string& path) const;
   GLuint framebuffer() const;
@@ -140,6 +144,7 @@ class Renderer {
   int width_, height_;
   RendererSettings settings_;
   RendererStats stats_;
+  std::function<void(const char*)> mark_;
 };
 
 }  // namespace crumple::render

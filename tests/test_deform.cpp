@@ -165,6 +165,76 @@ TEST_CASE("the default (gather) path agrees with the per-texel CPU oracle, at an
   }
 }
 
+TEST_CASE("the gather's address pass rasterised in compute gives the fragment stage's dent, overflowing tiles too") {
+  // Address map 32: 4 x 4 tiles of 8 x 8 pixels under ~1500 back faces, so every tile list overflows its 64
+  // entries and the raster step tests all triangles; 512: short lists.
+  test::glContext();
+  SphereIntoPlate s;
+  for (int address : {32, 512}) {
+    DeformOptions hw{address, Path::Gather};
+    hw.addressRaster = AddressRaster::Fragment;
+    DeformOptions cs{address, Path::Gather};
+    cs.addressRaster = AddressRaster::Compute;
+    Deformer hardware(hw), compute(cs);
+    REQUIRE(compute.addressRaster() == AddressRaster::Compute);
+    const render::Image a = s.run(hardware, 0.015);
+    const render::Texture2D& ha = hardware.lastAddressMap();
+    const render::Image b = s.run(compute, 0.015);
+    const render::Texture2D& ca = compute.lastAddressMap();
+    std::vector<float> am(static_cast<size_t>(address) * address * 2), cm(am.size());
+    glGetTextureImage(ha.id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(am.size() * sizeof(float)), am.data());
+    glGetTextureImage(ca.id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(cm.size() * sizeof(float)), cm.data());
+    int seenA = 0, seenB = 0, seenDiffer = 0, uvDiffer = 0;
+    double uvDiff = 0;
+    for (size_t i = 0; i < am.size(); i += 2) {
+      const bool sa = am[i] >= 0, sb = cm[i] >= 0;
+      seenA += sa;
+      seenB += sb;
+      seenDiffer += sa != sb;
+      if (!sa || !sb) continue;
+      const double d = std::max(std::abs(am[i] - cm[i]), std::abs(am[i + 1] - cm[i + 1]));
+      // At the atlas's seams one point has two addresses, one per chart: either is right.
+      if (d > 2.0 / SphereIntoPlate::kRes)
+        ++uvDiffer;
+      else
+        uvDiff = std::max(uvDiff, d);
+    }
+    double diff = 0;
+    int changedA = 0, changedB = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i) {
+      diff = std::max(diff, double(std::abs(a.pixels[i] - b.pixels[i])));
+      changedA += a.pixels[i] < 0.5f;
+      changedB += b.pixels[i] < 0.5f;
+    }
+    MESSAGE("address map " << address << ": pixels seen " << seenA << " (fragment stage) vs " << seenB
+                           << " (compute), differing " << seenDiffer << "; addresses apart by over 2 texels " << uvDiffer
+                           << ", others by at most " << uvDiff
+                           << "; texels dented " << changedA << " vs " << changedB << ", max height difference "
+                           << diff * SphereIntoPlate::k << " m");
+    CHECK(seenA > address * address / 2);
+    // Only pixel centres on the silhouette (within rounding of an edge) may differ in being covered; none inside
+    // (a crack between two triangles would be such a pixel).
+    CHECK(seenDiffer <= address / 16 + 2);
+    CHECK(uvDiffer <= 2 * address);
+    CHECK(changedA > 300);
+    CHECK(std::abs(changedA - changedB) <= changedA / 100 + 4);
+    CHECK(diff * SphereIntoPlate::k <= 2e-5);
+  }
+}
+
+TEST_CASE("the address pass's rasteriser: compute on data-centre GPUs, whose fragment stage is narrow") {
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA H100 80GB HBM3/PCIe/SSE2") == AddressRaster::Compute);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA H200/PCIe/SSE2") == AddressRaster::Compute);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA A100-SXM4-40GB/PCIe/SSE2") == AddressRaster::Compute);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA A30/PCIe/SSE2") == AddressRaster::Compute);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA RTX A3000 Laptop GPU/PCIe/SSE2") == AddressRaster::Fragment);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA GeForce RTX 4090/PCIe/SSE2") == AddressRaster::Fragment);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, "llvmpipe (LLVM 19.1.7, 256 bits)") == AddressRaster::Fragment);
+  CHECK(resolveAddressRaster(AddressRaster::Auto, nullptr) == AddressRaster::Fragment);
+  CHECK(resolveAddressRaster(AddressRaster::Fragment, "NVIDIA H200/PCIe/SSE2") == AddressRaster::Fragment);
+  CHECK(resolveAddressRaster(AddressRaster::Compute, "llvmpipe (LLVM 19.1.7, 256 bits)") == AddressRaster::Compute);
+}
+
 TEST_CASE("material asymmetry and the threshold: below Y nothing changes") {
   // Eq. 5/6 decide the depth; a zero depth leaves the map untouched.
   const double hardEps = 0.95, softEps = 0.2, j = 3.0;

@@ -1,0 +1,101 @@
+#version 450 core
+// address_bin.comp: pass B of figure 11 for the gather (the other body's back faces, the farthest one
+// anywhere) rasterised in compute, step 1 of 2 (address_raster.comp is step 2). One workgroup a triangle:
+// lane 0 puts its corners into window coordinates and keeps it when it faces away from the camera (GL's
+// counter-clockwise front faces culled) and is not degenerate, writing its setup; then the lanes share the
+// 8 x 8-pixel tiles its box covers and append it to every tile whose pixel centres it may hold (16 tiles a lane
+// at most). A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
+// tile tests (few: the back faces' areas sum to about the map's times its depth complexity). A tile keeps at most
+// uCapacity entries; its count still grows, and step 2 then tests every triangle for that tile.
+// Setup, 6 vec4 a triangle: corners 0 and 1 (window x, y in pixels), corner 2 and depths 0 and 1, depth 2, the
+// texture coordinates (u0 v0 u1 v1, u2 v2), and the box of pixel centres (min x, min y, max x, max y; empty for a
+// triangle not kept). Step 2 evaluates each edge from its endpoints in a fixed order, so that two triangles
+// sharing an edge get values that are each other's negation bit for bit: no cracks between them on any GPU.
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex
+layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };
+layout(std430, binding = 2) writeonly buffer Setup { vec4 uSetup[]; };
+layout(std430, binding = 3) buffer TileCount { uint uTileCount[]; };  // per tile, then the large triangles'
+layout(std430, binding = 4) writeonly buffer TileList { uint uTileList[]; };
+layout(std430, binding = 5) writeonly buffer Large { uint uLarge[]; };
+uniform mat4 uModelViewProjection;
+uniform int uSize;       // the address map (pixels)
+uniform int uTriangles;
+uniform int uCapacity;   // entries a tile
+const int kTile = 8, kLarge = 1024;
+const uint kRowGroups = 32768u;
+shared bool sKept;
+shared ivec4 sTiles;     // tile box (inclusive)
+shared vec3 sEdge[3];
+shared vec4 sBox;        // pixel-centre box
+shared vec2 sOrigin;
+vec3 corner(uint i) {
+  uint v = uIndex[i] * 17u;
+  vec4 c = uModelViewProjection * vec4(uVertex[v], uVertex[v + 1u], uVertex[v + 2u], 1.0);
+  vec3 ndc = c.xyz / c.w;
+  return vec3((ndc.xy * 0.5 + 0.5) * float(uSize), ndc.z * 0.5 + 0.5);
+}
+vec2 uvOf(uint i) {
+  uint v = uIndex[i] * 17u;
+  return vec2(uVertex[v + 6u], uVertex[v + 7u]);
+}
+// w(p) = a x + b y + c, zero on the edge from p to q, positive on the side of r.
+vec3 edge(vec2 p, vec2 q) { return vec3(p.y - q.y, q.x - p.x, p.x * q.y - p.y * q.x); }
+void main() {
+  uint t = gl_WorkGroupID.x + gl_WorkGroupID.y * kRowGroups;
+  if (t >= uint(uTriangles)) return;  // whole workgroup
+  if (gl_LocalInvocationIndex == 0u) {
+    vec3 p0 = corner(3u * t), p1 = corner(3u * t + 1u), p2 = corner(3u * t + 2u);
+    float area = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
+    bool kept = area < 0.0 && !(p0.z < 0.0 && p1.z < 0.0 && p2.z < 0.0) && !(p0.z > 1.0 && p1.z > 1.0 && p2.z > 1.0);
+    // Pixel centres (i + 0.5) within the box, within the map.
+    vec2 lo = min(min(p0.xy, p1.xy), p2.xy), hi = max(max(p0.xy, p1.xy), p2.xy);
+    ivec2 first = max(ivec2(ceil(lo - 0.5)), ivec2(0)), last = min(ivec2(floor(hi - 0.5)), ivec2(uSize - 1));
+    kept = kept && all(lessThanEqual(first, last));
+    vec2 uv0 = uvOf(3u * t), uv1 = uvOf(3u * t + 1u), uv2 = uvOf(3u * t + 2u);
+    vec4 box = kept ? vec4(vec2(first) + 0.5, vec2(last) + 0.5) : vec4(1.0, 1.0, 0.0, 0.0);
+    uint s = 6u * t;
+    uSetup[s] = vec4(p0.xy, p1.xy);
+    uSetup[s + 1u] = vec4(p2.xy, p0.z, p1.z);
+    uSetup[s + 2u] = vec4(p2.z, 0.0, 0.0, 0.0);
+    uSetup[s + 3u] = vec4(uv0, uv1);
+    uSetup[s + 4u] = vec4(uv2, 0.0, 0.0);
+    uSetup[s + 5u] = box;
+    ivec4 tiles = ivec4(first / kTile, last / kTile);
+    if (kept && (tiles.z - tiles.x + 1) * (tiles.w - tiles.y + 1) > kLarge) {
+      int tilesX = (uSize + kTile - 1) / kTile;
+      uLarge[atomicAdd(uTileCount[tilesX * tilesX], 1u)] = t;
+      kept = false;
+    }
+    // Edge functions for the tile test, in pixels from corner 0 (positive inside).
+    vec2 o = p0.xy, q1 = p1.xy - o, q2 = p2.xy - o;
+    float sgn = -1.0;  // kept triangles are clockwise in window coordinates
+    sKept = kept;
+    sTiles = tiles;
+    sEdge[0] = sgn * edge(q1, q2);
+    sEdge[1] = sgn * edge(q2, vec2(0.0));
+    sEdge[2] = sgn * edge(vec2(0.0), q1);
+    sBox = box;
+    sOrigin = o;
+  }
+  barrier();
+  if (!sKept) return;
+  ivec4 tb = sTiles;
+  int w = tb.z - tb.x + 1, count = w * (tb.w - tb.y + 1);
+  for (int k = int(gl_LocalInvocationIndex); k < count; k += 64) {  // 16 times at most
+    ivec2 tile = ivec2(tb.x + k % w, tb.y + k / w);
+    // The tile's pixel centres, within the triangle's box; the triangle may hold one of them only where every
+    // edge function reaches zero somewhere over them (a tolerance of a thousandth of a pixel for rounding).
+    vec2 lo = max(vec2(tile * kTile) + 0.5, sBox.xy) - sOrigin, hi = min(vec2(tile * kTile + kTile - 1) + 0.5, sBox.zw) - sOrigin;
+    bool outside = false;
+    for (int e = 0; e < 3; ++e) {
+      vec3 f = sEdge[e];
+      float best = f.x * (f.x > 0.0 ? hi.x : lo.x) + f.y * (f.y > 0.0 ? hi.y : lo.y) + f.z;
+      outside = outside || best < -0.5 * (abs(f.x) + abs(f.y));
+    }
+    if (outside) continue;
+    uint id = uint(tile.y * ((uSize + kTile - 1) / kTile) + tile.x);
+    uint slot = atomicAdd(uTileCount[id], 1u);
+    if (slot < uint(uCapacity)) uTileList[id * uint(uCapacity) + slot] = t;
+  }
+}

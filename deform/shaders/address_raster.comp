@@ -1,0 +1,85 @@
+#version 450 core
+// address_raster.comp: step 2 of the compute pass B (address_bin.comp is step 1). One workgroup an 8 x 8 tile,
+// one invocation a pixel: of the tile's triangles and the large ones (all triangles where its list overflowed),
+// those whose edge
+// functions are all >= 0 at the pixel centre and whose window depth lies in [0, 1] (GL's depth clipping) give a
+// depth offset by the other body's height map as address.frag does, z' = clamp(z + (h - 0.5) k', 0, 1); the
+// farthest one above 0 wins (depth GREATER against a depth buffer cleared to 0; on equal depths the triangle
+// drawn first, the lower index). Written: the address (its texture coordinate; -1 where none) and its depth
+// (1 where none), the targets the hardware pass would have left.
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(std430, binding = 2) readonly buffer Setup { vec4 uSetup[]; };
+layout(std430, binding = 3) readonly buffer TileCount { uint uTileCount[]; };
+layout(std430, binding = 4) readonly buffer TileList { uint uTileList[]; };
+layout(std430, binding = 5) readonly buffer Large { uint uLarge[]; };
+layout(binding = 0) uniform sampler2D uHeight;
+layout(rg32f, binding = 0) writeonly uniform image2D uAddress;
+layout(r32f, binding = 1) writeonly uniform image2D uDepth;
+uniform int uSize;
+uniform int uTriangles;
+uniform int uCapacity;
+uniform float uBumpToDepth;  // the other body's k' / (zfar - znear)
+// The edge u -> v at p: the cross product (v - u) x (p - u), evaluated from the endpoint that sorts first, so that
+// the triangle on the other side of the edge (which runs it v -> u) gets exactly the negation; `owns`: whether a
+// pixel centre on the edge (0) belongs to this triangle (the one that runs the edge in the sorted direction).
+float edgeAt(vec2 u, vec2 v, vec2 p, out bool owns) {
+  owns = u.x < v.x || (u.x == v.x && u.y < v.y);
+  vec2 a = owns ? u : v, b = owns ? v : u;
+  precise float e = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+  return owns ? e : -e;
+}
+// Inside a clockwise triangle (the kept back faces): every edge value < 0, or 0 on an edge it owns.
+bool inside(float e, bool owns) { return e < 0.0 || (e == 0.0 && owns); }
+shared vec4 sSetup[64 * 6];
+shared uint sId[64];
+void main() {
+  uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+  uint lane = gl_LocalInvocationIndex;
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  vec2 centre = vec2(pixel) + 0.5;
+  uint listed = uTileCount[tile];
+  bool overflowed = listed > uint(uCapacity);
+  uint total = overflowed ? uint(uTriangles) : listed + uTileCount[gl_NumWorkGroups.x * gl_NumWorkGroups.y];
+  float best = 0.0;
+  uint bestId = 0xffffffffu;
+  vec2 bestUv = vec2(-1.0);
+  for (uint base = 0u; base < total; base += 64u) {
+    uint k = base + lane;
+    if (k < total) {
+      uint t = overflowed ? k : k < listed ? uTileList[tile * uint(uCapacity) + k] : uLarge[k - listed];
+      sId[lane] = t;
+      for (uint j = 0u; j < 6u; ++j) sSetup[lane * 6u + j] = uSetup[6u * t + j];
+    }
+    barrier();
+    uint n = min(64u, total - base);
+    for (uint j = 0u; j < n; ++j) {
+      vec4 box = sSetup[j * 6u + 5u];
+      if (any(lessThan(centre, box.xy)) || any(greaterThan(centre, box.zw))) continue;
+      vec4 c01 = sSetup[j * 6u], c2z = sSetup[j * 6u + 1u];
+      bool o0, o1, o2;
+      float e0 = edgeAt(c01.zw, c2z.xy, centre, o0), e1 = edgeAt(c2z.xy, c01.xy, centre, o1),
+            e2 = edgeAt(c01.xy, c01.zw, centre, o2);
+      if (!(inside(e0, o0) && inside(e1, o1) && inside(e2, o2))) continue;
+      float sum = e0 + e1 + e2;
+      if (!(sum < 0.0)) continue;
+      vec3 w = vec3(e0, e1, e2) / sum;
+      float z = dot(w, vec3(c2z.zw, sSetup[j * 6u + 2u].x));
+      if (z < 0.0 || z > 1.0) continue;
+      vec4 uvs = sSetup[j * 6u + 3u];
+      vec2 uv = w.x * uvs.xy + w.y * uvs.zw + w.z * sSetup[j * 6u + 4u].xy;
+      float h = textureLod(uHeight, uv, 0.0).r;
+      float zz = clamp(z + (h - 0.5) * uBumpToDepth, 0.0, 1.0);
+      uint id = sId[j];
+      if (zz > best || (zz == best && bestId != 0xffffffffu && id < bestId)) {
+        best = zz;
+        bestId = id;
+        bestUv = uv;
+      }
+    }
+    barrier();
+  }
+  if (any(greaterThanEqual(pixel, ivec2(uSize)))) return;
+  bool seen = bestId != 0xffffffffu;
+  imageStore(uAddress, pixel, vec4(bestUv, 0.0, 0.0));
+  imageStore(uDepth, pixel, vec4(seen ? best : 1.0));
+}

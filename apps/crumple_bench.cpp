@@ -457,32 +457,51 @@ void deformBench(benchmark::State& state, deform::Path path, deform::AddressRast
   state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
 }
 
-// A step with many collisions: `events` deformations issued back to back (the ball along a line over the plate,
-// each event its own place), one glFinish at the end; gpu_ms is the whole batch's GPU time.
+// A step with many collisions: `events` deformations among 20 pairs of bodies (a plate, map 1024, and a ball, 512,
+// each pair its own surfaces), each pair hit events / 20 times at different places, in turn; issued as one batch
+// (Deformer::deform of them all: waves of events on different surfaces with the compute rasteriser, one by one
+// with the fragment stage's), one glFinish at the end; gpu_ms is the whole batch's GPU time.
 void deformBatchBench(benchmark::State& state, int events, deform::AddressRaster raster) {
   deform::DeformOptions o{static_cast<int>(state.range(0)), deform::Path::Gather};
   o.addressRaster = raster;
-  DeformCase c(o);
+  deform::Deformer deformer(o);
+  constexpr int kPairs = 20;
+  std::vector<std::unique_ptr<deform::Surface>> plates, balls;
+  for (int p = 0; p < kPairs; ++p) {
+    plates.push_back(std::make_unique<deform::Surface>(
+        gDeformStage->plate, 1024, 0.1f, 0.02f,
+        deformer.createMaps(1024, nullptr, 0.1f, float(gDeformStage->plate->metresPerUv / 1024))));
+    balls.push_back(std::make_unique<deform::Surface>(
+        gDeformStage->ball, 512, 0.1f, 0.02f,
+        deformer.createMaps(512, nullptr, 0.1f, float(gDeformStage->ball->metresPerUv / 512))));
+  }
   std::vector<deform::DeformRequest> requests;
   for (int k = 0; k < events; ++k) {
-    deform::DeformRequest rq = c.request;
-    const double x = -0.4 + 0.8 * k / std::max(1, events - 1);
-    rq.b.model = glm::translate(glm::dmat4(1), glm::dvec3(x, 0.35, 0));
+    const int p = k % kPairs, hit = k / kPairs, hits = std::max(1, events / kPairs);
+    const double x = -0.4 + 0.8 * hit / std::max(1, hits - 1);
+    deform::DeformRequest rq;
+    rq.a = {plates[static_cast<size_t>(p)].get(), gDeformStage->plate.get(), glm::dmat4(1)};
+    rq.b = {balls[static_cast<size_t>(p)].get(), gDeformStage->ball.get(),
+            glm::translate(glm::dmat4(1), glm::dvec3(x, 0.35, 0))};
     rq.point = {x, 0.1, 0};
+    rq.normal = {0, 1, 0};
+    rq.deformA = 0.002;
+    rq.deformB = 0.001;
     requests.push_back(rq);
   }
-  warmUp([&] {
-    for (const deform::DeformRequest& rq : requests) c.deformer.deform(rq);
-  });
+  deformer.deform(requests);  // warm-up: shaders, lazy allocations
+  warmUp([&] { deformer.deform(requests); });
+  const long waves = deformer.wavesRun();
   render::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
-    for (const deform::DeformRequest& rq : requests) c.deformer.deform(rq);
+    deformer.deform(requests);
     timer.end();
     glFinish();
   }
   const double gpu = timer.finish();
   state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
+  state.counters["waves"] = static_cast<double>(deformer.wavesRun() - waves) / static_cast<double>(state.iterations());
 }
 
 // Per-phase wall times (glFinish at each boundary) of both paths at each size.
@@ -838,7 +857,9 @@ int main(int argc, char** argv) {
           size, cw, cg, fw, fg, cw / fw, cg / fg);
   }
   for (const char* n : {"deform/gather_compute_100events/1024", "deform/gather_fragment_100events/1024"})
-    if (!std::isnan(ms(n))) std::printf("deform  %-38s %8.3f ms  (GPU %8.3f ms)\n", n, ms(n), gpu(n));
+    if (!std::isnan(ms(n)))
+      std::printf("deform  %-38s %8.3f ms  (GPU %8.3f ms, %.0f waves)\n", n, ms(n), gpu(n),
+                  collector.counters[n]["waves"]);
   const std::string it;
   const double p = ms("render/1280x720/pom" + it), f = ms("render/1280x720/no_parallax" + it);
   if (!std::isnan(p))

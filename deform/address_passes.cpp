@@ -34,17 +34,17 @@ AddressPasses::AddressPasses(int size)
 
 void AddressPasses::resize(int n) {
   size_ = n;
-  const size_t tiles = static_cast<size_t>((n + kTile - 1) / kTile) * static_cast<size_t>((n + kTile - 1) / kTile);
-  tileCount_ = render::Buffer((tiles + 1) * sizeof(GLuint), nullptr);  // then the large triangles' count
-  tileList_ = render::Buffer(tiles * kTileCapacity * sizeof(GLuint), nullptr);
+  const int slots = std::max(2, static_cast<int>(addressO_.size()));
+  addressO_.clear();
+  depthO_.clear();
+  bins_.clear();
+  for (int s = 0; s < slots; ++s) makeSlot();
   for (int s = 0; s < 2; ++s) {
     addressX_[s] = render::Texture2D(n, n, GL_RG32F);
     depthX_[s] = render::Texture2D(n, n, GL_R32F);
     normalX_[s] = render::Texture2D(n, n, GL_RGBA16F);
-    addressO_[s] = render::Texture2D(n, n, GL_RG32F);
-    depthO_[s] = render::Texture2D(n, n, GL_R32F);
     depthBuffer_[s] = render::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
-    for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s], &addressO_[s], &depthO_[s]})
+    for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s]})
       t->setFilter(GL_NEAREST, GL_NEAREST);
     fboX_[s] = render::Framebuffer();
     fboX_[s].attachColor(addressX_[s], 0);
@@ -62,6 +62,28 @@ void AddressPasses::resize(int n) {
     glNamedFramebufferDrawBuffers(fboO_[s].id(), 2, bufsO);
     fboO_[s].checkComplete();
   }
+}
+
+size_t AddressPasses::slotBytes(int n) {
+  const size_t pixels = static_cast<size_t>(n) * static_cast<size_t>(n);
+  return pixels * (8 + 4) + pixels / (kTile * kTile) * (kTileCapacity + 1) * sizeof(GLuint);
+}
+
+void AddressPasses::makeSlot() {
+  const int n = size_;
+  addressO_.emplace_back(n, n, GL_RG32F);
+  depthO_.emplace_back(n, n, GL_R32F);
+  addressO_.back().setFilter(GL_NEAREST, GL_NEAREST);
+  depthO_.back().setFilter(GL_NEAREST, GL_NEAREST);
+  const size_t tiles = static_cast<size_t>((n + kTile - 1) / kTile) * static_cast<size_t>((n + kTile - 1) / kTile);
+  Bins b;
+  b.count = render::Buffer((tiles + 1) * sizeof(GLuint), nullptr);  // then the large triangles' count
+  b.list = render::Buffer(tiles * kTileCapacity * sizeof(GLuint), nullptr);
+  bins_.push_back(std::move(b));
+}
+
+void AddressPasses::reserveSlots(int slots) {
+  while (static_cast<int>(addressO_.size()) < slots) makeSlot();
 }
 
 void AddressPasses::draw(const DeformBody& body, const glm::dmat4& vp, const glm::dmat4& model, float sign,
@@ -124,46 +146,51 @@ void AddressPasses::drawOther(int side, const DeformBody& other, const glm::dmat
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
-void AddressPasses::rasterOther(int side, const DeformBody& other, const glm::dmat4& vp, const glm::dmat4& model,
-                                float bumpToDepth) {
+void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4& vp, const glm::dmat4& model) {
   const GpuMesh& mesh = *other.mesh;
   const int triangles = mesh.indexCount / 3;
+  Bins& b = bins_[side];
   const size_t setupBytes = static_cast<size_t>(std::max(triangles, 1)) * 6 * 4 * sizeof(float);
-  if (setup_.size() < setupBytes) {
-    setup_ = render::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
-    large_ = render::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
+  if (b.setup.size() < setupBytes) {
+    b.setup = render::Buffer(std::max(setupBytes, 2 * b.setup.size()), nullptr);
+    b.large = render::Buffer(b.setup.size() / (6 * 4), nullptr);  // a uint a triangle
   }
-  const int tilesX = (size_ + kTile - 1) / kTile;
-  glClearNamedBufferData(tileCount_.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+  b.triangles = triangles;
+  glClearNamedBufferData(b.count.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+  if (triangles == 0) return;
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, tileCount_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, tileList_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large_.id());
-  if (triangles > 0) {
-    bin_.use();
-    const glm::mat4 mvp = glm::mat4(vp * model);
-    glUniformMatrix4fv(bMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
-    glUniform1i(bSize_, size_);
-    glUniform1i(bTriangles_, triangles);
-    glUniform1i(bCapacity_, kTileCapacity);
-    constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
-    glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
-                      static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), 1);
-  }
-  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, b.setup.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, b.count.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, b.list.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, b.large.id());
+  bin_.use();
+  const glm::mat4 mvp = glm::mat4(vp * model);
+  glUniformMatrix4fv(bMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
+  glUniform1i(bSize_, size_);
+  glUniform1i(bTriangles_, triangles);
+  glUniform1i(bCapacity_, kTileCapacity);
+  constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
+  glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
+                    static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), 1);
+}
+
+void AddressPasses::rasterOther(int side, const DeformBody& other, float bumpToDepth) {
+  const Bins& b = bins_[side];
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, b.setup.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, b.count.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, b.list.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, b.large.id());
   raster_.use();
   glUniform1i(rSize_, size_);
-  glUniform1i(rTriangles_, triangles);
+  glUniform1i(rTriangles_, b.triangles);
   glUniform1i(rCapacity_, kTileCapacity);
   glUniform1f(rBumpToDepth_, bumpToDepth);
   glBindTextureUnit(0, other.surface ? other.surface->height().id() : flat_.id());
   glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
   glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-  glDispatchCompute(static_cast<GLuint>(tilesX), static_cast<GLuint>(tilesX), 1);
-  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  const GLuint tiles = static_cast<GLuint>((size_ + kTile - 1) / kTile);
+  glDispatchCompute(tiles, tiles, 1);
 }
 
 }  // namespace crumple::deform

@@ -23,15 +23,24 @@ CommitPass::CommitPass()
   nSlopeScale_ = normals_.uniform("uSlopeScale");
 }
 
-void CommitPass::run(const Side (&sides)[2], const render::Buffer& region, const render::Buffer& stats,
-                     int statsIndex, const PhaseMark& phase) {
+void CommitPass::reserve(size_t sides) {
+  if (sides <= sides_) return;
+  sides_ = std::max<size_t>(sides, 2);
+  indirect_ = render::Buffer(sides_ * 6 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  normalRegion_ = render::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+}
+
+void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
+                     const PhaseMark& phase) {
+  reserve(sides.size());
   // Each region becomes indirect dispatch sizes: the commit over it, the normals over it grown by a texel.
   dispatch_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, indirect_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
-  for (int side = 0; side < 2; ++side) {
-    const Side& s = sides[side];
+  const int n = static_cast<int>(sides.size());
+  for (int side = 0; side < n; ++side) {
+    const Side& s = sides[static_cast<size_t>(side)];
     if (!s.x) continue;
     if (s.rim) glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, s.rim->id());
     glUniform1i(dSide_, side);
@@ -45,13 +54,13 @@ void CommitPass::run(const Side (&sides)[2], const render::Buffer& region, const
   commit_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, stats.id());
-  for (int side = 0; side < 2; ++side) {
-    const Side& s = sides[side];
+  for (int side = 0; side < n; ++side) {
+    const Side& s = sides[static_cast<size_t>(side)];
     if (!s.x) continue;
     glBindImageTexture(0, s.scratch->id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
     glBindImageTexture(1, s.x->height().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
     glUniform1i(cSide_, side);
-    glUniform1i(cStatsIndex_, statsIndex + side);
+    glUniform1i(cStatsIndex_, s.statsIndex);
     glUniform1f(cBumpDepth_, s.x->bumpDepth());
     glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint));
   }
@@ -60,8 +69,8 @@ void CommitPass::run(const Side (&sides)[2], const render::Buffer& region, const
 
   normals_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
-  for (int side = 0; side < 2; ++side) {
-    const Side& s = sides[side];
+  for (int side = 0; side < n; ++side) {
+    const Side& s = sides[static_cast<size_t>(side)];
     if (!s.x) continue;
     glBindTextureUnit(0, s.x->height().id());
     glBindImageTexture(1, s.x->normal().id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
@@ -74,13 +83,16 @@ void CommitPass::run(const Side (&sides)[2], const render::Buffer& region, const
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
   phase("normal map");
-  const SurfaceMaps* maps[2] = {sides[0].x ? &sides[0].x->maps() : nullptr, sides[1].x ? &sides[1].x->maps() : nullptr};
+  std::vector<const SurfaceMaps*> maps(sides.size(), nullptr);
+  for (size_t k = 0; k < sides.size(); ++k)
+    if (sides[k].x) maps[k] = &sides[k].x->maps();
   bounds(maps, 0, {0, 0}, {0, 0});
   phase("height bound");
 }
 
-void CommitPass::bounds(const SurfaceMaps* const (&maps)[2], int side, glm::ivec2 lo, glm::ivec2 hi) {
+void CommitPass::bounds(const std::vector<const SurfaceMaps*>& maps, int side, glm::ivec2 lo, glm::ivec2 hi) {
   // side >= 0: maps[k] is side k's, over its region on the GPU; side < 0: maps[0] alone over [lo, hi].
+  reserve(2);
   bound_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
   glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
@@ -90,8 +102,8 @@ void CommitPass::bounds(const SurfaceMaps* const (&maps)[2], int side, glm::ivec
     if (m) levels = std::max(levels, m->boundLevels());
   for (int level = 0; level < levels; ++level) {
     glUniform1i(bound_.uniform("uLevel"), level);
-    for (int k = 0; k < 2; ++k) {
-      const SurfaceMaps* m = maps[k];
+    for (int k = 0; k < static_cast<int>(maps.size()); ++k) {
+      const SurfaceMaps* m = maps[static_cast<size_t>(k)];
       if (!m || level >= m->boundLevels()) continue;
       const int resolution = m->height.width();
       glBindTextureUnit(0, m->height.id());
@@ -119,8 +131,7 @@ void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeSca
   glUniform1f(nSlopeScale_, slopeScale);
   glDispatchCompute(dispatchGroups(hi.x - lo.x + 1), dispatchGroups(hi.y - lo.y + 1), 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
-  const SurfaceMaps* one[2] = {&maps, nullptr};
-  bounds(one, -1, lo, hi);
+  bounds({&maps}, -1, lo, hi);
 }
 
 }  // namespace crumple::deform

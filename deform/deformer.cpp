@@ -105,6 +105,7 @@ int craterRing(int w, int h) { return std::clamp(std::max(w, h) / 4, 2, 16); }
 
 struct Deformer::Impl {
   AddressRaster raster = AddressRaster::Fragment;  // DeformOptions::addressRaster resolved for this GPU
+  long waves = 0;
   // Profile mode: wall time per phase, glFinish at each boundary.
   std::vector<PhaseTime> phases;
   std::chrono::steady_clock::time_point mark;
@@ -148,8 +149,8 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
-  std::map<int, render::Texture2D> scratch[2];                                    // per side and resolution
-  render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per side
+  std::vector<std::map<int, render::Texture2D>> scratch = std::vector<std::map<int, render::Texture2D>>(2);  // per slot and resolution
+  render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per slot
   render::Buffer stats;
   int statsCapacity = 0, statsUsed = 0, statsRead = -1;
   std::vector<GLuint> statsHost;
@@ -161,9 +162,9 @@ struct Deformer::Impl {
   // takes the minimum into it; the commit consumes the touched region and puts
   // +infinity back, so no deformation ever copies or clears a whole map.
   render::Texture2D& scratchFor(int side, int resolution) {
-    auto it = scratch[side].find(resolution);
-    if (it == scratch[side].end()) {
-      it = scratch[side].emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
+    auto it = scratch[static_cast<size_t>(side)].find(resolution);
+    if (it == scratch[static_cast<size_t>(side)].end()) {
+      it = scratch[static_cast<size_t>(side)].emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
       glClearTexImage(it->second.id(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT, &kUntouched);
     }
     return it->second;
@@ -186,10 +187,30 @@ struct Deformer::Impl {
     return h;
   }
 
-  // One side of an event up to its new heights in the scratch (returns the crater ring's width).
-  // (Returns whether its crater rim was made: the commit then grows the region by the rim's ring.)
-  bool updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
-                  const DeformRequest& rq, double depth);
+  // One side of an event: its camera, matrices and update parameters.
+  struct SidePlan {
+    bool active = false;
+    const DeformBody* x = nullptr;
+    const DeformBody* other = nullptr;
+    glm::dmat4 modelX{1}, vp{1};
+    SideUpdate u;
+    float otherBumpToDepth = 0, farthestOther = 0;
+  };
+  // `side`: 0 (X is A) or 1; `slot`: where its targets, scratch and region are (2 e + side for event e of a wave).
+  SidePlan plan(const DeformOptions& o, int side, int slot, const DeformBody& x, const DeformBody& other,
+                const DeformRequest& rq, double depth);
+  // The gather, all sides of a wave stage by stage; crater rims where asked (rimsMade).
+  void gatherSlots(const DeformOptions& o, const std::vector<SidePlan>& p, std::vector<char>& rimsMade);
+  // Events e[0..n) (surfaces all different), their stats handles into handles[0..n).
+  void runWave(const DeformOptions& o, const DeformRequest* const* e, size_t n, int* handles);
+  void reserveSlots(int slots) {
+    passes.reserveSlots(slots);
+    if (scratch.size() < static_cast<size_t>(slots)) scratch.resize(static_cast<size_t>(slots));
+    if (region.size() < static_cast<size_t>(slots) * 4 * sizeof(GLint))
+      region = render::Buffer(static_cast<size_t>(slots) * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  }
+  // The paper's update (scatter or read-back) of one side; whether it made a crater rim the commit must grow by.
+  bool paperSide(const DeformOptions& o, const SidePlan& p);
 };
 
 Deformer::Deformer(const DeformOptions& options)
@@ -212,6 +233,7 @@ const render::Texture2D& Deformer::lastAddressMap() const {
 }
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 AddressRaster Deformer::addressRaster() const { return impl_->raster; }
+long Deformer::wavesRun() const { return impl_->waves; }
 
 std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::Image* initial, float bumpDepth,
                                                   float texelSize) {
@@ -234,92 +256,181 @@ void Deformer::regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi) {
   impl_->commit.normals(s.maps(), s.resolution(), s.bumpDepth() / (2 * s.texelSize()), lo, hi);
 }
 
-bool Deformer::Impl::updateSide(const DeformOptions& o, int side, const DeformBody& x, const DeformBody& other,
-                               const DeformRequest& rq, double depth) {
+Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, int slot, const DeformBody& x,
+                                               const DeformBody& other, const DeformRequest& rq, double depth) {
+  SidePlan p;
+  p.active = true;
+  p.x = &x;
+  p.other = &other;
   // The normal as owned by X, pointing towards the other body.
   const glm::dvec3 n = side == 0 ? rq.normal : -rq.normal;
   // Retract by d_C to first contact, then advance X into the other by its deformation.
-  const glm::dmat4 modelX = glm::translate(glm::dmat4(1), n * (depth - rq.penetration)) * x.model;
+  p.modelX = glm::translate(glm::dmat4(1), n * (depth - rq.penetration)) * x.model;
   glm::dvec3 bx[2], bo[2];
-  worldBounds(*x.mesh, modelX, bx);
+  worldBounds(*x.mesh, p.modelX, bx);
   worldBounds(*other.mesh, other.model, bo);
   const AddressCamera cam = addressCamera(rq.point, n, bx, bo);
   const double range = cam.zFar - cam.zNear;
-  const glm::dmat4 vp = cam.projection * cam.view;
-  SideUpdate u;
-  u.side = side;
+  p.vp = cam.projection * cam.view;
+  SideUpdate& u = p.u;
+  u.side = slot;
   u.resolution = x.surface->resolution();
   u.depthToHeight = static_cast<float>(range / x.surface->bumpDepth());
   u.bumpToDepth = static_cast<float>(x.surface->bumpDepthCollide() / range);
   u.tangent = o.tangent;
   u.tangentFloor = o.tangentFloor;
   u.viewNormal = glm::vec3(n);
-  const float otherBumpToDepth = other.surface ? static_cast<float>(other.surface->bumpDepthCollide() / range) : 0.0f;
-  render::Texture2D& out = scratchFor(side, u.resolution);
-  phase("setup");
-  if (o.path == Path::Gather) {
-    if (raster == AddressRaster::Compute)
-      passes.rasterOther(side, other, vp, other.model, otherBumpToDepth);
-    else
-      passes.drawOther(side, other, vp, other.model, otherBumpToDepth, true);
-    phase("address pass other");
-    // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
-    double farthest = 0;
-    for (int c = 0; c < 8; ++c) {
-      const glm::dvec3 corner(c & 1 ? bo[1].x : bo[0].x, c & 2 ? bo[1].y : bo[0].y, c & 4 ? bo[1].z : bo[0].z);
-      farthest = std::max(farthest, (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / range);
-    }
-    if (other.surface) farthest += 0.5 * other.surface->bumpDepthCollide() / range;
-    gather.run(u, *x.mesh, x.surface->height(), vp, modelX, passes, static_cast<float>(farthest + 1e-6), out, region);
-    phase("gather (texels)");
-  } else {
-    passes.drawX(side, x, vp, modelX, u.bumpToDepth, o.tangent != TangentMode::None);
-    phase("address pass X");
-    passes.drawOther(side, other, vp, other.model, otherBumpToDepth, false);
-    phase("address pass other");
-    if (o.path == Path::Readback) {
-      readback.run(u, passes, x.surface->height(), o.craterRims, out, region, phaseMark);
-      return false;  // the CPU twin grew the region by the rim itself
-    }
-    scatter.run(u, passes, x.surface->height(), out, region);
-    phase("update (compute)");
+  p.otherBumpToDepth = other.surface ? static_cast<float>(other.surface->bumpDepthCollide() / range) : 0.0f;
+  // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
+  double farthest = 0;
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner(c & 1 ? bo[1].x : bo[0].x, c & 2 ? bo[1].y : bo[0].y, c & 4 ? bo[1].z : bo[0].z);
+    farthest = std::max(farthest, (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / range);
   }
+  if (other.surface) farthest += 0.5 * other.surface->bumpDepthCollide() / range;
+  p.farthestOther = static_cast<float>(farthest + 1e-6);
+  return p;
+}
+
+void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SidePlan>& p,
+                                 std::vector<char>& rimsMade) {
+  // Stage by stage over all sides (different targets): one barrier a stage for all of them.
+  const int n = static_cast<int>(p.size());
+  if (raster == AddressRaster::Compute) {
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+    for (int k = 0; k < n; ++k)
+      if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    for (int k = 0; k < n; ++k)
+      if (p[k].active) passes.rasterOther(k, *p[k].other, p[k].otherBumpToDepth);
+  } else {
+    for (int k = 0; k < n; ++k)
+      if (p[k].active) passes.drawOther(k, *p[k].other, p[k].vp, p[k].other->model, p[k].otherBumpToDepth, true);
+  }
+  phase("address pass other");
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
+  for (int k = 0; k < n; ++k) {
+    if (!p[k].active) continue;
+    const DeformBody& x = *p[k].x;
+    gather.run(p[k].u, *x.mesh, x.surface->height(), p[k].vp, p[k].modelX, passes, p[k].farthestOther,
+               scratchFor(k, p[k].u.resolution), region);
+  }
+  glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+  phase("gather (texels)");
+  if (!o.craterRims) return;
+  for (int k = 0; k < n; ++k) {  // waves of one event (slots 0 and 1) when rims are on
+    if (!p[k].active) continue;
+    rims.run(k, p[k].u.resolution, p[k].x->surface->height(), scratchFor(k, p[k].u.resolution), region);
+    rimsMade[static_cast<size_t>(k)] = 1;
+  }
+}
+
+bool Deformer::Impl::paperSide(const DeformOptions& o, const SidePlan& p) {
+  const SideUpdate& u = p.u;
+  const int side = u.side;
+  const DeformBody& x = *p.x;
+  render::Texture2D& out = scratchFor(side, u.resolution);
+  passes.drawX(side, x, p.vp, p.modelX, u.bumpToDepth, o.tangent != TangentMode::None);
+  phase("address pass X");
+  passes.drawOther(side, *p.other, p.vp, p.other->model, p.otherBumpToDepth, false);
+  phase("address pass other");
+  if (o.path == Path::Readback) {
+    readback.run(u, passes, x.surface->height(), o.craterRims, out, region, phaseMark);
+    return false;  // the CPU twin grew the region by the rim itself
+  }
+  scatter.run(u, passes, x.surface->height(), out, region);
+  phase("update (compute)");
   if (!o.craterRims) return false;
   rims.run(side, u.resolution, x.surface->height(), out, region);
   return true;
 }
 
-int Deformer::deform(const DeformRequest& rq) {
-  Impl& m = *impl_;
-  m.beginProfile(options_.profile);
-  const int handle = m.allocateStats();
-  const GLint emptyRegion[8] = {INT_MAX, INT_MAX, -1, -1, INT_MAX, INT_MAX, -1, -1};
-  m.region.upload(0, sizeof emptyRegion, emptyRegion);
-  bool active[2] = {false, false};
-  bool rims[2] = {false, false};  // crater rims made per side: the commit region grows by their ring
+void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const* events, size_t n, int* handles) {
+  beginProfile(o.profile);
+  ++waves;
+  const int slots = static_cast<int>(2 * n);
+  reserveSlots(slots);
+  std::vector<GLint> empty(static_cast<size_t>(slots) * 4);
+  for (size_t k = 0; k < empty.size(); k += 4) {
+    empty[k] = empty[k + 1] = INT_MAX;
+    empty[k + 2] = empty[k + 3] = -1;
+  }
+  region.upload(0, empty.size() * sizeof(GLint), empty.data());
+  std::vector<SidePlan> plans(static_cast<size_t>(slots));
+  std::vector<char> rimsMade(static_cast<size_t>(slots), 0);  // the commit region grows by their ring
   GLint savedViewport[4];
   glGetIntegerv(GL_VIEWPORT, savedViewport);
-  for (int side = 0; side < 2; ++side) {
-    const DeformBody& x = side == 0 ? rq.a : rq.b;
-    const DeformBody& other = side == 0 ? rq.b : rq.a;
-    const double depth = side == 0 ? rq.deformA : rq.deformB;
-    if (!x.surface || !(depth > 0) || !x.mesh || !other.mesh) continue;
-    active[side] = true;
-    rims[side] = m.updateSide(options_, side, x, other, rq, depth);
+  for (size_t e = 0; e < n; ++e) {
+    handles[e] = allocateStats();
+    const DeformRequest& rq = *events[e];
+    for (int side = 0; side < 2; ++side) {
+      const DeformBody& x = side == 0 ? rq.a : rq.b;
+      const DeformBody& other = side == 0 ? rq.b : rq.a;
+      const double depth = side == 0 ? rq.deformA : rq.deformB;
+      if (!x.surface || !(depth > 0) || !x.mesh || !other.mesh) continue;
+      const int slot = static_cast<int>(2 * e) + side;
+      plans[static_cast<size_t>(slot)] = plan(o, side, slot, x, other, rq, depth);
+      scratchFor(slot, x.surface->resolution());  // made on first use (cleared to untouched) before the passes
+    }
+  }
+  phase("setup");
+  if (o.path == Path::Gather) {
+    gatherSlots(o, plans, rimsMade);
+  } else {  // waves of one event
+    for (int slot = 0; slot < slots; ++slot)
+      if (plans[static_cast<size_t>(slot)].active) rimsMade[static_cast<size_t>(slot)] = paperSide(o, plans[static_cast<size_t>(slot)]);
   }
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
-  // Commit both sides only now, so that neither saw the other's new dent (both stage by stage).
-  CommitPass::Side commits[2];
-  for (int side = 0; side < 2; ++side) {
-    if (!active[side]) continue;
-    Surface& x = *(side == 0 ? rq.a : rq.b).surface;
+  // Commit every side only now, so that neither side of an event saw the other's new dent (stage by stage).
+  std::vector<CommitPass::Side> commits(static_cast<size_t>(slots));
+  for (int slot = 0; slot < slots; ++slot) {
+    if (!plans[static_cast<size_t>(slot)].active) continue;
+    const size_t e = static_cast<size_t>(slot / 2);
+    Surface& x = *(slot % 2 == 0 ? events[e]->a : events[e]->b).surface;
     x.makeUnique();
-    commits[side] = {&x, rims[side] ? &m.rims.ring() : nullptr, &m.scratchFor(side, x.resolution())};
+    commits[static_cast<size_t>(slot)] = {&x, rimsMade[static_cast<size_t>(slot)] ? &rims.ring() : nullptr,
+                                          &scratchFor(slot, x.resolution()), handles[e] + slot % 2};
   }
-  m.commit.run(commits, m.region, m.stats, handle, m.phaseMark);
+  commit.run(commits, region, stats, phaseMark);
   glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);
   glDisable(GL_CULL_FACE);
+}
+
+int Deformer::deform(const DeformRequest& rq) {
+  const DeformRequest* one = &rq;
+  int handle = -1;
+  impl_->runWave(options_, &one, 1, &handle);
   return handle;
+}
+
+std::vector<int> Deformer::deform(const std::vector<DeformRequest>& requests) {
+  Impl& m = *impl_;
+  std::vector<int> handles(requests.size(), -1);
+  const bool waves = options_.path == Path::Gather && m.raster == AddressRaster::Compute && !options_.craterRims;
+  const size_t perEvent = 2 * AddressPasses::slotBytes(options_.addressMap);
+  const size_t limit = waves ? std::max<size_t>(1, options_.waveMemory / perEvent) : 1;
+  std::vector<const DeformRequest*> wave;
+  std::vector<const Surface*> used;
+  size_t first = 0;
+  auto flush = [&] {
+    if (wave.empty()) return;
+    m.runWave(options_, wave.data(), wave.size(), handles.data() + first);
+    first += wave.size();
+    wave.clear();
+    used.clear();
+  };
+  for (const DeformRequest& rq : requests) {
+    const Surface* surfaces[2] = {rq.a.surface, rq.b.surface};
+    bool clash = wave.size() >= limit;
+    for (const Surface* x : surfaces)
+      if (x && std::find(used.begin(), used.end(), x) != used.end()) clash = true;
+    if (clash) flush();
+    wave.push_back(&rq);
+    for (const Surface* x : surfaces)
+      if (x) used.push_back(x);
+  }
+  flush();
+  return handles;
 }
 
 SideStats Deformer::stats(int handle, int side) {

@@ -93,6 +93,14 @@ class Deformer {
 
   // Runs both sides of one event. Returns a handle to its stats (two entries).
   int deform(const DeformRequest& request);
+  // Runs the events in order, with the results of running them one by one, bit for bit; returns their handles.
+  // With the compute rasteriser (AddressRaster::Compute) on the gather path, events in a row whose surfaces are
+  // all different (neither side of one touches a surface of another) run as one wave: each stage of all their
+  // sides before one memory barrier, rather than each event's stages with barriers of their own. A wave holds
+  // at most as many events as DeformOptions::waveMemory allows.
+  std::vector<int> deform(const std::vector<DeformRequest>& requests);
+  // Waves run so far (a single event is one).
+  long wavesRun() const;
   // Stats of handle h (side 0 = A, 1 = B). Reads the small stats buffer back once.
   SideStats stats(int handle, int side);
 

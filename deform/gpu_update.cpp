@@ -38,7 +38,6 @@ void GatherUpdate::bindTexelSpace(int res) {
 void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& vp,
                        const glm::dmat4& model, const AddressPasses& passes, float farthestOther,
                        render::Texture2D& scratch, const render::Buffer& region) {
-  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   program_.use();
   bindTexelSpace(u.resolution);
   glViewport(0, 0, u.resolution, u.resolution);
@@ -68,7 +67,6 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::T
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glEnable(GL_DEPTH_TEST);
   glEnable(GL_CULL_FACE);
-  glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
 }
 
 ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {

@@ -1,5 +1,6 @@
 // The deformation stage's options (GL-free: scene files and the engine hold them).
 #pragma once
+#include <cstddef>
 
 namespace crumple::deform {
 
@@ -25,6 +26,9 @@ struct DeformOptions {
   float tangentFloor = 0.2f;
   bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
   AddressRaster addressRaster = AddressRaster::Auto;
+  // GPU memory a wave of events (Deformer::deform of several) may hold for its sides' address passes (33.6 MB an
+  // event at address map 1024): 512 MiB is 15 events at 1024, 63 at 512, 3 at 2048.
+  size_t waveMemory = size_t(512) << 20;
   // Measure: glFinish at each phase boundary and record the wall time of each
   // phase (profile()). Slows the stage down; for crumple-bench --deform-profile.
   bool profile = false;

@@ -53,6 +53,12 @@ class AddressPasses {
   explicit AddressPasses(int size);
   void resize(int size);
   int size() const { return size_; }
+  // Slots 0 and 1 serve every path; a wave of events (Deformer::deform of several, compute raster) gives each
+  // side of each event a slot of its own for the compute pass B: its targets and bins.
+  void reserveSlots(int slots);
+  int slots() const { return static_cast<int>(addressO_.size()); }
+  // Bytes a slot holds at address map `size` (its targets and tile lists).
+  static size_t slotBytes(int size);
   // Pass A: X's front faces, depth LESS; the world-normal attachment only when asked (tangent correction).
   void drawX(int side, const DeformBody& x, const glm::dmat4& viewProjection, const glm::dmat4& model,
              float bumpToDepth, bool normals);
@@ -62,11 +68,12 @@ class AddressPasses {
                  float bumpToDepth, bool alone);
   // The gather's pass B (drawOther alone) rasterised in compute shaders (address_bin.comp, address_raster.comp):
   // the same targets, filled by every invocation of the GPU rather than by its fragment stage (on compute GPUs
-  // such as NVIDIA's H100 only a few of the multiprocessors run fragment shaders). A binned rasteriser: each
-  // triangle appended to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list of large
-  // ones every tile tests), then each tile's pixels test their lists.
-  void rasterOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
-                   float bumpToDepth);
+  // such as NVIDIA's H100 only a few of the multiprocessors run fragment shaders). A binned rasteriser: binOther
+  // appends each triangle to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list
+  // of large ones every tile tests); rasterOther, after a shader-storage barrier, tests each tile's pixels
+  // against its lists. Neither issues a barrier of its own: the Deformer runs both sides stage by stage.
+  void binOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model);
+  void rasterOther(int side, const DeformBody& other, float bumpToDepth);
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
   const render::Texture2D& normalX(int side) const { return normalX_[side]; }
@@ -80,11 +87,17 @@ class AddressPasses {
   GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
   GLint bMvp_, bSize_, bTriangles_, bCapacity_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_;
   static constexpr int kTile = 8, kTileCapacity = 64;
-  render::Buffer setup_, tileCount_, tileList_, large_;  // the compute pass B's triangles and lists
+  struct Bins {  // the compute pass B's triangles and lists, per side
+    render::Buffer setup, count, list, large;
+    int triangles = 0;
+  };
+  std::vector<Bins> bins_;
   render::Texture2D flat_{1, 1, GL_R32F};
   int size_ = 0;
   // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.
-  render::Texture2D addressX_[2], depthX_[2], normalX_[2], addressO_[2], depthO_[2], depthBuffer_[2];
+  render::Texture2D addressX_[2], depthX_[2], normalX_[2], depthBuffer_[2];
+  std::vector<render::Texture2D> addressO_, depthO_;  // per slot (at least 2)
+  void makeSlot();  // appends a slot at the current size
   render::Framebuffer fboX_[2], fboO_[2];
 };
 
@@ -92,7 +105,8 @@ class GatherUpdate {
  public:
   GatherUpdate();
   // Draws X (at `model`, seen through `viewProjection`) in its texture space over the texels the camera sees
-  // and that reach the other body's farthest window depth.
+  // and that reach the other body's farthest window depth. No barriers of its own: before it, the address
+  // pass's targets must be made visible to texture fetches; after it, its image and storage writes.
   void run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& viewProjection,
            const glm::dmat4& model, const AddressPasses& passes, float farthestOther, render::Texture2D& scratch,
            const render::Buffer& region);
@@ -156,11 +170,12 @@ class CommitPass {
     Surface* x = nullptr;
     const render::Buffer* rim = nullptr;
     render::Texture2D* scratch = nullptr;
+    int statsIndex = 0;
   };
-  // Writes each side's new heights into its X's map over its region, counts what changed into stats entry
-  // `statsIndex + side`, puts the scratch back to untouched, and regenerates the normals and the bound pyramid
-  // there. The two sides (different maps) go stage by stage, one memory barrier a stage for both.
-  void run(const Side (&sides)[2], const render::Buffer& region, const render::Buffer& stats, int statsIndex,
+  // Writes each side's new heights into its X's map over its region (sides[k]: region slot k), counts what
+  // changed into stats entry statsIndex, puts the scratch back to untouched, and regenerates the normals and the
+  // bound pyramid there. The sides (different maps) go stage by stage, one memory barrier a stage for all.
+  void run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
            const PhaseMark& phase);
   // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
   void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);
@@ -168,13 +183,14 @@ class CommitPass {
  private:
   // The bound pyramid over the region of `side` (normalRegion_, on the GPU) or, for side < 0, [lo, hi]; level
   // by level, each level for every map of `maps` (null: none) before one barrier.
-  void bounds(const SurfaceMaps* const (&maps)[2], int side, glm::ivec2 lo, glm::ivec2 hi);
+  void bounds(const std::vector<const SurfaceMaps*>& maps, int side, glm::ivec2 lo, glm::ivec2 hi);
+  void reserve(size_t sides);
   render::Program dispatch_, commit_, normals_, bound_;
   GLint dSide_, dResolution_, dGrow_;
   GLint cSide_, cStatsIndex_, cBumpDepth_;
   GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;
-  render::Buffer indirect_{12 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
-  render::Buffer normalRegion_{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};
+  size_t sides_ = 0;
+  render::Buffer indirect_, normalRegion_;  // per side: 6 uints; an ivec4
 };
 
 }  // namespace crumple::deform

@@ -357,6 +357,9 @@ void Simulation::stepPhysics(double h) {
 
 bool Simulation::deformCollisions(const std::vector<int>& bodyOf) {
   bool deformed = false;
+  // The step's deformations go to the deformer as one batch (waves of events on different surfaces, in order).
+  std::vector<deform::DeformRequest> requests;
+  std::vector<size_t> recordOf;
   for (const CollisionEvent& e : world_.events()) {
     if (e.elasticImpulse < scene_.deformation.impulseFloor) continue;  // the paper's floor: too weak to mark
     EventRecord rec;
@@ -369,13 +372,17 @@ bool Simulation::deformCollisions(const std::vector<int>& bodyOf) {
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
-      rec.statsHandle =
-          deformer_->deform(eventRequest(e, bi[0], bi[1], rec.side[0].deformed ? rec.side[0].deformDepth : 0,
-                                         rec.side[1].deformed ? rec.side[1].deformDepth : 0));
+      requests.push_back(eventRequest(e, bi[0], bi[1], rec.side[0].deformed ? rec.side[0].deformDepth : 0,
+                                      rec.side[1].deformed ? rec.side[1].deformDepth : 0));
+      recordOf.push_back(events_.size());
       ++timings_.deformations;
       deformed = true;
     }
     events_.push_back(rec);
+  }
+  if (!requests.empty()) {
+    const std::vector<int> handles = deformer_->deform(requests);
+    for (size_t k = 0; k < handles.size(); ++k) events_[recordOf[k]].statsHandle = handles[k];
   }
   return deformed;
 }
@@ -394,6 +401,7 @@ bool Simulation::deformContacts(const std::vector<int>& bodyOf, double h) {
   std::vector<CollisionEvent> due;
   for (const auto& [key, e] : pendingContacts_) due.push_back(e);
   pendingContacts_.clear();
+  std::vector<deform::DeformRequest> requests;
   for (const CollisionEvent& e : due) {
     const int bi[2] = {bodyOf[static_cast<size_t>(e.a)], bodyOf[static_cast<size_t>(e.b)]};
     double depth[2] = {0, 0};
@@ -403,10 +411,11 @@ bool Simulation::deformContacts(const std::vector<int>& bodyOf, double h) {
       depth[s] = decideSide(*body.material, body.material->thickness, e.elasticImpulse).deformDepth;
     }
     if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
-    deformer_->deform(eventRequest(e, bi[0], bi[1], depth[0], depth[1]));
+    requests.push_back(eventRequest(e, bi[0], bi[1], depth[0], depth[1]));
     ++timings_.contactDeformations;
     deformed = true;
   }
+  if (!requests.empty()) deformer_->deform(requests);
   // Wheels and treads press contact-deformable ground too, their push over
   // one step taken as the impulse (like the resting contacts above).
   for (const VehicleRuntime& v : vehicles_)

@@ -7,6 +7,7 @@
 #include <algorithm>
 
 #include <cmath>
+#include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "deform/cpu_reference.h"
@@ -220,6 +221,78 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
     CHECK(std::abs(changedA - changedB) <= changedA / 100 + 4);
     CHECK(diff * SphereIntoPlate::k <= 2e-5);
   }
+}
+
+TEST_CASE("a batch of events runs in waves of different surfaces and gives the one-by-one maps bit for bit") {
+  test::glContext();
+  SphereIntoPlate s;
+  constexpr int kPlates = 3;
+  struct Bodies {
+    std::vector<std::unique_ptr<Surface>> plates, balls;
+  };
+  auto make = [&](Deformer& d) {
+    Bodies b;
+    for (int i = 0; i < kPlates; ++i) {
+      b.plates.push_back(std::make_unique<Surface>(
+          s.plateGpu, SphereIntoPlate::kRes, float(SphereIntoPlate::k), float(SphereIntoPlate::kc),
+          d.createMaps(SphereIntoPlate::kRes, nullptr, float(SphereIntoPlate::k), float(s.plateGpu->metresPerUv / SphereIntoPlate::kRes))));
+      b.balls.push_back(std::make_unique<Surface>(
+          s.ballGpu, 256, 0.1f, 0.02f, d.createMaps(256, nullptr, 0.1f, float(s.ballGpu->metresPerUv / 256))));
+    }
+    return b;
+  };
+  // Ball i on plate i at x, both sides dented; the fourth hits plate 0 again with ball 0 (a new wave), the fifth
+  // ball 1 on plate 2 (surfaces of the first wave, none of the second's: it joins the second).
+  auto requests = [&](Bodies& b) {
+    std::vector<DeformRequest> rqs;
+    const int plate[5] = {0, 1, 2, 0, 2}, ball[5] = {0, 1, 2, 0, 1};
+    const double x[5] = {-0.4, 0.0, 0.3, 0.25, -0.2};
+    for (int k = 0; k < 5; ++k) {
+      DeformRequest rq;
+      rq.a = {b.plates[size_t(plate[k])].get(), s.plateGpu.get(), s.plateModel};
+      rq.b = {b.balls[size_t(ball[k])].get(), s.ballGpu.get(),
+              glm::translate(glm::dmat4(1), glm::dvec3(x[k], 0.1 + SphereIntoPlate::R, 0))};
+      rq.point = {x[k], 0.1, 0};
+      rq.normal = {0, 1, 0};
+      rq.deformA = 0.01;
+      rq.deformB = 0.002;
+      rqs.push_back(rq);
+    }
+    return rqs;
+  };
+  DeformOptions o{64, Path::Gather};
+  o.addressRaster = AddressRaster::Compute;
+  Deformer one(o), batch(o);
+  Bodies a = make(one), b = make(batch);
+  std::vector<int> ha;
+  for (const DeformRequest& rq : requests(a)) ha.push_back(one.deform(rq));
+  const std::vector<int> hb = batch.deform(requests(b));
+  CHECK(one.wavesRun() == 5);
+  CHECK(batch.wavesRun() == 2);  // {0, 1, 2}, {3, 4}
+  REQUIRE(hb.size() == 5);
+  int dented = 0;
+  for (int i = 0; i < kPlates; ++i)
+    for (const auto* pair : {&a.plates, &a.balls}) {
+      const auto* other = pair == &a.plates ? &b.plates : &b.balls;
+      const render::Image x = (*pair)[size_t(i)]->downloadHeight(), y = (*other)[size_t(i)]->downloadHeight();
+      REQUIRE(x.pixels.size() == y.pixels.size());
+      CHECK(std::memcmp(x.pixels.data(), y.pixels.data(), x.pixels.size() * sizeof(float)) == 0);
+      for (float v : x.pixels) dented += v < 0.5f;
+    }
+  CHECK(dented > 1000);
+  for (int k = 0; k < 5; ++k)
+    for (int side = 0; side < 2; ++side) {
+      const SideStats sa = one.stats(ha[size_t(k)], side), sb = batch.stats(hb[size_t(k)], side);
+      CHECK(sa.texelsChanged == sb.texelsChanged);
+      CHECK(sa.texelsChanged > 0);
+      CHECK(sa.maxDent == sb.maxDent);
+    }
+  // A wave holds what waveMemory allows: here one event at a time.
+  o.waveMemory = 1;
+  Deformer narrow(o);
+  Bodies c = make(narrow);
+  narrow.deform(requests(c));
+  CHECK(narrow.wavesRun() == 5);
 }
 
 TEST_CASE("the address pass's rasteriser: compute on data-centre GPUs, whose fragment stage is narrow") {

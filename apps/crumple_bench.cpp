@@ -461,34 +461,42 @@ void deformBench(benchmark::State& state, deform::Path path, deform::AddressRast
 // each pair its own surfaces), each pair hit events / 20 times at different places, in turn; issued as one batch
 // (Deformer::deform of them all: waves of events on different surfaces with the compute rasteriser, one by one
 // with the fragment stage's), one glFinish at the end; gpu_ms is the whole batch's GPU time.
+struct BatchCase {
+  static constexpr int kPairs = 20;
+  deform::Deformer deformer;
+  std::vector<std::unique_ptr<deform::Surface>> plates, balls;
+  std::vector<deform::DeformRequest> requests;
+  BatchCase(const deform::DeformOptions& o, int events) : deformer(o) {
+    for (int p = 0; p < kPairs; ++p) {
+      plates.push_back(std::make_unique<deform::Surface>(
+          gDeformStage->plate, 1024, 0.1f, 0.02f,
+          deformer.createMaps(1024, nullptr, 0.1f, float(gDeformStage->plate->metresPerUv / 1024))));
+      balls.push_back(std::make_unique<deform::Surface>(
+          gDeformStage->ball, 512, 0.1f, 0.02f,
+          deformer.createMaps(512, nullptr, 0.1f, float(gDeformStage->ball->metresPerUv / 512))));
+    }
+    for (int k = 0; k < events; ++k) {
+      const int p = k % kPairs, hit = k / kPairs, hits = std::max(1, events / kPairs);
+      const double x = -0.4 + 0.8 * hit / std::max(1, hits - 1);
+      deform::DeformRequest rq;
+      rq.a = {plates[static_cast<size_t>(p)].get(), gDeformStage->plate.get(), glm::dmat4(1)};
+      rq.b = {balls[static_cast<size_t>(p)].get(), gDeformStage->ball.get(),
+              glm::translate(glm::dmat4(1), glm::dvec3(x, 0.35, 0))};
+      rq.point = {x, 0.1, 0};
+      rq.normal = {0, 1, 0};
+      rq.deformA = 0.002;
+      rq.deformB = 0.001;
+      requests.push_back(rq);
+    }
+  }
+};
+
 void deformBatchBench(benchmark::State& state, int events, deform::AddressRaster raster) {
   deform::DeformOptions o{static_cast<int>(state.range(0)), deform::Path::Gather};
   o.addressRaster = raster;
-  deform::Deformer deformer(o);
-  constexpr int kPairs = 20;
-  std::vector<std::unique_ptr<deform::Surface>> plates, balls;
-  for (int p = 0; p < kPairs; ++p) {
-    plates.push_back(std::make_unique<deform::Surface>(
-        gDeformStage->plate, 1024, 0.1f, 0.02f,
-        deformer.createMaps(1024, nullptr, 0.1f, float(gDeformStage->plate->metresPerUv / 1024))));
-    balls.push_back(std::make_unique<deform::Surface>(
-        gDeformStage->ball, 512, 0.1f, 0.02f,
-        deformer.createMaps(512, nullptr, 0.1f, float(gDeformStage->ball->metresPerUv / 512))));
-  }
-  std::vector<deform::DeformRequest> requests;
-  for (int k = 0; k < events; ++k) {
-    const int p = k % kPairs, hit = k / kPairs, hits = std::max(1, events / kPairs);
-    const double x = -0.4 + 0.8 * hit / std::max(1, hits - 1);
-    deform::DeformRequest rq;
-    rq.a = {plates[static_cast<size_t>(p)].get(), gDeformStage->plate.get(), glm::dmat4(1)};
-    rq.b = {balls[static_cast<size_t>(p)].get(), gDeformStage->ball.get(),
-            glm::translate(glm::dmat4(1), glm::dvec3(x, 0.35, 0))};
-    rq.point = {x, 0.1, 0};
-    rq.normal = {0, 1, 0};
-    rq.deformA = 0.002;
-    rq.deformB = 0.001;
-    requests.push_back(rq);
-  }
+  BatchCase c(o, events);
+  deform::Deformer& deformer = c.deformer;
+  const std::vector<deform::DeformRequest>& requests = c.requests;
   deformer.deform(requests);  // warm-up: shaders, lazy allocations
   warmUp([&] { deformer.deform(requests); });
   const long waves = deformer.wavesRun();
@@ -537,6 +545,33 @@ void deformProfile(int iterations) {
       for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
       std::printf("\n");
     }
+  // One wave: as many events on different surfaces as DeformOptions::waveMemory holds at 1024 (the phases of the
+  // wave, all its events' sides in each), with the compute rasteriser.
+  deform::DeformOptions o{1024, deform::Path::Gather};
+  o.addressRaster = deform::AddressRaster::Compute;
+  o.profile = true;
+  const int events = static_cast<int>(std::min<size_t>(BatchCase::kPairs, deform::Deformer(o).waveLimit()));
+  BatchCase c(o, events);
+  c.deformer.deform(c.requests);
+  warmUp([&] { c.deformer.deform(c.requests); });
+  std::vector<deform::PhaseTime> sum;
+  for (int i = 0; i < iterations; ++i) {
+    c.deformer.deform(c.requests);
+    for (const auto& p : c.deformer.profile()) {
+      auto it = std::find_if(sum.begin(), sum.end(), [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
+      if (it == sum.end())
+        sum.push_back(p);
+      else {
+        it->ms += p.ms;
+        it->gpuMs += p.gpuMs;
+      }
+    }
+  }
+  double total = 0, gpuTotal = 0;
+  for (const auto& p : sum) total += p.ms / iterations, gpuTotal += p.gpuMs / iterations;
+  std::printf("wave of %d events (compute, 1024)  wall %8.3f (gpu %7.3f) :", events, total, gpuTotal);
+  for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
+  std::printf("\n");
 }
 
 // ---- rendering --------------------------------------------------------------

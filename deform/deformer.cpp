@@ -234,6 +234,10 @@ const render::Texture2D& Deformer::lastAddressMap() const {
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 AddressRaster Deformer::addressRaster() const { return impl_->raster; }
 long Deformer::wavesRun() const { return impl_->waves; }
+size_t Deformer::waveLimit() const {
+  const bool waves = options_.path == Path::Gather && impl_->raster == AddressRaster::Compute && !options_.craterRims;
+  return waves ? std::max<size_t>(1, options_.waveMemory / (2 * AddressPasses::slotBytes(options_.addressMap))) : 1;
+}
 
 std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::Image* initial, float bumpDepth,
                                                   float texelSize) {
@@ -300,6 +304,7 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model);
+    phase("address bins");
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.rasterOther(k, *p[k].other, p[k].otherBumpToDepth);
@@ -406,9 +411,7 @@ int Deformer::deform(const DeformRequest& rq) {
 std::vector<int> Deformer::deform(const std::vector<DeformRequest>& requests) {
   Impl& m = *impl_;
   std::vector<int> handles(requests.size(), -1);
-  const bool waves = options_.path == Path::Gather && m.raster == AddressRaster::Compute && !options_.craterRims;
-  const size_t perEvent = 2 * AddressPasses::slotBytes(options_.addressMap);
-  const size_t limit = waves ? std::max<size_t>(1, options_.waveMemory / perEvent) : 1;
+  const size_t limit = waveLimit();
   std::vector<const DeformRequest*> wave;
   std::vector<const Surface*> used;
   size_t first = 0;

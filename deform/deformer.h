@@ -101,6 +101,9 @@ class Deformer {
   std::vector<int> deform(const std::vector<DeformRequest>& requests);
   // Waves run so far (a single event is one).
   long wavesRun() const;
+  // The most events a wave holds under these options (DeformOptions::waveMemory at its address map); 1 where
+  // waves do not apply (the paper's paths, crater rims, the fragment stage's rasteriser).
+  size_t waveLimit() const;
   // Stats of handle h (side 0 = A, 1 = B). Reads the small stats buffer back once.
   SideStats stats(int handle, int side);
 

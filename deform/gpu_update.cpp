@@ -27,12 +27,13 @@ GatherUpdate::GatherUpdate()
 }
 
 void GatherUpdate::bindTexelSpace(int res) {
-  if (res != texelSpaceSize_) {
-    glNamedFramebufferParameteri(texelSpace_.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, res);
-    glNamedFramebufferParameteri(texelSpace_.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, res);
-    texelSpaceSize_ = res;
+  auto it = texelSpace_.find(res);
+  if (it == texelSpace_.end()) {
+    it = texelSpace_.emplace(res, render::Framebuffer()).first;
+    glNamedFramebufferParameteri(it->second.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, res);
+    glNamedFramebufferParameteri(it->second.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, res);
   }
-  texelSpace_.bind();
+  it->second.bind();
 }
 
 void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& vp,

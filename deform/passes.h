@@ -22,6 +22,7 @@
 #include <glm/glm.hpp>
 
 #include <functional>
+#include <map>
 #include <vector>
 
 #include "deform/deformer.h"
@@ -116,9 +117,9 @@ class GatherUpdate {
   render::Program program_;
   GLint uMvp_, uNormalToWorld_, uResolution_, uViewMargin_, uFarthestOther_, uBumpReach_, uSide_, uSize_, uBumpToDepth_,
       uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
-  // A framebuffer without attachments, sized to the map being drawn (a software rasteriser bins all of it).
-  render::Framebuffer texelSpace_;
-  int texelSpaceSize_ = 0;
+  // Framebuffers without attachments, one per map size drawn (a software rasteriser bins all of it); kept, so
+  // that sides of different sizes in a row do not reconfigure one.
+  std::map<int, render::Framebuffer> texelSpace_;
 };
 
 class ScatterUpdate {

@@ -543,7 +543,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   if (n.has("deformation")) {
     Node d = n.child("deformation");
     d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
-                 "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval",
+                 "address_raster", "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval",
                  "normal_mapped_normals"});
     auto& ds = s.deformation;
     ds.enabled = d.boolean("enabled", ds.enabled);
@@ -561,6 +561,15 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
       o.path = deform::Path::Readback;
     else
       d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
+    const std::string raster = d.string("address_raster", "auto");
+    if (raster == "auto")
+      o.addressRaster = deform::AddressRaster::Auto;
+    else if (raster == "compute")
+      o.addressRaster = deform::AddressRaster::Compute;
+    else if (raster == "fragment")
+      o.addressRaster = deform::AddressRaster::Fragment;
+    else
+      d.fail("address_raster", "must be \"auto\", \"compute\" or \"fragment\", got '" + raster + "'");
     const std::string tc = d.string("tangent_correction", "none");
     if (tc == "none")
       o.tangent = deform::TangentMode::None;

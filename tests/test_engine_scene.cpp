@@ -59,6 +59,9 @@ TEST_CASE("the good scene loads") {
   CHECK(s.bodies[0].bumpMap.resolution == 128);
   CHECK(s.materials.at("clay").restitution == doctest::Approx(0.2));
   CHECK(s.deformation.options.addressMap == 256);
+  CHECK(s.deformation.options.addressRaster == deform::AddressRaster::Auto);
+  CHECK(parseScene(mutate("\"path\": \"gather\"", "\"path\": \"gather\", \"address_raster\": \"compute\""), "good.json", ".")
+            .deformation.options.addressRaster == deform::AddressRaster::Compute);
   CHECK(s.threads == 1);
   CHECK(parseScene(mutate("\"duration\": 1", "\"duration\": 1, \"threads\": 4"), "good.json", ".").threads == 4);
 }
@@ -94,6 +97,8 @@ TEST_CASE("malformed scenes name the key path and the reason") {
       {mutate("\"duration\": 1", "\"duration\": 1, \"threads\": 2.5"), "threads", "must be an integer"},
       {mutate("\"address_map\": 256", "\"address_map\": 100000"), "deformation.address_map", "must be in [16, 4096]"},
       {mutate("\"address_map\": 256", "\"address_map\": 256.5"), "deformation.address_map", "must be an integer"},
+      {mutate("\"path\": \"gather\"", "\"path\": \"gather\", \"address_raster\": \"gpu\""), "deformation.address_raster",
+       "must be \"auto\", \"compute\" or \"fragment\", got 'gpu'"},
       {mutate("\"path\": \"gather\"", "\"path\": \"cpu\""), "deformation.path",
        "must be \"gather\", \"scatter\" or \"readback\""},
       {mutate("\"material\": \"clay\", \"position\": [0, 0.6", "\"material\": \"steel\", \"position\": [0, 0.6"),

@@ -162,6 +162,27 @@ TEST_CASE("the paper's read-back path gives the same height maps as its scatter 
   CHECK(slurp(a / "heightmaps" / "plate.png") == slurp(b / "heightmaps" / "plate.png"));
 }
 
+TEST_CASE("the address pass rasterised by compute shaders gives the fragment stage's dents, the same bits twice") {
+  const fs::path f = kTmp / "raster_fragment", c1 = kTmp / "raster_compute1", c2 = kTmp / "raster_compute2";
+  for (const auto& p : {f, c1, c2}) fs::remove_all(p);
+  REQUIRE(runSim("--out " + f.string() + " --quiet --steps 120 --set 'deformation.address_raster=\"fragment\"'") == 0);
+  REQUIRE(runSim("--out " + c1.string() + " --quiet --steps 120 --set 'deformation.address_raster=\"compute\"'") == 0);
+  REQUIRE(runSim("--out " + c2.string() + " --quiet --steps 120 --set 'deformation.address_raster=\"compute\"'") == 0);
+  CHECK(slurp(c1 / "heightmaps" / "plate.png") == slurp(c2 / "heightmaps" / "plate.png"));
+  CHECK(slurp(c1 / "events.jsonl") == slurp(c2 / "events.jsonl"));
+  const crumple::render::Image a = crumple::render::readPng((f / "heightmaps" / "plate.png").string());
+  const crumple::render::Image b = crumple::render::readPng((c1 / "heightmaps" / "plate.png").string());
+  REQUIRE(a.pixels.size() == b.pixels.size());
+  int dented = 0, apart = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) {
+    dented += a.pixels[i] < 0.49f;
+    apart += std::abs(a.pixels[i] - b.pixels[i]) > 2.0f / 65535.0f;
+  }
+  MESSAGE("plate texels dented " << dented << ", apart by over 2 steps of 16 bits " << apart);
+  CHECK(dented > 100);
+  CHECK(apart <= dented / 100);
+}
+
 TEST_CASE("a user's OBJ model without texture coordinates dropped into a scene is dented") {
   // An octahedron-ish closed mesh with no uvs: the loader must build an atlas.
   std::ofstream(kTmp / "gem.obj") << "v 0 0.3 0\nv 0.3 0 0\nv 0 0 0.3\nv -0.3 0 0\nv 0 0 -0.3\nv 0 -0.3 0\n"

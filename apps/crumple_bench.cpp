@@ -512,52 +512,14 @@ void deformBatchBench(benchmark::State& state, int events, deform::AddressRaster
   state.counters["waves"] = static_cast<double>(deformer.wavesRun() - waves) / static_cast<double>(state.iterations());
 }
 
-// Per-phase wall times (glFinish at each boundary) of both paths at each size.
-void deformProfile(int iterations) {
-  std::printf("\n== deformation phases: wall ms (GPU ms), mean of %d, glFinish between phases ==\n", iterations);
-  for (int size : {256, 512, 1024, 2048})
-    for (int variant = 0; variant < 4; ++variant) {
-      // The gather with its address pass in compute, the same in the fragment stage, the scatter, the read-back.
-      const deform::Path path = variant < 2 ? deform::Path::Gather : variant == 2 ? deform::Path::Scatter : deform::Path::Readback;
-      const std::string label = variant < 2 ? (variant == 0 ? "gather_compute" : "gather_fragment") : deform::pathName(path);
-      deform::DeformOptions o{size, path};
-      o.addressRaster = variant == 0 ? deform::AddressRaster::Compute : deform::AddressRaster::Fragment;
-      o.profile = true;
-      DeformCase c(o);
-      warmUp([&] { c.deformer.deform(c.request); });
-      std::vector<deform::PhaseTime> sum;
-      for (int i = 0; i < iterations; ++i) {
-        c.deformer.deform(c.request);
-        for (const auto& p : c.deformer.profile()) {
-          auto it = std::find_if(sum.begin(), sum.end(),
-                                 [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
-          if (it == sum.end())
-            sum.push_back(p);
-          else {
-            it->ms += p.ms;
-            it->gpuMs += p.gpuMs;
-          }
-        }
-      }
-      double total = 0, gpuTotal = 0;
-      for (const auto& p : sum) total += p.ms / iterations, gpuTotal += p.gpuMs / iterations;
-      std::printf("%-15s %4d  wall %8.3f (gpu %7.3f) :", label.c_str(), size, total, gpuTotal);
-      for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
-      std::printf("\n");
-    }
-  // One wave: as many events on different surfaces as DeformOptions::waveMemory holds at 1024 (the phases of the
-  // wave, all its events' sides in each), with the compute rasteriser.
-  deform::DeformOptions o{1024, deform::Path::Gather};
-  o.addressRaster = deform::AddressRaster::Compute;
-  o.profile = true;
-  const int events = static_cast<int>(std::min<size_t>(BatchCase::kPairs, deform::Deformer(o).waveLimit()));
-  BatchCase c(o, events);
-  c.deformer.deform(c.requests);
-  warmUp([&] { c.deformer.deform(c.requests); });
+// Runs `deform` `iterations` times after the warm-up and prints the mean of each phase of `d`'s profile.
+template <typename F>
+void printPhases(const std::string& label, deform::Deformer& d, int iterations, F&& deform) {
+  warmUp(deform);
   std::vector<deform::PhaseTime> sum;
   for (int i = 0; i < iterations; ++i) {
-    c.deformer.deform(c.requests);
-    for (const auto& p : c.deformer.profile()) {
+    deform();
+    for (const auto& p : d.profile()) {
       auto it = std::find_if(sum.begin(), sum.end(), [&](const deform::PhaseTime& q) { return std::string(q.name) == p.name; });
       if (it == sum.end())
         sum.push_back(p);
@@ -569,9 +531,37 @@ void deformProfile(int iterations) {
   }
   double total = 0, gpuTotal = 0;
   for (const auto& p : sum) total += p.ms / iterations, gpuTotal += p.gpuMs / iterations;
-  std::printf("wave of %d events (compute, 1024)  wall %8.3f (gpu %7.3f) :", events, total, gpuTotal);
+  std::printf("%s  wall %8.3f (gpu %7.3f) :", label.c_str(), total, gpuTotal);
   for (const auto& p : sum) std::printf("  %s %.3f (%.3f)", p.name, p.ms / iterations, p.gpuMs / iterations);
   std::printf("\n");
+}
+
+// Per-phase wall times (glFinish at each boundary) of every path at each size, and of one wave.
+void deformProfile(int iterations) {
+  std::printf("\n== deformation phases: wall ms (GPU ms), mean of %d, glFinish between phases ==\n", iterations);
+  for (int size : {256, 512, 1024, 2048})
+    for (int variant = 0; variant < 4; ++variant) {
+      // The gather with its address pass in compute, the same in the fragment stage, the scatter, the read-back.
+      const deform::Path path = variant < 2 ? deform::Path::Gather : variant == 2 ? deform::Path::Scatter : deform::Path::Readback;
+      const std::string label = variant < 2 ? (variant == 0 ? "gather_compute" : "gather_fragment") : deform::pathName(path);
+      deform::DeformOptions o{size, path};
+      o.addressRaster = variant == 0 ? deform::AddressRaster::Compute : deform::AddressRaster::Fragment;
+      o.profile = true;
+      DeformCase c(o);
+      char name[64];
+      std::snprintf(name, sizeof name, "%-15s %4d", label.c_str(), size);
+      printPhases(name, c.deformer, iterations, [&] { c.deformer.deform(c.request); });
+    }
+  // One wave: as many events on different surfaces as DeformOptions::waveMemory holds at 1024 (the phases of the
+  // wave, all its events' sides in each), with the compute rasteriser.
+  deform::DeformOptions o{1024, deform::Path::Gather};
+  o.addressRaster = deform::AddressRaster::Compute;
+  o.profile = true;
+  const int events = static_cast<int>(std::min<size_t>(BatchCase::kPairs, deform::Deformer(o).waveLimit()));
+  BatchCase c(o, events);
+  c.deformer.deform(c.requests);
+  printPhases("wave of " + std::to_string(events) + " events (compute, 1024)", c.deformer, iterations,
+              [&] { c.deformer.deform(c.requests); });
 }
 
 // ---- rendering --------------------------------------------------------------

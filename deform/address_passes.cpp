@@ -19,6 +19,7 @@ AddressPasses::AddressPasses(int size)
   bSize_ = bin_.uniform("uSize");
   bTriangles_ = bin_.uniform("uTriangles");
   bCapacity_ = bin_.uniform("uCapacity");
+  bReach_ = bin_.uniform("uReach");
   rSize_ = raster_.uniform("uSize");
   rTriangles_ = raster_.uniform("uTriangles");
   rCapacity_ = raster_.uniform("uCapacity");
@@ -146,7 +147,8 @@ void AddressPasses::drawOther(int side, const DeformBody& other, const glm::dmat
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
-void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4& vp, const glm::dmat4& model) {
+void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4& vp, const glm::dmat4& model,
+                             float reach) {
   const GpuMesh& mesh = *other.mesh;
   const int triangles = mesh.indexCount / 3;
   Bins& b = bins_[side];
@@ -170,6 +172,7 @@ void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4
   glUniform1i(bSize_, size_);
   glUniform1i(bTriangles_, triangles);
   glUniform1i(bCapacity_, kTileCapacity);
+  glUniform1f(bReach_, reach);
   constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
   glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
                     static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), 1);

@@ -195,6 +195,7 @@ struct Deformer::Impl {
     glm::dmat4 modelX{1}, vp{1};
     SideUpdate u;
     float otherBumpToDepth = 0, farthestOther = 0;
+    float reachOther = 0;  // the compute pass B's cull depth: triangles of the other body wholly nearer cannot dent
   };
   // `side`: 0 (X is A) or 1; `slot`: where its targets, scratch and region are (2 e + side for event e of a wave).
   SidePlan plan(const DeformOptions& o, int side, int slot, const DeformBody& x, const DeformBody& other,
@@ -293,6 +294,14 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   }
   if (other.surface) farthest += 0.5 * other.surface->bumpDepthCollide() / range;
   p.farthestOther = static_cast<float>(farthest + 1e-6);
+  // X's nearest window depth (its bounds, raised by its bumps): the other body's depth must pass it to dent.
+  double nearest = 1e300;
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner(c & 1 ? bx[1].x : bx[0].x, c & 2 ? bx[1].y : bx[0].y, c & 4 ? bx[1].z : bx[0].z);
+    nearest = std::min(nearest, (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / range);
+  }
+  nearest -= 0.5 * x.surface->bumpDepthCollide() / range + 0.5 * p.otherBumpToDepth;
+  p.reachOther = static_cast<float>(nearest - 1e-6);
   return p;
 }
 
@@ -303,7 +312,7 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
   if (raster == AddressRaster::Compute) {
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
     for (int k = 0; k < n; ++k)
-      if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model);
+      if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model, p[k].reachOther);
     phase("address bins");
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     for (int k = 0; k < n; ++k)

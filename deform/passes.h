@@ -73,7 +73,10 @@ class AddressPasses {
   // appends each triangle to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list
   // of large ones every tile tests); rasterOther, after a shader-storage barrier, tests each tile's pixels
   // against its lists. Neither issues a barrier of its own: the Deformer runs both sides stage by stage.
-  void binOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model);
+  // `reach`: triangles whose window depth stays below it everywhere are left out (their pixels unseen): the
+  // other body there does not reach X's nearest depth (both bodies' bumps counted), so it cannot dent it.
+  void binOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
+                float reach);
   void rasterOther(int side, const DeformBody& other, float bumpToDepth);
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
@@ -86,7 +89,7 @@ class AddressPasses {
             float bumpToDepth);
   render::Program program_, bin_, raster_;
   GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
-  GLint bMvp_, bSize_, bTriangles_, bCapacity_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_;
+  GLint bMvp_, bSize_, bTriangles_, bCapacity_, bReach_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_;
   static constexpr int kTile = 8, kTileCapacity = 64;
   struct Bins {  // the compute pass B's triangles and lists, per side
     render::Buffer setup, count, list, large;

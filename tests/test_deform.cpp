@@ -185,21 +185,30 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
     std::vector<float> am(static_cast<size_t>(address) * address * 2), cm(am.size());
     glGetTextureImage(ha.id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(am.size() * sizeof(float)), am.data());
     glGetTextureImage(ca.id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(cm.size() * sizeof(float)), cm.data());
-    int seenA = 0, seenB = 0, seenDiffer = 0, uvDiffer = 0;
+    // The compute pass leaves out the ball's triangles that stay above the plate (they cannot dent it): it sees a
+    // part of what the fragment stage sees, the cap around the contact, and there the same addresses.
+    int seenA = 0, seenB = 0, extra = 0, holes = 0, uvDiffer = 0;
     double uvDiff = 0;
-    for (size_t i = 0; i < am.size(); i += 2) {
-      const bool sa = am[i] >= 0, sb = cm[i] >= 0;
-      seenA += sa;
-      seenB += sb;
-      seenDiffer += sa != sb;
-      if (!sa || !sb) continue;
-      const double d = std::max(std::abs(am[i] - cm[i]), std::abs(am[i + 1] - cm[i + 1]));
-      // At the atlas's seams one point has two addresses, one per chart: either is right.
-      if (d > 2.0 / SphereIntoPlate::kRes)
-        ++uvDiffer;
-      else
-        uvDiff = std::max(uvDiff, d);
-    }
+    auto seenIn = [&](const std::vector<float>& m, int x, int y) {
+      return x >= 0 && y >= 0 && x < address && y < address && m[2 * (static_cast<size_t>(y) * address + x)] >= 0;
+    };
+    for (int y = 0; y < address; ++y)
+      for (int x = 0; x < address; ++x) {
+        const size_t i = 2 * (static_cast<size_t>(y) * address + x);
+        const bool sa = am[i] >= 0, sb = cm[i] >= 0;
+        seenA += sa;
+        seenB += sb;
+        extra += sb && !sa;
+        // A crack between two kept triangles: an unseen pixel between seen ones.
+        holes += !sb && ((seenIn(cm, x - 1, y) && seenIn(cm, x + 1, y)) || (seenIn(cm, x, y - 1) && seenIn(cm, x, y + 1)));
+        if (!sa || !sb) continue;
+        const double d = std::max(std::abs(am[i] - cm[i]), std::abs(am[i + 1] - cm[i + 1]));
+        // At the atlas's seams one point has two addresses, one per chart: either is right.
+        if (d > 2.0 / SphereIntoPlate::kRes)
+          ++uvDiffer;
+        else
+          uvDiff = std::max(uvDiff, d);
+      }
     double diff = 0;
     int changedA = 0, changedB = 0;
     for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -208,14 +217,17 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
       changedB += b.pixels[i] < 0.5f;
     }
     MESSAGE("address map " << address << ": pixels seen " << seenA << " (fragment stage) vs " << seenB
-                           << " (compute), differing " << seenDiffer << "; addresses apart by over 2 texels " << uvDiffer
+                           << " (compute: the part that can reach the plate), seen by compute only " << extra
+                           << ", holes " << holes << "; addresses apart by over 2 texels " << uvDiffer
                            << ", others by at most " << uvDiff
                            << "; texels dented " << changedA << " vs " << changedB << ", max height difference "
                            << diff * SphereIntoPlate::k << " m");
     CHECK(seenA > address * address / 2);
-    // Only pixel centres on the silhouette (within rounding of an edge) may differ in being covered; none inside
-    // (a crack between two triangles would be such a pixel).
-    CHECK(seenDiffer <= address / 16 + 2);
+    CHECK(seenB > 0);
+    CHECK(seenB < seenA);
+    // Only pixel centres on an edge (within rounding) may be covered by one and not the other; no cracks.
+    CHECK(extra <= address / 16 + 2);
+    CHECK(holes <= address / 16 + 2);
     CHECK(uvDiffer <= 2 * address);
     CHECK(changedA > 300);
     CHECK(std::abs(changedA - changedB) <= changedA / 100 + 4);

@@ -4,7 +4,7 @@
 // lane 0 puts its corners into window coordinates and keeps it when it faces away from the camera (GL's
 // counter-clockwise front faces culled) and is not degenerate, writing its setup; then the lanes share the
 // 8 x 8-pixel tiles its box covers and append it to every tile whose pixel centres it may hold (16 tiles a lane
-// at most). A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
+// at most). Triangles wholly nearer the camera than uReach are not kept: they cannot dent X. A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
 // tile tests (few: the back faces' areas sum to about the map's times its depth complexity). A tile keeps at most
 // uCapacity entries; its count still grows, and step 2 then tests every triangle for that tile.
 // Setup, 6 vec4 a triangle: corners 0 and 1 (window x, y in pixels), corner 2 and depths 0 and 1, depth 2, the
@@ -22,6 +22,7 @@ uniform mat4 uModelViewProjection;
 uniform int uSize;       // the address map (pixels)
 uniform int uTriangles;
 uniform int uCapacity;   // entries a tile
+uniform float uReach;    // triangles whose window depth stays below it are left out (they cannot dent X)
 const int kTile = 8, kLarge = 1024;
 const uint kRowGroups = 32768u;
 shared bool sKept;
@@ -47,7 +48,8 @@ void main() {
   if (gl_LocalInvocationIndex == 0u) {
     vec3 p0 = corner(3u * t), p1 = corner(3u * t + 1u), p2 = corner(3u * t + 2u);
     float area = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
-    bool kept = area < 0.0 && !(p0.z < 0.0 && p1.z < 0.0 && p2.z < 0.0) && !(p0.z > 1.0 && p1.z > 1.0 && p2.z > 1.0);
+    bool kept = area < 0.0 && !(p0.z < 0.0 && p1.z < 0.0 && p2.z < 0.0) && !(p0.z > 1.0 && p1.z > 1.0 && p2.z > 1.0) &&
+                max(max(p0.z, p1.z), p2.z) >= uReach;
     // Pixel centres (i + 0.5) within the box, within the map.
     vec2 lo = min(min(p0.xy, p1.xy), p2.xy), hi = max(max(p0.xy, p1.xy), p2.xy);
     ivec2 first = max(ivec2(ceil(lo - 0.5)), ivec2(0)), last = min(ivec2(floor(hi - 0.5)), ivec2(uSize - 1));

@@ -493,7 +493,18 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   if (s.debug == DebugView::Wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
   glVertexAttrib3f(3, 1.0f, 1.0f, 1.0f);  // the colour of vertex arrays without one: white
   GLuint current = 0;
-  for (const auto& it : items) {
+  // Front to back (by the distance of each item's bounds' centre from the eye; equal distances in the given
+  // order): the depth test then rejects hidden fragments before the parallax march runs on them (pom.frag
+  // writes no depth and discards nothing, so early depth testing holds).
+  std::vector<std::pair<float, size_t>> order(items.size());
+  for (size_t i = 0; i < items.size(); ++i) {
+    const glm::vec3 c = glm::vec3(items[i].model * glm::vec4(0.5f * (items[i].boundsMin + items[i].boundsMax), 1.0f));
+    order[i] = {glm::dot(c - view.eye, c - view.eye), i};
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [](const std::pair<float, size_t>& a, const std::pair<float, size_t>& b) { return a.first < b.first; });
+  for (const auto& [distance, index] : order) {
+    const RenderItem& it = items[index];
     const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
     // Items wholly outside the view are skipped (displaced ones with their bounds grown by the map's range).
     const glm::vec3 grow(displaced ? it.bumpDepth : 0.0f);

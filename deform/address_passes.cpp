@@ -162,10 +162,7 @@ void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4
   if (triangles == 0) return;
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, b.setup.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, b.count.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, b.list.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, b.large.id());
+  b.bind();
   bin_.use();
   const glm::mat4 mvp = glm::mat4(vp * model);
   glUniformMatrix4fv(bMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
@@ -180,10 +177,7 @@ void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4
 
 void AddressPasses::rasterOther(int side, const DeformBody& other, float bumpToDepth) {
   const Bins& b = bins_[side];
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, b.setup.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, b.count.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, b.list.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, b.large.id());
+  b.bind();
   raster_.use();
   glUniform1i(rSize_, size_);
   glUniform1i(rTriangles_, b.triangles);

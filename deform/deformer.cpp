@@ -101,6 +101,24 @@ AddressCamera addressCamera(const glm::dvec3& point, const glm::dvec3& n, const 
   return cam;
 }
 
+namespace {
+// The nearest and farthest window depths (0 at zNear, 1 at zFar) of the corners of world box b[0..1].
+glm::dvec2 windowDepths(const AddressCamera& cam, const glm::dvec3 b[2]) {
+  glm::dvec2 r(1e300, -1e300);
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec3 corner(c & 1 ? b[1].x : b[0].x, c & 2 ? b[1].y : b[0].y, c & 4 ? b[1].z : b[0].z);
+    const double z = (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / (cam.zFar - cam.zNear);
+    r = {std::min(r.x, z), std::max(r.y, z)};
+  }
+  return r;
+}
+
+// DeformOptions::addressRaster resolved for the current context's GPU.
+AddressRaster resolveForThisGpu(AddressRaster r) {
+  return resolveAddressRaster(r, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+}
+}  // namespace
+
 int craterRing(int w, int h) { return std::clamp(std::max(w, h) / 4, 2, 16); }
 
 struct Deformer::Impl {
@@ -149,7 +167,7 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
-  std::vector<std::map<int, render::Texture2D>> scratch = std::vector<std::map<int, render::Texture2D>>(2);  // per slot and resolution
+  std::vector<std::map<int, render::Texture2D>> scratch{2};  // per slot and resolution
   render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per slot
   render::Buffer stats;
   int statsCapacity = 0, statsUsed = 0, statsRead = -1;
@@ -162,9 +180,10 @@ struct Deformer::Impl {
   // takes the minimum into it; the commit consumes the touched region and puts
   // +infinity back, so no deformation ever copies or clears a whole map.
   render::Texture2D& scratchFor(int side, int resolution) {
-    auto it = scratch[static_cast<size_t>(side)].find(resolution);
-    if (it == scratch[static_cast<size_t>(side)].end()) {
-      it = scratch[static_cast<size_t>(side)].emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
+    auto& maps = scratch[static_cast<size_t>(side)];
+    auto it = maps.find(resolution);
+    if (it == maps.end()) {
+      it = maps.emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
       glClearTexImage(it->second.id(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT, &kUntouched);
     }
     return it->second;
@@ -216,16 +235,13 @@ struct Deformer::Impl {
 
 Deformer::Deformer(const DeformOptions& options)
     : impl_(std::make_unique<Impl>(options.addressMap)), options_(options) {
-  impl_->raster =
-      resolveAddressRaster(options.addressRaster, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  impl_->raster = resolveForThisGpu(options.addressRaster);
 }
 Deformer::~Deformer() = default;
 
 void Deformer::setOptions(const DeformOptions& options) {
   if (options.addressMap != impl_->passes.size()) impl_->passes.resize(options.addressMap);
-  if (options.addressRaster != options_.addressRaster)
-    impl_->raster =
-        resolveAddressRaster(options.addressRaster, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  if (options.addressRaster != options_.addressRaster) impl_->raster = resolveForThisGpu(options.addressRaster);
   options_ = options;
 }
 
@@ -287,20 +303,12 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   u.viewNormal = glm::vec3(n);
   p.otherBumpToDepth = other.surface ? static_cast<float>(other.surface->bumpDepthCollide() / range) : 0.0f;
   // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
-  double farthest = 0;
-  for (int c = 0; c < 8; ++c) {
-    const glm::dvec3 corner(c & 1 ? bo[1].x : bo[0].x, c & 2 ? bo[1].y : bo[0].y, c & 4 ? bo[1].z : bo[0].z);
-    farthest = std::max(farthest, (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / range);
-  }
+  double farthest = windowDepths(cam, bo).y;
   if (other.surface) farthest += 0.5 * other.surface->bumpDepthCollide() / range;
   p.farthestOther = static_cast<float>(farthest + 1e-6);
   // X's nearest window depth (its bounds, raised by its bumps): the other body's depth must pass it to dent.
-  double nearest = 1e300;
-  for (int c = 0; c < 8; ++c) {
-    const glm::dvec3 corner(c & 1 ? bx[1].x : bx[0].x, c & 2 ? bx[1].y : bx[0].y, c & 4 ? bx[1].z : bx[0].z);
-    nearest = std::min(nearest, (-(cam.view * glm::dvec4(corner, 1)).z - cam.zNear) / range);
-  }
-  nearest -= 0.5 * x.surface->bumpDepthCollide() / range + 0.5 * p.otherBumpToDepth;
+  const double nearest =
+      windowDepths(cam, bx).x - 0.5 * x.surface->bumpDepthCollide() / range - 0.5 * p.otherBumpToDepth;
   p.reachOther = static_cast<float>(nearest - 1e-6);
   return p;
 }

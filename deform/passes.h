@@ -94,6 +94,12 @@ class AddressPasses {
   struct Bins {  // the compute pass B's triangles and lists, per side
     render::Buffer setup, count, list, large;
     int triangles = 0;
+    void bind() const {  // at the bindings both shaders declare them (2 to 5)
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup.id());
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count.id());
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, list.id());
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large.id());
+    }
   };
   std::vector<Bins> bins_;
   render::Texture2D flat_{1, 1, GL_R32F};

@@ -131,6 +131,17 @@ class Node {
     if (!v.is_string()) fail(key, std::string("must be a string, got ") + typeName(v));
     return v.get<std::string>();
   }
+  // A string that must be one of `names` (each with what it stands for); the first name when the key is absent.
+  template <typename E>
+  E choice(const std::string& key, const std::vector<std::pair<std::string, E>>& names) const {
+    const std::string v = string(key, names.front().first);
+    std::string list;
+    for (size_t i = 0; i < names.size(); ++i) {
+      if (names[i].first == v) return names[i].second;
+      list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + ("\"" + names[i].first + "\"");
+    }
+    fail(key, "must be " + list + ", got '" + v + "'");
+  }
   std::string requiredString(const std::string& key) const {
     if (!has(key)) fail(key, "is required");
     return string(key, "");
@@ -561,24 +572,12 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
       o.path = deform::Path::Readback;
     else
       d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
-    const std::string raster = d.string("address_raster", "auto");
-    if (raster == "auto")
-      o.addressRaster = deform::AddressRaster::Auto;
-    else if (raster == "compute")
-      o.addressRaster = deform::AddressRaster::Compute;
-    else if (raster == "fragment")
-      o.addressRaster = deform::AddressRaster::Fragment;
-    else
-      d.fail("address_raster", "must be \"auto\", \"compute\" or \"fragment\", got '" + raster + "'");
-    const std::string tc = d.string("tangent_correction", "none");
-    if (tc == "none")
-      o.tangent = deform::TangentMode::None;
-    else if (tc == "multiply")
-      o.tangent = deform::TangentMode::Multiply;
-    else if (tc == "divide")
-      o.tangent = deform::TangentMode::Divide;
-    else
-      d.fail("tangent_correction", "must be \"none\", \"multiply\" or \"divide\", got '" + tc + "'");
+    o.addressRaster = d.choice<deform::AddressRaster>("address_raster", {{"auto", deform::AddressRaster::Auto},
+                                                                         {"compute", deform::AddressRaster::Compute},
+                                                                         {"fragment", deform::AddressRaster::Fragment}});
+    o.tangent = d.choice<deform::TangentMode>("tangent_correction", {{"none", deform::TangentMode::None},
+                                                                     {"multiply", deform::TangentMode::Multiply},
+                                                                     {"divide", deform::TangentMode::Divide}});
     o.tangentFloor = static_cast<float>(d.number("tangent_floor", o.tangentFloor, 0, 1, true));
     o.craterRims = d.boolean("crater_rims", o.craterRims);
     ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);

@@ -161,6 +161,7 @@ struct PomFeatures {
 };
 
 struct Renderer::Impl {
+  std::vector<std::pair<float, size_t>> drawOrder;  // the items' drawing order of the last frame (front to back)
   // The main pass's programs, one per combination of features, made on first use (a handful per scene).
   std::map<uint32_t, Program> pomVariants;
   const Program& pom(const PomFeatures& f) {
@@ -496,7 +497,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   // Front to back (by the distance of each item's bounds' centre from the eye; equal distances in the given
   // order): the depth test then rejects hidden fragments before the parallax march runs on them (pom.frag
   // writes no depth and discards nothing, so early depth testing holds).
-  std::vector<std::pair<float, size_t>> order(items.size());
+  std::vector<std::pair<float, size_t>>& order = m.drawOrder;  // kept: no allocation a frame
+  order.resize(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     const glm::vec3 c = glm::vec3(items[i].model * glm::vec4(0.5f * (items[i].boundsMin + items[i].boundsMax), 1.0f));
     order[i] = {glm::dot(c - view.eye, c - view.eye), i};

@@ -62,6 +62,9 @@ struct RigidBody {
   int group = 0;
   bool asleep = false;
   double stillTime = 0;
+  // Where the body was when its stillness began (stillTime 0 then): position, orientation (sleep.cpp).
+  glm::dvec3 stillFromX{0};
+  glm::dquat stillFromQ{1, 0, 0, 0};
 
   glm::dmat3 rotation() const { return glm::mat3_cast(q); }
   glm::dvec3 origin() const { return x - rotation() * localCom; }

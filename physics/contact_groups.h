@@ -64,8 +64,10 @@ struct ContactGroup {
   PatchMatrix patchMatrix;  // the patch impulse system, with the members' extent about the group's point (.patch)
 };
 
-// Groups `contacts` (sorted deepest first): sets each group's contact and patch
-// (patchMatrix.patch) in `out` (cleared first); the other fields are left default.
+// Groups `contacts` (sorted deepest first): sets each group's contact, patch
+// (patchMatrix.patch) and zero totals in `out` (resized to the groups); the other
+// fields keep what the element held (the caller sets them: levers, matrix,
+// setPatchMatrix, speed).
 void groupContacts(const std::vector<Contact>& contacts, std::vector<ContactGroup>& out);
 
 }  // namespace crumple::detail

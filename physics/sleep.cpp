@@ -1,9 +1,13 @@
 // Sleeping: islands that stayed still for `sleepTime` freeze.
 //
 // Guarantees:
-// - Every movable body's stillTime grows by h when it moved less than
-//   sleepLinear (m/s) and turned less than sleepAngular (rad/s) over the
-//   substep (measured from ctx.stepStart, not from its velocity), else resets.
+// - Every movable body's stillTime grows by h over each substep it ends
+//   within sleepLinear x sleepTime / 2 (m) of where it was when its stillness
+//   began and turned less than sleepAngular x sleepTime / 2 (rad) from the
+//   orientation it had then; otherwise it restarts from 0 there. A body that
+//   trembles in place (a box rocking on a stack by a fraction of a millimetre)
+//   is still however fast it trembles; one that drifts at half those speeds
+//   or faster is not.
 // - With `sleeping` on: the bodies of an island (movable bodies joined by
 //   pairs not involving a static body) fall asleep together, velocities
 //   zeroed, when every one has been still for sleepTime and the island rests
@@ -26,22 +30,28 @@ void updateSleep(StepContext& ctx, double h) {
   const WorldSettings& settings = ctx.settings;
   std::vector<RigidBody>& bodies = ctx.bodies;
   const size_t n = bodies.size();
-  // Still: the body hardly moved over the step. Its velocity would not do: a
-  // body resting on another ends each step still approaching it by about g h
-  // (the contact step stops penetration at the predicted positions, the
-  // projection the rest), which at 60 Hz is more than any sleep threshold.
+  // Still: the body stayed near where its stillness began. Not its velocity:
+  // a body resting on another ends each step still approaching it by about
+  // g h (the contact step stops penetration at the predicted positions, the
+  // projection the rest), which at 60 Hz is more than any sleep threshold;
+  // nor its speed over one substep: a stack's boxes rock by tiny amounts at
+  // speeds above any threshold long after the stack has come to rest.
   // (Per worker: whether some body has been still long enough to sleep; without one no island can.)
+  const double reach = 0.5 * settings.sleepLinear * settings.sleepTime;
+  const double turn = 0.5 * settings.sleepAngular * settings.sleepTime;
   std::vector<char> ready(static_cast<size_t>(ctx.workers()), 0);
   ctx.parallelRange(std::min(n, ctx.stepStart.size()), 256, [&](size_t begin, size_t end, int worker) {
     bool any = false;
     for (size_t i = begin; i < end; ++i) {
       RigidBody& b = bodies[i];
       if (!b.movable()) continue;
-      const Pose& start = ctx.stepStart[i];
-      const double speed = glm::length(b.x - start.position) / h;
-      const bool still = speed < settings.sleepLinear &&
-                         !angleExceeds(start.orientation, b.q,
-                                       [&](double angle) { return !(angle / h < settings.sleepAngular); });
+      if (b.stillTime == 0) {
+        b.stillFromX = ctx.stepStart[i].position;
+        b.stillFromQ = ctx.stepStart[i].orientation;
+      }
+      const glm::dvec3 d = b.x - b.stillFromX;
+      const bool still = glm::dot(d, d) < reach * reach &&
+                         !angleExceeds(b.stillFromQ, b.q, [&](double angle) { return !(angle < turn); });
       b.stillTime = still ? b.stillTime + h : 0;
       any = any || (!b.kinematic && b.stillTime >= settings.sleepTime);
     }

@@ -84,6 +84,10 @@ struct WorldSettings {
   // Collisions approaching slower than this still get their impulse but emit no
   // event: the micro-collisions of resting contact are not hits worth a dent or a log line.
   double eventMinApproachSpeed = 0.05;  // m/s
+  // A body is still while it stays within sleepLinear x sleepTime / 2 of where its stillness began and turns
+  // less than sleepAngular x sleepTime / 2 (1.25 cm, 0.02 rad by default: drifting slower than these speeds
+  // half the time, or trembling in place, as a stack's boxes do long after it came to rest); an island whose
+  // bodies have all been still for sleepTime, resting on something, sleeps.
   bool sleeping = true;
   double sleepLinear = 0.05;   // m/s
   double sleepAngular = 0.08;  // rad/s

@@ -347,6 +347,11 @@ TEST_CASE(
   std::string log;
   CAPTURE(log);
   REQUIRE(runSim(scene + " --out " + after.string() + " --quiet", &log) == 0);
+  // An end block stands when it is upright (turned less than 10 degrees) within 10 cm of its place: the hit
+  // shoves the wall's ends by a few centimetres (how far is chaotic), it must not bring them down.
+  std::map<std::string, double> turned;
+  for (const auto& b : json::parse(slurp(after / "summary.json"))["bodies"])
+    turned[b["name"].get<std::string>()] = 2 * std::acos(std::min(1.0, std::abs(b["orientation"][0].get<double>())));
   int thrown = 0, endsStanding = 0, ends = 0;
   for (const auto& [name, p] : positions(after)) {
     if (name.rfind("block", 0) != 0) continue;
@@ -354,12 +359,12 @@ TEST_CASE(
     if (glm::length(p - s0) > 0.3) ++thrown;
     if (std::abs(s0.z) > 2.4) {  // the wall's outer metre at both ends
       ++ends;
-      endsStanding += glm::length(p - s0) < 0.02;
+      endsStanding += glm::length(p - s0) < 0.1 && turned[name] < glm::radians(10.0);
     }
   }
-  MESSAGE("brick-wall: " << thrown << " blocks thrown, " << endsStanding << " of " << ends << " end blocks in place");
+  MESSAGE("brick-wall: " << thrown << " blocks thrown, " << endsStanding << " of " << ends << " end blocks standing");
   CHECK(thrown >= 15);
-  CHECK(endsStanding * 2 >= ends);
+  CHECK(endsStanding * 4 >= ends * 3);
   const crumple::render::Image h = crumple::render::readPng((after / "heightmaps" / "car.png").string());
   float lowest = 1;
   for (float v : h.pixels) lowest = std::min(lowest, v);

@@ -67,7 +67,7 @@ void AddressPasses::resize(int n) {
 
 size_t AddressPasses::slotBytes(int n) {
   const size_t pixels = static_cast<size_t>(n) * static_cast<size_t>(n);
-  return pixels * (8 + 4) + pixels / (kTile * kTile) * (kTileCapacity + 1) * sizeof(GLuint);
+  return pixels * (8 + 4) + pixels / (kTile * kTile) * (kTileCapacity + 2) * sizeof(GLuint);
 }
 
 void AddressPasses::makeSlot() {
@@ -78,8 +78,10 @@ void AddressPasses::makeSlot() {
   depthO_.back().setFilter(GL_NEAREST, GL_NEAREST);
   const size_t tiles = static_cast<size_t>((n + kTile - 1) / kTile) * static_cast<size_t>((n + kTile - 1) / kTile);
   Bins b;
-  b.count = render::Buffer((tiles + 1) * sizeof(GLuint), nullptr);  // then the large triangles' count
+  b.tiles = tiles;
+  b.count = render::Buffer((tiles + 6) * sizeof(GLuint), nullptr);  // Bins: what it holds
   b.list = render::Buffer(tiles * kTileCapacity * sizeof(GLuint), nullptr);
+  b.active = render::Buffer(tiles * sizeof(GLuint), nullptr);
   bins_.push_back(std::move(b));
 }
 
@@ -184,10 +186,23 @@ void AddressPasses::rasterOther(int side, const DeformBody& other, float bumpToD
   glUniform1i(rCapacity_, kTileCapacity);
   glUniform1f(rBumpToDepth_, bumpToDepth);
   glBindTextureUnit(0, other.surface ? other.surface->height().id() : flat_.id());
+  // The pixels of tiles with nothing to test keep what the clears write (what a tile with no triangle over a
+  // pixel writes there); the raster runs over the active tiles only, as the bins counted them.
+  glClearTexImage(addressO_[side].id(), 0, GL_RG, GL_FLOAT, kNoAddress);
+  glClearTexImage(depthO_[side].id(), 0, GL_RED, GL_FLOAT, &kOne);
   glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
   glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-  const GLuint tiles = static_cast<GLuint>((size_ + kTile - 1) / kTile);
-  glDispatchCompute(tiles, tiles, 1);
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, b.count.id());
+  glDispatchComputeIndirect(static_cast<GLintptr>((b.tiles + 2) * sizeof(GLuint)));
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
+}
+
+std::pair<size_t, size_t> AddressPasses::tilesRun(int side) const {
+  const Bins& b = bins_[static_cast<size_t>(side)];
+  GLuint tail[6] = {};
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  glGetNamedBufferSubData(b.count.id(), static_cast<GLintptr>(b.tiles * sizeof(GLuint)), sizeof tail, tail);
+  return {tail[5] ? b.tiles : tail[1], b.tiles};
 }
 
 }  // namespace crumple::deform

@@ -10,7 +10,8 @@ CommitPass::CommitPass()
     : dispatch_(computeProgram("region_dispatch.comp")),
       commit_(computeProgram("dent_commit.comp")),
       normals_(computeProgram("normal_map.comp")),
-      bound_(computeProgram("height_bound.comp")) {
+      bound_(computeProgram("height_bound.comp")),
+      boundUp_(computeProgram("height_bound_up.comp")) {
   dSide_ = dispatch_.uniform("uSide");
   dResolution_ = dispatch_.uniform("uResolution");
   dGrow_ = dispatch_.uniform("uGrow");
@@ -100,7 +101,10 @@ void CommitPass::bounds(const std::vector<const SurfaceMaps*>& maps, int side, g
   int levels = 0;
   for (const SurfaceMaps* m : maps)
     if (m) levels = std::max(levels, m->boundLevels());
-  for (int level = 0; level < levels; ++level) {
+  // Over a region on the GPU, only level 0 level by level (its tiles read 16 x 16 height texels each: many
+  // workgroups); the levels above in one workgroup a map.
+  const int parallelLevels = side < 0 ? levels : std::min(levels, 1);
+  for (int level = 0; level < parallelLevels; ++level) {
     glUniform1i(bound_.uniform("uLevel"), level);
     for (int k = 0; k < static_cast<int>(maps.size()); ++k) {
       const SurfaceMaps* m = maps[static_cast<size_t>(k)];
@@ -116,6 +120,25 @@ void CommitPass::bounds(const std::vector<const SurfaceMaps*>& maps, int side, g
       const int span = SurfaceMaps::kBoundTile << level, size = m->bound.width() >> level;
       const int nx = side < 0 ? hi.x / span - lo.x / span + 1 : size, ny = side < 0 ? hi.y / span - lo.y / span + 1 : size;
       glDispatchCompute(static_cast<GLuint>((nx + 7) / 8), static_cast<GLuint>((ny + 7) / 8), 1);
+    }
+    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+  }
+  if (side < 0) return;
+  boundUp_.use();
+  glUniform1i(boundUp_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  constexpr int kChunk = 7;  // levels a dispatch: uLevels[8] holds the one below and these
+  for (int first = 0; first + 1 < levels; first += kChunk) {
+    glUniform1i(boundUp_.uniform("uFirst"), first);
+    for (int k = 0; k < static_cast<int>(maps.size()); ++k) {
+      const SurfaceMaps* m = maps[static_cast<size_t>(k)];
+      if (!m || first + 1 >= m->boundLevels()) continue;
+      const int count = std::min(kChunk, m->boundLevels() - 1 - first);
+      for (int i = 0; i <= count; ++i)
+        glBindImageTexture(static_cast<GLuint>(i), m->bound.id(), first + i, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+      glUniform1i(boundUp_.uniform("uSide"), k);
+      glUniform1i(boundUp_.uniform("uCount"), count);
+      glUniform1i(boundUp_.uniform("uResolution"), m->height.width());
+      glDispatchCompute(1, 1, 1);
     }
     glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   }

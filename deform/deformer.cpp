@@ -248,6 +248,7 @@ void Deformer::setOptions(const DeformOptions& options) {
 const render::Texture2D& Deformer::lastAddressMap() const {
   return options_.path == Path::Gather ? impl_->passes.addressOther(0) : impl_->passes.addressX(0);
 }
+std::pair<size_t, size_t> Deformer::lastRasterTiles() const { return impl_->passes.tilesRun(0); }
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 AddressRaster Deformer::addressRaster() const { return impl_->raster; }
 long Deformer::wavesRun() const { return impl_->waves; }
@@ -322,7 +323,7 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model, p[k].reachOther);
     phase("address bins");
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.rasterOther(k, *p[k].other, p[k].otherBumpToDepth);
   } else {

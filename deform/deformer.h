@@ -115,6 +115,9 @@ class Deformer {
   // The last address map of side 0, for the renderer's debug view: the uv of X
   // (scatter paths) or of the other body (the gather renders only its pass).
   const render::Texture2D& lastAddressMap() const;
+  // With the address pass in compute: the tiles of lastAddressMap's map its raster ran (those with triangles to
+  // test), and the map's tiles (read back from the GPU; for tests).
+  std::pair<size_t, size_t> lastRasterTiles() const;
   // Phases of the last deform() when options().profile is set (empty otherwise).
   const std::vector<PhaseTime>& profile() const;
 

@@ -71,8 +71,10 @@ class AddressPasses {
   // the same targets, filled by every invocation of the GPU rather than by its fragment stage (on compute GPUs
   // such as NVIDIA's H100 only a few of the multiprocessors run fragment shaders). A binned rasteriser: binOther
   // appends each triangle to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list
-  // of large ones every tile tests); rasterOther, after a shader-storage barrier, tests each tile's pixels
-  // against its lists. Neither issues a barrier of its own: the Deformer runs both sides stage by stage.
+  // of large ones every tile tests), listing the tiles that got something (active); rasterOther, after a
+  // shader-storage and command barrier, clears the targets and tests the active tiles' pixels against their
+  // lists, dispatched indirectly over those tiles only. Neither issues a barrier of its own: the Deformer runs
+  // both sides stage by stage.
   // `reach`: triangles whose window depth stays below it everywhere are left out (their pixels unseen): the
   // other body there does not reach X's nearest depth (both bodies' bumps counted), so it cannot dent it.
   void binOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
@@ -81,6 +83,8 @@ class AddressPasses {
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
   const render::Texture2D& normalX(int side) const { return normalX_[side]; }
+  // The tiles the last rasterOther of a side ran, and all of the map's (read back: waits for the GPU; tests).
+  std::pair<size_t, size_t> tilesRun(int side) const;
   const render::Texture2D& addressOther(int side) const { return addressO_[side]; }
   const render::Texture2D& depthOther(int side) const { return depthO_[side]; }
 
@@ -92,13 +96,17 @@ class AddressPasses {
   GLint bMvp_, bSize_, bTriangles_, bCapacity_, bReach_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_;
   static constexpr int kTile = 8, kTileCapacity = 64;
   struct Bins {  // the compute pass B's triangles and lists, per side
-    render::Buffer setup, count, list, large;
+    // count: per tile, then the large triangles', the active tiles', the raster's indirect dispatch (3), whether
+    // every tile is active (address_bin.comp); active: the tiles the raster runs.
+    render::Buffer setup, count, list, large, active;
     int triangles = 0;
-    void bind() const {  // at the bindings both shaders declare them (2 to 5)
+    size_t tiles = 0;
+    void bind() const {  // at the bindings both shaders declare them (2 to 6)
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup.id());
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count.id());
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, list.id());
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large.id());
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, active.id());
     }
   };
   std::vector<Bins> bins_;
@@ -192,10 +200,11 @@ class CommitPass {
 
  private:
   // The bound pyramid over the region of `side` (normalRegion_, on the GPU) or, for side < 0, [lo, hi]; level
-  // by level, each level for every map of `maps` (null: none) before one barrier.
+  // by level, each level for every map of `maps` (null: none) before one barrier. Over regions on the GPU: level
+  // 0 so, then the upper ones of each map in one workgroup (height_bound_up.comp, 7 levels a dispatch).
   void bounds(const std::vector<const SurfaceMaps*>& maps, int side, glm::ivec2 lo, glm::ivec2 hi);
   void reserve(size_t sides);
-  render::Program dispatch_, commit_, normals_, bound_;
+  render::Program dispatch_, commit_, normals_, bound_, boundUp_;
   GLint dSide_, dResolution_, dGrow_;
   GLint cSide_, cStatsIndex_, cBumpDepth_;
   GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;

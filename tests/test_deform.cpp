@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <set>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "deform/cpu_reference.h"
@@ -216,6 +217,17 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
       changedA += a.pixels[i] < 0.5f;
       changedB += b.pixels[i] < 0.5f;
     }
+    // The raster ran the tiles the bins gave something to test: every tile with a seen pixel, few others.
+    std::set<int> seenTiles;
+    for (int y = 0; y < address; ++y)
+      for (int x = 0; x < address; ++x)
+        if (seenIn(cm, x, y)) seenTiles.insert((y / 8) * ((address + 7) / 8) + x / 8);
+    const auto [tilesRun, tiles] = compute.lastRasterTiles();
+    MESSAGE("address map " << address << ": the raster ran " << tilesRun << " of " << tiles << " tiles, "
+                           << seenTiles.size() << " with a pixel seen");
+    CHECK(tiles == static_cast<size_t>(((address + 7) / 8) * ((address + 7) / 8)));
+    CHECK(tilesRun >= seenTiles.size());
+    if (address >= 512) CHECK(tilesRun < tiles / 4);
     MESSAGE("address map " << address << ": pixels seen " << seenA << " (fragment stage) vs " << seenB
                            << " (compute: the part that can reach the plate), seen by compute only " << extra
                            << ", holes " << holes << "; addresses apart by over 2 texels " << uvDiffer

@@ -4,8 +4,8 @@
 // lane 0 puts its corners into window coordinates and keeps it when it faces away from the camera (GL's
 // counter-clockwise front faces culled) and is not degenerate, writing its setup; then the lanes share the
 // 8 x 8-pixel tiles its box covers and append it to every tile whose pixel centres it may hold (16 tiles a lane
-// at most). Triangles wholly nearer the camera than uReach are not kept: they cannot dent X. A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
-// tile tests (few: the back faces' areas sum to about the map's times its depth complexity). A tile keeps at most
+// at most), listing each tile that gets its first entry among the active ones. Triangles wholly nearer the camera than uReach are not kept: they cannot dent X. A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
+// tile tests (then all tiles are active) (few: the back faces' areas sum to about the map's times its depth complexity). A tile keeps at most
 // uCapacity entries; its count still grows, and step 2 then tests every triangle for that tile.
 // Setup, 6 vec4 a triangle: corners 0 and 1 (window x, y in pixels), corner 2 and depths 0 and 1, depth 2, the
 // texture coordinates (u0 v0 u1 v1, u2 v2), and the box of pixel centres (min x, min y, max x, max y; empty for a
@@ -15,9 +15,13 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex
 layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };
 layout(std430, binding = 2) writeonly buffer Setup { vec4 uSetup[]; };
-layout(std430, binding = 3) buffer TileCount { uint uTileCount[]; };  // per tile, then the large triangles'
+// TileCount: per tile (T of them) the entries, then [T] the large triangles', [T + 1] the active tiles',
+// [T + 2, T + 5) step 2's indirect dispatch (x = the active tiles, at most 65535; y = z = 1 once any), [T + 5]
+// whether a large triangle makes every tile active.
+layout(std430, binding = 3) buffer TileCount { uint uTileCount[]; };
 layout(std430, binding = 4) writeonly buffer TileList { uint uTileList[]; };
 layout(std430, binding = 5) writeonly buffer Large { uint uLarge[]; };
+layout(std430, binding = 6) writeonly buffer Active { uint uActive[]; };  // the tiles step 2 dispatches
 uniform mat4 uModelViewProjection;
 uniform int uSize;       // the address map (pixels)
 uniform int uTriangles;
@@ -42,6 +46,35 @@ vec2 uvOf(uint i) {
 }
 // w(p) = a x + b y + c, zero on the edge from p to q, positive on the side of r.
 vec3 edge(vec2 p, vec2 q) { return vec3(p.y - q.y, q.x - p.x, p.x * q.y - p.y * q.x); }
+// Puts a tile that got its first entry into the active list: step 2 runs a workgroup for these only (the
+// targets are cleared beforehand), not one for every tile of the map; a large triangle makes them all active.
+void dispatchAtLeast(uint groups) {
+  uint tiles = uint((uSize + kTile - 1) / kTile);
+  tiles *= tiles;
+  atomicMax(uTileCount[tiles + 2u], min(groups, 65535u));
+  atomicMax(uTileCount[tiles + 3u], 1u);
+  atomicMax(uTileCount[tiles + 4u], 1u);
+}
+void activate(uint id) {
+  uint tiles = uint((uSize + kTile - 1) / kTile);
+  tiles *= tiles;
+  uint slot = atomicAdd(uTileCount[tiles + 1u], 1u);
+  uActive[slot] = id;
+  dispatchAtLeast(slot + 1u);
+}
+// Whether a triangle (edge functions sEdge from sOrigin, pixel-centre box sBox) may hold a pixel centre of a tile:
+// every edge function reaches zero somewhere over the tile's centres within the box (a tolerance of a thousandth
+// of a pixel for rounding).
+bool mayHold(ivec2 tile) {
+  vec2 lo = max(vec2(tile * kTile) + 0.5, sBox.xy) - sOrigin, hi = min(vec2(tile * kTile + kTile - 1) + 0.5, sBox.zw) - sOrigin;
+  bool outside = false;
+  for (int e = 0; e < 3; ++e) {
+    vec3 f = sEdge[e];
+    float best = f.x * (f.x > 0.0 ? hi.x : lo.x) + f.y * (f.y > 0.0 ? hi.y : lo.y) + f.z;
+    outside = outside || best < -0.5 * (abs(f.x) + abs(f.y));
+  }
+  return !outside;
+}
 void main() {
   uint t = gl_WorkGroupID.x + gl_WorkGroupID.y * kRowGroups;
   if (t >= uint(uTriangles)) return;  // whole workgroup
@@ -64,9 +97,13 @@ void main() {
     uSetup[s + 4u] = vec4(uv2, 0.0, 0.0);
     uSetup[s + 5u] = box;
     ivec4 tiles = ivec4(first / kTile, last / kTile);
-    if (kept && (tiles.z - tiles.x + 1) * (tiles.w - tiles.y + 1) > kLarge) {
-      int tilesX = (uSize + kTile - 1) / kTile;
-      uLarge[atomicAdd(uTileCount[tilesX * tilesX], 1u)] = t;
+    bool large = kept && (tiles.z - tiles.x + 1) * (tiles.w - tiles.y + 1) > kLarge;
+    if (large) {
+      uint tiles = uint((uSize + kTile - 1) / kTile);
+      tiles *= tiles;
+      uLarge[atomicAdd(uTileCount[tiles], 1u)] = t;
+      atomicMax(uTileCount[tiles + 5u], 1u);
+      dispatchAtLeast(tiles);
       kept = false;
     }
     // Edge functions for the tile test, in pixels from corner 0 (positive inside).
@@ -86,18 +123,10 @@ void main() {
   int w = tb.z - tb.x + 1, count = w * (tb.w - tb.y + 1);
   for (int k = int(gl_LocalInvocationIndex); k < count; k += 64) {  // 16 times at most
     ivec2 tile = ivec2(tb.x + k % w, tb.y + k / w);
-    // The tile's pixel centres, within the triangle's box; the triangle may hold one of them only where every
-    // edge function reaches zero somewhere over them (a tolerance of a thousandth of a pixel for rounding).
-    vec2 lo = max(vec2(tile * kTile) + 0.5, sBox.xy) - sOrigin, hi = min(vec2(tile * kTile + kTile - 1) + 0.5, sBox.zw) - sOrigin;
-    bool outside = false;
-    for (int e = 0; e < 3; ++e) {
-      vec3 f = sEdge[e];
-      float best = f.x * (f.x > 0.0 ? hi.x : lo.x) + f.y * (f.y > 0.0 ? hi.y : lo.y) + f.z;
-      outside = outside || best < -0.5 * (abs(f.x) + abs(f.y));
-    }
-    if (outside) continue;
+    if (!mayHold(tile)) continue;
     uint id = uint(tile.y * ((uSize + kTile - 1) / kTile) + tile.x);
     uint slot = atomicAdd(uTileCount[id], 1u);
     if (slot < uint(uCapacity)) uTileList[id * uint(uCapacity) + slot] = t;
+    if (slot == 0u) activate(id);
   }
 }

@@ -1,6 +1,8 @@
 #version 450 core
-// address_raster.comp: step 2 of the compute pass B (address_bin.comp is step 1). One workgroup an 8 x 8 tile,
-// one invocation a pixel: of the tile's triangles and the large ones (all triangles where its list overflowed),
+// address_raster.comp: step 2 of the compute pass B (address_bin.comp is step 1). Dispatched indirectly over the
+// active tiles only (those step 1 gave something to test, all where a large triangle was listed; the targets
+// were cleared to "none" beforehand), each workgroup taking every gl_NumWorkGroups.x-th of them. One workgroup an 8 x 8 tile, one invocation a pixel: of
+// the tile's triangles and the large ones (all triangles where its list overflowed),
 // those whose edge
 // functions are all >= 0 at the pixel centre and whose window depth lies in [0, 1] (GL's depth clipping) give a
 // depth offset by the other body's height map as address.frag does, z' = clamp(z + (h - 0.5) k', 0, 1); the
@@ -12,6 +14,7 @@ layout(std430, binding = 2) readonly buffer Setup { vec4 uSetup[]; };
 layout(std430, binding = 3) readonly buffer TileCount { uint uTileCount[]; };
 layout(std430, binding = 4) readonly buffer TileList { uint uTileList[]; };
 layout(std430, binding = 5) readonly buffer Large { uint uLarge[]; };
+layout(std430, binding = 6) readonly buffer Active { uint uActive[]; };
 layout(binding = 0) uniform sampler2D uHeight;
 layout(rg32f, binding = 0) writeonly uniform image2D uAddress;
 layout(r32f, binding = 1) writeonly uniform image2D uDepth;
@@ -32,14 +35,13 @@ float edgeAt(vec2 u, vec2 v, vec2 p, out bool owns) {
 bool inside(float e, bool owns) { return e < 0.0 || (e == 0.0 && owns); }
 shared vec4 sSetup[64 * 6];
 shared uint sId[64];
-void main() {
-  uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+void rasterTile(uint tile, uint tilesX, uint tiles) {
   uint lane = gl_LocalInvocationIndex;
-  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 pixel = ivec2(int(tile % tilesX), int(tile / tilesX)) * 8 + ivec2(gl_LocalInvocationID.xy);
   vec2 centre = vec2(pixel) + 0.5;
   uint listed = uTileCount[tile];
   bool overflowed = listed > uint(uCapacity);
-  uint total = overflowed ? uint(uTriangles) : listed + uTileCount[gl_NumWorkGroups.x * gl_NumWorkGroups.y];
+  uint total = overflowed ? uint(uTriangles) : listed + uTileCount[tiles];
   float best = 0.0;
   uint bestId = 0xffffffffu;
   vec2 bestUv = vec2(-1.0);
@@ -82,4 +84,11 @@ void main() {
   bool seen = bestId != 0xffffffffu;
   imageStore(uAddress, pixel, vec4(bestUv, 0.0, 0.0));
   imageStore(uDepth, pixel, vec4(seen ? best : 1.0));
+}
+void main() {
+  const int kTile = 8;
+  uint tilesX = uint((uSize + kTile - 1) / kTile), tiles = tilesX * tilesX;
+  bool everyTile = uTileCount[tiles + 5u] != 0u;  // a large triangle: every tile
+  uint count = everyTile ? tiles : uTileCount[tiles + 1u];
+  for (uint a = gl_WorkGroupID.x; a < count; a += gl_NumWorkGroups.x) rasterTile(everyTile ? a : uActive[a], tilesX, tiles);
 }

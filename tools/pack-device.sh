@@ -4,6 +4,7 @@
 # project's Debian packages (the tool library's `device` machines: Ubuntu with
 # NVIDIA's EGL driver). There, from the repository root:
 #   . .devlib/env.sh && .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile
+# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT).
 # Tests that run crumple-sim find it at build/apps/crumple-sim: .devlib/env.sh puts it there.
 set -euo pipefail
 usage() {
@@ -37,4 +38,35 @@ done
 if ! .devlib/bin/crumple-sim --help >/dev/null 2>&1; then export LD_LIBRARY_PATH=$LD_LIBRARY_PATH:$PWD/.devlib/compat; fi
 mkdir -p build/apps && cp .devlib/bin/crumple-sim build/apps/crumple-sim
 ENV
+# The prepared device check: `bash .devlib/check.sh [tests] [gpu] [cpu]` (all three without arguments) writes
+# each part's output to $OUT (or out/device): the test binaries, the GPU rows with their phase profiles, and the
+# physics rows on 1 to 16 threads beside Jolt where the bench was built with it.
+cat > .devlib/check.sh <<'CHECK'
+#!/usr/bin/env bash
+set -uo pipefail
+cd "$(dirname "$0")/.."
+. .devlib/env.sh
+[ -d /usr/local/nvidia/lib64 ] && export LD_LIBRARY_PATH=$LD_LIBRARY_PATH:/usr/local/nvidia/lib64
+out=${OUT:-out/device}
+mkdir -p "$out"
+parts=${*:-tests gpu cpu}
+nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv > "$out/device.txt" 2>&1 || true
+for part in $parts; do
+  start=$(date +%s)
+  case $part in
+    tests)
+      for t in .devlib/bin/test_*; do
+        echo "== $t" && timeout 300 "$t" 2>&1 | tail -3
+      done > "$out/tests.txt" 2>&1 ;;
+    gpu)
+      timeout 400 .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile --render-profile \
+        --repetitions 3 > "$out/gpu.txt" 2>&1 ;;
+    cpu)
+      timeout 400 .devlib/bin/crumple-bench --no-gl --repetitions 2 --thread-counts 1,2,4,8,16 \
+        > "$out/cpu.txt" 2>&1 ;;
+  esac
+  echo "$part: $(( $(date +%s) - start )) s"
+done
+CHECK
+chmod +x .devlib/check.sh
 du -sh .devlib

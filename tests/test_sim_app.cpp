@@ -350,7 +350,8 @@ TEST_CASE(
   // An end block stands when it is upright (turned less than 10 degrees) within 10 cm of its place: the hit
   // shoves the wall's ends by a few centimetres (how far is chaotic), it must not bring them down.
   std::map<std::string, double> turned;
-  for (const auto& b : json::parse(slurp(after / "summary.json"))["bodies"])
+  const json summary = json::parse(slurp(after / "summary.json"));
+  for (const auto& b : summary["bodies"])
     turned[b["name"].get<std::string>()] = 2 * std::acos(std::min(1.0, std::abs(b["orientation"][0].get<double>())));
   int thrown = 0, endsStanding = 0, ends = 0;
   for (const auto& [name, p] : positions(after)) {

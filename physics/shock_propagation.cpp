@@ -209,7 +209,9 @@ void islandLevels(StepContext& ctx, const uint32_t* first, const uint32_t* last,
 // K for the frozen bodies of the levels below, and each body's count of them.
 void levelContacts(const StepContext& ctx, const size_t* first, const size_t* last, std::vector<LevelContact>& lc,
                    std::vector<int>& share) {
-  lc.clear();
+  // The elements lc already holds are reused (a kilobyte each, zeroed for nothing when made anew): every field
+  // is written here but the patch, which only supportPatches makes valid.
+  size_t count = 0;
   for (const size_t* t = first; t != last; ++t) {
     const size_t pi = *t;
     const Pair& pair = ctx.pairs[pi];
@@ -217,7 +219,9 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
     for (const ContactGroup& g : ctx.groups[pi]) {
       const Contact& c = g.contact;
       const bool fa = ctx.frozen[static_cast<size_t>(c.a)] != 0, fb = ctx.frozen[static_cast<size_t>(c.b)] != 0;
-      LevelContact& x = lc.emplace_back();  // (filled in place: it is a kilobyte)
+      LevelContact& x = count < lc.size() ? lc[count] : lc.emplace_back();
+      ++count;
+      x.patch.valid = false;
       x.c = c;
       x.l = g.levers;
       x.mu = mu;
@@ -228,6 +232,7 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
       if (!fb) ++share[static_cast<size_t>(c.b)];
     }
   }
+  lc.resize(count);
 }
 
 // A body resting on one patch of the level below is held against tilting by

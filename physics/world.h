@@ -62,7 +62,7 @@ struct WorldSettings {
   // 10-level pyramid stands with 10 contact passes, sleeping or not, and an
   // A-frame of cards on a light card (tests/test_physics_stacks.cpp); 0 turns it off.
   int shockPasses = 12;
-  double shockTolerance = 1e-4;
+  double shockTolerance = 3e-4;
   // Islands of at most this many contact rows (3 to 6 per contact group; no
   // joints) holding a convex mesh block (masonry) are solved to convergence at
   // the end of the contact step (projected Gauss-Seidel over accumulated

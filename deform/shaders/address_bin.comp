@@ -48,16 +48,18 @@ vec2 uvOf(uint i) {
 vec3 edge(vec2 p, vec2 q) { return vec3(p.y - q.y, q.x - p.x, p.x * q.y - p.y * q.x); }
 // Puts a tile that got its first entry into the active list: step 2 runs a workgroup for these only (the
 // targets are cleared beforehand), not one for every tile of the map; a large triangle makes them all active.
+uint tileCount() {
+  uint tilesX = uint((uSize + kTile - 1) / kTile);
+  return tilesX * tilesX;
+}
 void dispatchAtLeast(uint groups) {
-  uint tiles = uint((uSize + kTile - 1) / kTile);
-  tiles *= tiles;
+  uint tiles = tileCount();
   atomicMax(uTileCount[tiles + 2u], min(groups, 65535u));
   atomicMax(uTileCount[tiles + 3u], 1u);
   atomicMax(uTileCount[tiles + 4u], 1u);
 }
 void activate(uint id) {
-  uint tiles = uint((uSize + kTile - 1) / kTile);
-  tiles *= tiles;
+  uint tiles = tileCount();
   uint slot = atomicAdd(uTileCount[tiles + 1u], 1u);
   uActive[slot] = id;
   dispatchAtLeast(slot + 1u);
@@ -99,8 +101,7 @@ void main() {
     ivec4 tiles = ivec4(first / kTile, last / kTile);
     bool large = kept && (tiles.z - tiles.x + 1) * (tiles.w - tiles.y + 1) > kLarge;
     if (large) {
-      uint tiles = uint((uSize + kTile - 1) / kTile);
-      tiles *= tiles;
+      uint tiles = tileCount();
       uLarge[atomicAdd(uTileCount[tiles], 1u)] = t;
       atomicMax(uTileCount[tiles + 5u], 1u);
       dispatchAtLeast(tiles);

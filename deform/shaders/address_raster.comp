@@ -33,11 +33,12 @@ float edgeAt(vec2 u, vec2 v, vec2 p, out bool owns) {
 }
 // Inside a clockwise triangle (the kept back faces): every edge value < 0, or 0 on an edge it owns.
 bool inside(float e, bool owns) { return e < 0.0 || (e == 0.0 && owns); }
+const int kTile = 8;  // pixels a side of a tile, as address_bin.comp's
 shared vec4 sSetup[64 * 6];
 shared uint sId[64];
 void rasterTile(uint tile, uint tilesX, uint tiles) {
   uint lane = gl_LocalInvocationIndex;
-  ivec2 pixel = ivec2(int(tile % tilesX), int(tile / tilesX)) * 8 + ivec2(gl_LocalInvocationID.xy);
+  ivec2 pixel = ivec2(int(tile % tilesX), int(tile / tilesX)) * kTile + ivec2(gl_LocalInvocationID.xy);
   vec2 centre = vec2(pixel) + 0.5;
   uint listed = uTileCount[tile];
   bool overflowed = listed > uint(uCapacity);
@@ -86,7 +87,6 @@ void rasterTile(uint tile, uint tilesX, uint tiles) {
   imageStore(uDepth, pixel, vec4(seen ? best : 1.0));
 }
 void main() {
-  const int kTile = 8;
   uint tilesX = uint((uSize + kTile - 1) / kTile), tiles = tilesX * tilesX;
   bool everyTile = uTileCount[tiles + 5u] != 0u;  // a large triangle: every tile
   uint count = everyTile ? tiles : uTileCount[tiles + 1u];

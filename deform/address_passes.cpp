@@ -24,6 +24,7 @@ AddressPasses::AddressPasses(int size)
   rTriangles_ = raster_.uniform("uTriangles");
   rCapacity_ = raster_.uniform("uCapacity");
   rBumpToDepth_ = raster_.uniform("uBumpToDepth");
+  rMode_ = raster_.uniform("uMode");
   uMvp_ = program_.uniform("uModelViewProjection");
   uNormalToWorld_ = program_.uniform("uNormalToWorld");
   uSign_ = program_.uniform("uSign");
@@ -138,6 +139,7 @@ void AddressPasses::drawOther(int side, const DeformBody& other, const glm::dmat
   glViewport(0, 0, size_, size_);
   program_.use();
   fboO_[side].bind();
+  bins_[side].held = Held::Unknown;
   glClearNamedFramebufferfv(fboO_[side].id(), GL_COLOR, 0, kNoAddress);
   glClearNamedFramebufferfv(fboO_[side].id(), GL_COLOR, 1, &kOne);
   if (alone) glClearNamedFramebufferfv(fboO_[side].id(), GL_DEPTH, 0, &kZero);
@@ -160,6 +162,7 @@ void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4
     b.large = render::Buffer(b.setup.size() / (6 * 4), nullptr);  // a uint a triangle
   }
   b.triangles = triangles;
+  if (b.held == Held::Tiles) b.held = Held::Unknown;  // the reset below loses which tiles the raster wrote
   glClearNamedBufferData(b.count.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
   if (triangles == 0) return;
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
@@ -177,24 +180,47 @@ void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4
                     static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), 1);
 }
 
+void AddressPasses::clearOther(int side) {
+  Bins& b = bins_[side];
+  if (b.held == Held::None) return;
+  b.bind();
+  raster_.use();
+  glUniform1i(rSize_, size_);
+  glUniform1i(rMode_, b.held == Held::Tiles ? 1 : 2);
+  glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
+  glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
+  if (b.held == Held::Tiles) {  // the tiles the last raster wrote, as its lists still give them
+    glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, b.count.id());
+    glDispatchComputeIndirect(static_cast<GLintptr>((b.tiles + 2) * sizeof(GLuint)));
+    glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
+  } else {
+    glDispatchCompute(static_cast<GLuint>(std::min<size_t>(b.tiles, 65535)), 1, 1);
+  }
+  b.held = Held::None;
+}
+
 void AddressPasses::rasterOther(int side, const DeformBody& other, float bumpToDepth) {
-  const Bins& b = bins_[side];
+  Bins& b = bins_[side];
+  if (b.held != Held::None) {  // a caller that did not clear first (clearOther, then a barrier)
+    clearOther(side);
+    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  }
   b.bind();
   raster_.use();
   glUniform1i(rSize_, size_);
   glUniform1i(rTriangles_, b.triangles);
   glUniform1i(rCapacity_, kTileCapacity);
   glUniform1f(rBumpToDepth_, bumpToDepth);
+  glUniform1i(rMode_, 0);
   glBindTextureUnit(0, other.surface ? other.surface->height().id() : flat_.id());
-  // The pixels of tiles with nothing to test keep what the clears write (what a tile with no triangle over a
-  // pixel writes there); the raster runs over the active tiles only, as the bins counted them.
-  glClearTexImage(addressO_[side].id(), 0, GL_RG, GL_FLOAT, kNoAddress);
-  glClearTexImage(depthO_[side].id(), 0, GL_RED, GL_FLOAT, &kOne);
+  // The pixels of tiles with nothing to test keep "none" (what a tile with no triangle over a pixel writes
+  // there): clearOther put it back on the tiles written before; the raster runs over the active tiles only.
   glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
   glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, b.count.id());
   glDispatchComputeIndirect(static_cast<GLintptr>((b.tiles + 2) * sizeof(GLuint)));
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
+  b.held = Held::Tiles;
 }
 
 std::pair<size_t, size_t> AddressPasses::tilesRun(int side) const {

@@ -320,10 +320,13 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
   const int n = static_cast<int>(p.size());
   if (raster == AddressRaster::Compute) {
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+    for (int k = 0; k < n; ++k)  // the tiles the sides' last rasters wrote back to "none", from their lists
+      if (p[k].active) passes.clearOther(k);
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model, p[k].reachOther);
     phase("address bins");
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.rasterOther(k, *p[k].other, p[k].otherBumpToDepth);
   } else {

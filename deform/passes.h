@@ -72,13 +72,17 @@ class AddressPasses {
   // such as NVIDIA's H100 only a few of the multiprocessors run fragment shaders). A binned rasteriser: binOther
   // appends each triangle to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list
   // of large ones every tile tests), listing the tiles that got something (active); rasterOther, after a
-  // shader-storage and command barrier, clears the targets and tests the active tiles' pixels against their
-  // lists, dispatched indirectly over those tiles only. Neither issues a barrier of its own: the Deformer runs
-  // both sides stage by stage.
+  // shader-storage, image and command barrier, tests the active tiles' pixels against their lists, dispatched
+  // indirectly over those tiles only. The other tiles must hold "none": clearOther, before binOther (and a
+  // barrier), puts it back on the tiles the last raster wrote (all of them after the fragment pass or at the
+  // start), in compute (glClearTexImage of a whole map ran at fragment-stage speed on NVIDIA's H200: 0.45 ms at
+  // 1024). None issues a barrier of its own (rasterOther without clearOther first clears and waits itself): the
+  // Deformer runs the sides stage by stage.
   // `reach`: triangles whose window depth stays below it everywhere are left out (their pixels unseen): the
   // other body there does not reach X's nearest depth (both bodies' bumps counted), so it cannot dent it.
   void binOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
                 float reach);
+  void clearOther(int side);
   void rasterOther(int side, const DeformBody& other, float bumpToDepth);
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
@@ -93,14 +97,19 @@ class AddressPasses {
             float bumpToDepth);
   render::Program program_, bin_, raster_;
   GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
-  GLint bMvp_, bSize_, bTriangles_, bCapacity_, bReach_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_;
+  GLint bMvp_, bSize_, bTriangles_, bCapacity_, bReach_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_, rMode_;
   static constexpr int kTile = 8, kTileCapacity = 64;
+  enum class Held { None, Tiles, Unknown };
   struct Bins {  // the compute pass B's triangles and lists, per side
     // count: per tile, then the large triangles', the active tiles', the raster's indirect dispatch (3), whether
     // every tile is active (address_bin.comp); active: the tiles the raster runs.
     render::Buffer setup, count, list, large, active;
     int triangles = 0;
     size_t tiles = 0;
+    // What the side's targets hold outside the tiles to write: "none" everywhere (None), "none" outside the
+    // active tiles in `count` (Tiles: after a raster), or anything (Unknown: at the start, after the fragment
+    // pass, after binOther reset the lists of a raster's tiles).
+    Held held = Held::Unknown;
     void bind() const {  // at the bindings both shaders declare them (2 to 6)
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup.id());
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count.id());

@@ -247,6 +247,41 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
   }
 }
 
+TEST_CASE("the compute raster puts back \"none\" where its last event wrote: a used deformer gives a fresh one's map") {
+  // The raster writes the active tiles only; the tiles an earlier event wrote are cleared from its lists. A
+  // deformer that first took a larger event (the ball 4 cm deeper: more tiles, framed otherwise) must give the
+  // next event's address map bit for bit as a fresh deformer does.
+  test::glContext();
+  SphereIntoPlate s;
+  DeformOptions cs{128, Path::Gather};
+  cs.addressRaster = AddressRaster::Compute;
+  auto addressMap = [&](Deformer& d) {
+    std::vector<float> m(size_t(cs.addressMap) * cs.addressMap * 2);
+    glGetTextureImage(d.lastAddressMap().id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(m.size() * sizeof(float)),
+                      m.data());
+    return m;
+  };
+  Deformer used(cs), fresh(cs);
+  const glm::dmat4 shallow = s.ballModel;
+  s.ballModel = glm::translate(shallow, glm::dvec3(0.05, -0.04, 0));
+  s.run(used, 0.01);
+  const std::vector<float> deep = addressMap(used);
+  s.ballModel = shallow;
+  s.run(used, 0.01);
+  s.run(fresh, 0.01);
+  const std::vector<float> a = addressMap(used), b = addressMap(fresh);
+  int seenDeep = 0, seen = 0, differ = 0;
+  for (size_t i = 0; i < a.size(); i += 2) {
+    seenDeep += deep[i] >= 0;
+    seen += b[i] >= 0;
+    differ += std::memcmp(&a[i], &b[i], 2 * sizeof(float)) != 0;
+  }
+  MESSAGE("pixels seen: deep event " << seenDeep << ", next event " << seen << "; differing " << differ);
+  CHECK(seenDeep > seen);
+  CHECK(seen > 0);
+  CHECK(differ == 0);
+}
+
 TEST_CASE("a batch of events runs in waves of different surfaces and gives the one-by-one maps bit for bit") {
   test::glContext();
   SphereIntoPlate s;

@@ -88,8 +88,10 @@ GLsizei casterIndexCount(const RenderItem& it, const RendererSettings& s) {
 }
 }  // namespace
 
-// The sun's shadow map keeps the casters that stood still: they are drawn once into `still` and copied
-// into the shadow map each frame, and only the items that moved since the last frame are drawn over it.
+// The sun's shadow map keeps the casters that stood still: they are drawn once into `still`, and each frame
+// only the items that moved since the last frame are drawn over a copy of it. The copy is of the rectangle the
+// last frame's movers were drawn in (`dirty`): elsewhere the shadow map holds `still` already (a whole 2048^2
+// depth copy took 0.37 ms of an H200's 3.3 ms frame).
 // An item is matched to last frame's by its place in the list, its mesh and index count; the copy is made
 // anew when the light's frustum changes, a still item moves or the list changes. The depth test (less)
 // makes the result the same as drawing every item (up to which of two casters at one depth wins).
@@ -105,6 +107,28 @@ struct ShadowCache {
   std::vector<Caster> casters;
   glm::mat4 lightVP{0};
   bool valid = false;  // `still` holds the still casters, drawn with lightVP
+  // Texels [x0, x1) x [y0, y1) where the shadow map may differ from `still` (all of it until a copy).
+  glm::ivec4 dirty{0, 0, kShadowSize, kShadowSize};
+  // The texels the items not in `still` may cover (their bounds' light-space box, a texel of margin).
+  glm::ivec4 moversRect(const std::vector<RenderItem>& items, const glm::mat4& vp) const {
+    glm::vec2 lo(1e30f), hi(-1e30f);
+    for (size_t i = 0; i < items.size(); ++i) {
+      if (casters[i].still) continue;
+      const RenderItem& it = items[i];
+      for (int c = 0; c < 8; ++c) {
+        const glm::vec3 p(c & 1 ? it.boundsMax.x : it.boundsMin.x, c & 2 ? it.boundsMax.y : it.boundsMin.y,
+                          c & 4 ? it.boundsMax.z : it.boundsMin.z);
+        const glm::vec4 q = vp * it.model * glm::vec4(p, 1);
+        const glm::vec2 t = (glm::vec2(q) / q.w * 0.5f + 0.5f) * float(kShadowSize);
+        lo = glm::min(lo, t);
+        hi = glm::max(hi, t);
+      }
+    }
+    if (!(lo.x <= hi.x)) return {0, 0, 0, 0};
+    const glm::ivec2 a = glm::clamp(glm::ivec2(glm::floor(lo)) - 1, 0, kShadowSize);
+    const glm::ivec2 b = glm::clamp(glm::ivec2(glm::ceil(hi)) + 1, 0, kShadowSize);
+    return {a.x, a.y, std::max(a.x, b.x), std::max(a.y, b.y)};
+  }
   Texture2D still{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
   Framebuffer stillFbo;
   ShadowCache() {
@@ -418,20 +442,26 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
         glDrawElements(GL_TRIANGLES, casterIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
       }
     };
-    if (m.shadowCache.update(items, s, lightVP)) {
-      glBindFramebuffer(GL_FRAMEBUFFER, m.shadowCache.stillFbo.id());
+    ShadowCache& cache = m.shadowCache;
+    if (cache.update(items, s, lightVP)) {
+      glBindFramebuffer(GL_FRAMEBUFFER, cache.stillFbo.id());
       glClear(GL_DEPTH_BUFFER_BIT);
       drawCasters(true, true);
       stats_.shadowCacheRedrawn = true;
+      cache.dirty = {0, 0, kShadowSize, kShadowSize};
     }
     glBindFramebuffer(GL_FRAMEBUFFER, m.shadowFbo.id());
-    if (m.shadowCache.valid) {
-      glCopyImageSubData(m.shadowCache.still.id(), GL_TEXTURE_2D, 0, 0, 0, 0, m.shadowMap.id(), GL_TEXTURE_2D, 0, 0, 0,
-                         0, kShadowSize, kShadowSize, 1);
+    if (cache.valid) {
+      const glm::ivec4 d = cache.dirty;
+      if (d.z > d.x && d.w > d.y)
+        glCopyImageSubData(cache.still.id(), GL_TEXTURE_2D, 0, d.x, d.y, 0, m.shadowMap.id(), GL_TEXTURE_2D, 0, d.x,
+                           d.y, 0, d.z - d.x, d.w - d.y, 1);
+      cache.dirty = cache.moversRect(items, lightVP);
       drawCasters(true, false);
     } else {
       glClear(GL_DEPTH_BUFFER_BIT);
       drawCasters(false, false);
+      cache.dirty = {0, 0, kShadowSize, kShadowSize};
     }
     glDisable(GL_POLYGON_OFFSET_FILL);
   }

@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
 #include <map>
 #include <memory>
 #include <string>
@@ -39,6 +40,7 @@
 #include "engine/simulation.h"
 #include "physics/world.h"
 #include "render/gl_context.h"
+#include "render/gl_objects.h"
 #include "render/gpu_timer.h"
 #include "render/renderer.h"
 
@@ -568,7 +570,8 @@ void deformProfile(int iterations) {
 // The sandbox's scene (the built-in highway) after its car has hit the rail,
 // seen from its chase camera. `off`: the feature turned off ("" none, "parallax", "ibl", "aa"), or "+displace":
 // displacement (tessellation) turned on, "+simplified": simplified meshes (RendererSettings::simplified), "+msaa":
-// MSAA (4 samples) instead of FXAA,
+// MSAA (4 samples) instead of FXAA, "+forward" / "+compute": the items shaded in the fragment stage / from a
+// visibility buffer in compute (RendererSettings::shading; the other rows take Auto),
 // "sandbox": the sandbox's view at its smallest automatic scale (960x540 x 0.35, simplified meshes, FXAA).
 void renderBench(benchmark::State& state, const std::string& off) {
   Simulation sim(builtinHighway(), true);
@@ -584,6 +587,8 @@ void renderBench(benchmark::State& state, const std::string& off) {
                            : off == "+msaa" ? render::Antialias::Msaa
                                             : render::Antialias::Fxaa;
   r.settings().displace = off == "+displace";
+  if (off == "+forward") r.settings().shading = render::Shading::Forward;
+  if (off == "+compute") r.settings().shading = render::Shading::Compute;
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   r.draw(items, view);  // untimed: the shaders of this view's features are compiled on first use
@@ -598,6 +603,84 @@ void renderBench(benchmark::State& state, const std::string& off) {
   }
   const double gpu = timer.finish();
   state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
+}
+
+// The floor under shading from a visibility buffer: the same view's items (culled and ordered as the renderer
+// does) drawn with positions alone into depth and an item / triangle id target (RG32UI), no shading. What a
+// renderer that shades in compute (all of a GPU's multiprocessors rather than its graphics ones) would still pay
+// for the items' geometry.
+void visibilityBench(benchmark::State& state) {
+  Simulation sim(builtinHighway(), true);
+  for (int s = 0; s < 900; ++s) sim.step();
+  const int w = 1280, h = 720;
+  render::Texture2D ids(w, h, GL_RG32UI), depth(w, h, GL_DEPTH_COMPONENT32F);
+  render::Framebuffer fbo;
+  fbo.attachColor(ids, 0);
+  fbo.attachDepth(depth);
+  fbo.checkComplete();
+  const render::Program program({{GL_VERTEX_SHADER, "visibility.vert",
+                                  "#version 450 core\nlayout(location = 0) in vec3 aPosition;\nuniform mat4 uMvp;\n"
+                                  "void main() { gl_Position = uMvp * vec4(aPosition, 1.0); }\n"},
+                                 {GL_FRAGMENT_SHADER, "visibility.frag",
+                                  "#version 450 core\nuniform uint uItem;\nout uvec2 id;\n"
+                                  "void main() { id = uvec2(uItem, uint(gl_PrimitiveID)); }\n"}});
+  const std::vector<render::RenderItem> items = renderItems(sim);
+  const render::View view = cameraView(sim.scene().cameras.front(), &sim);
+  const glm::mat4 vp = glm::perspective(glm::radians(view.fovDegrees), float(w) / float(h), view.zNear, view.zFar) *
+                       glm::lookAt(view.eye, view.target, view.up);
+  std::vector<std::pair<float, size_t>> order;
+  for (size_t i = 0; i < items.size(); ++i) {
+    const render::RenderItem& it = items[i];
+    const glm::mat4 mvp = vp * it.model;
+    bool outside = false;
+    for (int axis = 0; axis < 3 && !outside; ++axis)
+      for (float side : {-1.0f, 1.0f}) {
+        bool all = true;
+        for (int c = 0; c < 8 && all; ++c) {
+          const glm::vec4 q = mvp * glm::vec4(c & 1 ? it.boundsMax.x : it.boundsMin.x, c & 2 ? it.boundsMax.y : it.boundsMin.y,
+                                              c & 4 ? it.boundsMax.z : it.boundsMin.z, 1.0f);
+          all = side * q[axis] > q.w;
+        }
+        outside = outside || all;
+      }
+    if (outside) continue;
+    const glm::vec3 c = glm::vec3(it.model * glm::vec4(0.5f * (it.boundsMin + it.boundsMax), 1.0f));
+    order.emplace_back(glm::dot(c - view.eye, c - view.eye), i);
+  }
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  auto frame = [&] {
+    fbo.bind();
+    glViewport(0, 0, w, h);
+    const GLuint none[4] = {0xffffffffu, 0, 0, 0};
+    const float far = 1.0f;
+    glClearNamedFramebufferuiv(fbo.id(), GL_COLOR, 0, none);
+    glClearNamedFramebufferfv(fbo.id(), GL_DEPTH, 0, &far);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDisable(GL_CULL_FACE);
+    program.use();
+    for (const auto& [d, i] : order) {
+      const glm::mat4 mvp = vp * items[i].model;
+      glUniformMatrix4fv(program.uniform("uMvp"), 1, GL_FALSE, glm::value_ptr(mvp));
+      glUniform1ui(program.uniform("uItem"), static_cast<GLuint>(i));
+      glBindVertexArray(items[i].vao);
+      glDrawElements(GL_TRIANGLES, items[i].indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  };
+  frame();
+  glFinish();
+  warmUp(frame);
+  render::GpuTimer timer;
+  for (auto _ : state) {
+    timer.begin();
+    frame();
+    timer.end();
+    glFinish();
+  }
+  const double gpu = timer.finish();
+  state.counters["gpu_ms"] = timer.measured() ? gpu / static_cast<double>(timer.measured()) : 0.0;
+  state.counters["items"] = static_cast<double>(order.size());
 }
 
 // GPU time of each part of the highway frame at 1280x720 (POM, IBL, FXAA: the render/1280x720/pom row), from
@@ -787,11 +870,15 @@ int main(int argc, char** argv) {
           ->Unit(benchmark::kMillisecond);
     for (const auto& [name, off] : std::vector<std::pair<std::string, std::string>>{
              {"pom", ""}, {"no_parallax", "parallax"}, {"no_ibl", "ibl"}, {"no_aa", "aa"}, {"msaa", "+msaa"}, {"displace", "+displace"},
-             {"simplified", "+simplified"}, {"sandbox_336x189", "sandbox"}})
+             {"simplified", "+simplified"}, {"sandbox_336x189", "sandbox"}, {"forward_shading", "+forward"},
+             {"compute_shading", "+compute"}})
       benchmark::RegisterBenchmark(("render/" + std::string(off == "sandbox" ? "" : "1280x720/") + name).c_str(),
                                    renderBench, off)
           ->Iterations(quick ? 2 : 10)
           ->Unit(benchmark::kMillisecond);
+    benchmark::RegisterBenchmark("render/1280x720/visibility_pass", visibilityBench)
+        ->Iterations(quick ? 2 : 10)
+        ->Unit(benchmark::kMillisecond);
   }
   std::vector<char*> args = {argv[0]};
   std::string filterArg = "--benchmark_filter=" + filter;
@@ -906,6 +993,12 @@ int main(int argc, char** argv) {
   if (!std::isnan(p) && !std::isnan(simplified))
     std::printf("render  1280x720   simplified meshes %8.3f ms/frame  full %8.3f ms/frame  simplified/full %6.2fx\n",
                 simplified, p, simplified / p);
+  const double fw = ms("render/1280x720/forward_shading"), cw = ms("render/1280x720/compute_shading");
+  const double fg = gpu("render/1280x720/forward_shading"), cg = gpu("render/1280x720/compute_shading");
+  if (!std::isnan(fw) && !std::isnan(cw))
+    std::printf("render  1280x720   shaded in compute %8.3f ms/frame (GPU %7.3f)  in the fragment stage %8.3f ms/frame "
+                "(GPU %7.3f)  compute/fragment %6.2fx (GPU %6.2fx)\n",
+                cw, cg, fw, fg, cw / fw, cg / fg);
   if (!std::isnan(sandboxView))
     std::printf("render  sandbox view 336x189 (960x540 x 0.35, simplified)  %8.3f ms/frame  (%.1f frames/s of rendering)\n",
                 sandboxView, 1000.0 / sandboxView);

@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
       "crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
       "heightmaps/, normalmaps/, frames/)."};
   std::string scenePath, outDir, deformPath, trace, size = "960x540", exportFormat, video, videoCamera;
-  std::string antialias = "fxaa";
+  std::string antialias = "fxaa", shading = "auto";
   double duration = -1, fps = 30;
   long steps = -1;
   int gpu = -1, threads = -1;
@@ -98,6 +98,12 @@ int main(int argc, char** argv) {
                  "Antialiasing of the rendered frames: fxaa (default: an FXAA pass over each frame), msaa (4 "
                  "samples a pixel, resolved; slower on a CPU rasteriser) or none")
       ->check(CLI::IsMember({"fxaa", "msaa", "none"}))
+      ->capture_default_str();
+  app.add_option("--shading", shading,
+                 "Where the rendered frames' pixels are shaded: auto (default: compute on GPUs whose graphics stages "
+                 "run on a few multiprocessors, such as NVIDIA's H100, else fragment), fragment (as the items are "
+                 "drawn) or compute (from a visibility buffer, once a pixel; with FXAA and no displacement)")
+      ->check(CLI::IsMember({"auto", "fragment", "compute"}))
       ->capture_default_str();
   app.add_option("--fps", fps, "Frames per simulated second for --render")
       ->check(CLI::Range(0.01, 1000.0))
@@ -204,6 +210,9 @@ int main(int argc, char** argv) {
       renderer = std::make_unique<render::Renderer>(width, height);
       renderer->settings().displace = displace;
       renderer->settings().antialias = render::antialiasNamed(antialias);
+      renderer->settings().shading = shading == "compute"    ? render::Shading::Compute
+                                     : shading == "fragment" ? render::Shading::Forward
+                                                             : render::Shading::Auto;
       fs::create_directories(framesDir);
     }
     auto interrupted = [&](long step) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <regex>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
@@ -56,6 +57,27 @@ glm::mat3 faceBasis(int face) {
   static const glm::vec3 right[6] = {{0, 0, -1}, {0, 0, 1}, {1, 0, 0}, {1, 0, 0}, {1, 0, 0}, {-1, 0, 0}};
   static const glm::vec3 up[6] = {{0, -1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {0, -1, 0}, {0, -1, 0}};
   return glm::mat3(right[face], up[face], fwd[face]);
+}
+// The pixels (x, y, width, height) the box lo..hi (model frame) may cover in a w x h frame through `mvp`, a
+// pixel of margin; the whole frame where the box reaches behind the eye.
+glm::ivec4 screenRect(const glm::mat4& mvp, const glm::vec3& lo, const glm::vec3& hi, int w, int h) {
+  glm::vec2 a(1e30f), b(-1e30f);
+  for (int k = 0; k < 8; ++k) {
+    const glm::vec4 c = mvp * glm::vec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0f);
+    if (c.w <= 1e-6f) return {0, 0, w, h};
+    const glm::vec2 p = (glm::vec2(c) / c.w * 0.5f + 0.5f) * glm::vec2(w, h);
+    a = glm::min(a, p);
+    b = glm::max(b, p);
+  }
+  const int x0 = std::clamp(static_cast<int>(std::floor(a.x)) - 1, 0, w), y0 = std::clamp(static_cast<int>(std::floor(a.y)) - 1, 0, h);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(b.x)) + 1, 0, w), y1 = std::clamp(static_cast<int>(std::ceil(b.y)) + 1, 0, h);
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+// Whether GL_RENDERER names a GPU whose graphics stages run on a few of its multiprocessors: NVIDIA's GH100 (H100,
+// H200, H800, H20), GA100 (A100, A800, A30) and GB100 (B100, B200).
+bool fewGraphicsUnitsIn(const char* renderer) {
+  static const std::regex dataCentre(R"(\b(G?H(100|200|800|20)|A(100|800|30)|G?B(100|200))\b)");
+  return renderer && std::regex_search(renderer, dataCentre);
 }
 // True when the box lo..hi (model frame) lies wholly outside one plane of the clip volume of `mvp`:
 // the item can draw no pixel (a conservative test: boxes across a corner of the frustum are kept).
@@ -186,6 +208,37 @@ struct PomFeatures {
 
 struct Renderer::Impl {
   std::vector<std::pair<float, size_t>> drawOrder;  // the items' drawing order of the last frame (front to back)
+  std::vector<size_t> visible;  // the items drawn this frame, in that order
+  // Shading from a visibility buffer (RendererSettings::shading): the pass's programs and targets; Auto picks it
+  // on GPUs with few graphics units.
+  bool fewGraphicsUnits = fewGraphicsUnitsIn(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  Program visibility = program("visibility.vert", "visibility.frag");
+  std::map<uint32_t, Program> pomComputeVariants;
+  Texture2D visibilityIds{1, 1, GL_RG32UI};
+  Framebuffer visibilityFbo;
+  GlName<detail::deleteTexture> sceneColorView;  // sceneColor's storage as RGBA8 (images cannot store sRGB)
+  const Program& pomCompute(const PomFeatures& f) {
+    auto found = pomComputeVariants.find(f.key());
+    if (found != pomComputeVariants.end()) return found->second;
+    const std::string source = withDefines(renderShader("pom.frag"), f.defines() + "#define COMPUTE_SHADING 1\n") +
+                               "#line 1 1\n" + std::string(renderShader("pom_shade.comp"));
+    return pomComputeVariants.emplace(f.key(), Program({{GL_COMPUTE_SHADER, "pom.frag + pom_shade.comp", source}}))
+        .first->second;
+  }
+  // The vertex and index buffers of a GpuMesh's vertex array (17 floats a vertex, 32-bit indices); vertices 0
+  // where it has another layout (the frame is then drawn in the fragment stage).
+  struct MeshBuffers {
+    GLuint vertices = 0, indices = 0;
+  };
+  static MeshBuffers meshBuffers(GLuint vao) {
+    GLint buffer = 0, stride = 0, offset = -1, elements = 0;
+    glGetVertexArrayIndexediv(vao, 0, GL_VERTEX_BINDING_BUFFER, &buffer);
+    glGetVertexArrayIndexediv(vao, 0, GL_VERTEX_BINDING_STRIDE, &stride);
+    glGetVertexArrayIndexediv(vao, 0, GL_VERTEX_ATTRIB_RELATIVE_OFFSET, &offset);
+    glGetVertexArrayiv(vao, GL_ELEMENT_ARRAY_BUFFER_BINDING, &elements);
+    if (buffer == 0 || elements == 0 || stride != 17 * static_cast<GLint>(sizeof(float)) || offset != 0) return {};
+    return {static_cast<GLuint>(buffer), static_cast<GLuint>(elements)};
+  }
   // The main pass's programs, one per combination of features, made on first use (a handful per scene).
   std::map<uint32_t, Program> pomVariants;
   const Program& pom(const PomFeatures& f) {
@@ -348,6 +401,16 @@ struct Renderer::Impl {
     sceneFbo.attachColor(sceneColor);
     sceneFbo.attachDepth(depth);
     sceneFbo.checkComplete();
+    GLuint view = 0;
+    glGenTextures(1, &view);
+    glTextureView(view, GL_TEXTURE_2D, sceneColor.id(), GL_RGBA8, 0, 1, 0, 1);
+    sceneColorView = GlName<detail::deleteTexture>(view);
+    visibilityIds = Texture2D(w, h, GL_RG32UI);
+    visibilityIds.setFilter(GL_NEAREST, GL_NEAREST);
+    visibilityFbo = Framebuffer();
+    visibilityFbo.attachColor(visibilityIds);
+    visibilityFbo.attachDepth(depth);
+    visibilityFbo.checkComplete();
   }
   // The FXAA pass: sceneColor into `target`.
   void antialias(GLuint target, int w, int h) {
@@ -535,6 +598,10 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   }
   std::stable_sort(order.begin(), order.end(),
                    [](const std::pair<float, size_t>& a, const std::pair<float, size_t>& b) { return a.first < b.first; });
+  // The items to draw, in that order, and how: culled ones dropped.
+  std::vector<size_t>& visible = m.visible;
+  visible.clear();
+  bool anyDisplaced = false;
   for (const auto& [distance, index] : order) {
     const RenderItem& it = items[index];
     const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
@@ -545,17 +612,11 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       continue;
     }
     ++stats_.drawn;
-    PomFeatures f = frame;
-    f.maps = it.height != 0;
-    f.look = it.look != nullptr && it.look->materialCount() > 0;
-    f.texture = static_cast<int>(it.texture);
-    f.displaced = displaced;
-    const Program& p = m.pom(f);
-    if (p.id() != current) {
-      p.use();
-      current = p.id();
-      prepare(p);
-    }
+    anyDisplaced = anyDisplaced || displaced;
+    visible.push_back(index);
+  }
+  // The item's own uniforms and maps, in either path's program.
+  auto bindItem = [&](const Program& p, const RenderItem& it) {
     auto u = [&](const char* n) { return p.uniform(n); };
     const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
     glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));
@@ -572,6 +633,73 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
     glBindTextureUnit(6, it.height && it.heightBound ? it.heightBound : m.noBound.id());
     glUniform1i(u("uBoundTile"), it.height && it.heightBound ? it.boundTile : 1 << 20);
+  };
+  auto itemFeatures = [&](const RenderItem& it, bool displaced) {
+    PomFeatures f = frame;
+    f.maps = it.height != 0;
+    f.look = it.look != nullptr && it.look->materialCount() > 0;
+    f.texture = static_cast<int>(it.texture);
+    f.displaced = displaced;
+    return f;
+  };
+  // Shading in compute from a visibility buffer (RendererSettings::shading): the shaded view with FXAA, no
+  // displaced item, every item's vertices in GpuMesh's layout.
+  bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && fxaa && s.debug == DebugView::Shaded && !anyDisplaced;
+  for (size_t i = 0; compute && i < visible.size(); ++i) compute = m.meshBuffers(items[visible[i]].vao).vertices != 0;
+  stats_.computeShaded = compute;
+  if (compute) {
+    // The visibility pass: the item and triangle nearest at each pixel, into the frame's depth.
+    m.visibilityFbo.bind();
+    const GLuint none[4] = {0xffffffffu, 0, 0, 0};
+    const float far = 1.0f;
+    glClearNamedFramebufferuiv(m.visibilityFbo.id(), GL_COLOR, 0, none);
+    glClearNamedFramebufferfv(m.visibilityFbo.id(), GL_DEPTH, 0, &far);
+    m.visibility.use();
+    for (size_t index : visible) {
+      const RenderItem& it = items[index];
+      const glm::mat4 mvp = vp * it.model;
+      glUniformMatrix4fv(m.visibility.uniform("uModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+      glUniform1ui(m.visibility.uniform("uItem"), static_cast<GLuint>(index));
+      glBindVertexArray(it.vao);
+      glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+    }
+    // Each item's pixels shaded over its rectangle on screen.
+    const glm::mat4 inverseVp = glm::inverse(vp);
+    glBindTextureUnit(10, m.visibilityIds.id());
+    glBindImageTexture(0, m.sceneColorView.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
+    for (size_t index : visible) {
+      const RenderItem& it = items[index];
+      const Program& p = m.pomCompute(itemFeatures(it, false));
+      if (p.id() != current) {
+        p.use();
+        current = p.id();
+        prepare(p);
+        glUniformMatrix4fv(p.uniform("uInvViewProjection"), 1, GL_FALSE, glm::value_ptr(inverseVp));
+        glUniform2i(p.uniform("uFrameSize"), width_, height_);
+      }
+      bindItem(p, it);
+      const glm::ivec4 rect = screenRect(vp * it.model, it.boundsMin, it.boundsMax, width_, height_);
+      if (rect.z <= 0 || rect.w <= 0) continue;
+      glUniform1ui(p.uniform("uItem"), static_cast<GLuint>(index));
+      glUniform4iv(p.uniform("uRect"), 1, glm::value_ptr(rect));
+      const Impl::MeshBuffers b = m.meshBuffers(it.vao);
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, b.vertices);
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, b.indices);
+      glDispatchCompute(static_cast<GLuint>((rect.z + 7) / 8), static_cast<GLuint>((rect.w + 7) / 8), 1);
+    }
+    glMemoryBarrier(GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+    glBindFramebuffer(GL_FRAMEBUFFER, target);
+  }
+  for (size_t i = 0; !compute && i < visible.size(); ++i) {
+    const RenderItem& it = items[visible[i]];
+    const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
+    const Program& p = m.pom(itemFeatures(it, displaced));
+    if (p.id() != current) {
+      p.use();
+      current = p.id();
+      prepare(p);
+    }
+    bindItem(p, it);
     if (displaced) {
       glBindVertexArray(it.vao);
       glPatchParameteri(GL_PATCH_VERTICES, 3);

@@ -80,6 +80,7 @@ enum class DebugView { Shaded = 0, Height = 1, Normal = 2, Address = 3, Wirefram
 // MSAA (the frame drawn into 4-sample colour and depth, resolved into the target: every edge, also those
 // within a surface the filter cannot see, at about 4 times the fragment work on a CPU rasteriser).
 enum class Antialias { None = 0, Fxaa = 1, Msaa = 2 };
+enum class Shading { Auto = 0, Forward = 1, Compute = 2 };
 constexpr int kMsaaSamples = 4;
 // "none", "fxaa" or "msaa" (the command lines' names); anything else is FXAA.
 inline Antialias antialiasNamed(const std::string& name) {
@@ -108,6 +109,12 @@ struct RendererSettings {
   // Draw items' simplified meshes where they have one (RenderItem::simplifiedVao): the interactive sandbox's
   // fast path on software GL; batch renders keep the full meshes.
   bool simplified = false;
+  // Where the shaded view's pixels are shaded (with FXAA, no displaced item): Forward, in the fragment stage as
+  // the items are drawn; Compute, from a visibility buffer (the items drawn with positions alone, the item and
+  // triangle nearest at each pixel), by compute shaders running pom.frag's code (pom_shade.comp), once a pixel;
+  // Auto: Compute on GPUs whose graphics stages run on a few multiprocessors (NVIDIA's H100, H200, A100, B200
+  // and kin), Forward elsewhere.
+  Shading shading = Shading::Auto;
 };
 
 // What the last drawTo did (for tests and the sandbox's panel).
@@ -116,6 +123,7 @@ struct RendererStats {
   int culled = 0;         // items skipped, wholly outside the view
   int shadowCasters = 0;  // items drawn for the sun's shadow this frame (the others came from its cache)
   bool shadowCacheRedrawn = false;  // the still casters' map was drawn anew
+  bool computeShaded = false;       // the items were shaded from a visibility buffer (RendererSettings::shading)
 };
 
 class Renderer {

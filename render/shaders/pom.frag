@@ -14,6 +14,29 @@
 // 1 offset limited, 2 none), DEBUG (0 shaded, 1 height, 2 normal, 4 wireframe), SHADOWS, SELF_SHADOW, IBL.
 // A software rasteriser runs both sides of a branch under a mask, so what a draw does not use must not be
 // in its shader at all.
+// With COMPUTE_SHADING defined the same code shades from a visibility buffer in a compute shader
+// (pom_shade.comp, appended): the inputs are then globals it sets, with the derivatives (what dFdx / dFdy give
+// here) from the triangle's plane at the neighbouring pixels' rays, and main() is shade().
+#ifdef COMPUTE_SHADING
+vec3 vWorld = vec3(0.0), vNormal = vec3(0.0), vColor = vec3(1.0);
+vec2 vUV = vec2(0.0), vMaterialUV = vec2(0.0);
+vec4 vShadow = vec4(0.0);
+int vMaterial = -1;
+bool gFrontFacing = true;
+vec3 gWorldDx = vec3(0.0), gWorldDy = vec3(0.0);
+vec2 gUvDx = vec2(0.0), gUvDy = vec2(0.0), gMaterialUvDx = vec2(0.0), gMaterialUvDy = vec2(0.0);
+float gHeightLod = 0.0;
+vec4 fragColor = vec4(0.0);
+#define FRONT_FACING gFrontFacing
+#define DX_WORLD gWorldDx
+#define DY_WORLD gWorldDy
+#define DX_UV gUvDx
+#define DY_UV gUvDy
+#define DX_MATERIAL_UV gMaterialUvDx
+#define DY_MATERIAL_UV gMaterialUvDy
+#define HEIGHT_LOD gHeightLod
+#define FOOTPRINT(q) (max(length(mat3(uWorldToModel) * gWorldDx), length(mat3(uWorldToModel) * gWorldDy)) / max(uTextureScale, 1e-3))
+#else
 in vec3 vWorld;
 in vec3 vNormal;
 in vec2 vUV;
@@ -21,6 +44,17 @@ in vec3 vColor;  // multiplies uColor (glTF's COLOR_0)
 in vec4 vShadow;
 in vec2 vMaterialUV;    // the mesh file's own uv
 flat in int vMaterial;  // its material in the look, -1 none
+out vec4 fragColor;
+#define FRONT_FACING gl_FrontFacing
+#define DX_WORLD dFdx(vWorld)
+#define DY_WORLD dFdy(vWorld)
+#define DX_UV dFdx(vUV)
+#define DY_UV dFdy(vUV)
+#define DX_MATERIAL_UV dFdx(vMaterialUV)
+#define DY_MATERIAL_UV dFdy(vMaterialUV)
+#define HEIGHT_LOD textureQueryLod(uHeight, vUV).x
+#define FOOTPRINT(q) max(length(dFdx(q)), length(dFdy(q)))
+#endif
 // The look (render/look.h): per material the base colour factor (linear), metallic, roughness, normal scale,
 // occlusion strength, emissive (rgb, sRGB layer), and the layers of its images (-1 none).
 uniform bvec3 uLookOwn;  // the look's base colour, metallic, roughness apply (the scene did not set them)
@@ -51,7 +85,6 @@ uniform int uMinSteps, uMaxSteps;
 uniform vec2 uLodFade;
 uniform float uTextureScale;  // its features' size, times their natural size
 uniform mat4 uWorldToModel;   // the surface is laid in the mesh's frame
-out vec4 fragColor;
 
 float heightAt(vec2 uv, vec2 gx, vec2 gy) { return (textureGrad(uHeight, uv, gx, gy).r - 0.5) * uBumpDepth; }
 
@@ -132,17 +165,21 @@ vec2 surfaceTexture(vec3 q, float footprint) {
 #endif
 }
 
+#ifdef COMPUTE_SHADING
+void shade() {
+#else
 void main() {
+#endif
 #if DEBUG == 4
   fragColor = vec4(0.05, 0.9, 0.3, 1.0);
   return;
 #endif
   vec3 N = normalize(vNormal);
-  if (!gl_FrontFacing) N = -N;
+  if (!FRONT_FACING) N = -N;
   vec3 V = normalize(vWorld - uEye);  // from the eye into the surface
   // Cotangent frame (Schueler 2006): gradients of u and v along the surface.
-  vec3 dp1 = dFdx(vWorld), dp2 = dFdy(vWorld);
-  vec2 duv1 = dFdx(vUV), duv2 = dFdy(vUV);
+  vec3 dp1 = DX_WORLD, dp2 = DY_WORLD;
+  vec2 duv1 = DX_UV, duv2 = DY_UV;
   vec3 dp2perp = cross(dp2, N), dp1perp = cross(N, dp1);
   float det = dot(cross(dp1, dp2), N);
   vec3 gradU = (dp2perp * duv1.x + dp1perp * duv2.x) / (abs(det) > 1e-20 ? det : 1e-20);
@@ -153,7 +190,7 @@ void main() {
   float fade = 1.0;
 #if HAS_MAPS
   {
-    float lod = textureQueryLod(uHeight, vUV).x;
+    float lod = HEIGHT_LOD;
     fade = 1.0 - smoothstep(uLodFade.x, uLodFade.y, lod);
     float cosV = max(-dot(V, N), 0.05);
     vec2 uvPerDepth = vec2(dot(gradU, V), dot(gradV, V)) / cosV;  // uv change per metre of descent
@@ -210,7 +247,7 @@ void main() {
 #if HAS_LOOK
   if (vMaterial >= 0) {
     int mi = min(vMaterial, 15);
-    vec2 m1 = dFdx(vMaterialUV), m2 = dFdy(vMaterialUV);
+    vec2 m1 = DX_MATERIAL_UV, m2 = DY_MATERIAL_UV;
     vec3 gradMU = (dp2perp * m1.x + dp1perp * m2.x) / (abs(det) > 1e-20 ? det : 1e-20);
     vec3 gradMV = (dp2perp * m1.y + dp1perp * m2.y) / (abs(det) > 1e-20 ? det : 1e-20);
     vec2 muv = vMaterialUV + vec2(dot(gradMU, shift), dot(gradMV, shift));
@@ -240,7 +277,7 @@ void main() {
 #if TEXTURE != 0
   {
     vec3 q = (uWorldToModel * vec4(vWorld, 1.0)).xyz / max(uTextureScale, 1e-3);
-    float footprint = max(length(dFdx(q)), length(dFdy(q)));
+    float footprint = FOOTPRINT(q);
     vec2 t = surfaceTexture(q, footprint);
     baseColor *= t.x;
     roughness = clamp(roughness + t.y, 0.0, 1.0);

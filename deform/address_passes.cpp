@@ -14,7 +14,9 @@ render::Program addressProgram() {
 }  // namespace
 
 AddressPasses::AddressPasses(int size)
-    : program_(addressProgram()), bin_(computeProgram("address_bin.comp")), raster_(computeProgram("address_raster.comp")) {
+    : program_(addressProgram()),
+      bin_(computeProgram("address_bin.comp")),
+      raster_(computeProgram("address_raster.comp")) {
   bMvp_ = bin_.uniform("uModelViewProjection");
   bSize_ = bin_.uniform("uSize");
   bTriangles_ = bin_.uniform("uTriangles");
@@ -46,8 +48,7 @@ void AddressPasses::resize(int n) {
     depthX_[s] = render::Texture2D(n, n, GL_R32F);
     normalX_[s] = render::Texture2D(n, n, GL_RGBA16F);
     depthBuffer_[s] = render::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
-    for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s]})
-      t->setFilter(GL_NEAREST, GL_NEAREST);
+    for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s]}) t->setFilter(GL_NEAREST, GL_NEAREST);
     fboX_[s] = render::Framebuffer();
     fboX_[s].attachColor(addressX_[s], 0);
     fboX_[s].attachColor(depthX_[s], 1);

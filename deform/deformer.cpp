@@ -1,6 +1,7 @@
 #include "deform/deformer.h"
 
 #include "deform/passes.h"
+#include "render/gl_context.h"
 
 #include <algorithm>
 #include <climits>
@@ -10,7 +11,6 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <chrono>
 #include <map>
-#include <regex>
 
 namespace crumple::deform {
 
@@ -21,17 +21,18 @@ std::string_view deformShader(std::string_view fileName) { return shaders::shade
 
 const char* addressRasterName(AddressRaster r) {
   switch (r) {
-    case AddressRaster::Compute: return "compute";
-    case AddressRaster::Fragment: return "fragment";
-    default: return "auto";
+    case AddressRaster::Compute:
+      return "compute";
+    case AddressRaster::Fragment:
+      return "fragment";
+    default:
+      return "auto";
   }
 }
 
 AddressRaster resolveAddressRaster(AddressRaster r, const char* renderer) {
   if (r != AddressRaster::Auto) return r;
-  // GH100 (H100, H200, H800, H20), GA100 (A100, A800, A30) and GB100 (B100, B200): graphics on a few TPCs.
-  static const std::regex dataCentre(R"(\b(G?H(100|200|800|20)|A(100|800|30)|G?B(100|200))\b)");
-  return renderer && std::regex_search(renderer, dataCentre) ? AddressRaster::Compute : AddressRaster::Fragment;
+  return render::fewGraphicsUnits(renderer) ? AddressRaster::Compute : AddressRaster::Fragment;
 }
 
 const char* pathName(Path p) {
@@ -167,7 +168,7 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
-  std::vector<std::map<int, render::Texture2D>> scratch{2};  // per slot and resolution
+  std::vector<std::map<int, render::Texture2D>> scratch{2};                       // per slot and resolution
   render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per slot
   render::Buffer stats;
   int statsCapacity = 0, statsUsed = 0, statsRead = -1;
@@ -269,8 +270,7 @@ std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::
     const float half = 0.5f;
     glClearTexImage(maps->height.id(), 0, GL_RED, GL_FLOAT, &half);
   }
-  impl_->commit.normals(*maps, resolution, bumpDepth / (2 * texelSize), {0, 0},
-                        {resolution - 1, resolution - 1});
+  impl_->commit.normals(*maps, resolution, bumpDepth / (2 * texelSize), {0, 0}, {resolution - 1, resolution - 1});
   return maps;
 }
 
@@ -279,7 +279,7 @@ void Deformer::regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi) {
 }
 
 Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, int slot, const DeformBody& x,
-                                               const DeformBody& other, const DeformRequest& rq, double depth) {
+                                              const DeformBody& other, const DeformRequest& rq, double depth) {
   SidePlan p;
   p.active = true;
   p.x = &x;
@@ -314,8 +314,7 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   return p;
 }
 
-void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SidePlan>& p,
-                                 std::vector<char>& rimsMade) {
+void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SidePlan>& p, std::vector<char>& rimsMade) {
   // Stage by stage over all sides (different targets): one barrier a stage for all of them.
   const int n = static_cast<int>(p.size());
   if (raster == AddressRaster::Compute) {
@@ -404,7 +403,8 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
     gatherSlots(o, plans, rimsMade);
   } else {  // waves of one event
     for (int slot = 0; slot < slots; ++slot)
-      if (plans[static_cast<size_t>(slot)].active) rimsMade[static_cast<size_t>(slot)] = paperSide(o, plans[static_cast<size_t>(slot)]);
+      if (plans[static_cast<size_t>(slot)].active)
+        rimsMade[static_cast<size_t>(slot)] = paperSide(o, plans[static_cast<size_t>(slot)]);
   }
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
   // Commit every side only now, so that neither side of an event saw the other's new dent (stage by stage).

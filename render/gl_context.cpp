@@ -13,6 +13,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <regex>
 #include <vector>
 
 #include "core/log.h"
@@ -138,6 +139,11 @@ std::string currentRendererString() {
   return std::string(renderer ? renderer : "?") + ", GL " + (version ? version : "?");
 }
 
+bool fewGraphicsUnits(const char* renderer) {
+  static const std::regex dataCentre(R"(\b(G?H(100|200|800|20)|A(100|800|30)|G?B(100|200))\b)");
+  return renderer && std::regex_search(renderer, dataCentre);
+}
+
 void installDebugOutput() {
   if (!epoxy_has_gl_extension("GL_KHR_debug") && epoxy_gl_version() < 43) return;
   glEnable(GL_DEBUG_OUTPUT);
@@ -200,7 +206,8 @@ std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options)
     }
     int hardware = 0;
     for (EGLint i = 0; i < count; ++i) {
-      const char* devExt = queryDeviceString ? queryDeviceString(devices[static_cast<size_t>(i)], EGL_EXTENSIONS) : nullptr;
+      const char* devExt =
+          queryDeviceString ? queryDeviceString(devices[static_cast<size_t>(i)], EGL_EXTENSIONS) : nullptr;
       if (hasExtension(devExt, "EGL_MESA_device_software")) continue;
       if (hardware++ != wanted) continue;
       EGLDisplay display = getPlatformDisplay(EGL_PLATFORM_DEVICE_EXT, devices[static_cast<size_t>(i)], nullptr);
@@ -208,9 +215,10 @@ std::unique_ptr<GlContext> createHeadlessContext(const HeadlessOptions& options)
         return c;
       throw ContextError("EGL device " + std::to_string(wanted) + " gave no OpenGL 4.5 core context:" + reasons);
     }
-    throw ContextError("EGL device " + std::to_string(wanted) + " asked for, but there " +
-                       (hardware == 1 ? "is 1 hardware EGL device" : "are " + std::to_string(hardware) + " hardware EGL devices") +
-                       " (counting from 0)");
+    throw ContextError(
+        "EGL device " + std::to_string(wanted) + " asked for, but there " +
+        (hardware == 1 ? "is 1 hardware EGL device" : "are " + std::to_string(hardware) + " hardware EGL devices") +
+        " (counting from 0)");
   }
 
   // A real GPU through the device platform, skipping Mesa's software device.

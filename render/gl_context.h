@@ -68,5 +68,9 @@ class WindowContext : public GlContext {
 void installDebugOutput();
 // GL_RENDERER / GL_VERSION of the current context.
 std::string currentRendererString();
+// Whether a GL_RENDERER string names a GPU whose graphics stages (vertex, fragment, raster) run on a few of its
+// multiprocessors, where compute shaders do such work many times faster: NVIDIA's GH100 (H100, H200, H800, H20),
+// GA100 (A100, A800, A30) and GB100 (B100, B200). The address raster's and the renderer's Auto choose by it.
+bool fewGraphicsUnits(const char* renderer);
 
 }  // namespace crumple::render

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <regex>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
 #include "render/capture.h"
+#include "render/gl_context.h"
 #include "render/look.h"
 
 namespace crumple::render {
@@ -24,7 +24,7 @@ std::string withDefines(std::string_view source, const std::string& defines) {
   return std::string(source.substr(0, eol)) + defines + "#line 2\n" + std::string(source.substr(eol));
 }
 constexpr int kShadowSize = 2048;
-constexpr int kEnvSize = 64, kEnvLevels = 7;            // the sky as rendered, mipmapped
+constexpr int kEnvSize = 64, kEnvLevels = 7;              // the sky as rendered, mipmapped
 constexpr int kPrefilterSize = 64, kPrefilterLevels = 5;  // roughness 0, 0.25, .. 1
 constexpr int kIrradianceSize = 16, kLutSize = 64;
 
@@ -69,15 +69,11 @@ glm::ivec4 screenRect(const glm::mat4& mvp, const glm::vec3& lo, const glm::vec3
     a = glm::min(a, p);
     b = glm::max(b, p);
   }
-  const int x0 = std::clamp(static_cast<int>(std::floor(a.x)) - 1, 0, w), y0 = std::clamp(static_cast<int>(std::floor(a.y)) - 1, 0, h);
-  const int x1 = std::clamp(static_cast<int>(std::ceil(b.x)) + 1, 0, w), y1 = std::clamp(static_cast<int>(std::ceil(b.y)) + 1, 0, h);
+  const int x0 = std::clamp(static_cast<int>(std::floor(a.x)) - 1, 0, w),
+            y0 = std::clamp(static_cast<int>(std::floor(a.y)) - 1, 0, h);
+  const int x1 = std::clamp(static_cast<int>(std::ceil(b.x)) + 1, 0, w),
+            y1 = std::clamp(static_cast<int>(std::ceil(b.y)) + 1, 0, h);
   return {x0, y0, x1 - x0, y1 - y0};
-}
-// Whether GL_RENDERER names a GPU whose graphics stages run on a few of its multiprocessors: NVIDIA's GH100 (H100,
-// H200, H800, H20), GA100 (A100, A800, A30) and GB100 (B100, B200).
-bool fewGraphicsUnitsIn(const char* renderer) {
-  static const std::regex dataCentre(R"(\b(G?H(100|200|800|20)|A(100|800|30)|G?B(100|200))\b)");
-  return renderer && std::regex_search(renderer, dataCentre);
 }
 // True when the box lo..hi (model frame) lies wholly outside one plane of the clip volume of `mvp`:
 // the item can draw no pixel (a conservative test: boxes across a corner of the frustum are kept).
@@ -208,10 +204,10 @@ struct PomFeatures {
 
 struct Renderer::Impl {
   std::vector<std::pair<float, size_t>> drawOrder;  // the items' drawing order of the last frame (front to back)
-  std::vector<size_t> visible;  // the items drawn this frame, in that order
+  std::vector<size_t> visible;                      // the items drawn this frame, in that order
   // Shading from a visibility buffer (RendererSettings::shading): the pass's programs and targets; Auto picks it
   // on GPUs with few graphics units.
-  bool fewGraphicsUnits = fewGraphicsUnitsIn(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  bool fewGraphicsUnits = render::fewGraphicsUnits(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
   Program visibility = program("visibility.vert", "visibility.frag");
   std::map<uint32_t, Program> pomComputeVariants;
   Texture2D visibilityIds{1, 1, GL_RG32UI};
@@ -596,8 +592,9 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     const glm::vec3 c = glm::vec3(items[i].model * glm::vec4(0.5f * (items[i].boundsMin + items[i].boundsMax), 1.0f));
     order[i] = {glm::dot(c - view.eye, c - view.eye), i};
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [](const std::pair<float, size_t>& a, const std::pair<float, size_t>& b) { return a.first < b.first; });
+  std::stable_sort(
+      order.begin(), order.end(),
+      [](const std::pair<float, size_t>& a, const std::pair<float, size_t>& b) { return a.first < b.first; });
   // The items to draw, in that order, and how: culled ones dropped.
   std::vector<size_t>& visible = m.visible;
   visible.clear();
@@ -644,7 +641,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   };
   // Shading in compute from a visibility buffer (RendererSettings::shading): the shaded view with FXAA, no
   // displaced item, every item's vertices in GpuMesh's layout.
-  bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && fxaa && s.debug == DebugView::Shaded && !anyDisplaced;
+  bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && fxaa &&
+                 s.debug == DebugView::Shaded && !anyDisplaced;
   for (size_t i = 0; compute && i < visible.size(); ++i) compute = m.meshBuffers(items[visible[i]].vao).vertices != 0;
   stats_.computeShaded = compute;
   if (compute) {

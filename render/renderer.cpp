@@ -643,7 +643,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   // displaced item, every item's vertices in GpuMesh's layout.
   bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && fxaa &&
                  s.debug == DebugView::Shaded && !anyDisplaced;
-  for (size_t i = 0; compute && i < visible.size(); ++i) compute = m.meshBuffers(items[visible[i]].vao).vertices != 0;
+  for (size_t i = 0; compute && i < visible.size(); ++i) compute = m.meshBuffers(itemVao(items[visible[i]], s)).vertices != 0;
   stats_.computeShaded = compute;
   if (compute) {
     // The visibility pass: the item and triangle nearest at each pixel, into the frame's depth.
@@ -658,8 +658,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       const glm::mat4 mvp = vp * it.model;
       glUniformMatrix4fv(m.visibility.uniform("uModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
       glUniform1ui(m.visibility.uniform("uItem"), static_cast<GLuint>(index));
-      glBindVertexArray(it.vao);
-      glDrawElements(GL_TRIANGLES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+      glBindVertexArray(itemVao(it, s));  // the simplified mesh where the settings ask for it
+      glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
     }
     // Each item's pixels shaded over its rectangle on screen.
     const glm::mat4 inverseVp = glm::inverse(vp);
@@ -680,7 +680,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       if (rect.z <= 0 || rect.w <= 0) continue;
       glUniform1ui(p.uniform("uItem"), static_cast<GLuint>(index));
       glUniform4iv(p.uniform("uRect"), 1, glm::value_ptr(rect));
-      const Impl::MeshBuffers b = m.meshBuffers(it.vao);
+      const Impl::MeshBuffers b = m.meshBuffers(itemVao(it, s));
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, b.vertices);
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, b.indices);
       glDispatchCompute(static_cast<GLuint>((rect.z + 7) / 8), static_cast<GLuint>((rect.w + 7) / 8), 1);

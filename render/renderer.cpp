@@ -643,7 +643,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   // displaced item, every item's vertices in GpuMesh's layout.
   bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && fxaa &&
                  s.debug == DebugView::Shaded && !anyDisplaced;
-  for (size_t i = 0; compute && i < visible.size(); ++i) compute = m.meshBuffers(itemVao(items[visible[i]], s)).vertices != 0;
+  for (size_t i = 0; compute && i < visible.size(); ++i)
+    compute = m.meshBuffers(itemVao(items[visible[i]], s)).vertices != 0;
   stats_.computeShaded = compute;
   if (compute) {
     // The visibility pass: the item and triangle nearest at each pixel, into the frame's depth.

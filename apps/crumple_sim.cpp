@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
   app.add_option("--shading", shading,
                  "Where the rendered frames' pixels are shaded: auto (default: compute on GPUs whose graphics stages "
                  "run on a few multiprocessors, such as NVIDIA's H100, else fragment), fragment (as the items are "
-                 "drawn) or compute (from a visibility buffer, once a pixel; with FXAA and no displacement)")
+                 "drawn) or compute (from a visibility buffer, once a pixel; not with MSAA or displacement)")
       ->check(CLI::IsMember({"auto", "fragment", "compute"}))
       ->capture_default_str();
   app.add_option("--fps", fps, "Frames per simulated second for --render")

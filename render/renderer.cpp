@@ -446,7 +446,15 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   const bool fxaa = s.antialias == Antialias::Fxaa && s.debug == DebugView::Shaded;
   const bool msaa = s.antialias == Antialias::Msaa && s.debug == DebugView::Shaded;
   stats_ = {};
-  const GLuint target = fxaa ? m.sceneFbo.id() : msaa ? m.multisampled(width_, height_) : finalTarget;
+  // Shading in compute from a visibility buffer (RendererSettings::shading): the shaded view without MSAA, no
+  // displaced item, every item's vertices in GpuMesh's layout. It writes sceneColor: FXAA filters it into the
+  // target, or without antialiasing a blit copies it there.
+  bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && !msaa &&
+                 s.debug == DebugView::Shaded;
+  for (size_t i = 0; compute && i < items.size(); ++i)
+    compute = !((s.displace || view.displace) && items[i].height) && m.meshBuffers(itemVao(items[i], s)).vertices != 0;
+  stats_.computeShaded = compute;
+  const GLuint target = fxaa || compute ? m.sceneFbo.id() : msaa ? m.multisampled(width_, height_) : finalTarget;
   // Fit the sun's orthographic frustum around everything.
   glm::vec3 lo(1e30f), hi(-1e30f);
   for (const auto& it : items) {
@@ -598,7 +606,6 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   // The items to draw, in that order, and how: culled ones dropped.
   std::vector<size_t>& visible = m.visible;
   visible.clear();
-  bool anyDisplaced = false;
   for (const auto& [distance, index] : order) {
     const RenderItem& it = items[index];
     const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
@@ -609,7 +616,6 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       continue;
     }
     ++stats_.drawn;
-    anyDisplaced = anyDisplaced || displaced;
     visible.push_back(index);
   }
   // The item's own uniforms and maps, in either path's program.
@@ -639,13 +645,6 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     f.displaced = displaced;
     return f;
   };
-  // Shading in compute from a visibility buffer (RendererSettings::shading): the shaded view with FXAA, no
-  // displaced item, every item's vertices in GpuMesh's layout.
-  bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && fxaa &&
-                 s.debug == DebugView::Shaded && !anyDisplaced;
-  for (size_t i = 0; compute && i < visible.size(); ++i)
-    compute = m.meshBuffers(itemVao(items[visible[i]], s)).vertices != 0;
-  stats_.computeShaded = compute;
   if (compute) {
     // The visibility pass: the item and triangle nearest at each pixel, into the frame's depth.
     m.visibilityFbo.bind();
@@ -732,6 +731,9 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   mark("sky");
   if (fxaa) m.antialias(finalTarget, width_, height_);
   if (msaa) m.resolve(finalTarget, width_, height_);
+  if (compute && !fxaa)  // sRGB decoded and encoded again (as the fragment stage's writes into the target are)
+    glBlitNamedFramebuffer(m.sceneFbo.id(), finalTarget, 0, 0, width_, height_, 0, 0, width_, height_,
+                           GL_COLOR_BUFFER_BIT, GL_NEAREST);
   mark("antialias");
   glDisable(GL_FRAMEBUFFER_SRGB);
 }

@@ -109,7 +109,7 @@ struct RendererSettings {
   // Draw items' simplified meshes where they have one (RenderItem::simplifiedVao): the interactive sandbox's
   // fast path on software GL; batch renders keep the full meshes.
   bool simplified = false;
-  // Where the shaded view's pixels are shaded (with FXAA, no displaced item): Forward, in the fragment stage as
+  // Where the shaded view's pixels are shaded (without MSAA, no displaced item): Forward, in the fragment stage as
   // the items are drawn; Compute, from a visibility buffer (the items drawn with positions alone, the item and
   // triangle nearest at each pixel), by compute shaders running pom.frag's code (pom_shade.comp), once a pixel;
   // Auto: Compute on GPUs whose graphics stages run on a few multiprocessors (NVIDIA's H100, H200, A100, B200

@@ -606,11 +606,22 @@ TEST_CASE("shading from a visibility buffer in compute gives the fragment stage'
     // Repeatable bit for bit.
     compute.draw(items, view);
     CHECK(fractionOff(b, compute.readPixels()) == 0.0);
-    // With simplified meshes (the sandbox's setting) both draw the same triangles.
+    // With simplified meshes (the sandbox's setting) both draw the same triangles; without antialiasing the
+    // compute path's frame is copied into the target.
     forward.settings().simplified = compute.settings().simplified = true;
     forward.draw(items, view);
     compute.draw(items, view);
     REQUIRE(compute.stats().computeShaded);
     CHECK(fractionOff(forward.readPixels(), compute.readPixels()) < 0.01);
+    forward.settings().antialias = compute.settings().antialias = Antialias::None;
+    forward.draw(items, view);
+    compute.draw(items, view);
+    REQUIRE(compute.stats().computeShaded);
+    const double offPlain = fractionOff(forward.readPixels(), compute.readPixels());
+    MESSAGE("  no antialiasing: " << offPlain * 100 << "% of pixels off by more than 5/255");
+    CHECK(offPlain < 0.01);
+    compute.settings().antialias = Antialias::Msaa;  // MSAA stays in the fragment stage
+    compute.draw(items, view);
+    CHECK_FALSE(compute.stats().computeShaded);
   }
 }

@@ -129,23 +129,15 @@ struct ShadowCache {
   glm::ivec4 dirty{0, 0, kShadowSize, kShadowSize};
   // The texels the items not in `still` may cover (their bounds' light-space box, a texel of margin).
   glm::ivec4 moversRect(const std::vector<RenderItem>& items, const glm::mat4& vp) const {
-    glm::vec2 lo(1e30f), hi(-1e30f);
+    glm::ivec4 u{kShadowSize, kShadowSize, 0, 0};
     for (size_t i = 0; i < items.size(); ++i) {
       if (casters[i].still) continue;
-      const RenderItem& it = items[i];
-      for (int c = 0; c < 8; ++c) {
-        const glm::vec3 p(c & 1 ? it.boundsMax.x : it.boundsMin.x, c & 2 ? it.boundsMax.y : it.boundsMin.y,
-                          c & 4 ? it.boundsMax.z : it.boundsMin.z);
-        const glm::vec4 q = vp * it.model * glm::vec4(p, 1);
-        const glm::vec2 t = (glm::vec2(q) / q.w * 0.5f + 0.5f) * float(kShadowSize);
-        lo = glm::min(lo, t);
-        hi = glm::max(hi, t);
-      }
+      const glm::ivec4 r =
+          screenRect(vp * items[i].model, items[i].boundsMin, items[i].boundsMax, kShadowSize, kShadowSize);
+      if (r.z <= 0 || r.w <= 0) continue;
+      u = {std::min(u.x, r.x), std::min(u.y, r.y), std::max(u.z, r.x + r.z), std::max(u.w, r.y + r.w)};
     }
-    if (!(lo.x <= hi.x)) return {0, 0, 0, 0};
-    const glm::ivec2 a = glm::clamp(glm::ivec2(glm::floor(lo)) - 1, 0, kShadowSize);
-    const glm::ivec2 b = glm::clamp(glm::ivec2(glm::ceil(hi)) + 1, 0, kShadowSize);
-    return {a.x, a.y, std::max(a.x, b.x), std::max(a.y, b.y)};
+    return u.z > u.x ? u : glm::ivec4(0);
   }
   Texture2D still{kShadowSize, kShadowSize, GL_DEPTH_COMPONENT32F};
   Framebuffer stillFbo;
@@ -235,6 +227,7 @@ struct Renderer::Impl {
     if (buffer == 0 || elements == 0 || stride != 17 * static_cast<GLint>(sizeof(float)) || offset != 0) return {};
     return {static_cast<GLuint>(buffer), static_cast<GLuint>(elements)};
   }
+  std::vector<MeshBuffers> itemBuffers;  // this frame's, by item (compute shading)
   // The main pass's programs, one per combination of features, made on first use (a handful per scene).
   std::map<uint32_t, Program> pomVariants;
   const Program& pom(const PomFeatures& f) {
@@ -451,8 +444,12 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   // target, or without antialiasing a blit copies it there.
   bool compute = (s.shading == Shading::Compute || (s.shading == Shading::Auto && m.fewGraphicsUnits)) && !msaa &&
                  s.debug == DebugView::Shaded;
-  for (size_t i = 0; compute && i < items.size(); ++i)
-    compute = !((s.displace || view.displace) && items[i].height) && m.meshBuffers(itemVao(items[i], s)).vertices != 0;
+  std::vector<Impl::MeshBuffers>& buffers = m.itemBuffers;  // each item's, asked of GL once a frame
+  buffers.clear();
+  for (size_t i = 0; compute && i < items.size(); ++i) {
+    buffers.push_back(m.meshBuffers(itemVao(items[i], s)));
+    compute = !((s.displace || view.displace) && items[i].height) && buffers.back().vertices != 0;
+  }
   stats_.computeShaded = compute;
   const GLuint target = fxaa || compute ? m.sceneFbo.id() : msaa ? m.multisampled(width_, height_) : finalTarget;
   // Fit the sun's orthographic frustum around everything.
@@ -680,7 +677,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       if (rect.z <= 0 || rect.w <= 0) continue;
       glUniform1ui(p.uniform("uItem"), static_cast<GLuint>(index));
       glUniform4iv(p.uniform("uRect"), 1, glm::value_ptr(rect));
-      const Impl::MeshBuffers b = m.meshBuffers(itemVao(it, s));
+      const Impl::MeshBuffers& b = buffers[index];
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, b.vertices);
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, b.indices);
       glDispatchCompute(static_cast<GLuint>((rect.z + 7) / 8), static_cast<GLuint>((rect.w + 7) / 8), 1);

@@ -13,6 +13,22 @@ using namespace crumple;
 using namespace crumple::test;
 using doctest::Approx;
 
+namespace {
+// Steps `w` `steps` times at 240 Hz: the largest distance a body of `ids` moved from `start`, and when every body
+// was first asleep (-1: never).
+std::pair<double, double> settle(World& w, const std::vector<int>& ids, const std::vector<glm::dvec3>& start,
+                                 int steps) {
+  double asleepAt = -1;
+  for (int s = 1; s <= steps; ++s) {
+    w.step(1.0 / 240);
+    if (asleepAt < 0 && w.lastStats().awake == 0) asleepAt = s / 240.0;
+  }
+  double drift = 0;
+  for (size_t k = 0; k < ids.size(); ++k) drift = std::max(drift, glm::length(w.body(ids[k]).x - start[k]));
+  return {drift, asleepAt};
+}
+}  // namespace
+
 TEST_CASE("a 10-level box pyramid stands for 10 s with drift under 1 cm, sleeping or not") {
   for (bool sleeping : {true, false}) {
     CAPTURE(sleeping);
@@ -150,13 +166,7 @@ TEST_CASE("a running-bond wall (each block half on two below) of six courses sta
       start.push_back(w.body(ids.back()).x);
     }
   }
-  double asleepAt = -1;
-  for (int s = 1; s <= 600; ++s) {
-    w.step(1.0 / 240);
-    if (asleepAt < 0 && w.lastStats().awake == 0) asleepAt = s / 240.0;
-  }
-  double drift = 0;
-  for (size_t k = 0; k < ids.size(); ++k) drift = std::max(drift, glm::length(w.body(ids[k]).x - start[k]));
+  const auto [drift, asleepAt] = settle(w, ids, start, 600);
   MESSAGE("running-bond wall: drift " << drift << " m, asleep at " << asleepAt << " s");
   CHECK(drift < 0.01);
   CHECK(asleepAt > 0);
@@ -202,13 +212,7 @@ TEST_CASE("a running-bond wall with a door under a lintel stands and falls aslee
   }
   REQUIRE(ids.size() == 68);
   REQUIRE(lintel >= 0);
-  double asleepAt = -1;
-  for (int s = 1; s <= 1200; ++s) {
-    w.step(1.0 / 240);
-    if (asleepAt < 0 && w.lastStats().awake == 0) asleepAt = s / 240.0;
-  }
-  double drift = 0;
-  for (size_t k = 0; k < ids.size(); ++k) drift = std::max(drift, glm::length(w.body(ids[k]).x - start[k]));
+  const auto [drift, asleepAt] = settle(w, ids, start, 1200);
   MESSAGE("wall with a door: drift " << drift << " m, asleep at " << asleepAt << " s, lintel turned "
                                      << glm::angle(w.body(lintel).q) << " rad");
   CHECK(drift < 0.01);

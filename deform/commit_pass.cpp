@@ -15,6 +15,7 @@ CommitPass::CommitPass()
   dSide_ = dispatch_.uniform("uSide");
   dResolution_ = dispatch_.uniform("uResolution");
   dGrow_ = dispatch_.uniform("uGrow");
+  dTile_ = dispatch_.uniform("uTile");
   cSide_ = commit_.uniform("uSide");
   cStatsIndex_ = commit_.uniform("uStatsIndex");
   cBumpDepth_ = commit_.uniform("uBumpDepth");
@@ -27,7 +28,7 @@ CommitPass::CommitPass()
 void CommitPass::reserve(size_t sides) {
   if (sides <= sides_) return;
   sides_ = std::max<size_t>(sides, 2);
-  indirect_ = render::Buffer(sides_ * 6 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  indirect_ = render::Buffer(sides_ * kIndirect * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
   normalRegion_ = render::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
 }
 
@@ -47,6 +48,7 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
     glUniform1i(dSide_, side);
     glUniform1i(dResolution_, s.x->resolution());
     glUniform1i(dGrow_, s.rim ? 1 : 0);
+    glUniform1i(dTile_, SurfaceMaps::kBoundTile);
     glDispatchCompute(1, 1, 1);
   }
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
@@ -63,7 +65,7 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
     glUniform1i(cSide_, side);
     glUniform1i(cStatsIndex_, s.statsIndex);
     glUniform1f(cBumpDepth_, s.x->bumpDepth());
-    glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint));
+    glDispatchComputeIndirect(static_cast<GLintptr>(side) * kIndirect * sizeof(GLuint));
   }
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("commit");
@@ -79,7 +81,7 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
     glUniform4i(nFullRegion_, 0, 0, -1, -1);
     glUniform1i(nResolution_, s.x->resolution());
     glUniform1f(nSlopeScale_, s.x->bumpDepth() / (2 * s.x->texelSize()));
-    glDispatchComputeIndirect(static_cast<GLintptr>(side) * 6 * sizeof(GLuint) + 3 * sizeof(GLuint));
+    glDispatchComputeIndirect(static_cast<GLintptr>(side * kIndirect + 3) * sizeof(GLuint));
   }
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
@@ -115,11 +117,18 @@ void CommitPass::bounds(const std::vector<const SurfaceMaps*>& maps, int side, g
       glUniform1i(bound_.uniform("uResolution"), resolution);
       glBindImageTexture(1, m->bound.id(), level, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
       glBindImageTexture(2, m->bound.id(), std::max(level - 1, 0), GL_FALSE, 0, GL_READ_ONLY, GL_R32F);
-      // A region known here is dispatched over its tiles; the commit's (on the GPU) over the whole level, the
-      // invocations outside it returning at once.
-      const int span = SurfaceMaps::kBoundTile << level, size = m->bound.width() >> level;
-      const int nx = side < 0 ? hi.x / span - lo.x / span + 1 : size, ny = side < 0 ? hi.y / span - lo.y / span + 1 : size;
-      glDispatchCompute(static_cast<GLuint>((nx + 7) / 8), static_cast<GLuint>((ny + 7) / 8), 1);
+      // A region known here is dispatched over its tiles; the commit's (on the GPU, level 0 only) indirectly, as
+      // region_dispatch.comp sized it. Level 0 takes a workgroup a bound texel, the levels above 8 x 8 texels.
+      if (side >= 0) {
+        glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, indirect_.id());
+        glDispatchComputeIndirect(static_cast<GLintptr>(k * kIndirect + 6) * sizeof(GLuint));
+        glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
+        continue;
+      }
+      const int span = SurfaceMaps::kBoundTile << level;
+      const int nx = hi.x / span - lo.x / span + 1, ny = hi.y / span - lo.y / span + 1;
+      const int per = level == 0 ? 1 : 8;
+      glDispatchCompute(static_cast<GLuint>((nx + per - 1) / per), static_cast<GLuint>((ny + per - 1) / per), 1);
     }
     glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   }

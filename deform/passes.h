@@ -214,11 +214,12 @@ class CommitPass {
   void bounds(const std::vector<const SurfaceMaps*>& maps, int side, glm::ivec2 lo, glm::ivec2 hi);
   void reserve(size_t sides);
   render::Program dispatch_, commit_, normals_, bound_, boundUp_;
-  GLint dSide_, dResolution_, dGrow_;
+  GLint dSide_, dResolution_, dGrow_, dTile_;
+  static constexpr int kIndirect = 9;  // uints a side: the commit's, the normals' and level 0 of the bound's dispatch
   GLint cSide_, cStatsIndex_, cBumpDepth_;
   GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;
   size_t sides_ = 0;
-  render::Buffer indirect_, normalRegion_;  // per side: 6 uints; an ivec4
+  render::Buffer indirect_, normalRegion_;  // per side: kIndirect uints; an ivec4
 };
 
 }  // namespace crumple::deform

@@ -17,16 +17,13 @@ AddressPasses::AddressPasses(int size)
     : program_(addressProgram()),
       bin_(computeProgram("address_bin.comp")),
       raster_(computeProgram("address_raster.comp")) {
-  bMvp_ = bin_.uniform("uModelViewProjection");
   bSize_ = bin_.uniform("uSize");
-  bTriangles_ = bin_.uniform("uTriangles");
   bCapacity_ = bin_.uniform("uCapacity");
-  bReach_ = bin_.uniform("uReach");
+  bFirst_ = bin_.uniform("uFirst");
   rSize_ = raster_.uniform("uSize");
-  rTriangles_ = raster_.uniform("uTriangles");
   rCapacity_ = raster_.uniform("uCapacity");
-  rBumpToDepth_ = raster_.uniform("uBumpToDepth");
   rMode_ = raster_.uniform("uMode");
+  rFirst_ = raster_.uniform("uFirst");
   uMvp_ = program_.uniform("uModelViewProjection");
   uNormalToWorld_ = program_.uniform("uNormalToWorld");
   uSign_ = program_.uniform("uSign");
@@ -38,11 +35,6 @@ AddressPasses::AddressPasses(int size)
 
 void AddressPasses::resize(int n) {
   size_ = n;
-  const int slots = std::max(2, static_cast<int>(addressO_.size()));
-  addressO_.clear();
-  depthO_.clear();
-  bins_.clear();
-  for (int s = 0; s < slots; ++s) makeSlot();
   for (int s = 0; s < 2; ++s) {
     addressX_[s] = render::Texture2D(n, n, GL_RG32F);
     depthX_[s] = render::Texture2D(n, n, GL_R32F);
@@ -57,14 +49,8 @@ void AddressPasses::resize(int n) {
     const GLenum bufsX[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
     glNamedFramebufferDrawBuffers(fboX_[s].id(), 3, bufsX);
     fboX_[s].checkComplete();
-    fboO_[s] = render::Framebuffer();
-    fboO_[s].attachColor(addressO_[s], 0);
-    fboO_[s].attachColor(depthO_[s], 1);
-    fboO_[s].attachDepth(depthBuffer_[s]);
-    const GLenum bufsO[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-    glNamedFramebufferDrawBuffers(fboO_[s].id(), 2, bufsO);
-    fboO_[s].checkComplete();
   }
+  makeSlots(std::max(2, slots()));
 }
 
 size_t AddressPasses::slotBytes(int n) {
@@ -72,23 +58,41 @@ size_t AddressPasses::slotBytes(int n) {
   return pixels * (8 + 4) + pixels / (kTile * kTile) * (kTileCapacity + 2) * sizeof(GLuint);
 }
 
-void AddressPasses::makeSlot() {
+size_t AddressPasses::tiles() const {
+  const size_t side = static_cast<size_t>((size_ + kTile - 1) / kTile);
+  return side * side;
+}
+
+void AddressPasses::makeSlots(int slots) {
   const int n = size_;
-  addressO_.emplace_back(n, n, GL_RG32F);
-  depthO_.emplace_back(n, n, GL_R32F);
-  addressO_.back().setFilter(GL_NEAREST, GL_NEAREST);
-  depthO_.back().setFilter(GL_NEAREST, GL_NEAREST);
-  const size_t tiles = static_cast<size_t>((n + kTile - 1) / kTile) * static_cast<size_t>((n + kTile - 1) / kTile);
-  Bins b;
-  b.tiles = tiles;
-  b.count = render::Buffer((tiles + 6) * sizeof(GLuint), nullptr);  // Bins: what it holds
-  b.list = render::Buffer(tiles * kTileCapacity * sizeof(GLuint), nullptr);
-  b.active = render::Buffer(tiles * sizeof(GLuint), nullptr);
-  bins_.push_back(std::move(b));
+  addressArray_ = render::TextureArray(n, n, slots, GL_RG32F);
+  depthArray_ = render::TextureArray(n, n, slots, GL_R32F);
+  addressO_.clear();
+  depthO_.clear();
+  for (int s = 0; s < slots; ++s) {
+    addressO_.push_back(render::Texture2D::layerView(addressArray_, s));
+    depthO_.push_back(render::Texture2D::layerView(depthArray_, s));
+    addressO_.back().setFilter(GL_NEAREST, GL_NEAREST);
+    depthO_.back().setFilter(GL_NEAREST, GL_NEAREST);
+  }
+  held_.assign(static_cast<size_t>(slots), Held::Unknown);
+  const size_t t = tiles(), k = static_cast<size_t>(slots);
+  count_ = render::Buffer(k * countStride() * sizeof(GLuint), nullptr);
+  list_ = render::Buffer(k * t * kTileCapacity * sizeof(GLuint), nullptr);
+  active_ = render::Buffer(k * t * sizeof(GLuint), nullptr);
+  for (int s = 0; s < 2; ++s) {  // the fragment stage's pass B draws into slots 0 and 1
+    fboO_[s] = render::Framebuffer();
+    fboO_[s].attachColor(addressO_[static_cast<size_t>(s)], 0);
+    fboO_[s].attachColor(depthO_[static_cast<size_t>(s)], 1);
+    fboO_[s].attachDepth(depthBuffer_[s]);
+    const GLenum bufsO[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(fboO_[s].id(), 2, bufsO);
+    fboO_[s].checkComplete();
+  }
 }
 
 void AddressPasses::reserveSlots(int slots) {
-  while (static_cast<int>(addressO_.size()) < slots) makeSlot();
+  if (slots > this->slots()) makeSlots(std::max(slots, 2 * this->slots()));
 }
 
 void AddressPasses::draw(const DeformBody& body, const glm::dmat4& vp, const glm::dmat4& model, float sign,
@@ -140,7 +144,7 @@ void AddressPasses::drawOther(int side, const DeformBody& other, const glm::dmat
   glViewport(0, 0, size_, size_);
   program_.use();
   fboO_[side].bind();
-  bins_[side].held = Held::Unknown;
+  held_[static_cast<size_t>(side)] = Held::Unknown;
   glClearNamedFramebufferfv(fboO_[side].id(), GL_COLOR, 0, kNoAddress);
   glClearNamedFramebufferfv(fboO_[side].id(), GL_COLOR, 1, &kOne);
   if (alone) glClearNamedFramebufferfv(fboO_[side].id(), GL_DEPTH, 0, &kZero);
@@ -152,84 +156,129 @@ void AddressPasses::drawOther(int side, const DeformBody& other, const glm::dmat
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
-void AddressPasses::binOther(int side, const DeformBody& other, const glm::dmat4& vp, const glm::dmat4& model,
-                             float reach) {
-  const GpuMesh& mesh = *other.mesh;
-  const int triangles = mesh.indexCount / 3;
-  Bins& b = bins_[side];
-  const size_t setupBytes = static_cast<size_t>(std::max(triangles, 1)) * 6 * 4 * sizeof(float);
-  if (b.setup.size() < setupBytes) {
-    b.setup = render::Buffer(std::max(setupBytes, 2 * b.setup.size()), nullptr);
-    b.large = render::Buffer(b.setup.size() / (6 * 4), nullptr);  // a uint a triangle
-  }
-  b.triangles = triangles;
-  if (b.held == Held::Tiles) b.held = Held::Unknown;  // the reset below loses which tiles the raster wrote
-  glClearNamedBufferData(b.count.id(), GL_R32UI, GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
-  if (triangles == 0) return;
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
-  b.bind();
-  bin_.use();
-  const glm::mat4 mvp = glm::mat4(vp * model);
-  glUniformMatrix4fv(bMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
-  glUniform1i(bSize_, size_);
-  glUniform1i(bTriangles_, triangles);
-  glUniform1i(bCapacity_, kTileCapacity);
-  glUniform1f(bReach_, reach);
-  constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
-  glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
-                    static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), 1);
-}
+namespace {
+// address_bin.comp's and address_raster.comp's Entry (std430): one side of the wave.
+struct Entry {
+  glm::mat4 mvp;
+  GLint slot, triangles;
+  GLuint setup;  // its first triangle's index into the wave's setups and large triangles
+  GLint group;   // its raster dispatch (kGroup sides each)
+  float reach, bumpToDepth;
+  GLint sampler;  // its height map's texture unit in that dispatch
+  GLint mode;     // the clear: 0 nothing, 1 the tiles its last raster listed, 2 every tile
+};
+static_assert(sizeof(Entry) == 96, "Entry must match the shaders' std430 layout");
+}  // namespace
 
-void AddressPasses::clearOther(int side) {
-  Bins& b = bins_[side];
-  if (b.held == Held::None) return;
-  b.bind();
+void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMark& phase) {
+  if (in.empty()) return;
+  // Entries in order of their mesh's first appearance (a bins dispatch a mesh); raster groups of kGroup in a row.
+  std::vector<const OtherPass*> order;
+  std::vector<const GpuMesh*> meshes;
+  for (const OtherPass& p : in)
+    if (std::find(meshes.begin(), meshes.end(), p.other->mesh) == meshes.end()) meshes.push_back(p.other->mesh);
+  for (const GpuMesh* m : meshes)
+    for (const OtherPass& p : in)
+      if (p.other->mesh == m) order.push_back(&p);
+  const int n = static_cast<int>(order.size()), groups = (n + kGroup - 1) / kGroup;
+  std::vector<Entry> entries(static_cast<size_t>(n));
+  GLuint setup = 0;
+  bool clears = false;
+  for (int e = 0; e < n; ++e) {
+    const OtherPass& p = *order[static_cast<size_t>(e)];
+    const Held h = held_[static_cast<size_t>(p.slot)];
+    entries[static_cast<size_t>(e)] = {glm::mat4(p.viewProjection * p.model), p.slot, p.other->mesh->indexCount / 3,
+                                       setup, e / kGroup, p.reach, p.bumpToDepth, e % kGroup,
+                                       h == Held::None ? 0 : h == Held::Tiles ? 1 : 2};
+    clears = clears || h != Held::None;
+    setup += static_cast<GLuint>(p.other->mesh->indexCount / 3);
+  }
+  const size_t setupBytes = std::max<size_t>(setup, 1) * 6 * 4 * sizeof(float);
+  if (setup_.size() < setupBytes) {
+    setup_ = render::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
+    large_ = render::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
+  }
+  if (entries_.size() < entries.size() * sizeof(Entry))
+    entries_ = render::Buffer(std::max(entries.size(), size_t(32)) * sizeof(Entry) * 2, nullptr);
+  entries_.upload(0, entries.size() * sizeof(Entry), entries.data());
+  std::vector<GLuint> args(static_cast<size_t>(groups) * 3);
+  for (int g = 0; g < groups; ++g) {
+    args[static_cast<size_t>(g) * 3 + 1] = 1;
+    args[static_cast<size_t>(g) * 3 + 2] = static_cast<GLuint>(std::min(kGroup, n - g * kGroup));
+  }
+  if (args_.size() < args.size() * sizeof(GLuint)) args_ = render::Buffer(args.size() * sizeof(GLuint) * 2, nullptr);
+  args_.upload(0, args.size() * sizeof(GLuint), args.data());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, list_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, active_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, args_.id());
+  glBindImageTexture(0, addressArray_.id(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_RG32F);
+  glBindImageTexture(1, depthArray_.id(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
   raster_.use();
   glUniform1i(rSize_, size_);
-  glUniform1i(rMode_, b.held == Held::Tiles ? 1 : 2);
-  glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
-  glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-  if (b.held == Held::Tiles) {  // the tiles the last raster wrote, as its lists still give them
-    glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, b.count.id());
-    glDispatchComputeIndirect(static_cast<GLintptr>((b.tiles + 2) * sizeof(GLuint)));
-    glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
-  } else {
-    glDispatchCompute(static_cast<GLuint>(std::min<size_t>(b.tiles, 65535)), 1, 1);
-  }
-  b.held = Held::None;
-}
-
-void AddressPasses::rasterOther(int side, const DeformBody& other, float bumpToDepth) {
-  Bins& b = bins_[side];
-  if (b.held != Held::None) {  // a caller that did not clear first (clearOther, then a barrier)
-    clearOther(side);
-    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-  }
-  b.bind();
-  raster_.use();
-  glUniform1i(rSize_, size_);
-  glUniform1i(rTriangles_, b.triangles);
   glUniform1i(rCapacity_, kTileCapacity);
-  glUniform1f(rBumpToDepth_, bumpToDepth);
+  if (clears) {  // "none" back where each side's last raster wrote (from its lists, before they are reset)
+    glUniform1i(rMode_, 1);
+    glUniform1i(rFirst_, 0);
+    glDispatchCompute(static_cast<GLuint>(std::min<size_t>(tiles(), 1024)), 1, static_cast<GLuint>(n));
+    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  }
+  // The sides' counts reset, slot runs in a row at once.
+  std::vector<int> slots;
+  for (const Entry& e : entries) slots.push_back(e.slot);
+  std::sort(slots.begin(), slots.end());
+  for (size_t a = 0; a < slots.size();) {
+    size_t b = a + 1;
+    while (b < slots.size() && slots[b] == slots[b - 1] + 1) ++b;
+    const size_t stride = countStride() * sizeof(GLuint);
+    glClearNamedBufferSubData(count_.id(), GL_R32UI, static_cast<GLintptr>(static_cast<size_t>(slots[a]) * stride),
+                              static_cast<GLsizeiptr>((b - a) * stride), GL_RED_INTEGER, GL_UNSIGNED_INT, nullptr);
+    a = b;
+  }
+  bin_.use();
+  glUniform1i(bSize_, size_);
+  glUniform1i(bCapacity_, kTileCapacity);
+  constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
+  for (int e = 0; e < n;) {
+    const GpuMesh& mesh = *order[static_cast<size_t>(e)]->other->mesh;
+    int f = e + 1;
+    while (f < n && order[static_cast<size_t>(f)]->other->mesh == &mesh) ++f;
+    const int triangles = mesh.indexCount / 3;
+    if (triangles > 0) {
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
+      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
+      glUniform1i(bFirst_, e);
+      glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
+                        static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), static_cast<GLuint>(f - e));
+    }
+    e = f;
+  }
+  phase("address bins");
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  raster_.use();
   glUniform1i(rMode_, 0);
-  glBindTextureUnit(0, other.surface ? other.surface->height().id() : flat_.id());
-  // The pixels of tiles with nothing to test keep "none" (what a tile with no triangle over a pixel writes
-  // there): clearOther put it back on the tiles written before; the raster runs over the active tiles only.
-  glBindImageTexture(0, addressO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG32F);
-  glBindImageTexture(1, depthO_[side].id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32F);
-  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, b.count.id());
-  glDispatchComputeIndirect(static_cast<GLintptr>((b.tiles + 2) * sizeof(GLuint)));
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args_.id());
+  for (int g = 0; g < groups; ++g) {
+    for (int e = g * kGroup; e < std::min(n, (g + 1) * kGroup); ++e) {
+      const DeformBody& other = *order[static_cast<size_t>(e)]->other;
+      glBindTextureUnit(static_cast<GLuint>(e - g * kGroup), other.surface ? other.surface->height().id() : flat_.id());
+    }
+    glUniform1i(rFirst_, g * kGroup);
+    glDispatchComputeIndirect(static_cast<GLintptr>(g) * 3 * sizeof(GLuint));
+  }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
-  b.held = Held::Tiles;
+  for (const Entry& e : entries) held_[static_cast<size_t>(e.slot)] = Held::Tiles;
 }
 
 std::pair<size_t, size_t> AddressPasses::tilesRun(int side) const {
-  const Bins& b = bins_[static_cast<size_t>(side)];
   GLuint tail[6] = {};
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-  glGetNamedBufferSubData(b.count.id(), static_cast<GLintptr>(b.tiles * sizeof(GLuint)), sizeof tail, tail);
-  return {tail[5] ? b.tiles : tail[1], b.tiles};
+  glGetNamedBufferSubData(count_.id(), static_cast<GLintptr>((static_cast<size_t>(side) * countStride() + tiles()) * sizeof(GLuint)),
+                          sizeof tail, tail);
+  return {tail[5] ? tiles() : tail[1], tiles()};
 }
 
 }  // namespace crumple::deform

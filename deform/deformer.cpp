@@ -318,16 +318,12 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
   // Stage by stage over all sides (different targets): one barrier a stage for all of them.
   const int n = static_cast<int>(p.size());
   if (raster == AddressRaster::Compute) {
+    // The last wave's gather read the targets (texture fetches) and its commit the buffers.
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
-    for (int k = 0; k < n; ++k)  // the tiles the sides' last rasters wrote back to "none", from their lists
-      if (p[k].active) passes.clearOther(k);
-    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+    std::vector<AddressPasses::OtherPass> others;
     for (int k = 0; k < n; ++k)
-      if (p[k].active) passes.binOther(k, *p[k].other, p[k].vp, p[k].other->model, p[k].reachOther);
-    phase("address bins");
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-    for (int k = 0; k < n; ++k)
-      if (p[k].active) passes.rasterOther(k, *p[k].other, p[k].otherBumpToDepth);
+      if (p[k].active) others.push_back({k, p[k].other, p[k].vp, p[k].other->model, p[k].reachOther, p[k].otherBumpToDepth});
+    passes.rasterOthers(others, phaseMark);
   } else {
     for (int k = 0; k < n; ++k)
       if (p[k].active) passes.drawOther(k, *p[k].other, p[k].vp, p[k].other->model, p[k].otherBumpToDepth, true);

@@ -67,27 +67,33 @@ class AddressPasses {
   // alone, the farthest back face anywhere (the gather's depth map).
   void drawOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
                  float bumpToDepth, bool alone);
-  // The gather's pass B (drawOther alone) rasterised in compute shaders (address_bin.comp, address_raster.comp):
-  // the same targets, filled by every invocation of the GPU rather than by its fragment stage (on compute GPUs
-  // such as NVIDIA's H100 only a few of the multiprocessors run fragment shaders). A binned rasteriser: binOther
-  // appends each triangle to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list
-  // of large ones every tile tests), listing the tiles that got something (active); rasterOther, after a
-  // shader-storage, image and command barrier, tests the active tiles' pixels against their lists, dispatched
-  // indirectly over those tiles only. The other tiles must hold "none": clearOther, before binOther (and a
-  // barrier), puts it back on the tiles the last raster wrote (all of them after the fragment pass or at the
-  // start), in compute (glClearTexImage of a whole map ran at fragment-stage speed on NVIDIA's H200: 0.45 ms at
-  // 1024). None issues a barrier of its own (rasterOther without clearOther first clears and waits itself): the
-  // Deformer runs the sides stage by stage.
+  // The gather's pass B (drawOther alone) rasterised in compute shaders (address_bin.comp, address_raster.comp)
+  // for every side of a wave at once: the same targets, filled by every invocation of the GPU rather than by its
+  // fragment stage (on compute GPUs such as NVIDIA's H100 only a few of the multiprocessors run fragment
+  // shaders), and each stage one dispatch for all the sides (a GPU runs dispatches one after another: a
+  // dispatch a side made a wave cost the sum of its sides). A binned rasteriser: the bins append each triangle
+  // to the lists of the 8 x 8-pixel tiles it may cover (or, spanning over 1024, to a list of large ones every
+  // tile tests), listing the tiles that got something (active), one dispatch a mesh for the sides whose other
+  // body it is; the raster, after a barrier, tests the active tiles' pixels against their lists, one indirect
+  // dispatch for up to kGroup sides (their height maps bound as an array of samplers). The other tiles must
+  // hold "none": first, in compute, it is put back on the tiles each side's last raster wrote (all of them after
+  // the fragment pass or at the start; glClearTexImage of a whole map ran at fragment-stage speed on NVIDIA's
+  // H200: 0.45 ms at 1024). The targets of all slots are layers of one texture array each.
   // `reach`: triangles whose window depth stays below it everywhere are left out (their pixels unseen): the
   // other body there does not reach X's nearest depth (both bodies' bumps counted), so it cannot dent it.
-  void binOther(int side, const DeformBody& other, const glm::dmat4& viewProjection, const glm::dmat4& model,
-                float reach);
-  void clearOther(int side);
-  void rasterOther(int side, const DeformBody& other, float bumpToDepth);
+  struct OtherPass {
+    int slot = 0;
+    const DeformBody* other = nullptr;
+    glm::dmat4 viewProjection{1}, model{1};
+    float reach = 0, bumpToDepth = 0;
+  };
+  // Issues its own barriers; on return the targets are written (the caller's barrier makes them visible to
+  // texture fetches). `phase` marks "address bins" after the bins.
+  void rasterOthers(const std::vector<OtherPass>& passes, const PhaseMark& phase);
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
   const render::Texture2D& normalX(int side) const { return normalX_[side]; }
-  // The tiles the last rasterOther of a side ran, and all of the map's (read back: waits for the GPU; tests).
+  // The tiles the last compute raster of a slot ran, and all of the map's (read back: waits for the GPU; tests).
   std::pair<size_t, size_t> tilesRun(int side) const;
   const render::Texture2D& addressOther(int side) const { return addressO_[side]; }
   const render::Texture2D& depthOther(int side) const { return depthO_[side]; }
@@ -97,34 +103,28 @@ class AddressPasses {
             float bumpToDepth);
   render::Program program_, bin_, raster_;
   GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
-  GLint bMvp_, bSize_, bTriangles_, bCapacity_, bReach_, rSize_, rTriangles_, rCapacity_, rBumpToDepth_, rMode_;
+  GLint bSize_, bCapacity_, bFirst_, rSize_, rCapacity_, rMode_, rFirst_;
   static constexpr int kTile = 8, kTileCapacity = 64;
+  static constexpr int kGroup = 16;  // sides a raster dispatch: its height maps at texture units 0 .. 15
+  size_t tiles() const;
+  size_t countStride() const { return tiles() + 6; }  // uints of a slot's counts (address_bin.comp)
+  // What a slot's targets hold outside the tiles to write: "none" everywhere (None), "none" outside the active
+  // tiles its counts list (Tiles: after a raster), or anything (Unknown: at the start, after the fragment pass).
   enum class Held { None, Tiles, Unknown };
-  struct Bins {  // the compute pass B's triangles and lists, per side
-    // count: per tile, then the large triangles', the active tiles', the raster's indirect dispatch (3), whether
-    // every tile is active (address_bin.comp); active: the tiles the raster runs.
-    render::Buffer setup, count, list, large, active;
-    int triangles = 0;
-    size_t tiles = 0;
-    // What the side's targets hold outside the tiles to write: "none" everywhere (None), "none" outside the
-    // active tiles in `count` (Tiles: after a raster), or anything (Unknown: at the start, after the fragment
-    // pass, after binOther reset the lists of a raster's tiles).
-    Held held = Held::Unknown;
-    void bind() const {  // at the bindings both shaders declare them (2 to 6)
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup.id());
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count.id());
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, list.id());
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large.id());
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, active.id());
-    }
-  };
-  std::vector<Bins> bins_;
+  std::vector<Held> held_;  // per slot
+  // The compute pass B's buffers: per slot, at fixed strides, the counts (per tile, then the large triangles',
+  // the active tiles', 3 unused, whether every tile is active), tile lists and active tiles; per wave, each
+  // side's triangle setups and large triangles (at its entry's `setup`), the entries (address_bin.comp's Entry)
+  // and each raster group's indirect dispatch (3 uints).
+  render::Buffer count_, list_, active_, setup_, large_, entries_, args_;
   render::Texture2D flat_{1, 1, GL_R32F};
   int size_ = 0;
   // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.
   render::Texture2D addressX_[2], depthX_[2], normalX_[2], depthBuffer_[2];
-  std::vector<render::Texture2D> addressO_, depthO_;  // per slot (at least 2)
-  void makeSlot();  // appends a slot at the current size
+  // Per slot (at least 2): pass B's address and depth, layers of one array each, and a 2D view of each layer.
+  render::TextureArray addressArray_, depthArray_;
+  std::vector<render::Texture2D> addressO_, depthO_;
+  void makeSlots(int slots);  // (re)makes the slots' targets and buffers at the current size
   render::Framebuffer fboX_[2], fboO_[2];
 };
 

@@ -37,6 +37,32 @@ Texture2D::Texture2D(int width, int height, GLenum internalFormat, int levels)
   setWrap(GL_CLAMP_TO_EDGE);
 }
 
+Texture2D Texture2D::layerView(const TextureArray& array, int layer) {
+  if (layer < 0 || layer >= array.layers()) throw std::out_of_range("texture array layer out of range");
+  GLuint view = 0;
+  glGenTextures(1, &view);  // a view needs a name never bound: glCreateTextures would give it a target
+  glTextureView(view, GL_TEXTURE_2D, array.id(), array.format(), 0, 1, static_cast<GLuint>(layer), 1);
+  Texture2D t;
+  static_cast<GlName&>(t) = GlName(view);
+  t.width_ = array.width();
+  t.height_ = array.height();
+  t.format_ = array.format();
+  t.setFilter(GL_LINEAR, GL_LINEAR);
+  t.setWrap(GL_CLAMP_TO_EDGE);
+  return t;
+}
+
+TextureArray::TextureArray(int width, int height, int layers, GLenum internalFormat)
+    : width_(width), height_(height), layers_(layers), format_(internalFormat) {
+  if (width <= 0 || height <= 0 || layers <= 0) throw std::invalid_argument("texture array size must be positive");
+  GLuint id = 0;
+  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &id);
+  static_cast<GlName&>(*this) = GlName(id);
+  glTextureStorage3D(id, 1, internalFormat, width, height, layers);
+  glTextureParameteri(id, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(id, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+}
+
 void Texture2D::upload(GLenum format, GLenum type, const void* data, int level) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTextureSubImage2D(id(), level, 0, 0, std::max(1, width_ >> level), std::max(1, height_ >> level), format, type,

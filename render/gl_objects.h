@@ -64,10 +64,15 @@ class Buffer : public GlName<detail::deleteBuffer> {
   size_t size_ = 0;
 };
 
+class TextureArray;
+
 class Texture2D : public GlName<detail::deleteTexture> {
  public:
   Texture2D() = default;
   Texture2D(int width, int height, GLenum internalFormat, int levels = 1);
+  // A 2D view of one layer of `array` (level 0, its format): the layer's storage under a texture of its own, to
+  // sample, attach or read as any 2D texture.
+  static Texture2D layerView(const TextureArray& array, int layer);
   int width() const { return width_; }
   int height() const { return height_; }
   GLenum format() const { return format_; }
@@ -79,6 +84,21 @@ class Texture2D : public GlName<detail::deleteTexture> {
 
  private:
   int width_ = 0, height_ = 0;
+  GLenum format_ = 0;
+};
+
+// Layers of one size and format (GL_TEXTURE_2D_ARRAY, one level): a shader reaches any layer through one binding.
+class TextureArray : public GlName<detail::deleteTexture> {
+ public:
+  TextureArray() = default;
+  TextureArray(int width, int height, int layers, GLenum internalFormat);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int layers() const { return layers_; }
+  GLenum format() const { return format_; }
+
+ private:
+  int width_ = 0, height_ = 0, layers_ = 0;
   GLenum format_ = 0;
 };
 

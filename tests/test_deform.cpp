@@ -354,6 +354,82 @@ TEST_CASE("a batch of events runs in waves of different surfaces and gives the o
   CHECK(narrow.wavesRun() == 5);
 }
 
+TEST_CASE("a wave of more sides than one raster dispatch takes, on meshes of three kinds, gives the one-by-one maps") {
+  // 10 events, both sides dented: 20 sides in one wave, so the compute raster runs two dispatches (16 sides a
+  // dispatch: their height maps bound side by side) and the bins three (one a mesh: plate, ball, a second ball
+  // mesh of another tessellation).
+  test::glContext();
+  SphereIntoPlate s;
+  auto ball2 = std::make_shared<GpuMesh>(sphereMesh(SphereIntoPlate::R, 256, 10));
+  constexpr int kEvents = 10;
+  struct Bodies {
+    std::vector<std::unique_ptr<Surface>> plates, balls;
+  };
+  auto make = [&](Deformer& d) {
+    Bodies b;
+    for (int i = 0; i < kEvents; ++i) {
+      b.plates.push_back(std::make_unique<Surface>(
+          s.plateGpu, 256, float(SphereIntoPlate::k), float(SphereIntoPlate::kc),
+          d.createMaps(256, nullptr, float(SphereIntoPlate::k), float(s.plateGpu->metresPerUv / 256))));
+      const auto& mesh = i % 3 == 2 ? ball2 : s.ballGpu;
+      // Bumpy balls (a height map of their own, not flat): the raster samples each side's other body's map.
+      std::vector<float> bumps(128 * 128);
+      for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x)
+          bumps[size_t(y) * 128 + x] = 0.5f + 0.3f * float(std::sin(0.4 * x + i) * std::cos(0.3 * y));
+      render::Image img(128, 128, 1);
+      img.pixels = bumps;
+      b.balls.push_back(std::make_unique<Surface>(mesh, 128, 0.1f, 0.02f,
+                                                  d.createMaps(128, &img, 0.1f, float(mesh->metresPerUv / 128))));
+    }
+    return b;
+  };
+  auto requests = [&](Bodies& b) {
+    std::vector<DeformRequest> rqs;
+    for (int k = 0; k < kEvents; ++k) {
+      const double x = -0.5 + 0.1 * k;
+      DeformRequest rq;
+      rq.a = {b.plates[size_t(k)].get(), s.plateGpu.get(), s.plateModel};
+      rq.b = {b.balls[size_t(k)].get(), k % 3 == 2 ? ball2.get() : s.ballGpu.get(),
+              glm::translate(glm::dmat4(1), glm::dvec3(x, 0.1 + SphereIntoPlate::R, 0))};
+      rq.point = {x, 0.1, 0};
+      rq.normal = {0, 1, 0};
+      rq.deformA = 0.01;
+      rq.deformB = 0.003;
+      rqs.push_back(rq);
+    }
+    return rqs;
+  };
+  DeformOptions o{64, Path::Gather};
+  o.addressRaster = AddressRaster::Compute;
+  Deformer one(o), batch(o);
+  REQUIRE(batch.waveLimit() >= size_t(kEvents));
+  Bodies a = make(one), b = make(batch);
+  for (const DeformRequest& rq : requests(a)) one.deform(rq);
+  batch.deform(requests(b));
+  CHECK(batch.wavesRun() == 1);
+  int dentedPlates = 0, dentedBalls = 0, differ = 0;
+  for (int i = 0; i < kEvents; ++i) {
+    const render::Image pa = a.plates[size_t(i)]->downloadHeight(), pb = b.plates[size_t(i)]->downloadHeight();
+    const render::Image ba = a.balls[size_t(i)]->downloadHeight(), bb = b.balls[size_t(i)]->downloadHeight();
+    differ += std::memcmp(pa.pixels.data(), pb.pixels.data(), pa.pixels.size() * sizeof(float)) != 0;
+    differ += std::memcmp(ba.pixels.data(), bb.pixels.data(), ba.pixels.size() * sizeof(float)) != 0;
+    int plateTexels = 0;
+    for (float v : pa.pixels) plateTexels += v < 0.5f;
+    dentedPlates += plateTexels > 20;
+    int changed = 0;
+    for (size_t t = 0; t < bb.pixels.size(); ++t) {
+      const int x = int(t % 128), y = int(t / 128);
+      changed += bb.pixels[t] < 0.5f + 0.3f * float(std::sin(0.4 * x + i) * std::cos(0.3 * y)) - 1e-6f;
+    }
+    dentedBalls += changed > 0;
+  }
+  MESSAGE("plates dented: " << dentedPlates << ", balls dented: " << dentedBalls << " of " << kEvents);
+  CHECK(differ == 0);
+  CHECK(dentedPlates == kEvents);
+  CHECK(dentedBalls == kEvents);
+}
+
 TEST_CASE("the address pass's rasteriser: compute on data-centre GPUs, whose fragment stage is narrow") {
   CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA H100 80GB HBM3/PCIe/SSE2") == AddressRaster::Compute);
   CHECK(resolveAddressRaster(AddressRaster::Auto, "NVIDIA H200/PCIe/SSE2") == AddressRaster::Compute);

@@ -1,13 +1,16 @@
 #version 450 core
 // address_bin.comp: pass B of figure 11 for the gather (the other body's back faces, the farthest one
-// anywhere) rasterised in compute, step 1 of 2 (address_raster.comp is step 2). One workgroup a triangle:
+// anywhere) rasterised in compute, step 1 of 2 (address_raster.comp is step 2), for the sides of a wave whose
+// other body has this mesh: workgroup z takes entry uFirst + z (its slot, transform and cull depth). One workgroup
+// a triangle:
 // lane 0 puts its corners into window coordinates and keeps it when it faces away from the camera (GL's
 // counter-clockwise front faces culled) and is not degenerate, writing its setup; then the lanes share the
 // 8 x 8-pixel tiles its box covers and append it to every tile whose pixel centres it may hold (16 tiles a lane
-// at most), listing each tile that gets its first entry among the active ones. Triangles wholly nearer the camera than uReach are not kept: they cannot dent X. A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
+// at most), listing each tile that gets its first entry among the active ones. Triangles wholly nearer the camera than the entry's reach are not kept: they cannot dent X. A triangle whose box spans more than 1024 tiles goes to the list of large ones instead, which every
 // tile tests (then all tiles are active) (few: the back faces' areas sum to about the map's times its depth complexity). A tile keeps at most
 // uCapacity entries; its count still grows, and step 2 then tests every triangle for that tile.
-// Setup, 6 vec4 a triangle: corners 0 and 1 (window x, y in pixels), corner 2 and depths 0 and 1, depth 2, the
+// Per slot at fixed strides: counts, tile lists and active tiles; per entry, from its `setup`: the setups and the
+// large triangles. Setup, 6 vec4 a triangle: corners 0 and 1 (window x, y in pixels), corner 2 and depths 0 and 1, depth 2, the
 // texture coordinates (u0 v0 u1 v1, u2 v2), and the box of pixel centres (min x, min y, max x, max y; empty for a
 // triangle not kept). Step 2 evaluates each edge from its endpoints in a fixed order, so that two triangles
 // sharing an edge get values that are each other's negation bit for bit: no cracks between them on any GPU.
@@ -15,19 +18,32 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex
 layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };
 layout(std430, binding = 2) writeonly buffer Setup { vec4 uSetup[]; };
-// TileCount: per tile (T of them) the entries, then [T] the large triangles', [T + 1] the active tiles',
-// [T + 2, T + 5) step 2's indirect dispatch (x = the active tiles, at most 65535; y = z = 1 once any), [T + 5]
-// whether a large triangle makes every tile active.
+// TileCount, T + 6 uints a slot: per tile (T of them) the entries, then [T] the large triangles', [T + 1] the
+// active tiles', [T + 2, T + 5) unused, [T + 5] whether a large triangle makes every tile active.
 layout(std430, binding = 3) buffer TileCount { uint uTileCount[]; };
 layout(std430, binding = 4) writeonly buffer TileList { uint uTileList[]; };
 layout(std430, binding = 5) writeonly buffer Large { uint uLarge[]; };
-layout(std430, binding = 6) writeonly buffer Active { uint uActive[]; };  // the tiles step 2 dispatches
-uniform mat4 uModelViewProjection;
+layout(std430, binding = 6) writeonly buffer Active { uint uActive[]; };  // the tiles step 2 runs
+struct Entry {
+  mat4 mvp;           // the other body's model-view-projection
+  int slot, triangles;
+  uint setup;         // its first triangle's index into Setup and Large
+  int group;          // its raster dispatch: Args[3 group ..]
+  float reach;        // triangles whose window depth stays below it are left out (they cannot dent X)
+  float bumpToDepth;  // (step 2)
+  int sampler, mode;  // (step 2)
+};
+layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+// Step 2's indirect dispatches, one a group of entries: x = the most active tiles of its sides (at most 65535),
+// y = 1, z = its entries (set beforehand).
+layout(std430, binding = 8) buffer Args { uint uArgs[]; };
 uniform int uSize;       // the address map (pixels)
-uniform int uTriangles;
 uniform int uCapacity;   // entries a tile
-uniform float uReach;    // triangles whose window depth stays below it are left out (they cannot dent X)
+uniform int uFirst;      // workgroup z's entry: uFirst + z
 const int kTile = 8, kLarge = 1024;
+Entry gE;                // this workgroup's
+uint gCounts;            // its slot's TileCount, list and active offsets
+uint gTiles;
 const uint kRowGroups = 32768u;
 shared bool sKept;
 shared ivec4 sTiles;     // tile box (inclusive)
@@ -36,7 +52,7 @@ shared vec4 sBox;        // pixel-centre box
 shared vec2 sOrigin;
 vec3 corner(uint i) {
   uint v = uIndex[i] * 17u;
-  vec4 c = uModelViewProjection * vec4(uVertex[v], uVertex[v + 1u], uVertex[v + 2u], 1.0);
+  vec4 c = gE.mvp * vec4(uVertex[v], uVertex[v + 1u], uVertex[v + 2u], 1.0);
   vec3 ndc = c.xyz / c.w;
   return vec3((ndc.xy * 0.5 + 0.5) * float(uSize), ndc.z * 0.5 + 0.5);
 }
@@ -52,16 +68,10 @@ uint tileCount() {
   uint tilesX = uint((uSize + kTile - 1) / kTile);
   return tilesX * tilesX;
 }
-void dispatchAtLeast(uint groups) {
-  uint tiles = tileCount();
-  atomicMax(uTileCount[tiles + 2u], min(groups, 65535u));
-  atomicMax(uTileCount[tiles + 3u], 1u);
-  atomicMax(uTileCount[tiles + 4u], 1u);
-}
+void dispatchAtLeast(uint groups) { atomicMax(uArgs[3u * uint(gE.group)], min(groups, 65535u)); }
 void activate(uint id) {
-  uint tiles = tileCount();
-  uint slot = atomicAdd(uTileCount[tiles + 1u], 1u);
-  uActive[slot] = id;
+  uint slot = atomicAdd(uTileCount[gCounts + gTiles + 1u], 1u);
+  uActive[uint(gE.slot) * gTiles + slot] = id;
   dispatchAtLeast(slot + 1u);
 }
 // Whether a triangle (edge functions sEdge from sOrigin, pixel-centre box sBox) may hold a pixel centre of a tile:
@@ -78,20 +88,23 @@ bool mayHold(ivec2 tile) {
   return !outside;
 }
 void main() {
+  gE = uEntry[uFirst + int(gl_WorkGroupID.z)];
+  gTiles = tileCount();
+  gCounts = uint(gE.slot) * (gTiles + 6u);
   uint t = gl_WorkGroupID.x + gl_WorkGroupID.y * kRowGroups;
-  if (t >= uint(uTriangles)) return;  // whole workgroup
+  if (t >= uint(gE.triangles)) return;  // whole workgroup
   if (gl_LocalInvocationIndex == 0u) {
     vec3 p0 = corner(3u * t), p1 = corner(3u * t + 1u), p2 = corner(3u * t + 2u);
     float area = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
     bool kept = area < 0.0 && !(p0.z < 0.0 && p1.z < 0.0 && p2.z < 0.0) && !(p0.z > 1.0 && p1.z > 1.0 && p2.z > 1.0) &&
-                max(max(p0.z, p1.z), p2.z) >= uReach;
+                max(max(p0.z, p1.z), p2.z) >= gE.reach;
     // Pixel centres (i + 0.5) within the box, within the map.
     vec2 lo = min(min(p0.xy, p1.xy), p2.xy), hi = max(max(p0.xy, p1.xy), p2.xy);
     ivec2 first = max(ivec2(ceil(lo - 0.5)), ivec2(0)), last = min(ivec2(floor(hi - 0.5)), ivec2(uSize - 1));
     kept = kept && all(lessThanEqual(first, last));
     vec2 uv0 = uvOf(3u * t), uv1 = uvOf(3u * t + 1u), uv2 = uvOf(3u * t + 2u);
     vec4 box = kept ? vec4(vec2(first) + 0.5, vec2(last) + 0.5) : vec4(1.0, 1.0, 0.0, 0.0);
-    uint s = 6u * t;
+    uint s = 6u * (gE.setup + t);
     uSetup[s] = vec4(p0.xy, p1.xy);
     uSetup[s + 1u] = vec4(p2.xy, p0.z, p1.z);
     uSetup[s + 2u] = vec4(p2.z, 0.0, 0.0, 0.0);
@@ -101,10 +114,9 @@ void main() {
     ivec4 tiles = ivec4(first / kTile, last / kTile);
     bool large = kept && (tiles.z - tiles.x + 1) * (tiles.w - tiles.y + 1) > kLarge;
     if (large) {
-      uint tiles = tileCount();
-      uLarge[atomicAdd(uTileCount[tiles], 1u)] = t;
-      atomicMax(uTileCount[tiles + 5u], 1u);
-      dispatchAtLeast(tiles);
+      uLarge[gE.setup + atomicAdd(uTileCount[gCounts + gTiles], 1u)] = t;
+      atomicMax(uTileCount[gCounts + gTiles + 5u], 1u);
+      dispatchAtLeast(gTiles);
       kept = false;
     }
     // Edge functions for the tile test, in pixels from corner 0 (positive inside).
@@ -126,8 +138,8 @@ void main() {
     ivec2 tile = ivec2(tb.x + k % w, tb.y + k / w);
     if (!mayHold(tile)) continue;
     uint id = uint(tile.y * ((uSize + kTile - 1) / kTile) + tile.x);
-    uint slot = atomicAdd(uTileCount[id], 1u);
-    if (slot < uint(uCapacity)) uTileList[id * uint(uCapacity) + slot] = t;
+    uint slot = atomicAdd(uTileCount[gCounts + id], 1u);
+    if (slot < uint(uCapacity)) uTileList[(uint(gE.slot) * gTiles + id) * uint(uCapacity) + slot] = t;
     if (slot == 0u) activate(id);
   }
 }

@@ -1,8 +1,10 @@
 #version 450 core
-// address_raster.comp: step 2 of the compute pass B (address_bin.comp is step 1). Dispatched indirectly over the
-// active tiles only (those step 1 gave something to test, all where a large triangle was listed; the other
-// tiles hold "none" already), each workgroup taking every gl_NumWorkGroups.x-th of them. The same shader clears
-// (uMode 1: the tiles the last raster listed, before step 1 resets the lists; uMode 2: every tile): a tile's
+// address_raster.comp: step 2 of the compute pass B (address_bin.comp is step 1), for a group of the wave's
+// sides: workgroup z takes entry uFirst + z (its slot: a layer of the targets; its other body's height map:
+// uHeights[sampler]). Dispatched indirectly over the active tiles only (those step 1 gave something to test, all
+// where a large triangle was listed; the other tiles hold "none" already), each workgroup taking every
+// gl_NumWorkGroups.x-th of its side's. The same shader clears (uMode 1, every entry of the wave, before step 1
+// resets the lists: the entry's mode 1, the tiles its last raster listed; 2, every tile; 0, none): a tile's
 // pixels back to "none", so that no pass clears a whole map (glClearTexImage there ran at fragment-stage speed
 // on NVIDIA's compute GPUs: 0.45 ms at 1024). One workgroup an 8 x 8 tile, one invocation a pixel: of
 // the tile's triangles and the large ones (all triangles where its list overflowed),
@@ -18,14 +20,27 @@ layout(std430, binding = 3) readonly buffer TileCount { uint uTileCount[]; };
 layout(std430, binding = 4) readonly buffer TileList { uint uTileList[]; };
 layout(std430, binding = 5) readonly buffer Large { uint uLarge[]; };
 layout(std430, binding = 6) readonly buffer Active { uint uActive[]; };
-layout(binding = 0) uniform sampler2D uHeight;
-layout(rg32f, binding = 0) writeonly uniform image2D uAddress;
-layout(r32f, binding = 1) writeonly uniform image2D uDepth;
+struct Entry {                // address_bin.comp's
+  mat4 mvp;
+  int slot, triangles;
+  uint setup;
+  int group;
+  float reach;
+  float bumpToDepth;          // the other body's k' / (zfar - znear)
+  int sampler;                // its height map in uHeights
+  int mode;                   // the clear: 0 nothing, 1 the tiles its last raster listed, 2 every tile
+};
+layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+layout(binding = 0) uniform sampler2D uHeights[16];  // indexed by the workgroup's entry: dynamically uniform
+layout(rg32f, binding = 0) writeonly uniform image2DArray uAddress;
+layout(r32f, binding = 1) writeonly uniform image2DArray uDepth;
 uniform int uSize;
-uniform int uTriangles;
 uniform int uCapacity;
-uniform float uBumpToDepth;  // the other body's k' / (zfar - znear)
-uniform int uMode;           // 0: raster the active tiles; 1: clear them; 2: clear every tile
+uniform int uMode;           // 0: raster the active tiles; 1: clear
+uniform int uFirst;          // workgroup z's entry: uFirst + z
+Entry gE;
+uint gCounts;                // the slot's TileCount offset
+uint gTiles;
 // The edge u -> v at p: the cross product (v - u) x (p - u), evaluated from the endpoint that sorts first, so that
 // the triangle on the other side of the edge (which runs it v -> u) gets exactly the negation; `owns`: whether a
 // pixel centre on the edge (0) belongs to this triangle (the one that runs the edge in the sorted direction).
@@ -40,22 +55,24 @@ bool inside(float e, bool owns) { return e < 0.0 || (e == 0.0 && owns); }
 const int kTile = 8;  // pixels a side of a tile, as address_bin.comp's
 shared vec4 sSetup[64 * 6];
 shared uint sId[64];
-void rasterTile(uint tile, uint tilesX, uint tiles) {
+void rasterTile(uint tile, uint tilesX) {
   uint lane = gl_LocalInvocationIndex;
   ivec2 pixel = ivec2(int(tile % tilesX), int(tile / tilesX)) * kTile + ivec2(gl_LocalInvocationID.xy);
   vec2 centre = vec2(pixel) + 0.5;
-  uint listed = uTileCount[tile];
+  uint listed = uTileCount[gCounts + tile];
   bool overflowed = listed > uint(uCapacity);
-  uint total = overflowed ? uint(uTriangles) : listed + uTileCount[tiles];
+  uint total = overflowed ? uint(gE.triangles) : listed + uTileCount[gCounts + gTiles];
   float best = 0.0;
   uint bestId = 0xffffffffu;
   vec2 bestUv = vec2(-1.0);
   for (uint base = 0u; base < total; base += 64u) {
     uint k = base + lane;
     if (k < total) {
-      uint t = overflowed ? k : k < listed ? uTileList[tile * uint(uCapacity) + k] : uLarge[k - listed];
+      uint t = overflowed ? k
+               : k < listed ? uTileList[(uint(gE.slot) * gTiles + tile) * uint(uCapacity) + k]
+                            : uLarge[gE.setup + k - listed];
       sId[lane] = t;
-      for (uint j = 0u; j < 6u; ++j) sSetup[lane * 6u + j] = uSetup[6u * t + j];
+      for (uint j = 0u; j < 6u; ++j) sSetup[lane * 6u + j] = uSetup[6u * (gE.setup + t) + j];
     }
     barrier();
     uint n = min(64u, total - base);
@@ -74,8 +91,8 @@ void rasterTile(uint tile, uint tilesX, uint tiles) {
       if (z < 0.0 || z > 1.0) continue;
       vec4 uvs = sSetup[j * 6u + 3u];
       vec2 uv = w.x * uvs.xy + w.y * uvs.zw + w.z * sSetup[j * 6u + 4u].xy;
-      float h = textureLod(uHeight, uv, 0.0).r;
-      float zz = clamp(z + (h - 0.5) * uBumpToDepth, 0.0, 1.0);
+      float h = textureLod(uHeights[gE.sampler], uv, 0.0).r;
+      float zz = clamp(z + (h - 0.5) * gE.bumpToDepth, 0.0, 1.0);
       uint id = sId[j];
       if (zz > best || (zz == best && bestId != 0xffffffffu && id < bestId)) {
         best = zz;
@@ -87,22 +104,26 @@ void rasterTile(uint tile, uint tilesX, uint tiles) {
   }
   if (any(greaterThanEqual(pixel, ivec2(uSize)))) return;
   bool seen = bestId != 0xffffffffu;
-  imageStore(uAddress, pixel, vec4(bestUv, 0.0, 0.0));
-  imageStore(uDepth, pixel, vec4(seen ? best : 1.0));
+  imageStore(uAddress, ivec3(pixel, gE.slot), vec4(bestUv, 0.0, 0.0));
+  imageStore(uDepth, ivec3(pixel, gE.slot), vec4(seen ? best : 1.0));
 }
 void clearTile(uint tile, uint tilesX) {
   ivec2 pixel = ivec2(int(tile % tilesX), int(tile / tilesX)) * kTile + ivec2(gl_LocalInvocationID.xy);
   if (any(greaterThanEqual(pixel, ivec2(uSize)))) return;
-  imageStore(uAddress, pixel, vec4(-1.0, -1.0, 0.0, 0.0));
-  imageStore(uDepth, pixel, vec4(1.0));
+  imageStore(uAddress, ivec3(pixel, gE.slot), vec4(-1.0, -1.0, 0.0, 0.0));
+  imageStore(uDepth, ivec3(pixel, gE.slot), vec4(1.0));
 }
 void main() {
-  uint tilesX = uint((uSize + kTile - 1) / kTile), tiles = tilesX * tilesX;
-  bool everyTile = uMode == 2 || uTileCount[tiles + 5u] != 0u;  // a large triangle: every tile
-  uint count = everyTile ? tiles : uTileCount[tiles + 1u];
+  gE = uEntry[uFirst + int(gl_WorkGroupID.z)];
+  if (uMode == 1 && gE.mode == 0) return;  // its targets hold "none" already
+  uint tilesX = uint((uSize + kTile - 1) / kTile);
+  gTiles = tilesX * tilesX;
+  gCounts = uint(gE.slot) * (gTiles + 6u);
+  bool everyTile = (uMode == 1 && gE.mode == 2) || uTileCount[gCounts + gTiles + 5u] != 0u;  // large: every tile
+  uint count = everyTile ? gTiles : uTileCount[gCounts + gTiles + 1u];
   for (uint a = gl_WorkGroupID.x; a < count; a += gl_NumWorkGroups.x) {
-    uint tile = everyTile ? a : uActive[a];
-    if (uMode == 0) rasterTile(tile, tilesX, tiles);
+    uint tile = everyTile ? a : uActive[uint(gE.slot) * gTiles + a];
+    if (uMode == 0) rasterTile(tile, tilesX);
     else clearTile(tile, tilesX);
   }
 }

@@ -19,6 +19,8 @@ CommitPass::CommitPass()
   cSide_ = commit_.uniform("uSide");
   cStatsIndex_ = commit_.uniform("uStatsIndex");
   cBumpDepth_ = commit_.uniform("uBumpDepth");
+  cScratchBase_ = commit_.uniform("uScratchBase");
+  cResolution_ = commit_.uniform("uResolution");
   nSide_ = normals_.uniform("uSide");
   nFullRegion_ = normals_.uniform("uFullRegion");
   nResolution_ = normals_.uniform("uResolution");
@@ -60,7 +62,9 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
   for (int side = 0; side < n; ++side) {
     const Side& s = sides[static_cast<size_t>(side)];
     if (!s.x) continue;
-    glBindImageTexture(0, s.scratch->id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+    s.scratch.bind();
+    glUniform1ui(cScratchBase_, s.scratch.offset);
+    glUniform1i(cResolution_, s.x->resolution());
     glBindImageTexture(1, s.x->height().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
     glUniform1i(cSide_, side);
     glUniform1i(cStatsIndex_, s.statsIndex);

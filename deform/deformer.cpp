@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <stdexcept>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <chrono>
@@ -168,7 +170,10 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
-  std::vector<std::map<int, render::Texture2D>> scratch{2};                       // per slot and resolution
+  // New heights (passes.h, Scratch): per slot and resolution a range of one buffer, made on first use and kept.
+  render::Buffer scratchBuffer;
+  size_t scratchUsed = 0;  // uints
+  std::map<std::pair<int, int>, GLuint> scratchRanges;
   render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per slot
   render::Buffer stats;
   int statsCapacity = 0, statsUsed = 0, statsRead = -1;
@@ -180,14 +185,26 @@ struct Deformer::Impl {
   // New heights as float bits, +infinity where nothing was written. The update
   // takes the minimum into it; the commit consumes the touched region and puts
   // +infinity back, so no deformation ever copies or clears a whole map.
-  render::Texture2D& scratchFor(int side, int resolution) {
-    auto& maps = scratch[static_cast<size_t>(side)];
-    auto it = maps.find(resolution);
-    if (it == maps.end()) {
-      it = maps.emplace(resolution, render::Texture2D(resolution, resolution, GL_R32UI)).first;
-      glClearTexImage(it->second.id(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT, &kUntouched);
+  Scratch scratchFor(int slot, int resolution) {
+    auto it = scratchRanges.find({slot, resolution});
+    if (it == scratchRanges.end()) {
+      const size_t texels = static_cast<size_t>(resolution) * static_cast<size_t>(resolution);
+      if ((scratchUsed + texels) * sizeof(GLuint) > scratchBuffer.size()) {  // grows, keeping what it holds
+        render::Buffer bigger(std::max((scratchUsed + texels) * sizeof(GLuint), 2 * scratchBuffer.size()), nullptr);
+        glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the commits' writes, before the copy reads them
+        if (scratchUsed)
+          glCopyNamedBufferSubData(scratchBuffer.id(), bigger.id(), 0, 0,
+                                   static_cast<GLsizeiptr>(scratchUsed * sizeof(GLuint)));
+        scratchBuffer = std::move(bigger);
+      }
+      glClearNamedBufferSubData(scratchBuffer.id(), GL_R32UI, static_cast<GLintptr>(scratchUsed * sizeof(GLuint)),
+                                static_cast<GLsizeiptr>(texels * sizeof(GLuint)), GL_RED_INTEGER, GL_UNSIGNED_INT,
+                                &kUntouched);
+      if (scratchUsed + texels > UINT32_MAX) throw std::length_error("deformation scratch over 2^32 texels");
+      it = scratchRanges.emplace(std::make_pair(slot, resolution), static_cast<GLuint>(scratchUsed)).first;
+      scratchUsed += texels;
     }
-    return it->second;
+    return {&scratchBuffer, it->second};
   }
 
   int allocateStats() {
@@ -226,7 +243,6 @@ struct Deformer::Impl {
   void runWave(const DeformOptions& o, const DeformRequest* const* e, size_t n, int* handles);
   void reserveSlots(int slots) {
     passes.reserveSlots(slots);
-    if (scratch.size() < static_cast<size_t>(slots)) scratch.resize(static_cast<size_t>(slots));
     if (region.size() < static_cast<size_t>(slots) * 4 * sizeof(GLint))
       region = render::Buffer(static_cast<size_t>(slots) * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
   }
@@ -350,7 +366,7 @@ bool Deformer::Impl::paperSide(const DeformOptions& o, const SidePlan& p) {
   const SideUpdate& u = p.u;
   const int side = u.side;
   const DeformBody& x = *p.x;
-  render::Texture2D& out = scratchFor(side, u.resolution);
+  const Scratch out = scratchFor(side, u.resolution);
   passes.drawX(side, x, p.vp, p.modelX, u.bumpToDepth, o.tangent != TangentMode::None);
   phase("address pass X");
   passes.drawOther(side, *p.other, p.vp, p.other->model, p.otherBumpToDepth, false);
@@ -411,7 +427,7 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
     Surface& x = *(slot % 2 == 0 ? events[e]->a : events[e]->b).surface;
     x.makeUnique();
     commits[static_cast<size_t>(slot)] = {&x, rimsMade[static_cast<size_t>(slot)] ? &rims.ring() : nullptr,
-                                          &scratchFor(slot, x.resolution()), handles[e] + slot % 2};
+                                          scratchFor(slot, x.resolution()), handles[e] + slot % 2};
   }
   commit.run(commits, region, stats, phaseMark);
   glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);

@@ -38,7 +38,7 @@ void GatherUpdate::bindTexelSpace(int res) {
 
 void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& vp,
                        const glm::dmat4& model, const AddressPasses& passes, float farthestOther,
-                       render::Texture2D& scratch, const render::Buffer& region) {
+                       const Scratch& scratch, const render::Buffer& region) {
   program_.use();
   bindTexelSpace(u.resolution);
   glViewport(0, 0, u.resolution, u.resolution);
@@ -51,7 +51,8 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::T
   glBindTextureUnit(2, passes.addressOther(u.side).id());
   glBindTextureUnit(3, passes.depthOther(u.side).id());
   glBindTextureUnit(5, height.id());
-  glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+  scratch.bind();
+  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glUniform1i(uSide_, u.side);
   glUniform1i(uSize_, passes.size());
@@ -81,7 +82,7 @@ ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {
 }
 
 void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-                        render::Texture2D& scratch, const render::Buffer& region) {
+                        const Scratch& scratch, const render::Buffer& region) {
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   program_.use();
   glBindTextureUnit(0, passes.addressX(u.side).id());
@@ -90,7 +91,8 @@ void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const 
   glBindTextureUnit(3, passes.depthOther(u.side).id());
   glBindTextureUnit(4, passes.normalX(u.side).id());
   glBindTextureUnit(5, height.id());
-  glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+  scratch.bind();
+  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glUniform1i(uSide_, u.side);
   glUniform2i(uSize_, passes.size(), passes.size());
@@ -111,7 +113,7 @@ CraterRims::CraterRims()
   dResolution_ = dispatch_.uniform("uResolution");
 }
 
-void CraterRims::run(int side, int res, const render::Texture2D& height, render::Texture2D& scratch,
+void CraterRims::run(int side, int res, const render::Texture2D& height, const Scratch& scratch,
                      const render::Buffer& region) {
   // The ring width depends on the dent's size: found on the GPU from the region, with the dispatch sizes.
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
@@ -125,7 +127,8 @@ void CraterRims::run(int side, int res, const render::Texture2D& height, render:
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   program_.use();
-  glBindImageTexture(0, scratch.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32UI);
+  scratch.bind();
+  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
   glBindTextureUnit(1, height.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, sums_.id());
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, rim_.id());

@@ -15,8 +15,8 @@
 //   CommitPass      new heights written over the touched region, the normal
 //                   map regenerated there
 //
-// Every update writes new heights as float bits into a scratch image
-// (+infinity where untouched; the deepest write wins by an atomic minimum) and
+// Every update writes new heights as float bits into a scratch (a range of one
+// buffer, +infinity where untouched; the deepest write wins by an atomic minimum) and
 // grows the side's touched region (ivec4 per side in a region buffer).
 #pragma once
 #include <glm/glm.hpp>
@@ -37,6 +37,14 @@ inline GLuint dispatchGroups(int n) { return static_cast<GLuint>((n + 15) / 16);
 inline render::Program computeProgram(const char* name) {
   return render::Program({{GL_COMPUTE_SHADER, name, std::string(deformShader(name))}});
 }
+
+// A side's new heights: resolution^2 uints (float bits, row by row; kUntouched where untouched) from `offset`
+// (uints) of the deformer's scratch buffer, which shaders see at shader-storage binding 2 (uScratch[], their uScratchBase = offset).
+struct Scratch {
+  const render::Buffer* buffer = nullptr;
+  GLuint offset = 0;
+  void bind() const { glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, buffer->id()); }
+};
 
 // What the updates share about one side of one event.
 struct SideUpdate {
@@ -135,7 +143,7 @@ class GatherUpdate {
   // and that reach the other body's farthest window depth. No barriers of its own: before it, the address
   // pass's targets must be made visible to texture fetches; after it, its image and storage writes.
   void run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& viewProjection,
-           const glm::dmat4& model, const AddressPasses& passes, float farthestOther, render::Texture2D& scratch,
+           const glm::dmat4& model, const AddressPasses& passes, float farthestOther, const Scratch& scratch,
            const render::Buffer& region);
 
  private:
@@ -152,7 +160,7 @@ class ScatterUpdate {
  public:
   ScatterUpdate();
   void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-           render::Texture2D& scratch, const render::Buffer& region);
+           const Scratch& scratch, const render::Buffer& region);
 
  private:
   render::Program program_;
@@ -165,7 +173,7 @@ class CraterRims {
  public:
   CraterRims();
   // The rim of side's dent into the scratch; its ring width stays in ring() for the commit.
-  void run(int side, int resolution, const render::Texture2D& height, render::Texture2D& scratch,
+  void run(int side, int resolution, const render::Texture2D& height, const Scratch& scratch,
            const render::Buffer& region);
   // Per side: the rim passes' indirect dispatch sizes (3 uints each), then the ring widths (2 ints).
   const render::Buffer& ring() const { return rim_; }
@@ -180,7 +188,7 @@ class CraterRims {
 class ReadbackUpdate {
  public:
   void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height, bool craterRims,
-           render::Texture2D& scratch, render::Buffer& region, const PhaseMark& phase);
+           const Scratch& scratch, render::Buffer& region, const PhaseMark& phase);
 
  private:
   void scatter(const SideUpdate& u, const AddressPasses& passes, const std::vector<float>& h, bool craterRims,
@@ -196,7 +204,7 @@ class CommitPass {
   struct Side {
     Surface* x = nullptr;
     const render::Buffer* rim = nullptr;
-    render::Texture2D* scratch = nullptr;
+    Scratch scratch;
     int statsIndex = 0;
   };
   // Writes each side's new heights into its X's map over its region (sides[k]: region slot k), counts what
@@ -216,7 +224,7 @@ class CommitPass {
   render::Program dispatch_, commit_, normals_, bound_, boundUp_;
   GLint dSide_, dResolution_, dGrow_, dTile_;
   static constexpr int kIndirect = 9;  // uints a side: the commit's, the normals' and level 0 of the bound's dispatch
-  GLint cSide_, cStatsIndex_, cBumpDepth_;
+  GLint cSide_, cStatsIndex_, cBumpDepth_, cScratchBase_, cResolution_;
   GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;
   size_t sides_ = 0;
   render::Buffer indirect_, normalRegion_;  // per side: kIndirect uints; an ivec4

@@ -58,7 +58,7 @@ void craterRimsCpu(std::vector<float>& out, const std::vector<float>& old, int r
 }  // namespace
 
 void ReadbackUpdate::run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-                         bool craterRims, render::Texture2D& scratch, render::Buffer& region, const PhaseMark& phase) {
+                         bool craterRims, const Scratch& scratch, render::Buffer& region, const PhaseMark& phase) {
   const size_t px = static_cast<size_t>(passes.size()) * passes.size();
   const bool tangent = u.tangent != TangentMode::None;
   ca_.resize(px * 2);
@@ -88,7 +88,8 @@ void ReadbackUpdate::run(const SideUpdate& u, const AddressPasses& passes, const
   std::memcpy(bits.data(), out.data(), out.size() * sizeof(float));
   for (size_t i = 0; i < out.size(); ++i)
     if (out[i] == h[i]) bits[i] = kUntouched;
-  scratch.upload(GL_RED_INTEGER, GL_UNSIGNED_INT, bits.data());
+  glNamedBufferSubData(scratch.buffer->id(), static_cast<GLintptr>(scratch.offset) * sizeof(GLuint),
+                       static_cast<GLsizeiptr>(bits.size() * sizeof(GLuint)), bits.data());
   region.upload(static_cast<size_t>(u.side) * 4 * sizeof(GLint), 4 * sizeof(GLint), box);
   phase("upload");
 }

@@ -7,9 +7,9 @@
 //   uMode 0: sum the dent's volume (texels whose new height is below the old)
 //   uMode 1: ring weights w = 1 - d / W (d: texel distance to the nearest dented texel), summed
 //   uMode 2: raise each ring texel by V * w / sum(w)
-// in/out: uNewHeight (float bits), uHeight (old map); uSums[uSide * 2 + 0..1] fixed point 2^-20; W: uRimRing[uSide]
+// in/out: uScratch (float bits), uHeight (old map); uSums[uSide * 2 + 0..1] fixed point 2^-20; W: uRimRing[uSide]
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(r32ui, binding = 0) uniform uimage2D uNewHeight;
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase
 layout(binding = 1) uniform sampler2D uHeight;
 layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
 layout(std430, binding = 4) buffer Sums { uint uSums[]; };
@@ -17,8 +17,10 @@ layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; 
 uniform int uSide;
 uniform int uMode;
 uniform int uResolution;
+uniform uint uScratchBase;
+uint at(ivec2 p) { return uScratchBase + uint(p.y * uResolution + p.x); }
 const float kFixed = 1048576.0;
-bool dented(ivec2 p) { return uintBitsToFloat(imageLoad(uNewHeight, p).r) < texelFetch(uHeight, p, 0).r; }
+bool dented(ivec2 p) { return uintBitsToFloat(uScratch[at(p)]) < texelFetch(uHeight, p, 0).r; }
 void main() {
   ivec4 r = uRegion[uSide];
   if (r.z < r.x) return;
@@ -28,7 +30,7 @@ void main() {
   if (any(greaterThan(p, hi))) return;
   float old = texelFetch(uHeight, p, 0).r;
   if (uMode == 0) {
-    float nh = uintBitsToFloat(imageLoad(uNewHeight, p).r);  // +infinity where untouched
+    float nh = uintBitsToFloat(uScratch[at(p)]);  // +infinity where untouched
     if (nh < old) atomicAdd(uSums[uSide * 2], uint((old - nh) * kFixed + 0.5));
     return;
   }
@@ -49,5 +51,5 @@ void main() {
   }
   float volume = float(uSums[uSide * 2]) / kFixed, weights = max(float(uSums[uSide * 2 + 1]) / kFixed, 1e-6);
   float raised = min(old + volume * w / weights, 1.0);
-  imageStore(uNewHeight, p, uvec4(floatBitsToUint(raised)));
+  uScratch[at(p)] = floatBitsToUint(raised);
 }

@@ -5,7 +5,7 @@
 // several pixels addressing one texel: the deepest wins (imageAtomicMin on the
 // float bits, which order like the values since heights are >= 0).
 // in:  address/depth/normal maps of both passes, X's height map
-// out: uNewHeight (r32ui float bits, +infinity where untouched), uRegion[uSide] grows to the touched texels
+// out: uScratch (float bits, +infinity where untouched), uRegion[uSide] grows to the touched texels
 layout(local_size_x = 16, local_size_y = 16) in;
 layout(binding = 0) uniform sampler2D uAddressX;
 layout(binding = 1) uniform sampler2D uDepthX;
@@ -13,7 +13,8 @@ layout(binding = 2) uniform sampler2D uAddressOther;
 layout(binding = 3) uniform sampler2D uDepthOther;
 layout(binding = 4) uniform sampler2D uNormalX;
 layout(binding = 5) uniform sampler2D uHeightX;
-layout(r32ui, binding = 0) uniform uimage2D uNewHeight;
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase
+uniform uint uScratchBase;
 layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
 uniform int uSide;
 uniform ivec2 uSize;
@@ -41,7 +42,7 @@ void main() {
   // two paths give bit-identical maps on every driver.
   float h2 = clamp(fma(-dD, uDepthToHeight, h), 0.0, 1.0);
   if (!(h2 < h)) return;
-  imageAtomicMin(uNewHeight, t, floatBitsToUint(h2));
+  atomicMin(uScratch[uScratchBase + uint(t.y * uResolution + t.x)], floatBitsToUint(h2));
   atomicMin(uRegion[uSide].x, t.x);
   atomicMin(uRegion[uSide].y, t.y);
   atomicMax(uRegion[uSide].z, t.x);

@@ -9,14 +9,15 @@
 // its silhouette), so the address map's size trades the dent's accuracy, never
 // its continuity: every texel of the footprint gets its value.
 // in:  gClip, gNormal, gBox; X's height map, the other body's depth pass
-// out: uNewHeight (r32ui float bits, minimum), uRegion[uSide] grows to the touched texels
+// out: uScratch (float bits, minimum), uRegion[uSide] grows to the touched texels
 in vec3 gClip;
 in vec3 gNormal;
 flat in vec4 gBox;
 layout(binding = 2) uniform sampler2D uAddressOther;
 layout(binding = 3) uniform sampler2D uDepthOther;
 layout(binding = 5) uniform sampler2D uHeightX;
-layout(r32ui, binding = 0) uniform uimage2D uNewHeight;
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase
+uniform uint uScratchBase;
 layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
 uniform int uSide;
 uniform int uSize;             // address map (pixels)
@@ -56,7 +57,7 @@ void main() {
   }
   float h2 = clamp(fma(-dD, uDepthToHeight, h), 0.0, 1.0);
   if (!(h2 < h)) return;
-  imageAtomicMin(uNewHeight, t, floatBitsToUint(h2));
+  atomicMin(uScratch[uScratchBase + uint(t.y * uResolution + t.x)], floatBitsToUint(h2));
   // Most fragments leave the region as it is: read before the atomics.
   ivec4 r = uRegion[uSide];
   if (t.x < r.x) atomicMin(uRegion[uSide].x, t.x);

@@ -13,6 +13,7 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <chrono>
 #include <map>
+#include <optional>
 
 namespace crumple::deform {
 
@@ -166,6 +167,7 @@ struct Deformer::Impl {
   }
   AddressPasses passes;
   GatherUpdate gather;
+  std::optional<ComputeGather> computeGather;  // made on first use (the compute rasteriser's path)
   ScatterUpdate scatter;
   ReadbackUpdate readback;
   CraterRims rims;
@@ -346,7 +348,16 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
   }
   phase("address pass other");
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
-  for (int k = 0; k < n; ++k) {
+  if (raster == AddressRaster::Compute) {  // X's texels in compute too: one dispatch for up to 14 sides
+    std::vector<ComputeGather::Side> sides;
+    for (int k = 0; k < n; ++k)
+      if (p[k].active)
+        sides.push_back({&p[k].u, p[k].x->mesh, &p[k].x->surface->height(), p[k].vp, p[k].modelX, p[k].farthestOther,
+                         scratchFor(k, p[k].u.resolution)});
+    if (!computeGather) computeGather.emplace();
+    computeGather->run(sides, passes, region);
+  }
+  for (int k = 0; k < n && raster != AddressRaster::Compute; ++k) {
     if (!p[k].active) continue;
     const DeformBody& x = *p[k].x;
     gather.run(p[k].u, *x.mesh, x.surface->height(), p[k].vp, p[k].modelX, passes, p[k].farthestOther,

@@ -71,6 +71,99 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::T
   glEnable(GL_CULL_FACE);
 }
 
+namespace {
+// texel_gather.comp's Entry (std430).
+struct GatherEntry {
+  glm::mat4 mvp;
+  glm::vec4 normalToWorld[3];
+  glm::vec4 viewNormal;  // w: the view's half-size in clip units
+  GLint slot, resolution, sampler, tangentMode;
+  GLuint scratchBase;
+  float farthestOther, bumpToDepth, depthToHeight;
+  float tangentFloor, pad[3];
+};
+static_assert(sizeof(GatherEntry) == 176, "GatherEntry must match texel_gather.comp's std430 layout");
+}  // namespace
+
+ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {
+  uSize_ = program_.uniform("uSize");
+  uFirst_ = program_.uniform("uFirst");
+}
+
+void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes, const render::Buffer& region) {
+  if (in.empty()) return;
+  // Sides grouped by mesh and resolution (a tile list each), in order of first appearance; dispatches of kGroup.
+  std::vector<const Side*> order;
+  std::vector<std::pair<const GpuMesh*, int>> kinds;
+  for (const Side& s : in)
+    if (std::find(kinds.begin(), kinds.end(), std::make_pair(s.mesh, s.u->resolution)) == kinds.end())
+      kinds.emplace_back(s.mesh, s.u->resolution);
+  for (const auto& k : kinds)
+    for (const Side& s : in)
+      if (s.mesh == k.first && s.u->resolution == k.second) order.push_back(&s);
+  const float lim = 1.0f + 4.0f / static_cast<float>(passes.size());  // texel.geom's view, a few pixels grown
+  std::vector<GatherEntry> entries(order.size());
+  for (size_t e = 0; e < order.size(); ++e) {
+    const Side& s = *order[e];
+    const SideUpdate& u = *s.u;
+    GatherEntry& g = entries[e];
+    g.mvp = glm::mat4(s.viewProjection * s.model);
+    const glm::mat3 nrm = glm::mat3(glm::transpose(glm::inverse(glm::dmat3(s.model))));
+    for (int c = 0; c < 3; ++c) g.normalToWorld[c] = glm::vec4(nrm[c], 0);
+    g.viewNormal = glm::vec4(u.viewNormal, lim);
+    g.slot = u.side;
+    g.resolution = u.resolution;
+    g.sampler = 0;  // set per dispatch below
+    g.tangentMode = static_cast<GLint>(u.tangent);
+    g.scratchBase = s.scratch.offset;
+    g.farthestOther = s.farthestOther;
+    g.bumpToDepth = u.bumpToDepth;
+    g.depthToHeight = u.depthToHeight;
+    g.tangentFloor = u.tangentFloor;
+    g.pad[0] = g.pad[1] = g.pad[2] = 0;
+  }
+  // Dispatches: runs of one kind, kGroup sides at most.
+  struct Dispatch {
+    size_t first, count;
+    const TexelCover* cover;
+    const GpuMesh* mesh;
+  };
+  std::vector<Dispatch> dispatches;
+  std::vector<std::shared_ptr<const TexelCover>> covers;
+  for (size_t e = 0; e < order.size();) {
+    const GpuMesh* mesh = order[e]->mesh;
+    const int res = order[e]->u->resolution;
+    size_t f = e + 1;
+    while (f < order.size() && f - e < kGroup && order[f]->mesh == mesh && order[f]->u->resolution == res) ++f;
+    covers.push_back(TexelCover::of(*mesh, res));
+    dispatches.push_back({e, f - e, covers.back().get(), mesh});
+    for (size_t k = e; k < f; ++k) entries[k].sampler = static_cast<GLint>(k - e);
+    e = f;
+  }
+  if (entries_.size() < entries.size() * sizeof(GatherEntry))
+    entries_ = render::Buffer(std::max<size_t>(entries.size(), 16) * sizeof(GatherEntry) * 2, nullptr);
+  entries_.upload(0, entries.size() * sizeof(GatherEntry), entries.data());
+  program_.use();
+  glUniform1i(uSize_, passes.size());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
+  in.front().scratch.bind();
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
+  glBindTextureUnit(0, passes.addressOthers().id());
+  glBindTextureUnit(1, passes.depthOthers().id());
+  for (const Dispatch& d : dispatches) {
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, d.mesh->vertices.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, d.mesh->indices.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, d.cover->start.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, d.cover->triangles.id());
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
+    for (size_t k = 0; k < d.count; ++k)
+      glBindTextureUnit(static_cast<GLuint>(2 + k), order[d.first + k]->height->id());
+    glUniform1i(uFirst_, static_cast<GLint>(d.first));
+    glDispatchCompute(static_cast<GLuint>(d.cover->tilesX), static_cast<GLuint>(d.cover->tilesX),
+                      static_cast<GLuint>(d.count));
+  }
+}
+
 ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {
   uSide_ = program_.uniform("uSide");
   uSize_ = program_.uniform("uSize");

@@ -104,6 +104,9 @@ class AddressPasses {
   // The tiles the last compute raster of a slot ran, and all of the map's (read back: waits for the GPU; tests).
   std::pair<size_t, size_t> tilesRun(int side) const;
   const render::Texture2D& addressOther(int side) const { return addressO_[side]; }
+  // All slots' pass B targets (layer = slot).
+  const render::TextureArray& addressOthers() const { return addressArray_; }
+  const render::TextureArray& depthOthers() const { return depthArray_; }
   const render::Texture2D& depthOther(int side) const { return depthO_[side]; }
 
  private:
@@ -154,6 +157,50 @@ class GatherUpdate {
   // Framebuffers without attachments, one per map size drawn (a software rasteriser bins all of it); kept, so
   // that sides of different sizes in a row do not reconfigure one.
   std::map<int, render::Framebuffer> texelSpace_;
+};
+
+// Which of a mesh's triangles reach each tile of kTile x kTile texels of its map at one resolution: those whose
+// footprint in texture space, grown by half a texel (conservatively, as texel.geom grows it), overlaps the tile's
+// texels; and the tile's box in the shape frame (those triangles' boxes, grown by a texel's size on the surface:
+// the texels' points extrapolated past a triangle stay within it). Made on the CPU from the mesh (read back
+// once) on first use at a resolution; kept with the mesh (GpuMesh::texelCovers).
+struct TexelCover {
+  static constexpr int kTile = 16;
+  int resolution = 0, tilesX = 0;
+  render::Buffer start;      // tilesX^2 + 1 uints: tile k's triangles are triangles[start[k] .. start[k + 1])
+  render::Buffer triangles;  // triangle indices
+  render::Buffer boxes;      // 2 vec4 a tile: min xyz, max xyz (shape frame; empty tiles min > max)
+  size_t listed = 0;         // entries in `triangles`
+  static std::shared_ptr<const TexelCover> of(const GpuMesh& mesh, int resolution);
+};
+
+// The gather in compute shaders (texel_gather.comp) for all the sides of a wave: where the address pass runs
+// in compute (GPUs whose fragment stage is narrow), X's texels are visited by every invocation of the GPU, not
+// drawn through the graphics stages. One dispatch for up to kGroup sides of one mesh and map resolution:
+// workgroup (tile, side) culls the tile by its box against the side's camera, then each invocation takes one
+// texel and every triangle of the tile's list that faces the camera and whose footprint grown by half a texel
+// holds it, with the surface point (and normal) where the triangle's affine map puts the texel's centre: the
+// texels texel.geom's conservative draw gives fragments, within the tests' tolerance (its view clip is applied
+// per texel here), and the same update per (texel, triangle), the deepest winning.
+class ComputeGather {
+ public:
+  ComputeGather();
+  struct Side {
+    const SideUpdate* u = nullptr;
+    const GpuMesh* mesh = nullptr;
+    const render::Texture2D* height = nullptr;
+    glm::dmat4 viewProjection{1}, model{1};
+    float farthestOther = 0;
+    Scratch scratch;
+  };
+  // No barriers of its own (as GatherUpdate::run).
+  void run(const std::vector<Side>& sides, const AddressPasses& passes, const render::Buffer& region);
+
+ private:
+  static constexpr int kGroup = 14;  // the other's address and depth at units 0, 1; X's height maps at 2 .. 15
+  render::Program program_;
+  GLint uSize_, uFirst_;
+  render::Buffer entries_;
 };
 
 class ScatterUpdate {

@@ -5,6 +5,7 @@
 #pragma once
 #include <glm/glm.hpp>
 
+#include <map>
 #include <memory>
 
 #include "physics/mesh.h"
@@ -12,6 +13,8 @@
 #include "render/image.h"
 
 namespace crumple::deform {
+
+struct TexelCover;  // deform/passes.h: which triangles reach each tile of the texels, at one map resolution
 
 struct GpuMesh {
   render::VertexArray vao;
@@ -35,6 +38,8 @@ struct GpuMesh {
   GLsizei shadowIndexCount = 0;
   glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame
   double metresPerUv = 1;                // sqrt(surface area / uv area)
+  // The compute gather's (deform/texel_cover.cpp), per map resolution: made on first use, kept with the mesh.
+  mutable std::map<int, std::shared_ptr<const TexelCover>> texelCovers;
   explicit GpuMesh(const TriangleMesh& mesh);
   void draw() const;
 };

@@ -247,6 +247,62 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
   }
 }
 
+TEST_CASE("X's texels gathered in compute give the fragment stage's dents on both sides, curved ones too") {
+  // Where the address pass runs in compute, so does the gather (texel_gather.comp: X's texels visited per tile
+  // of its map instead of drawn in texture space). Both sides of a ball on a plate, the ball's map on a curved
+  // surface (its charts' edges, texels reached by several triangles), with and without the tangent correction.
+  test::glContext();
+  SphereIntoPlate s;
+  for (TangentMode tangent : {TangentMode::None, TangentMode::Divide}) {
+    render::Image maps[2][2];  // [compute][side]
+    for (int compute = 0; compute < 2; ++compute) {
+      DeformOptions o{256, Path::Gather};
+      o.addressRaster = compute ? AddressRaster::Compute : AddressRaster::Fragment;
+      o.tangent = tangent;
+      Deformer d(o);
+      Surface plate(s.plateGpu, SphereIntoPlate::kRes, float(SphereIntoPlate::k), float(SphereIntoPlate::kc),
+                    d.createMaps(SphereIntoPlate::kRes, nullptr, float(SphereIntoPlate::k),
+                                 float(s.plateGpu->metresPerUv / SphereIntoPlate::kRes)));
+      Surface ball(s.ballGpu, 256, 0.1f, 0.02f, d.createMaps(256, nullptr, 0.1f, float(s.ballGpu->metresPerUv / 256)));
+      DeformRequest rq;
+      rq.a = {&plate, s.plateGpu.get(), s.plateModel};
+      rq.b = {&ball, s.ballGpu.get(), glm::translate(glm::dmat4(1), glm::dvec3(0.05, 0.1 + SphereIntoPlate::R, 0.02))};
+      rq.point = {0.05, 0.1, 0.02};
+      rq.normal = {0, 1, 0};
+      rq.deformA = 0.012;
+      rq.deformB = 0.008;
+      d.deform(rq);
+      maps[compute][0] = plate.downloadHeight();
+      maps[compute][1] = ball.downloadHeight();
+    }
+    for (int side = 0; side < 2; ++side) {
+      const render::Image &a = maps[0][side], &b = maps[1][side];
+      int changedA = 0, changedB = 0, apart = 0;
+      double diff = 0, deepest = 0;  // height units (x k = 0.1 m)
+      for (size_t i = 0; i < a.pixels.size(); ++i) {
+        changedA += a.pixels[i] < 0.5f;
+        changedB += b.pixels[i] < 0.5f;
+        deepest = std::max(deepest, 0.5 - double(a.pixels[i]));
+        const double d = std::abs(double(a.pixels[i]) - double(b.pixels[i]));
+        apart += d * 0.1 > 1e-5;
+        diff = std::max(diff, d);
+      }
+      const std::string label = std::string(tangent == TangentMode::None ? "no tangent correction" : "tangent divide") +
+                                (side ? ", ball" : ", plate");
+      MESSAGE(label << ": texels dented " << changedA << " (fragment) vs " << changedB << " (compute); apart by over "
+                    << "0.01 mm " << apart << ", by at most " << diff * 0.1 << " m (the dent " << deepest * 0.1
+                    << " m deep)");
+      CHECK(changedA > 100);
+      // The per-texel test reaches the texels the conservative draw does (on llvmpipe: all of them, to float
+      // rounding); where a rasteriser's rule for samples on an edge differed, a chart's edge on the texel grid
+      // would take its neighbour's extrapolation: a row of texels, few.
+      CHECK(std::abs(changedA - changedB) <= changedA / 100 + 4);
+      CHECK(apart <= changedA / 100 + 4);
+      CHECK(diff <= 0.1 * deepest);
+    }
+  }
+}
+
 TEST_CASE("the compute raster puts back \"none\" where its last event wrote: a used deformer gives a fresh one's map") {
   // The raster writes the active tiles only; the tiles an earlier event wrote are cleared from its lists. A
   // deformer that first took a larger event (the ball 4 cm deeper: more tiles, framed otherwise) must give the

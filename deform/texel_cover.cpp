@@ -1,0 +1,96 @@
+// TexelCover (passes.h): the compute gather's tiles of a mesh's texels and the triangles that reach each.
+#include <algorithm>
+#include <cmath>
+
+#include "deform/passes.h"
+
+namespace crumple::deform {
+
+namespace {
+constexpr int kFloats = 17;  // GpuMesh's floats a vertex: position 0-2, uv 6-7
+
+// Whether the triangle (texel coordinates) overlaps the rectangle [lo, hi] grown by half a texel: separating
+// axes, the rectangle's and the triangle's edge normals (texel.geom grows a triangle by half a texel's extent
+// along each edge normal).
+bool overlaps(const glm::dvec2 t[3], glm::dvec2 lo, glm::dvec2 hi) {
+  lo -= 0.5;
+  hi += 0.5;
+  const glm::dvec2 tlo = glm::min(glm::min(t[0], t[1]), t[2]), thi = glm::max(glm::max(t[0], t[1]), t[2]);
+  if (thi.x < lo.x || thi.y < lo.y || tlo.x > hi.x || tlo.y > hi.y) return false;
+  const double orient = (t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x) > 0 ? 1 : -1;
+  for (int e = 0; e < 3; ++e) {
+    const glm::dvec2 a = t[e], b = t[(e + 1) % 3];
+    const glm::dvec2 n = orient * glm::dvec2(b.y - a.y, a.x - b.x);  // outward
+    // The rectangle's corner farthest inside: all of it beyond the edge means no overlap.
+    const glm::dvec2 c(n.x > 0 ? lo.x : hi.x, n.y > 0 ? lo.y : hi.y);
+    if (glm::dot(n, c - a) > 1e-9 * (std::abs(n.x) + std::abs(n.y))) return false;
+  }
+  return true;
+}
+}  // namespace
+
+std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolution) {
+  auto found = mesh.texelCovers.find(resolution);
+  if (found != mesh.texelCovers.end()) return found->second;
+  std::vector<float> v(mesh.vertices.size() / sizeof(float));
+  std::vector<GLuint> idx(static_cast<size_t>(mesh.indexCount));
+  glGetNamedBufferSubData(mesh.vertices.id(), 0, static_cast<GLsizeiptr>(v.size() * sizeof(float)), v.data());
+  glGetNamedBufferSubData(mesh.indices.id(), 0, static_cast<GLsizeiptr>(idx.size() * sizeof(GLuint)), idx.data());
+  auto cover = std::make_shared<TexelCover>();
+  cover->resolution = resolution;
+  cover->tilesX = (resolution + kTile - 1) / kTile;
+  const size_t tiles = static_cast<size_t>(cover->tilesX) * static_cast<size_t>(cover->tilesX);
+  std::vector<std::vector<GLuint>> lists(tiles);
+  std::vector<glm::vec4> boxes(2 * tiles);
+  for (size_t k = 0; k < tiles; ++k) {
+    boxes[2 * k] = glm::vec4(1e30f, 1e30f, 1e30f, 0);
+    boxes[2 * k + 1] = glm::vec4(-1e30f, -1e30f, -1e30f, 0);
+  }
+  const double res = resolution;
+  for (size_t tri = 0; tri * 3 + 2 < idx.size(); ++tri) {
+    glm::dvec2 t[3];
+    glm::dvec3 p[3];
+    for (int c = 0; c < 3; ++c) {
+      const size_t at = static_cast<size_t>(idx[tri * 3 + static_cast<size_t>(c)]) * kFloats;
+      p[c] = glm::dvec3(v[at], v[at + 1], v[at + 2]);
+      t[c] = glm::dvec2(v[at + 6], v[at + 7]) * res;
+    }
+    const double area = std::abs((t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x));
+    if (area < 1e-12) continue;  // texel.geom draws none either
+    // A texel's size on this triangle's surface: texels up to half a texel past it extrapolate within this much.
+    const double metres = glm::length(glm::cross(p[1] - p[0], p[2] - p[0]));
+    const float grow = static_cast<float>(std::sqrt(metres / area) * 1.5);
+    const glm::vec3 blo = glm::vec3(glm::min(glm::min(p[0], p[1]), p[2])) - grow,
+                    bhi = glm::vec3(glm::max(glm::max(p[0], p[1]), p[2])) + grow;
+    const glm::dvec2 tlo = glm::min(glm::min(t[0], t[1]), t[2]) - 0.5, thi = glm::max(glm::max(t[0], t[1]), t[2]) + 0.5;
+    const int x0 = std::max(0, static_cast<int>(std::floor(tlo.x)) / kTile);
+    const int y0 = std::max(0, static_cast<int>(std::floor(tlo.y)) / kTile);
+    const int x1 = std::min(cover->tilesX - 1, static_cast<int>(std::floor(thi.x)) / kTile);
+    const int y1 = std::min(cover->tilesX - 1, static_cast<int>(std::floor(thi.y)) / kTile);
+    for (int ty = y0; ty <= y1; ++ty)
+      for (int tx = x0; tx <= x1; ++tx) {
+        // The tile's texel centres: [k * kTile + 0.5, (k + 1) * kTile - 0.5].
+        const glm::dvec2 lo(tx * kTile + 0.5, ty * kTile + 0.5), hi(tx * kTile + kTile - 0.5, ty * kTile + kTile - 0.5);
+        if (!overlaps(t, lo, hi)) continue;
+        const size_t k = static_cast<size_t>(ty) * static_cast<size_t>(cover->tilesX) + static_cast<size_t>(tx);
+        lists[k].push_back(static_cast<GLuint>(tri));
+        boxes[2 * k] = glm::vec4(glm::min(glm::vec3(boxes[2 * k]), blo), 0);
+        boxes[2 * k + 1] = glm::vec4(glm::max(glm::vec3(boxes[2 * k + 1]), bhi), 0);
+      }
+  }
+  std::vector<GLuint> start(tiles + 1, 0), all;
+  for (size_t k = 0; k < tiles; ++k) {
+    start[k] = static_cast<GLuint>(all.size());
+    all.insert(all.end(), lists[k].begin(), lists[k].end());
+  }
+  start[tiles] = static_cast<GLuint>(all.size());
+  if (all.empty()) all.push_back(0);
+  cover->start = render::Buffer::fromVector(start);
+  cover->triangles = render::Buffer::fromVector(all);
+  cover->boxes = render::Buffer::fromVector(boxes);
+  cover->listed = start[tiles];
+  mesh.texelCovers[resolution] = cover;
+  return cover;
+}
+
+}  // namespace crumple::deform

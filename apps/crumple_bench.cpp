@@ -853,6 +853,8 @@ int main(int argc, char** argv) {
             ->Iterations(quick ? 3 : 20)
             ->Unit(benchmark::kMillisecond);
       // The gather with its address pass rasterised by each (DeformOptions::addressRaster; the row above: Auto).
+      // --quick: up to 512 (the compute path on a software rasteriser takes seconds an event at 2048).
+      if (quick && size > 512) continue;
       for (auto raster : {deform::AddressRaster::Compute, deform::AddressRaster::Fragment})
         benchmark::RegisterBenchmark(("deform/gather_" + std::string(deform::addressRasterName(raster))).c_str(),
                                      deformBench, deform::Path::Gather, raster)

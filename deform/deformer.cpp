@@ -22,6 +22,25 @@ std::string_view shaderSource(std::string_view name);
 }
 std::string_view deformShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
 
+std::string deformSource(const char* name) {
+  const std::string_view src = deformShader(name);
+  std::string out;
+  size_t at = 0;
+  while (at < src.size()) {
+    size_t end = src.find('\n', at);
+    if (end == std::string_view::npos) end = src.size();
+    const std::string_view line = src.substr(at, end - at);
+    constexpr std::string_view kInclude = "#include \"";
+    if (line.substr(0, kInclude.size()) == kInclude && line.size() > kInclude.size() + 1 && line.back() == '"')
+      out += deformShader(line.substr(kInclude.size(), line.size() - kInclude.size() - 1));
+    else
+      out += line;
+    out += '\n';
+    at = end + 1;
+  }
+  return out;
+}
+
 const char* addressRasterName(AddressRaster r) {
   switch (r) {
     case AddressRaster::Compute:

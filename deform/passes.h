@@ -23,6 +23,7 @@
 
 #include <functional>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "deform/deformer.h"
@@ -34,8 +35,10 @@ constexpr GLuint kUntouched = 0x7f800000u;  // +infinity as float bits
 // Marks the end of a named phase (profile mode: wall and GPU time since the last mark).
 using PhaseMark = std::function<void(const char*)>;
 inline GLuint dispatchGroups(int n) { return static_cast<GLuint>((n + 15) / 16); }
+// A deform shader's source with each line `#include "file"` replaced by that embedded file.
+std::string deformSource(const char* name);
 inline render::Program computeProgram(const char* name) {
-  return render::Program({{GL_COMPUTE_SHADER, name, std::string(deformShader(name))}});
+  return render::Program({{GL_COMPUTE_SHADER, name, deformSource(name)}});
 }
 
 // A side's new heights: resolution^2 uints (float bits, row by row; kUntouched where untouched) from `offset`
@@ -256,25 +259,21 @@ class CommitPass {
   };
   // Writes each side's new heights into its X's map over its region (sides[k]: region slot k), counts what
   // changed into stats entry statsIndex, puts the scratch back to untouched, and regenerates the normals and the
-  // bound pyramid there. The sides (different maps) go stage by stage, one memory barrier a stage for all.
+  // bound pyramid there. The sides (different maps) go stage by stage, one memory barrier a stage for all, each
+  // stage one dispatch for up to kGroup sides (the bound's levels above level 0: one a map).
   void run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
            const PhaseMark& phase);
   // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
   void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);
 
  private:
-  // The bound pyramid over the region of `side` (normalRegion_, on the GPU) or, for side < 0, [lo, hi]; level
-  // by level, each level for every map of `maps` (null: none) before one barrier. Over regions on the GPU: level
-  // 0 so, then the upper ones of each map in one workgroup (height_bound_up.comp, 7 levels a dispatch).
-  void bounds(const std::vector<const SurfaceMaps*>& maps, int side, glm::ivec2 lo, glm::ivec2 hi);
   void reserve(size_t sides);
+  static constexpr int kGroup = 8;  // sides a dispatch: their maps at units 0 .. 7 (8 image units: GL's least)
   render::Program dispatch_, commit_, normals_, bound_, boundUp_;
-  GLint dSide_, dResolution_, dGrow_, dTile_;
-  static constexpr int kIndirect = 9;  // uints a side: the commit's, the normals' and level 0 of the bound's dispatch
-  GLint cSide_, cStatsIndex_, cBumpDepth_, cScratchBase_, cResolution_;
-  GLint nSide_, nFullRegion_, nResolution_, nSlopeScale_;
   size_t sides_ = 0;
-  render::Buffer indirect_, normalRegion_;  // per side: kIndirect uints; an ivec4
+  // Per slot: the region grown by a texel (ivec4); per side the entry (commit_side.glsl); per group of kGroup
+  // the commit's, the normals' and level 0 of the bound's indirect dispatch (9 uints).
+  render::Buffer normalRegion_, entries_, args_;
 };
 
 }  // namespace crumple::deform

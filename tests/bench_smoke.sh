@@ -14,7 +14,7 @@ expect() {  # count regex what
 expect 5 '^physics .* crumple/bullet +[0-9]+\.[0-9]+x$' "physics ratio"
 expect 5 '^ +at the end: crumple +[0-9]+ awake, top centre [0-9.]+ m; bullet +[0-9]+ awake, top centre [0-9.]+ m$' "end-state"
 expect 4 '^deform +address map +[0-9]+ +gather +[0-9.]+ ms +scatter +[0-9.]+ ms +readback +[0-9.]+ ms +gather/scatter +[0-9.]+x +readback/scatter +[0-9.]+x$' "deform ratio"
-expect 4 '^deform +address map +[0-9]+ +gather, address pass in compute +[0-9.]+ ms \(GPU +[0-9.]+\) +in the fragment stage +[0-9.]+ ms \(GPU +[0-9.]+\) +compute/fragment +[0-9.]+x \(GPU +[0-9.]+x\)$' "address-raster ratio"
+expect 2 '^deform +address map +[0-9]+ +gather, address pass in compute +[0-9.]+ ms \(GPU +[0-9.]+\) +in the fragment stage +[0-9.]+ ms \(GPU +[0-9.]+\) +compute/fragment +[0-9.]+x \(GPU +[0-9.]+x\)$' "address-raster ratio"
 expect 2 '^deform +deform/gather_(compute|fragment)_100events/1024 +[0-9.]+ ms +\(GPU +[0-9.]+ ms, [0-9]+ waves\)$' "batch"
 expect 1 '^render +1280x720 +pom +[0-9.]+ ms/frame +no parallax +[0-9.]+ ms/frame +pom/none +[0-9.]+x$' "render ratio"
 expect 1 '^render +1280x720 +ibl +[0-9.]+ ms/frame +no ibl +[0-9.]+ ms/frame +ibl/none +[0-9.]+x$' "IBL ratio"

@@ -102,27 +102,18 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
   });
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
-  // The levels above level 0: one workgroup a map (height_bound_up.comp, 7 levels a dispatch).
+  // The levels above level 0: one workgroup a map, all its levels (height_bound_up.comp), 8 maps a dispatch.
   boundUp_.use();
   glUniform1i(boundUp_.uniform("uTile"), SurfaceMaps::kBoundTile);
-  int levels = 0;
-  for (const Side* s : of) levels = std::max(levels, s->x->maps().boundLevels());
-  constexpr int kChunk = 7;  // levels a dispatch: uLevels[8] holds the one below and these
-  for (int first = 0; first + 1 < levels; first += kChunk) {
-    glUniform1i(boundUp_.uniform("uFirst"), first);
-    for (int k = 0; k < n; ++k) {
-      const SurfaceMaps& m = of[static_cast<size_t>(k)]->x->maps();
-      if (first + 1 >= m.boundLevels()) continue;
-      const int count = std::min(kChunk, m.boundLevels() - 1 - first);
-      for (int i = 0; i <= count; ++i)
-        glBindImageTexture(static_cast<GLuint>(i), m.bound.id(), first + i, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
-      glUniform1i(boundUp_.uniform("uSide"), entries[static_cast<size_t>(k)].slot);
-      glUniform1i(boundUp_.uniform("uCount"), count);
-      glUniform1i(boundUp_.uniform("uResolution"), m.height.width());
-      glDispatchCompute(1, 1, 1);
-    }
-    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+  for (int g = 0; g < groups; ++g) {
+    const int count = std::min(kGroup, n - g * kGroup);
+    for (int k = 0; k < count; ++k)
+      glBindImageTexture(static_cast<GLuint>(k), of[static_cast<size_t>(g * kGroup + k)]->x->maps().bound.id(), 0,
+                         GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+    glUniform1i(boundUp_.uniform("uFirst"), g * kGroup);
+    glDispatchCompute(1, 1, static_cast<GLuint>(count));
   }
+  glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("height bound");
 }
 
@@ -145,8 +136,7 @@ void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeSca
   glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
   for (int level = 0; level < maps.boundLevels(); ++level) {
     glUniform1i(bound_.uniform("uLevel"), level);
-    glBindImageTexture(0, maps.bound.id(), level, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
-    glBindImageTexture(1, maps.bound.id(), std::max(level - 1, 0), GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+    glBindImageTexture(0, maps.bound.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
     // Level 0 takes a workgroup a bound texel, the levels above 8 x 8 texels.
     const int span = SurfaceMaps::kBoundTile << level;
     const int nx = hi.x / span - lo.x / span + 1, ny = hi.y / span - lo.y / span + 1;

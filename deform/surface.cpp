@@ -161,14 +161,15 @@ int SurfaceMaps::boundSize(int resolution) {
   while (size < tiles) size *= 2;
   return size;
 }
-int SurfaceMaps::boundLevels() const { return log2Floor(bound.width()) + 1; }
+int SurfaceMaps::boundLevels() const { return log2Floor(bound.height()) + 1; }
 
 SurfaceMaps::SurfaceMaps(int resolution)
     : height(resolution, resolution, GL_R32F),
       normal(resolution, resolution, GL_RGBA8),
-      bound(boundSize(resolution), boundSize(resolution), GL_R32F, log2Floor(boundSize(resolution)) + 1) {
+      bound(boundSize(resolution) + boundSize(resolution) / 2, boundSize(resolution), GL_R32F) {
   const float zero = 0.0f;  // the padding past the map's tiles stays 0; the rest is written with the normals
-  for (int level = 0; level < boundLevels(); ++level) glClearTexImage(bound.id(), level, GL_RED, GL_FLOAT, &zero);
+  glClearTexImage(bound.id(), 0, GL_RED, GL_FLOAT, &zero);
+  bound.setFilter(GL_NEAREST, GL_NEAREST);
 }
 
 Surface::Surface(std::shared_ptr<const GpuMesh> mesh, int resolution, float bumpDepth, float bumpDepthCollide,
@@ -186,11 +187,8 @@ void Surface::makeUnique() {
                      resolution_, resolution_, 1);
   glCopyImageSubData(maps_->normal.id(), GL_TEXTURE_2D, 0, 0, 0, 0, own->normal.id(), GL_TEXTURE_2D, 0, 0, 0, 0,
                      resolution_, resolution_, 1);
-  for (int level = 0; level < own->boundLevels(); ++level) {
-    const int size = own->bound.width() >> level;
-    glCopyImageSubData(maps_->bound.id(), GL_TEXTURE_2D, level, 0, 0, 0, own->bound.id(), GL_TEXTURE_2D, level, 0, 0,
-                       0, size, size, 1);
-  }
+  glCopyImageSubData(maps_->bound.id(), GL_TEXTURE_2D, 0, 0, 0, 0, own->bound.id(), GL_TEXTURE_2D, 0, 0, 0, 0,
+                     own->bound.width(), own->bound.height(), 1);
   maps_ = std::move(own);
 }
 

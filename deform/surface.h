@@ -50,11 +50,18 @@ struct SurfaceMaps {
   // The height's bound pyramid (height_bound.comp, R32F, kept with the normals): level 0 holds per tile of
   // kBoundTile x kBoundTile texels the largest |h - 0.5| there, each level above the largest of 2 x 2 below
   // (sizes powers of two; texels past the map 0). The renderer's parallax march skips rays it bounds at 0.
+  // The levels lie side by side in one level of one texture (boundOrigin), so that a shader writes all of a
+  // map's levels through one image binding (a dispatch then updates 8 maps' pyramids).
   static constexpr int kBoundTile = 16;
   render::Texture2D bound;
   explicit SurfaceMaps(int resolution);
-  static int boundSize(int resolution);  // level 0's width and height
-  int boundLevels() const;
+  static int boundSize(int resolution);  // level 0's width and height (S, a power of two)
+  int boundLevels() const;               // log2 S + 1
+  // Where level k lies in `bound` (S + S / 2 wide, S high; S alone when S is 1): level 0 at (0, 0), level
+  // k >= 1 at (S, S - 2 (S >> k)); level k is S >> k a side. pom.frag and the deform shaders place them so.
+  static glm::ivec2 boundOrigin(int size, int level) {
+    return level == 0 ? glm::ivec2(0) : glm::ivec2(size, size - 2 * (size >> level));
+  }
 };
 
 class Surface {

@@ -210,15 +210,27 @@ TEST_CASE("the height bound pyramid holds each tile's largest deviation, and ski
   const deform::SurfaceMaps& maps = s.plate->maps();
   const Image height = s.plate->downloadHeight();
   const int tile = deform::SurfaceMaps::kBoundTile;
-  REQUIRE(maps.bound.width() == 16);  // 256 texels in tiles of 16
+  REQUIRE(maps.bound.height() == 16);  // 256 texels in tiles of 16
+  REQUIRE(maps.bound.width() == 24);   // the levels above level 0 beside it
   REQUIRE(maps.boundLevels() == 5);
+  std::vector<float> atlas(24 * 16);
+  glGetTextureImage(maps.bound.id(), 0, GL_RED, GL_FLOAT, static_cast<GLsizei>(atlas.size() * 4), atlas.data());
   std::vector<std::vector<float>> levels;
   for (int level = 0; level < maps.boundLevels(); ++level) {
-    const int n = maps.bound.width() >> level;
+    const int n = 16 >> level;
+    const glm::ivec2 o = deform::SurfaceMaps::boundOrigin(16, level);
     levels.emplace_back(static_cast<size_t>(n) * n);
-    glGetTextureImage(maps.bound.id(), level, GL_RED, GL_FLOAT, static_cast<GLsizei>(levels.back().size() * 4),
-                      levels.back().data());
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) levels.back()[static_cast<size_t>(y) * n + x] = atlas[static_cast<size_t>(o.y + y) * 24 + o.x + x];
   }
+  // The levels do not overlap: each texel of the atlas belongs to one level at most.
+  std::vector<int> owners(atlas.size(), 0);
+  for (int level = 0; level < maps.boundLevels(); ++level) {
+    const glm::ivec2 o = deform::SurfaceMaps::boundOrigin(16, level);
+    for (int y = 0; y < (16 >> level); ++y)
+      for (int x = 0; x < (16 >> level); ++x) ++owners[static_cast<size_t>(o.y + y) * 24 + o.x + x];
+  }
+  CHECK(*std::max_element(owners.begin(), owners.end()) == 1);
   int dented = 0, flat = 0;
   for (int ty = 0; ty < 16; ++ty)
     for (int tx = 0; tx < 16; ++tx) {
@@ -232,7 +244,7 @@ TEST_CASE("the height bound pyramid holds each tile's largest deviation, and ski
   CHECK(dented > 2);
   CHECK(flat > dented);
   for (size_t level = 1; level < levels.size(); ++level) {
-    const int n = maps.bound.width() >> level;
+    const int n = 16 >> level;
     for (int y = 0; y < n; ++y)
       for (int x = 0; x < n; ++x) {
         auto below = [&](int dx, int dy) { return levels[level - 1][static_cast<size_t>(2 * y + dy) * (2 * n) + 2 * x + dx]; };
@@ -259,9 +271,9 @@ TEST_CASE("the height bound pyramid holds each tile's largest deviation, and ski
     CHECK(worst <= 1.0f / 255.0f + 1e-6f);
   }
   // The shader does skip by the bound: a pyramid of zeros (a false one) hides the dents' parallax.
-  Texture2D zeros(16, 16, GL_R32F, 5);
+  Texture2D zeros(24, 16, GL_R32F);  // the pyramid's 5 levels side by side
   const float zero = 0.0f;
-  for (int level = 0; level < 5; ++level) glClearTexImage(zeros.id(), level, GL_RED, GL_FLOAT, &zero);
+  glClearTexImage(zeros.id(), 0, GL_RED, GL_FLOAT, &zero);
   std::vector<RenderItem> items = s.items(false);
   r.draw(items, topView());
   const Image marched = r.readPixels();

@@ -14,5 +14,7 @@ struct CommitEntry {
 };
 layout(std430, binding = 6) readonly buffer CommitEntries { CommitEntry uEntry[]; };
 uniform int uFirst;
+// Where level k of a bound pyramid lies in its texture (SurfaceMaps::boundOrigin; S: level 0's side).
+ivec2 boundOrigin(int S, int k) { return k == 0 ? ivec2(0) : ivec2(S, S - 2 * (S >> k)); }
 #define EACH8(M) case 0: M(0); break; case 1: M(1); break; case 2: M(2); break; case 3: M(3); break; \
   case 4: M(4); break; case 5: M(5); break; case 6: M(6); break; case 7: M(7); break;

@@ -4,7 +4,8 @@
 // the largest of the 2 x 2 below. The renderer's parallax march reads it to skip rays over undented texels.
 // Two uses: level 0 of each side of a commit group (workgroup z: entry uFirst + z, over its normalRegion; its
 // height map uHeightMaps[z], its bound's level 0 uBounds[z]); or one map (uFull set) at level uLevel over
-// uFullRegion (its height map uHeightMaps[0], the level uBounds[0], the level below uBounds[1]).
+// uFullRegion (its height map uHeightMaps[0], its pyramid uBounds[0]). The levels lie side by side in one
+// texture (boundOrigin).
 // Level 0: one workgroup a bound texel, its 64 invocations sharing the tile's texels (a tile's 256 fetches in
 // one invocation ran one after another: on a large GPU the commit's height bound was then latency, not work);
 // the levels above: one invocation a texel, 8 x 8 a workgroup.
@@ -26,9 +27,9 @@ float fetchHeight(ivec2 p) {
   switch (gK) { EACH8(FETCH) }
   return v;
 }
-ivec2 boundSize() {
-  ivec2 s = ivec2(0);
-#define SIZE(i) s = imageSize(uBounds[i])
+int boundSize() {  // level 0's side: the texture's height
+  int s = 0;
+#define SIZE(i) s = imageSize(uBounds[i]).y
   switch (gK) { EACH8(SIZE) }
   return s;
 }
@@ -50,7 +51,7 @@ void main() {
   int span = uTile << level;  // height texels per bound texel at this level
   if (level == 0) {
     ivec2 t = r.xy / span + ivec2(gl_WorkGroupID.xy);
-    if (any(greaterThan(t, r.zw / span)) || any(greaterThanEqual(t, boundSize()))) return;
+    if (any(greaterThan(t, r.zw / span)) || any(greaterThanEqual(t, ivec2(boundSize())))) return;
     if (gl_LocalInvocationIndex == 0u) sLargest = 0u;
     barrier();
     ivec2 first = t * uTile, size = min(first + uTile, ivec2(resolution)) - first;
@@ -65,10 +66,12 @@ void main() {
     switch (gK) { EACH8(STORE_BOUND) }
     return;
   }
-  // uFull: level uLevel from the level below (uBounds[1]).
+  // uFull: level uLevel from the level below.
+  int S = imageSize(uBounds[0]).y;
   ivec2 t = r.xy / span + ivec2(gl_GlobalInvocationID.xy);
-  if (any(greaterThan(t, r.zw / span)) || any(greaterThanEqual(t, imageSize(uBounds[0])))) return;
+  if (any(greaterThan(t, r.zw / span)) || any(greaterThanEqual(t, ivec2(S >> level)))) return;
+  ivec2 below = boundOrigin(S, level - 1) + 2 * t;
   float m = 0.0;
-  for (int k = 0; k < 4; ++k) m = max(m, imageLoad(uBounds[1], 2 * t + ivec2(k & 1, k >> 1)).r);
-  imageStore(uBounds[0], t, vec4(m));
+  for (int k = 0; k < 4; ++k) m = max(m, imageLoad(uBounds[0], below + ivec2(k & 1, k >> 1)).r);
+  imageStore(uBounds[0], boundOrigin(S, level) + t, vec4(m));
 }

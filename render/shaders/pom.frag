@@ -95,14 +95,16 @@ float boundAlong(vec2 a, vec2 b) {
   vec2 res = vec2(textureSize(uHeight, 0));
   vec2 lo = clamp(min(a, b) * res - 1.0, vec2(0.0), res - 1.0), hi = clamp(max(a, b) * res + 1.0, vec2(0.0), res - 1.0);
   float extent = max(hi.x - lo.x, hi.y - lo.y) / float(uBoundTile);
-  int level = min(int(ceil(log2(max(extent, 1.0)))), textureQueryLevels(uHeightBound) - 1);
-  // The level's size from level 0's (a uniform query): llvmpipe answers textureSize at a lod that varies across
-  // a block's pixels with one pixel's lod, and a pixel clamped to another level's size fetched the wrong tile.
-  ivec2 last = max(textureSize(uHeightBound, 0) >> level, ivec2(1)) - 1;
+  // The pyramid's levels lie side by side in one level of the texture (deform's SurfaceMaps::boundOrigin): level
+  // 0 (S x S) at (0, 0), level k >= 1 at (S, S - 2 (S >> k)).
+  int S = textureSize(uHeightBound, 0).y;
+  int level = min(int(ceil(log2(max(extent, 1.0)))), findMSB(S));
+  ivec2 last = ivec2(max(S >> level, 1) - 1);
+  ivec2 origin = level == 0 ? ivec2(0) : ivec2(S, S - 2 * (S >> level));
   float texels = 1.0 / (float(uBoundTile) * exp2(float(level)));  // pyramid texels per height texel
-  ivec2 t0 = min(ivec2(lo * texels), last), t1 = min(ivec2(hi * texels), last);
-  return max(max(texelFetch(uHeightBound, t0, level).r, texelFetch(uHeightBound, ivec2(t1.x, t0.y), level).r),
-             max(texelFetch(uHeightBound, ivec2(t0.x, t1.y), level).r, texelFetch(uHeightBound, t1, level).r));
+  ivec2 t0 = origin + min(ivec2(lo * texels), last), t1 = origin + min(ivec2(hi * texels), last);
+  return max(max(texelFetch(uHeightBound, t0, 0).r, texelFetch(uHeightBound, ivec2(t1.x, t0.y), 0).r),
+             max(texelFetch(uHeightBound, ivec2(t0.x, t1.y), 0).r, texelFetch(uHeightBound, t1, 0).r));
 }
 
 // Value noise: a hash per lattice point, smoothly interpolated; fbm: octaves of it, each fading to its mean

@@ -96,7 +96,8 @@ class Deformer {
   // Runs the events in order, with the results of running them one by one, bit for bit; returns their handles.
   // With the compute rasteriser (AddressRaster::Compute) on the gather path, events in a row whose surfaces are
   // all different (neither side of one touches a surface of another) run as one wave: each stage of all their
-  // sides before one memory barrier, rather than each event's stages with barriers of their own. A wave holds
+  // sides before one memory barrier, rather than each event's stages with barriers of their own, and each stage
+  // one dispatch for many sides (up to 8 to 16, or a mesh's), not one a side. A wave holds
   // at most as many events as DeformOptions::waveMemory allows.
   std::vector<int> deform(const std::vector<DeformRequest>& requests);
   // Waves run so far (a single event is one).

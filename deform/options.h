@@ -10,8 +10,9 @@ namespace crumple::deform {
 enum class Path { Gather, Scatter, Readback };
 const char* pathName(Path p);  // "gather", "scatter", "readback"
 enum class TangentMode { None, Multiply, Divide };
-// Who rasterises the gather's address pass (the other body's back faces): compute shaders (a binned rasteriser
-// on every multiprocessor) or the fragment stage. Auto: compute on NVIDIA's data-centre GPUs (H100, H200, A100,
+// Who rasterises the gather's address pass (the other body's back faces) and visits X's texels: compute shaders
+// (a binned rasteriser on every multiprocessor, then X's texels per tile of its map) or the fragment stage (the
+// pass drawn, X drawn in its texture space). Auto: compute on NVIDIA's data-centre GPUs (H100, H200, A100,
 // B200 and kin), whose fragment stage runs on a few of their multiprocessors, else the fragment stage. The two
 // agree up to rounding at triangle edges (tests/test_deform.cpp); a run uses one, so its outputs stay bit-identical.
 enum class AddressRaster { Auto, Compute, Fragment };

@@ -43,7 +43,9 @@ struct RenderItem {
   GLuint height = 0;  // R32F, 0 = flat
   GLuint normal = 0;  // RGBA8 tangent space, 0 = flat
   // The height's bound pyramid (deform::SurfaceMaps::bound: per tile of boundTile texels the largest
-  // |h - 0.5|, mipmapped by max): parallax rays over undented texels skip their march; 0: march everywhere.
+  // |h - 0.5|, each level above the largest of 2 x 2 below, the levels side by side in level 0 as
+  // deform::SurfaceMaps::boundOrigin places them): parallax rays over undented texels skip their march; 0: march
+  // everywhere.
   GLuint heightBound = 0;
   int boundTile = 16;
   glm::vec3 color{0.7f};   // sRGB base colour

@@ -82,6 +82,18 @@ struct SphereIntoPlate {
     return plate.downloadHeight();
   }
   SideStats lastStats;
+  // A ball (surface `ball`, mesh `mesh`) resting on `plate` over `at` (on the plate's top), both sides dented.
+  DeformRequest ballOn(Surface* plate, Surface* ball, const GpuMesh* mesh, glm::dvec3 at, double deformA,
+                       double deformB) const {
+    DeformRequest rq;
+    rq.a = {plate, plateGpu.get(), plateModel};
+    rq.b = {ball, mesh, glm::translate(glm::dmat4(1), at + glm::dvec3(0, R, 0))};
+    rq.point = at;
+    rq.normal = {0, 1, 0};
+    rq.deformA = deformA;
+    rq.deformB = deformB;
+    return rq;
+  }
 };
 
 }  // namespace
@@ -264,14 +276,7 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
                     d.createMaps(SphereIntoPlate::kRes, nullptr, float(SphereIntoPlate::k),
                                  float(s.plateGpu->metresPerUv / SphereIntoPlate::kRes)));
       Surface ball(s.ballGpu, 256, 0.1f, 0.02f, d.createMaps(256, nullptr, 0.1f, float(s.ballGpu->metresPerUv / 256)));
-      DeformRequest rq;
-      rq.a = {&plate, s.plateGpu.get(), s.plateModel};
-      rq.b = {&ball, s.ballGpu.get(), glm::translate(glm::dmat4(1), glm::dvec3(0.05, 0.1 + SphereIntoPlate::R, 0.02))};
-      rq.point = {0.05, 0.1, 0.02};
-      rq.normal = {0, 1, 0};
-      rq.deformA = 0.012;
-      rq.deformB = 0.008;
-      d.deform(rq);
+      d.deform(s.ballOn(&plate, &ball, s.ballGpu.get(), {0.05, 0.1, 0.02}, 0.012, 0.008));
       maps[compute][0] = plate.downloadHeight();
       maps[compute][1] = ball.downloadHeight();
     }
@@ -362,17 +367,9 @@ TEST_CASE("a batch of events runs in waves of different surfaces and gives the o
     std::vector<DeformRequest> rqs;
     const int plate[5] = {0, 1, 2, 0, 2}, ball[5] = {0, 1, 2, 0, 1};
     const double x[5] = {-0.4, 0.0, 0.3, 0.25, -0.2};
-    for (int k = 0; k < 5; ++k) {
-      DeformRequest rq;
-      rq.a = {b.plates[size_t(plate[k])].get(), s.plateGpu.get(), s.plateModel};
-      rq.b = {b.balls[size_t(ball[k])].get(), s.ballGpu.get(),
-              glm::translate(glm::dmat4(1), glm::dvec3(x[k], 0.1 + SphereIntoPlate::R, 0))};
-      rq.point = {x[k], 0.1, 0};
-      rq.normal = {0, 1, 0};
-      rq.deformA = 0.01;
-      rq.deformB = 0.002;
-      rqs.push_back(rq);
-    }
+    for (int k = 0; k < 5; ++k)
+      rqs.push_back(s.ballOn(b.plates[size_t(plate[k])].get(), b.balls[size_t(ball[k])].get(), s.ballGpu.get(),
+                             {x[k], 0.1, 0}, 0.01, 0.002));
     return rqs;
   };
   DeformOptions o{64, Path::Gather};
@@ -443,16 +440,8 @@ TEST_CASE("a wave of more sides than one raster dispatch takes, on meshes of thr
   auto requests = [&](Bodies& b) {
     std::vector<DeformRequest> rqs;
     for (int k = 0; k < kEvents; ++k) {
-      const double x = -0.5 + 0.1 * k;
-      DeformRequest rq;
-      rq.a = {b.plates[size_t(k)].get(), s.plateGpu.get(), s.plateModel};
-      rq.b = {b.balls[size_t(k)].get(), k % 3 == 2 ? ball2.get() : s.ballGpu.get(),
-              glm::translate(glm::dmat4(1), glm::dvec3(x, 0.1 + SphereIntoPlate::R, 0))};
-      rq.point = {x, 0.1, 0};
-      rq.normal = {0, 1, 0};
-      rq.deformA = 0.01;
-      rq.deformB = 0.003;
-      rqs.push_back(rq);
+      rqs.push_back(s.ballOn(b.plates[size_t(k)].get(), b.balls[size_t(k)].get(),
+                             k % 3 == 2 ? ball2.get() : s.ballGpu.get(), {-0.5 + 0.1 * k, 0.1, 0}, 0.01, 0.003));
     }
     return rqs;
   };

@@ -287,6 +287,9 @@ const render::Texture2D& Deformer::lastAddressMap() const {
   return options_.path == Path::Gather ? impl_->passes.addressOther(0) : impl_->passes.addressX(0);
 }
 std::pair<size_t, size_t> Deformer::lastRasterTiles() const { return impl_->passes.tilesRun(0); }
+std::pair<size_t, size_t> Deformer::lastGatherTiles() const {
+  return impl_->computeGather ? impl_->computeGather->lastKept() : std::pair<size_t, size_t>{0, 0};
+}
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 AddressRaster Deformer::addressRaster() const { return impl_->raster; }
 long Deformer::wavesRun() const { return impl_->waves; }

@@ -18,10 +18,12 @@
 // looked up in that depth map like a shadow-map lookup. Every texel of the
 // footprint gets its value; the address map's size trades the dent's accuracy
 // (the other body's depth is interpolated between its pixels), never its
-// continuity. Path::Scatter is the paper's update on the GPU (compute shaders,
-// image atomics, an indirect dispatch over the touched region); Path::Readback
-// is the paper's path as written: the address maps read back and a CPU
-// scatter. Both are kept as references and give bit-identical maps.
+// continuity. Where the address pass runs in compute (AddressRaster::Compute),
+// so does this: X's texels are visited per tile of its map (texel_gather.comp)
+// instead of drawn. Path::Scatter is the paper's update on the GPU (compute
+// shaders, image atomics, an indirect dispatch over the touched region);
+// Path::Readback is the paper's path as written: the address maps read back
+// and a CPU scatter. Both are kept as references and give bit-identical maps.
 #pragma once
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -119,6 +121,9 @@ class Deformer {
   // With the address pass in compute: the tiles of lastAddressMap's map its raster ran (those with triangles to
   // test), and the map's tiles (read back from the GPU; for tests).
   std::pair<size_t, size_t> lastRasterTiles() const;
+  // With the gather in compute (the compute rasteriser): the texel tiles of X's maps the last deformation's gather
+  // kept (those near the contact) and all of them, over its sides (read back from the GPU; for tests).
+  std::pair<size_t, size_t> lastGatherTiles() const;
   // Phases of the last deform() when options().profile is set (empty otherwise).
   const std::vector<PhaseTime>& profile() const;
 

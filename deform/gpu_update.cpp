@@ -88,6 +88,7 @@ static_assert(sizeof(GatherEntry) == 176, "GatherEntry must match texel_gather.c
 ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {
   uSize_ = program_.uniform("uSize");
   uFirst_ = program_.uniform("uFirst");
+  uMode_ = program_.uniform("uMode");
 }
 
 void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes, const render::Buffer& region) {
@@ -143,6 +144,23 @@ void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes
   if (entries_.size() < entries.size() * sizeof(GatherEntry))
     entries_ = render::Buffer(std::max<size_t>(entries.size(), 16) * sizeof(GatherEntry) * 2, nullptr);
   entries_.upload(0, entries.size() * sizeof(GatherEntry), entries.data());
+  // Each dispatch's kept tiles: 4 uints (count, indirect x y z), then up to sides x tiles items; 256-byte aligned.
+  std::vector<size_t>& keptAt = keptAt_;
+  keptAt.clear();
+  tilesRun_ = 0;
+  size_t keptBytes = 0;
+  for (const Dispatch& d : dispatches) {
+    keptAt.push_back(keptBytes);
+    const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+    keptBytes += ((4 + d.count * tiles) * sizeof(GLuint) + 255) / 256 * 256;
+    tilesRun_ += d.count * tiles;
+  }
+  if (kept_.size() < keptBytes) kept_ = render::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the last wave's counts, written by its shaders
+  for (size_t k = 0; k < dispatches.size(); ++k) {
+    const GLuint head[4] = {0, 0, 1, 1};
+    kept_.upload(keptAt[k], sizeof head, head);
+  }
   program_.use();
   glUniform1i(uSize_, passes.size());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
@@ -150,18 +168,48 @@ void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
   glBindTextureUnit(0, passes.addressOthers().id());
   glBindTextureUnit(1, passes.depthOthers().id());
-  for (const Dispatch& d : dispatches) {
+  auto bind = [&](size_t k) {
+    const Dispatch& d = dispatches[k];
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, d.mesh->vertices.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, d.mesh->indices.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, d.cover->start.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, d.cover->triangles.id());
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
-    for (size_t k = 0; k < d.count; ++k)
-      glBindTextureUnit(static_cast<GLuint>(2 + k), order[d.first + k]->height->id());
+    const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 8, kept_.id(), static_cast<GLintptr>(keptAt[k]),
+                      static_cast<GLsizeiptr>((4 + d.count * tiles) * sizeof(GLuint)));
     glUniform1i(uFirst_, static_cast<GLint>(d.first));
-    glDispatchCompute(static_cast<GLuint>(d.cover->tilesX), static_cast<GLuint>(d.cover->tilesX),
-                      static_cast<GLuint>(d.count));
+  };
+  // The tiles near each side's contact, then X's texels there.
+  glUniform1i(uMode_, 0);
+  for (size_t k = 0; k < dispatches.size(); ++k) {
+    bind(k);
+    const Dispatch& d = dispatches[k];
+    const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+    glDispatchCompute(static_cast<GLuint>((tiles + 255) / 256), 1, static_cast<GLuint>(d.count));
   }
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+  glUniform1i(uMode_, 1);
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, kept_.id());
+  for (size_t k = 0; k < dispatches.size(); ++k) {
+    bind(k);
+    const Dispatch& d = dispatches[k];
+    for (size_t j = 0; j < d.count; ++j)
+      glBindTextureUnit(static_cast<GLuint>(2 + j), order[d.first + j]->height->id());
+    glDispatchComputeIndirect(static_cast<GLintptr>(keptAt[k] + sizeof(GLuint)));
+  }
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
+}
+
+std::pair<size_t, size_t> ComputeGather::lastKept() const {
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  size_t kept = 0;
+  for (size_t at : keptAt_) {
+    GLuint count = 0;
+    glGetNamedBufferSubData(kept_.id(), static_cast<GLintptr>(at), sizeof count, &count);
+    kept += count;
+  }
+  return {kept, tilesRun_};
 }
 
 ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {

@@ -179,10 +179,10 @@ struct TexelCover {
 
 // The gather in compute shaders (texel_gather.comp) for all the sides of a wave: where the address pass runs
 // in compute (GPUs whose fragment stage is narrow), X's texels are visited by every invocation of the GPU, not
-// drawn through the graphics stages. One dispatch for up to kGroup sides of one mesh and map resolution:
-// workgroup (tile, side) culls the tile by its box against the side's camera, then each invocation takes one
-// texel and every triangle of the tile's list that faces the camera and whose footprint grown by half a texel
-// holds it, with the surface point (and normal) where the triangle's affine map puts the texel's centre: the
+// drawn through the graphics stages. Two dispatches for up to kGroup sides of one mesh and map resolution: the
+// first keeps the tiles whose box meets the side's camera (and that list triangles), the second runs a
+// workgroup a kept (tile, side), indirectly: each invocation takes one texel and every triangle of the tile's
+// list that faces the camera and whose footprint grown by half a texel holds it, with the surface point (and normal) where the triangle's affine map puts the texel's centre: the
 // texels texel.geom's conservative draw gives fragments, within the tests' tolerance (its view clip is applied
 // per texel here), and the same update per (texel, triangle), the deepest winning.
 class ComputeGather {
@@ -198,12 +198,16 @@ class ComputeGather {
   };
   // No barriers of its own (as GatherUpdate::run).
   void run(const std::vector<Side>& sides, const AddressPasses& passes, const render::Buffer& region);
+  // The last run's kept tiles (summed over its sides) and all of its sides' tiles (read back: waits; tests).
+  std::pair<size_t, size_t> lastKept() const;
 
  private:
   static constexpr int kGroup = 14;  // the other's address and depth at units 0, 1; X's height maps at 2 .. 15
   render::Program program_;
-  GLint uSize_, uFirst_;
-  render::Buffer entries_;
+  GLint uSize_, uFirst_, uMode_;
+  render::Buffer entries_, kept_;  // the sides; each dispatch's kept tiles (texel_gather.comp's Kept)
+  std::vector<size_t> keptAt_;     // the last run's dispatches' offsets into kept_
+  size_t tilesRun_ = 0;            // the last run's sides' tiles, all of them
 };
 
 class ScatterUpdate {

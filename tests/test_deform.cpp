@@ -277,6 +277,12 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
                                  float(s.plateGpu->metresPerUv / SphereIntoPlate::kRes)));
       Surface ball(s.ballGpu, 256, 0.1f, 0.02f, d.createMaps(256, nullptr, 0.1f, float(s.ballGpu->metresPerUv / 256)));
       d.deform(s.ballOn(&plate, &ball, s.ballGpu.get(), {0.05, 0.1, 0.02}, 0.012, 0.008));
+      if (compute) {  // the gather ran the tiles of X's maps near the contact, not all of them
+        const auto [kept, tiles] = d.lastGatherTiles();
+        MESSAGE("the gather kept " << kept << " of " << tiles << " texel tiles");
+        CHECK(kept > 0);
+        CHECK(kept < tiles / 4);
+      }
       maps[compute][0] = plate.downloadHeight();
       maps[compute][1] = ball.downloadHeight();
     }

@@ -3,8 +3,12 @@
 // for up to 14 sides of a wave whose X has this mesh and map resolution (workgroup z: entry uFirst + z). Where the
 // address pass runs in compute (GPUs with a narrow fragment stage) X's texels are visited here by every
 // invocation of the GPU instead of being drawn through the graphics stages (texel.vert, texel.geom).
-// Workgroup (x, y): a tile of 16 x 16 texels (TexelCover): culled whole when its box in the shape frame lies
-// outside the side's view or beyond the other body's farthest depth; else each invocation takes its texel and
+// Two modes. uMode 0 (cull): an invocation a (tile of 16 x 16 texels, side): the tile (TexelCover) is kept when
+// it lists triangles and its box in the shape frame meets the side's view and reaches the other body's farthest
+// depth; kept tiles are appended to the group's list, whose length sizes mode 1's indirect dispatch (a large GPU
+// then launches workgroups for the few tiles near the contact, not for every tile of every side's map).
+// uMode 1 (gather): a workgroup a listed (tile, side) (striding when there are more than 65535): each invocation
+// takes its texel and
 // every triangle of the tile's list that faces the camera (as address pass A keeps), reaches the other body's
 // depth range and whose footprint in texture space, grown by half a texel, holds the texel's centre (the
 // texels texel.geom's conservative rasterisation reaches), the triangle's affine map extrapolated to the centre
@@ -34,14 +38,17 @@ struct Entry {
   float tangentFloor, pad0, pad1, pad2;
 };
 layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+// The kept tiles: Tiles[0] their count, [1 .. 3] mode 1's indirect dispatch (x: min(count, 65535)), then
+// (side << 20) | tile each.
+layout(std430, binding = 8) buffer Kept { uint uKept[]; };
 layout(binding = 0) uniform sampler2DArray uAddressOther;
 layout(binding = 1) uniform sampler2DArray uDepthOther;
 layout(binding = 2) uniform sampler2D uHeights[14];  // X's height map: the entry's `sampler`
 uniform int uSize;    // address map (pixels)
 uniform int uFirst;
+uniform int uMode;    // 0: cull the tiles, 1: gather the kept ones
 const int kTile = 16;
 Entry gE;
-shared bool sCulled;
 // A chunk of the tile's triangles, set up by one invocation each: texel-space corners t0 t1 | t2 area orient,
 // clip-space corners c0 (xyz, kept) | c1 | c2, world normals n0 | n1 | n2.
 shared vec4 sTri[128 * 8];  // 16 KiB
@@ -112,31 +119,26 @@ bool reaches(vec2 q, vec2 t0, vec2 t1, vec2 t2, float orient) {
   }
   return true;
 }
-void main() {
-  gE = uEntry[uFirst + int(gl_WorkGroupID.z)];
-  int tilesX = (gE.resolution + kTile - 1) / kTile;
-  ivec2 tile = ivec2(gl_WorkGroupID.xy);
-  if (any(greaterThanEqual(tile, ivec2(tilesX)))) return;  // a smaller map than the dispatch's largest
-  uint tileIndex = uint(tile.y * tilesX + tile.x);
-  uint first = uTileStart[tileIndex], count = uTileStart[tileIndex + 1u] - first;
-  if (count == 0u) return;
+// Whether tile `tile` of side gE's map may hold texels to dent: it lists triangles and its box meets the view (grown
+// by a tenth: texels extrapolated past the box's triangles) and reaches the other body's farthest depth.
+bool kept(uint tileIndex) {
+  if (uTileStart[tileIndex + 1u] == uTileStart[tileIndex]) return false;
   float lim = gE.viewNormal.w;
-  if (gl_LocalInvocationIndex == 0u) {
-    // The box's corners in clip space: the tile is culled when all lie past one side of the view (grown by a
-    // tenth: texels extrapolated past the box's triangles) or beyond the other body's farthest depth.
-    vec3 lo = uTileBox[2u * tileIndex].xyz, hi = uTileBox[2u * tileIndex + 1u].xyz;
-    vec3 cmin = vec3(1e30), cmax = vec3(-1e30);
-    for (int c = 0; c < 8; ++c) {
-      vec3 p = vec3((c & 1) != 0 ? hi.x : lo.x, (c & 2) != 0 ? hi.y : lo.y, (c & 4) != 0 ? hi.z : lo.z);
-      vec3 q = (gE.mvp * vec4(p, 1.0)).xyz;
-      cmin = min(cmin, q);
-      cmax = max(cmax, q);
-    }
-    sCulled = cmin.x > lim || cmax.x < -lim || cmin.y > lim || cmax.y < -lim ||
-              cmin.z * 0.5 + 0.5 - 0.5 * gE.bumpToDepth > gE.farthestOther;
+  vec3 lo = uTileBox[2u * tileIndex].xyz, hi = uTileBox[2u * tileIndex + 1u].xyz;
+  vec3 cmin = vec3(1e30), cmax = vec3(-1e30);
+  for (int c = 0; c < 8; ++c) {
+    vec3 p = vec3((c & 1) != 0 ? hi.x : lo.x, (c & 2) != 0 ? hi.y : lo.y, (c & 4) != 0 ? hi.z : lo.z);
+    vec3 q = (gE.mvp * vec4(p, 1.0)).xyz;
+    cmin = min(cmin, q);
+    cmax = max(cmax, q);
   }
-  barrier();
-  if (sCulled) return;
+  return !(cmin.x > lim || cmax.x < -lim || cmin.y > lim || cmax.y < -lim ||
+           cmin.z * 0.5 + 0.5 - 0.5 * gE.bumpToDepth > gE.farthestOther);
+}
+void gatherTile(uint tileIndex, int tilesX) {
+  ivec2 tile = ivec2(int(tileIndex) % tilesX, int(tileIndex) / tilesX);
+  uint first = uTileStart[tileIndex], count = uTileStart[tileIndex + 1u] - first;
+  float lim = gE.viewNormal.w;
   ivec2 t = tile * kTile + ivec2(gl_LocalInvocationID.xy);
   bool inMap = all(lessThan(t, ivec2(gE.resolution)));
   vec2 q = vec2(t) + 0.5;
@@ -197,4 +199,23 @@ void main() {
   if (t.y < r.y) atomicMin(uRegion[s].y, t.y);
   if (t.x > r.z) atomicMax(uRegion[s].z, t.x);
   if (t.y > r.w) atomicMax(uRegion[s].w, t.y);
+}
+void main() {
+  if (uMode == 0) {
+    gE = uEntry[uFirst + int(gl_WorkGroupID.z)];
+    int tilesX = (gE.resolution + kTile - 1) / kTile;
+    uint tileIndex = gl_WorkGroupID.x * 256u + gl_LocalInvocationIndex;
+    if (tileIndex >= uint(tilesX * tilesX) || !kept(tileIndex)) return;
+    uint at = atomicAdd(uKept[0], 1u);
+    atomicMax(uKept[1], min(at + 1u, 65535u));
+    uKept[4u + at] = (gl_WorkGroupID.z << 20) | tileIndex;
+    return;
+  }
+  uint listed = uKept[0];
+  for (uint a = gl_WorkGroupID.x; a < listed; a += gl_NumWorkGroups.x) {
+    uint item = uKept[4u + a];
+    gE = uEntry[uFirst + int(item >> 20)];
+    gatherTile(item & 0xfffffu, (gE.resolution + kTile - 1) / kTile);
+    barrier();  // the next item's setup overwrites the triangles
+  }
 }

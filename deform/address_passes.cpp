@@ -1,5 +1,6 @@
 // The address-map passes of figure 11 (RenderPassA/B), into per-side targets.
 #include <algorithm>
+#include <climits>
 #include <glm/gtc/type_ptr.hpp>
 
 #include "deform/passes.h"
@@ -80,6 +81,7 @@ void AddressPasses::makeSlots(int slots) {
   count_ = render::Buffer(k * countStride() * sizeof(GLuint), nullptr);
   list_ = render::Buffer(k * t * kTileCapacity * sizeof(GLuint), nullptr);
   active_ = render::Buffer(k * t * sizeof(GLuint), nullptr);
+  reach_ = render::Buffer(k * 4 * sizeof(GLint), nullptr);
   for (int s = 0; s < 2; ++s) {  // the fragment stage's pass B draws into slots 0 and 1
     fboO_[s] = render::Framebuffer();
     fboO_[s].attachColor(addressO_[static_cast<size_t>(s)], 0);
@@ -89,6 +91,16 @@ void AddressPasses::makeSlots(int slots) {
     glNamedFramebufferDrawBuffers(fboO_[s].id(), 2, bufsO);
     fboO_[s].checkComplete();
   }
+}
+
+void AddressPasses::clearReach(int slots) {
+  std::vector<GLint> empty(static_cast<size_t>(slots) * 4);
+  for (size_t k = 0; k < empty.size(); k += 4) {
+    empty[k] = empty[k + 1] = INT_MAX;
+    empty[k + 2] = empty[k + 3] = -1;
+  }
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  reach_.upload(0, empty.size() * sizeof(GLint), empty.data());
 }
 
 void AddressPasses::reserveSlots(int slots) {
@@ -215,6 +227,7 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, active_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, args_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, reach_.id());
   glBindImageTexture(0, addressArray_.id(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_RG32F);
   glBindImageTexture(1, depthArray_.id(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
   raster_.use();

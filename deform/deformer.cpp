@@ -357,9 +357,18 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
 void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SidePlan>& p, std::vector<char>& rimsMade) {
   // Stage by stage over all sides (different targets): one barrier a stage for all of them.
   const int n = static_cast<int>(p.size());
+  std::vector<ComputeGather::Side> sides;  // the compute gather's (it culls X's texel tiles before the raster)
   if (raster == AddressRaster::Compute) {
     // The last wave's gather read the targets (texture fetches) and its commit the buffers.
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
+    for (int k = 0; k < n; ++k)
+      if (p[k].active)
+        sides.push_back({&p[k].u, p[k].x->mesh, &p[k].x->surface->height(), p[k].vp, p[k].modelX, p[k].farthestOther,
+                         scratchFor(k, p[k].u.resolution)});
+    if (!computeGather) computeGather.emplace();
+    passes.clearReach(n);
+    computeGather->cull(sides, passes.size(), passes.reach());
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     std::vector<AddressPasses::OtherPass> others;
     for (int k = 0; k < n; ++k)
       if (p[k].active) others.push_back({k, p[k].other, p[k].vp, p[k].other->model, p[k].reachOther, p[k].otherBumpToDepth});
@@ -370,15 +379,7 @@ void Deformer::Impl::gatherSlots(const DeformOptions& o, const std::vector<SideP
   }
   phase("address pass other");
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
-  if (raster == AddressRaster::Compute) {  // X's texels in compute too: one dispatch for up to 14 sides
-    std::vector<ComputeGather::Side> sides;
-    for (int k = 0; k < n; ++k)
-      if (p[k].active)
-        sides.push_back({&p[k].u, p[k].x->mesh, &p[k].x->surface->height(), p[k].vp, p[k].modelX, p[k].farthestOther,
-                         scratchFor(k, p[k].u.resolution)});
-    if (!computeGather) computeGather.emplace();
-    computeGather->run(sides, passes, region);
-  }
+  if (raster == AddressRaster::Compute) computeGather->gather(passes, region);  // X's texels in compute too
   for (int k = 0; k < n && raster != AddressRaster::Compute; ++k) {
     if (!p[k].active) continue;
     const DeformBody& x = *p[k].x;

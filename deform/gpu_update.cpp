@@ -91,21 +91,24 @@ ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {
   uMode_ = program_.uniform("uMode");
 }
 
-void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes, const render::Buffer& region) {
+void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const render::Buffer& reach) {
+  order_.clear();
+  dispatches_.clear();
+  keptAt_.clear();
+  tilesRun_ = 0;
   if (in.empty()) return;
   // Sides grouped by mesh and resolution (a tile list each), in order of first appearance; dispatches of kGroup.
-  std::vector<const Side*> order;
   std::vector<std::pair<const GpuMesh*, int>> kinds;
   for (const Side& s : in)
     if (std::find(kinds.begin(), kinds.end(), std::make_pair(s.mesh, s.u->resolution)) == kinds.end())
       kinds.emplace_back(s.mesh, s.u->resolution);
   for (const auto& k : kinds)
     for (const Side& s : in)
-      if (s.mesh == k.first && s.u->resolution == k.second) order.push_back(&s);
-  const float lim = 1.0f + 4.0f / static_cast<float>(passes.size());  // texel.geom's view, a few pixels grown
-  std::vector<GatherEntry> entries(order.size());
-  for (size_t e = 0; e < order.size(); ++e) {
-    const Side& s = *order[e];
+      if (s.mesh == k.first && s.u->resolution == k.second) order_.push_back(&s);
+  const float lim = 1.0f + 4.0f / static_cast<float>(addressMap);  // texel.geom's view, a few pixels grown
+  std::vector<GatherEntry> entries(order_.size());
+  for (size_t e = 0; e < order_.size(); ++e) {
+    const Side& s = *order_[e];
     const SideUpdate& u = *s.u;
     GatherEntry& g = entries[e];
     g.mvp = glm::mat4(s.viewProjection * s.model);
@@ -123,21 +126,12 @@ void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes
     g.tangentFloor = u.tangentFloor;
     g.pad[0] = g.pad[1] = g.pad[2] = 0;
   }
-  // Dispatches: runs of one kind, kGroup sides at most.
-  struct Dispatch {
-    size_t first, count;
-    const TexelCover* cover;
-    const GpuMesh* mesh;
-  };
-  std::vector<Dispatch> dispatches;
-  std::vector<std::shared_ptr<const TexelCover>> covers;
-  for (size_t e = 0; e < order.size();) {
-    const GpuMesh* mesh = order[e]->mesh;
-    const int res = order[e]->u->resolution;
+  for (size_t e = 0; e < order_.size();) {  // runs of one kind, kGroup sides at most
+    const GpuMesh* mesh = order_[e]->mesh;
+    const int res = order_[e]->u->resolution;
     size_t f = e + 1;
-    while (f < order.size() && f - e < kGroup && order[f]->mesh == mesh && order[f]->u->resolution == res) ++f;
-    covers.push_back(TexelCover::of(*mesh, res));
-    dispatches.push_back({e, f - e, covers.back().get(), mesh});
+    while (f < order_.size() && f - e < kGroup && order_[f]->mesh == mesh && order_[f]->u->resolution == res) ++f;
+    dispatches_.push_back({e, f - e, TexelCover::of(*mesh, res), mesh});
     for (size_t k = e; k < f; ++k) entries[k].sampler = static_cast<GLint>(k - e);
     e = f;
   }
@@ -145,58 +139,62 @@ void ComputeGather::run(const std::vector<Side>& in, const AddressPasses& passes
     entries_ = render::Buffer(std::max<size_t>(entries.size(), 16) * sizeof(GatherEntry) * 2, nullptr);
   entries_.upload(0, entries.size() * sizeof(GatherEntry), entries.data());
   // Each dispatch's kept tiles: 4 uints (count, indirect x y z), then up to sides x tiles items; 256-byte aligned.
-  std::vector<size_t>& keptAt = keptAt_;
-  keptAt.clear();
-  tilesRun_ = 0;
   size_t keptBytes = 0;
-  for (const Dispatch& d : dispatches) {
-    keptAt.push_back(keptBytes);
+  for (const Dispatch& d : dispatches_) {
+    keptAt_.push_back(keptBytes);
     const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
     keptBytes += ((4 + d.count * tiles) * sizeof(GLuint) + 255) / 256 * 256;
     tilesRun_ += d.count * tiles;
   }
   if (kept_.size() < keptBytes) kept_ = render::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the last wave's counts, written by its shaders
-  for (size_t k = 0; k < dispatches.size(); ++k) {
+  for (size_t at : keptAt_) {
     const GLuint head[4] = {0, 0, 1, 1};
-    kept_.upload(keptAt[k], sizeof head, head);
+    kept_.upload(at, sizeof head, head);
   }
   program_.use();
-  glUniform1i(uSize_, passes.size());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
-  in.front().scratch.bind();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
-  glBindTextureUnit(0, passes.addressOthers().id());
-  glBindTextureUnit(1, passes.depthOthers().id());
-  auto bind = [&](size_t k) {
-    const Dispatch& d = dispatches[k];
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, d.mesh->vertices.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, d.mesh->indices.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, d.cover->start.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, d.cover->triangles.id());
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
-    const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
-    glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 8, kept_.id(), static_cast<GLintptr>(keptAt[k]),
-                      static_cast<GLsizeiptr>((4 + d.count * tiles) * sizeof(GLuint)));
-    glUniform1i(uFirst_, static_cast<GLint>(d.first));
-  };
-  // The tiles near each side's contact, then X's texels there.
+  glUniform1i(uSize_, addressMap);
   glUniform1i(uMode_, 0);
-  for (size_t k = 0; k < dispatches.size(); ++k) {
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, reach.id());
+  for (size_t k = 0; k < dispatches_.size(); ++k) {
     bind(k);
-    const Dispatch& d = dispatches[k];
+    const Dispatch& d = dispatches_[k];
     const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
     glDispatchCompute(static_cast<GLuint>((tiles + 255) / 256), 1, static_cast<GLuint>(d.count));
   }
-  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+}
+
+void ComputeGather::bind(size_t k) const {
+  const Dispatch& d = dispatches_[k];
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, d.mesh->vertices.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, d.mesh->indices.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, d.cover->start.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, d.cover->triangles.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
+  const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+  glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 8, kept_.id(), static_cast<GLintptr>(keptAt_[k]),
+                    static_cast<GLsizeiptr>((4 + d.count * tiles) * sizeof(GLuint)));
+  glUniform1i(uFirst_, static_cast<GLint>(d.first));
+}
+
+void ComputeGather::gather(const AddressPasses& passes, const render::Buffer& region) {
+  if (dispatches_.empty()) return;
+  program_.use();
+  glUniform1i(uSize_, passes.size());
   glUniform1i(uMode_, 1);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
+  order_.front()->scratch.bind();
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
+  glBindTextureUnit(0, passes.addressOthers().id());
+  glBindTextureUnit(1, passes.depthOthers().id());
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, kept_.id());
-  for (size_t k = 0; k < dispatches.size(); ++k) {
+  for (size_t k = 0; k < dispatches_.size(); ++k) {
     bind(k);
-    const Dispatch& d = dispatches[k];
+    const Dispatch& d = dispatches_[k];
     for (size_t j = 0; j < d.count; ++j)
-      glBindTextureUnit(static_cast<GLuint>(2 + j), order[d.first + j]->height->id());
-    glDispatchComputeIndirect(static_cast<GLintptr>(keptAt[k] + sizeof(GLuint)));
+      glBindTextureUnit(static_cast<GLuint>(2 + j), order_[d.first + j]->height->id());
+    glDispatchComputeIndirect(static_cast<GLintptr>(keptAt_[k] + sizeof(GLuint)));
   }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
 }

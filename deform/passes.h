@@ -101,6 +101,10 @@ class AddressPasses {
   // Issues its own barriers; on return the targets are written (the caller's barrier makes them visible to
   // texture fetches). `phase` marks "address bins" after the bins.
   void rasterOthers(const std::vector<OtherPass>& passes, const PhaseMark& phase);
+  // Per slot, the pixels (x0, y0, x1, y1, inclusive) the compute raster writes; outside them it leaves "none".
+  // clearReach() empties the slots' rectangles; ComputeGather::cull grows them to what its texels can read.
+  const render::Buffer& reach() const { return reach_; }
+  void clearReach(int slots);
   const render::Texture2D& addressX(int side) const { return addressX_[side]; }
   const render::Texture2D& depthX(int side) const { return depthX_[side]; }
   const render::Texture2D& normalX(int side) const { return normalX_[side]; }
@@ -130,7 +134,7 @@ class AddressPasses {
   // the active tiles', 3 unused, whether every tile is active), tile lists and active tiles; per wave, each
   // side's triangle setups and large triangles (at its entry's `setup`), the entries (address_bin.comp's Entry)
   // and each raster group's indirect dispatch (3 uints).
-  render::Buffer count_, list_, active_, setup_, large_, entries_, args_;
+  render::Buffer count_, list_, active_, setup_, large_, entries_, args_, reach_;
   render::Texture2D flat_{1, 1, GL_R32F};
   int size_ = 0;
   // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.
@@ -164,8 +168,9 @@ class GatherUpdate {
 
 // Which of a mesh's triangles reach each tile of kTile x kTile texels of its map at one resolution: those whose
 // footprint in texture space, grown by half a texel (conservatively, as texel.geom grows it), overlaps the tile's
-// texels; and the tile's box in the shape frame (those triangles' boxes, grown by a texel's size on the surface:
-// the texels' points extrapolated past a triangle stay within it). Made on the CPU from the mesh (read back
+// texels; and the tile's box in the shape frame (those triangles' parts over the tile's texels, grown by a texel
+// and a half on the surface: the texels' points extrapolated past a triangle stay within it; a large triangle
+// then bounds each tile by the little of it there). Made on the CPU from the mesh (read back
 // once) on first use at a resolution; kept with the mesh (GpuMesh::texelCovers).
 struct TexelCover {
   static constexpr int kTile = 16;
@@ -196,8 +201,12 @@ class ComputeGather {
     float farthestOther = 0;
     Scratch scratch;
   };
-  // No barriers of its own (as GatherUpdate::run).
-  void run(const std::vector<Side>& sides, const AddressPasses& passes, const render::Buffer& region);
+  // First (before the address pass): keeps each side's tiles near its camera and grows the side's slot's pixel
+  // rectangle in `reach` (AddressPasses::reach) to hold where their texels and the pixels a bilinear read takes
+  // lie: the address pass then rasterises no pixel outside it. `sides` must live until gather().
+  void cull(const std::vector<Side>& sides, int addressMap, const render::Buffer& reach);
+  // Then (after the address pass and a texture-fetch barrier): the kept tiles' texels. No barriers of its own.
+  void gather(const AddressPasses& passes, const render::Buffer& region);
   // The last run's kept tiles (summed over its sides) and all of its sides' tiles (read back: waits; tests).
   std::pair<size_t, size_t> lastKept() const;
 
@@ -208,6 +217,14 @@ class ComputeGather {
   render::Buffer entries_, kept_;  // the sides; each dispatch's kept tiles (texel_gather.comp's Kept)
   std::vector<size_t> keptAt_;     // the last run's dispatches' offsets into kept_
   size_t tilesRun_ = 0;            // the last run's sides' tiles, all of them
+  struct Dispatch {                // up to kGroup sides of one mesh and resolution
+    size_t first, count;
+    std::shared_ptr<const TexelCover> cover;
+    const GpuMesh* mesh;
+  };
+  std::vector<const Side*> order_;  // the sides by kind (the entries' order)
+  std::vector<Dispatch> dispatches_;
+  void bind(size_t dispatch) const;
 };
 
 class ScatterUpdate {

@@ -27,6 +27,32 @@ bool overlaps(const glm::dvec2 t[3], glm::dvec2 lo, glm::dvec2 hi) {
   }
   return true;
 }
+// The box of the triangle's surface points (p[], texel coordinates t[]) whose texel coordinates lie in [lo, hi]:
+// the triangle clipped to the rectangle (Sutherland-Hodgman), its corners mapped back by the triangle's affine map.
+void clippedBox(const glm::dvec2 t[3], const glm::dvec3 p[3], glm::dvec2 lo, glm::dvec2 hi, glm::dvec3& bmin,
+                glm::dvec3& bmax) {
+  std::vector<glm::dvec2> poly(t, t + 3), next;
+  for (int plane = 0; plane < 4 && !poly.empty(); ++plane) {
+    const int axis = plane / 2;
+    const double limit = plane % 2 == 0 ? lo[axis] : hi[axis], s = plane % 2 == 0 ? -1 : 1;  // keep s * (x - limit) <= 0
+    next.clear();
+    for (size_t i = 0; i < poly.size(); ++i) {
+      const glm::dvec2 a = poly[i], b = poly[(i + 1) % poly.size()];
+      const double da = s * (a[axis] - limit), db = s * (b[axis] - limit);
+      if (da <= 0) next.push_back(a);
+      if ((da <= 0) != (db <= 0)) next.push_back(a + (b - a) * (da / (da - db)));
+    }
+    poly.swap(next);
+  }
+  const double area = (t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x);
+  for (const glm::dvec2& q : poly) {
+    const double w1 = ((q.x - t[0].x) * (t[2].y - t[0].y) - (q.y - t[0].y) * (t[2].x - t[0].x)) / area;
+    const double w2 = ((t[1].x - t[0].x) * (q.y - t[0].y) - (t[1].y - t[0].y) * (q.x - t[0].x)) / area;
+    const glm::dvec3 w = (1 - w1 - w2) * p[0] + w1 * p[1] + w2 * p[2];
+    bmin = glm::min(bmin, w);
+    bmax = glm::max(bmax, w);
+  }
+}
 }  // namespace
 
 std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolution) {
@@ -59,9 +85,7 @@ std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolu
     if (area < 1e-12) continue;  // texel.geom draws none either
     // A texel's size on this triangle's surface: texels up to half a texel past it extrapolate within this much.
     const double metres = glm::length(glm::cross(p[1] - p[0], p[2] - p[0]));
-    const float grow = static_cast<float>(std::sqrt(metres / area) * 1.5);
-    const glm::vec3 blo = glm::vec3(glm::min(glm::min(p[0], p[1]), p[2])) - grow,
-                    bhi = glm::vec3(glm::max(glm::max(p[0], p[1]), p[2])) + grow;
+    const double grow = std::sqrt(metres / area) * 1.5;
     const glm::dvec2 tlo = glm::min(glm::min(t[0], t[1]), t[2]) - 0.5, thi = glm::max(glm::max(t[0], t[1]), t[2]) + 0.5;
     const int x0 = std::max(0, static_cast<int>(std::floor(tlo.x)) / kTile);
     const int y0 = std::max(0, static_cast<int>(std::floor(tlo.y)) / kTile);
@@ -74,8 +98,13 @@ std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolu
         if (!overlaps(t, lo, hi)) continue;
         const size_t k = static_cast<size_t>(ty) * static_cast<size_t>(cover->tilesX) + static_cast<size_t>(tx);
         lists[k].push_back(static_cast<GLuint>(tri));
-        boxes[2 * k] = glm::vec4(glm::min(glm::vec3(boxes[2 * k]), blo), 0);
-        boxes[2 * k + 1] = glm::vec4(glm::max(glm::vec3(boxes[2 * k + 1]), bhi), 0);
+        // The part of the triangle over the tile's texels (their squares, a texel more for the conservative
+        // reach), its surface points grown by a texel and a half on the surface (points extrapolated past it).
+        glm::dvec3 bmin(1e300), bmax(-1e300);
+        clippedBox(t, p, lo - 1.5, hi + 1.5, bmin, bmax);
+        if (bmin.x > bmax.x) continue;
+        boxes[2 * k] = glm::vec4(glm::min(glm::vec3(boxes[2 * k]), glm::vec3(bmin - grow)), 0);
+        boxes[2 * k + 1] = glm::vec4(glm::max(glm::vec3(boxes[2 * k + 1]), glm::vec3(bmax + grow)), 0);
       }
   }
   std::vector<GLuint> start(tiles + 1, 0), all;

@@ -37,6 +37,8 @@ layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
 // Step 2's indirect dispatches, one a group of entries: x = the most active tiles of its sides (at most 65535),
 // y = 1, z = its entries (set beforehand).
 layout(std430, binding = 8) buffer Args { uint uArgs[]; };
+// Per slot, the pixels (x0, y0, x1, y1) X's texels may read (texel_gather.comp's cull): no tile outside is listed.
+layout(std430, binding = 9) readonly buffer Reach { ivec4 uReach[]; };
 uniform int uSize;       // the address map (pixels)
 uniform int uCapacity;   // entries a tile
 uniform int uFirst;      // workgroup z's entry: uFirst + z
@@ -78,6 +80,8 @@ void activate(uint id) {
 // every edge function reaches zero somewhere over the tile's centres within the box (a tolerance of a thousandth
 // of a pixel for rounding).
 bool mayHold(ivec2 tile) {
+  ivec4 r = uReach[gE.slot];
+  if (any(greaterThan(tile * kTile, r.zw)) || any(lessThan(tile * kTile + kTile - 1, r.xy))) return false;
   vec2 lo = max(vec2(tile * kTile) + 0.5, sBox.xy) - sOrigin, hi = min(vec2(tile * kTile + kTile - 1) + 0.5, sBox.zw) - sOrigin;
   bool outside = false;
   for (int e = 0; e < 3; ++e) {

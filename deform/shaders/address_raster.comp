@@ -31,6 +31,8 @@ struct Entry {                // address_bin.comp's
   int mode;                   // the clear: 0 nothing, 1 the tiles its last raster listed, 2 every tile
 };
 layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+// Per slot, the pixels (x0, y0, x1, y1) X's texels may read (texel_gather.comp's cull): tiles outside get "none".
+layout(std430, binding = 9) readonly buffer Reach { ivec4 uReach[]; };
 layout(binding = 0) uniform sampler2D uHeights[16];  // indexed by the workgroup's entry: dynamically uniform
 layout(rg32f, binding = 0) writeonly uniform image2DArray uAddress;
 layout(r32f, binding = 1) writeonly uniform image2DArray uDepth;
@@ -62,6 +64,9 @@ void rasterTile(uint tile, uint tilesX) {
   uint listed = uTileCount[gCounts + tile];
   bool overflowed = listed > uint(uCapacity);
   uint total = overflowed ? uint(gE.triangles) : listed + uTileCount[gCounts + gTiles];
+  ivec4 r = uReach[gE.slot];
+  ivec2 corner = ivec2(int(tile % tilesX), int(tile / tilesX)) * kTile;
+  if (any(greaterThan(corner, r.zw)) || any(lessThan(corner + kTile - 1, r.xy))) total = 0u;  // none here
   float best = 0.0;
   uint bestId = 0xffffffffu;
   vec2 bestUv = vec2(-1.0);

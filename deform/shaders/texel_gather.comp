@@ -41,6 +41,9 @@ layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
 // The kept tiles: Tiles[0] their count, [1 .. 3] mode 1's indirect dispatch (x: min(count, 65535)), then
 // (side << 20) | tile each.
 layout(std430, binding = 8) buffer Kept { uint uKept[]; };
+// Per slot, the address-map pixels (x0, y0, x1, y1) the kept tiles' texels may read (mode 0 grows it): the
+// compute raster writes only there.
+layout(std430, binding = 9) buffer Reach { ivec4 uReach[]; };
 layout(binding = 0) uniform sampler2DArray uAddressOther;
 layout(binding = 1) uniform sampler2DArray uDepthOther;
 layout(binding = 2) uniform sampler2D uHeights[14];  // X's height map: the entry's `sampler`
@@ -121,11 +124,13 @@ bool reaches(vec2 q, vec2 t0, vec2 t1, vec2 t2, float orient) {
 }
 // Whether tile `tile` of side gE's map may hold texels to dent: it lists triangles and its box meets the view (grown
 // by a tenth: texels extrapolated past the box's triangles) and reaches the other body's farthest depth.
+vec3 cmin, cmax;  // the kept tile's box in clip space
 bool kept(uint tileIndex) {
   if (uTileStart[tileIndex + 1u] == uTileStart[tileIndex]) return false;
   float lim = gE.viewNormal.w;
   vec3 lo = uTileBox[2u * tileIndex].xyz, hi = uTileBox[2u * tileIndex + 1u].xyz;
-  vec3 cmin = vec3(1e30), cmax = vec3(-1e30);
+  cmin = vec3(1e30);
+  cmax = vec3(-1e30);
   for (int c = 0; c < 8; ++c) {
     vec3 p = vec3((c & 1) != 0 ? hi.x : lo.x, (c & 2) != 0 ? hi.y : lo.y, (c & 4) != 0 ? hi.z : lo.z);
     vec3 q = (gE.mvp * vec4(p, 1.0)).xyz;
@@ -209,6 +214,14 @@ void main() {
     uint at = atomicAdd(uKept[0], 1u);
     atomicMax(uKept[1], min(at + 1u, 65535u));
     uKept[4u + at] = (gl_WorkGroupID.z << 20) | tileIndex;
+    // The pixels its texels project to (the box holds them), and the next ones a bilinear read takes.
+    vec2 plo = (clamp(cmin.xy, -2.0, 2.0) * 0.5 + 0.5) * float(uSize) - 0.5, phi = (clamp(cmax.xy, -2.0, 2.0) * 0.5 + 0.5) * float(uSize) - 0.5;
+    ivec2 a = max(ivec2(floor(plo)) - 2, ivec2(0)), b = min(ivec2(ceil(phi)) + 2, ivec2(uSize - 1));
+    if (any(greaterThan(a, b))) return;
+    atomicMin(uReach[gE.slot].x, a.x);
+    atomicMin(uReach[gE.slot].y, a.y);
+    atomicMax(uReach[gE.slot].z, b.x);
+    atomicMax(uReach[gE.slot].w, b.y);
     return;
   }
   uint listed = uKept[0];

@@ -28,8 +28,10 @@ struct DeformOptions {
   bool craterRims = false;  // raise a ring around each dent by the volume it pushed down
   AddressRaster addressRaster = AddressRaster::Auto;
   // GPU memory a wave of events (Deformer::deform of several) may hold for its sides' address passes (33.6 MB an
-  // event at address map 1024): 512 MiB is 15 events at 1024, 63 at 512, 3 at 2048.
-  size_t waveMemory = size_t(512) << 20;
+  // event at address map 1024): 1 GiB is 31 events at 1024, 127 at 512, 7 at 2048. A wave's stages cost about as
+  // much for many sides as for a few (a dispatch for many), so larger waves save time; the compute rasteriser,
+  // which makes waves, is picked on data-centre GPUs (40 GB and more).
+  size_t waveMemory = size_t(1) << 30;
   // Measure: glFinish at each phase boundary and record the wall time of each
   // phase (profile()). Slows the stage down; for crumple-bench --deform-profile.
   bool profile = false;

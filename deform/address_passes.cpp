@@ -93,15 +93,17 @@ void AddressPasses::makeSlots(int slots) {
   }
 }
 
-void AddressPasses::clearReach(int slots) {
-  std::vector<GLint> empty(static_cast<size_t>(slots) * 4);
+void clearBoxes(const render::Buffer& buffer, int boxes) {
+  std::vector<GLint> empty(static_cast<size_t>(boxes) * 4);
   for (size_t k = 0; k < empty.size(); k += 4) {
     empty[k] = empty[k + 1] = INT_MAX;
     empty[k + 2] = empty[k + 3] = -1;
   }
-  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-  reach_.upload(0, empty.size() * sizeof(GLint), empty.data());
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the last shaders' reads and atomics, before the upload
+  glNamedBufferSubData(buffer.id(), 0, static_cast<GLsizeiptr>(empty.size() * sizeof(GLint)), empty.data());
 }
+
+void AddressPasses::clearReach(int slots) { clearBoxes(reach_, slots); }
 
 void AddressPasses::reserveSlots(int slots) {
   if (slots > this->slots()) makeSlots(std::max(slots, 2 * this->slots()));

@@ -4,7 +4,6 @@
 #include "render/gl_context.h"
 
 #include <algorithm>
-#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -421,12 +420,7 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
   ++waves;
   const int slots = static_cast<int>(2 * n);
   reserveSlots(slots);
-  std::vector<GLint> empty(static_cast<size_t>(slots) * 4);
-  for (size_t k = 0; k < empty.size(); k += 4) {
-    empty[k] = empty[k + 1] = INT_MAX;
-    empty[k + 2] = empty[k + 3] = -1;
-  }
-  region.upload(0, empty.size() * sizeof(GLint), empty.data());
+  clearBoxes(region, slots);
   std::vector<SidePlan> plans(static_cast<size_t>(slots));
   std::vector<char> rimsMade(static_cast<size_t>(slots), 0);  // the commit region grows by their ring
   GLint savedViewport[4];

@@ -142,7 +142,7 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
   size_t keptBytes = 0;
   for (const Dispatch& d : dispatches_) {
     keptAt_.push_back(keptBytes);
-    const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+    const size_t tiles = d.cover->tiles();
     keptBytes += ((4 + d.count * tiles) * sizeof(GLuint) + 255) / 256 * 256;
     tilesRun_ += d.count * tiles;
   }
@@ -160,7 +160,7 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
   for (size_t k = 0; k < dispatches_.size(); ++k) {
     bind(k);
     const Dispatch& d = dispatches_[k];
-    const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+    const size_t tiles = d.cover->tiles();
     glDispatchCompute(static_cast<GLuint>((tiles + 255) / 256), 1, static_cast<GLuint>(d.count));
   }
 }
@@ -172,7 +172,7 @@ void ComputeGather::bind(size_t k) const {
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, d.cover->start.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, d.cover->triangles.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
-  const size_t tiles = static_cast<size_t>(d.cover->tilesX) * static_cast<size_t>(d.cover->tilesX);
+  const size_t tiles = d.cover->tiles();
   glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 8, kept_.id(), static_cast<GLintptr>(keptAt_[k]),
                     static_cast<GLsizeiptr>((4 + d.count * tiles) * sizeof(GLuint)));
   glUniform1i(uFirst_, static_cast<GLint>(d.first));

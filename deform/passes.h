@@ -41,6 +41,9 @@ inline render::Program computeProgram(const char* name) {
   return render::Program({{GL_COMPUTE_SHADER, name, deformSource(name)}});
 }
 
+// Uploads `boxes` empty texel boxes (x0, y0, x1, y1 = INT_MAX, INT_MAX, -1, -1: atomics grow them) into `buffer`.
+void clearBoxes(const render::Buffer& buffer, int boxes);
+
 // A side's new heights: resolution^2 uints (float bits, row by row; kUntouched where untouched) from `offset`
 // (uints) of the deformer's scratch buffer, which shaders see at shader-storage binding 2 (uScratch[], their uScratchBase = offset).
 struct Scratch {
@@ -179,6 +182,7 @@ struct TexelCover {
   render::Buffer triangles;  // triangle indices
   render::Buffer boxes;      // 2 vec4 a tile: min xyz, max xyz (shape frame; empty tiles min > max)
   size_t listed = 0;         // entries in `triangles`
+  size_t tiles() const { return static_cast<size_t>(tilesX) * static_cast<size_t>(tilesX); }
   static std::shared_ptr<const TexelCover> of(const GpuMesh& mesh, int resolution);
 };
 

@@ -65,7 +65,7 @@ std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolu
   auto cover = std::make_shared<TexelCover>();
   cover->resolution = resolution;
   cover->tilesX = (resolution + kTile - 1) / kTile;
-  const size_t tiles = static_cast<size_t>(cover->tilesX) * static_cast<size_t>(cover->tilesX);
+  const size_t tiles = cover->tiles();
   std::vector<std::vector<GLuint>> lists(tiles);
   std::vector<glm::vec4> boxes(2 * tiles);
   for (size_t k = 0; k < tiles; ++k) {

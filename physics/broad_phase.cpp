@@ -415,14 +415,10 @@ double stepTravel(StepContext& ctx, double h) {
     const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
     worst = std::max(worst, travel / allowed);
   }
-  // Joined bodies, wherever they are, by each one's own travel (not the relative one): the joint solve is
-  // linearised about the substep's start, and a swinging chain's links move together but turn (a 100 kg body
-  // on 1 kg links tore the chain apart when its substeps went by relative travel).
-  const double g = glm::length(ctx.settings.gravity);
-  auto own = [&](int i) {
-    const Swept& s = swept[static_cast<size_t>(i)];
-    return bodies[static_cast<size_t>(i)].movable() ? h * (glm::length(s.v) + g * h) + s.turn : 0.0;
-  };
+  // Joined bodies, wherever they are, by each one's own turn: the joint solve's Newton passes are linearised
+  // in the turn over the substep (a translation is linear in the impulse; joint_step.cpp takes the levers at
+  // the substep's end, and a 100 kg body on 1 kg links holds even in one substep a step).
+  auto own = [&](int i) { return bodies[static_cast<size_t>(i)].movable() ? swept[static_cast<size_t>(i)].turn : 0.0; };
   for (const Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.b < 0) continue;
     const RigidBody& B = bodies[static_cast<size_t>(jt.def.b)];

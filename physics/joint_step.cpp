@@ -139,12 +139,6 @@ Side sideAt(const StepContext& ctx, int i) {
   return s;
 }
 
-Side sideOf(const StepContext& ctx, int i, double h) {
-  Side s = sideAt(ctx, i);
-  s.refresh(ctx, h, true);
-  return s;
-}
-
 // The 6x6 map from (linear impulse at the anchors, torque impulse) on B to the
 // change of (relative anchor velocity, relative angular velocity).
 struct Mobility {
@@ -236,7 +230,8 @@ void applyRows(StepContext& ctx, Joint& jt, const glm::dvec3& ra, const glm::dve
   applyImpulse(ctx, ra, rb, a, b, j, t);
   jt.stepImpulse += j;
   jt.callLinear += j;
-  jt.callAngular += t;
+  jt.callTurnA += glm::cross(ra, j) + t;
+  jt.callTurnB += glm::cross(rb, j) + t;
 }
 
 // A rotation vector of the small rotation q (angle times axis).
@@ -280,9 +275,12 @@ constexpr int kMainRows = 1, kLimitRow = 2;
 JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, bool pre, int parts = kMainRows | kLimitRow) {
   const JointDef& d = jt.def;
   JointRows out;
-  // Levers now (the impulse acts now); errors at the poses the step will reach.
-  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, false);
-  const glm::dvec3 rb = b.dir(jt.rB, false);
+  // Errors at the poses the substep will reach, and (pre) the levers there too: the impulse stands for the
+  // joint's force over the substep, and with the end's levers the Newton step's matrix is the derivative of
+  // the end-of-substep gap (with the start's levers it was off by the turn over the substep, and chains of
+  // light links under a heavy body diverged unless their substeps kept each turn small). Post: now.
+  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, pre);
+  const glm::dvec3 rb = b.dir(jt.rB, pre);
   out.ra = ra;
   out.rb = rb;
   const glm::dvec3 e = b.point(jt.rB, pre) - a.point(jt.rA, pre);  // anchor gap
@@ -812,7 +810,7 @@ void solvePass(StepContext& ctx, JointSystem& s, double h, bool pre) {
 // Before a call's sweeps: what each joint applies in the call is booked from zero.
 void startCall(StepContext& ctx) {
   for (Joint& jt : ctx.joints) {
-    jt.callLinear = jt.callAngular = glm::dvec3(0);
+    jt.callLinear = jt.callTurnA = jt.callTurnB = glm::dvec3(0);
     jt.callStart = jt.stepImpulse;
   }
 }
@@ -832,9 +830,17 @@ void yieldJoints(StepContext& ctx, double h) {
     const double jj = glm::dot(j, j), pj = glm::dot(p, j), B = jt.def.breakImpulse;
     double f = 0;
     if (jj > 0) f = std::clamp((-pj + std::sqrt(std::max(0.0, pj * pj - jj * (glm::dot(p, p) - B * B)))) / jj, 0.0, 1.0);
-    const Side a = sideOf(ctx, jt.def.a, h), b = sideOf(ctx, jt.def.b, h);
-    const glm::dvec3 ra = jt.def.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, false);
-    applyImpulse(ctx, ra, b.dir(jt.rB, false), a, b, -(1 - f) * j, -(1 - f) * jt.callAngular);
+    const Side a = sideAt(ctx, jt.def.a), b = sideAt(ctx, jt.def.b);
+    if (a.index >= 0 && a.invMass > 0) {
+      RigidBody& A = ctx.body(a.index);
+      A.v += (1 - f) * a.invMass * j;
+      A.w += a.invInertia * ((1 - f) * jt.callTurnA);
+    }
+    if (b.invMass > 0) {
+      RigidBody& B = ctx.body(b.index);
+      B.v -= (1 - f) * b.invMass * j;
+      B.w -= b.invInertia * ((1 - f) * jt.callTurnB);
+    }
     jt.stepImpulse = p + f * j;
     jt.broken = true;
     ctx.jointExcludedDirty = true;

@@ -87,7 +87,9 @@ struct Joint {
   double angle = 0;               // hinge: unwrapped angle at the end of the last substep
   double length = 0, minLength = 0, maxLength = 0;  // distance
   glm::dvec3 stepImpulse{0};      // linear impulse at the anchor over the step so far
-  glm::dvec3 callStart{0}, callLinear{0}, callAngular{0};  // this pre- or post-stabilisation call's share
+  // This pre- or post-stabilisation call's share: the linear impulse, and the angular impulses it gave B and
+  // took from A (levers included: each pass's own levers).
+  glm::dvec3 callStart{0}, callLinear{0}, callTurnA{0}, callTurnB{0};
   double motorImpulse = 0;        // this substep's motor impulse (clamped to maxForce h)
 };
 

@@ -53,6 +53,7 @@
 #include <array>
 #include <cmath>
 #include <set>
+#include <type_traits>
 
 #include "physics/step_context.h"
 
@@ -257,7 +258,7 @@ bool active(const StepContext& ctx, const Joint& jt) {
 
 // What a joint forbids in one pass: its rows (at most 6), their errors (the
 // predicted violation for pre, the relative velocity for post) and the levers
-// the impulses act at (now).
+// the impulses act at (pre: at the substep's end; post: now).
 struct JointRows {
   int n = 0;
   Row rows[6];
@@ -382,12 +383,18 @@ struct Block {
   double m[6][6];
 };
 
+// A joint's end on one body: per row, the direction g it moves the body's (v, omega) in, and W g.
+struct RowEnd {
+  double g[6][6], wg[6][6];
+};
+
 // The symmetric (pseudo-)inverse of the n x n positive semi-definite matrix a
 // (LDL^T without pivoting). A pivot that is not above 1e-9 of the row's own
 // diagonal before any elimination (`scale`: what is left of it is rounding, the
 // row repeats others) is dropped: that row gets lambda 0.
-void pseudoInverse(const Block& a, int n, const double* scale, Block& inv) {
-  double L[6][6] = {}, d[6] = {}, invd[6] = {};
+template <int n>
+void pseudoInverseN(const Block& a, const double* scale, Block& inv) {
+  double L[n][n] = {}, d[n] = {}, invd[n] = {};
   for (int k = 0; k < n; ++k) {
     double dk = a.m[k][k];
     for (int j = 0; j < k; ++j) dk -= L[k][j] * L[k][j] * d[j];
@@ -407,7 +414,7 @@ void pseudoInverse(const Block& a, int n, const double* scale, Block& inv) {
   }
   // inv = L^-T diag(invd) L^-1, column by column.
   for (int c = 0; c < n; ++c) {
-    double y[6];
+    double y[n];
     for (int i = 0; i < n; ++i) {
       double s = i == c ? 1.0 : 0.0;
       for (int j = 0; j < i; ++j) s -= L[i][j] * y[j];
@@ -421,6 +428,44 @@ void pseudoInverse(const Block& a, int n, const double* scale, Block& inv) {
     }
     for (int i = 0; i < n; ++i) inv.m[i][c] = y[i];
   }
+}
+
+
+// Calls f(std::integral_constant<int, n>) for n in 1..6 (0: nothing), so that the small dense loops below are
+// unrolled for each row count.
+template <class F>
+void withSize(int n, F&& f) {
+  switch (n) {
+    case 1: f(std::integral_constant<int, 1>{}); break;
+    case 2: f(std::integral_constant<int, 2>{}); break;
+    case 3: f(std::integral_constant<int, 3>{}); break;
+    case 4: f(std::integral_constant<int, 4>{}); break;
+    case 5: f(std::integral_constant<int, 5>{}); break;
+    case 6: f(std::integral_constant<int, 6>{}); break;
+    default: break;
+  }
+}
+
+// out (np x nq) = inv (np x np) * off (np x nq).
+template <int np>
+void leftMultiply(const Block& inv, const Block& off, int nq, Block& out) {
+  for (int i = 0; i < np; ++i)
+    for (int c = 0; c < nq; ++c) {
+      double v = 0;
+      for (int k = 0; k < np; ++k) v += inv.m[i][k] * off.m[k][c];
+      out.m[i][c] = v;
+    }
+}
+
+// target (nq x nr) -= a^T b, a: np x nq, b: np x nr.
+template <int np>
+void subtractProduct(const Block& a, const Block& b, int nq, int nr, Block& target) {
+  for (int i = 0; i < nq; ++i)
+    for (int c = 0; c < nr; ++c) {
+      double v = 0;
+      for (int k = 0; k < np; ++k) v += a.m[k][i] * b.m[k][c];
+      target.m[i][c] -= v;
+    }
 }
 
 }  // namespace
@@ -451,6 +496,7 @@ struct JointSystem {
   std::vector<std::vector<Block>> off;    // per position, along `later`
   std::vector<std::array<double, 6>> x;   // per position
   std::vector<Block> scratch;
+  std::vector<RowEnd> endScratch;         // per joint on the body being assembled
 };
 
 JointSolverCache::JointSolverCache() = default;
@@ -469,19 +515,29 @@ namespace {
 JointSystem& buildSystem(StepContext& ctx) {
   if (!ctx.jointSolver.system) ctx.jointSolver.system = std::make_unique<JointSystem>();
   JointSystem& s = *ctx.jointSolver.system;
-  std::vector<int> signature;
-  signature.reserve(2 * s.signature.size());
-  for (size_t i = 0; i < ctx.joints.size(); ++i) {
+  auto code = [&](const Joint& jt) {
+    return (jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() ? 1 : 0) | (ctx.body(jt.def.b).dynamic() ? 2 : 0);
+  };
+  // Compared in place (no vector built when it is the same).
+  size_t at = 0;
+  bool same = true;
+  for (size_t i = 0; i < ctx.joints.size() && same; ++i) {
     const Joint& jt = ctx.joints[i];
     if (!active(ctx, jt)) continue;
-    signature.push_back(static_cast<int>(i));
-    signature.push_back((jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() ? 1 : 0) | (ctx.body(jt.def.b).dynamic() ? 2 : 0));
+    same = at + 1 < s.signature.size() && s.signature[at] == static_cast<int>(i) && s.signature[at + 1] == code(jt);
+    at += 2;
   }
-  if (signature == s.signature) {
+  if (same && at == s.signature.size()) {
     for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k] = sideAt(ctx, s.sides[k].index);
     return s;
   }
-  s.signature.swap(signature);
+  s.signature.clear();
+  for (size_t i = 0; i < ctx.joints.size(); ++i) {
+    const Joint& jt = ctx.joints[i];
+    if (!active(ctx, jt)) continue;
+    s.signature.push_back(static_cast<int>(i));
+    s.signature.push_back(code(jt));
+  }
   s.conditional = false;
   s.slot.assign(ctx.bodies.size(), -1);
   s.sides.assign(1, Side{});
@@ -671,43 +727,48 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
     s.diag[p] = {};
     for (Block& b : s.off[p]) b = {};
   }
-  // A: per body, the effect of each of its joints' rows on each of its joints' rows.
-  struct Effect {
-    glm::dvec3 dv[6], dw[6];
-  };
-  std::vector<Effect> effects;
+  // A: per body, the effect of each of its joints' rows on each of its joints' rows. A row k of a joint's end
+  // on the body (sign +1 on B, -1 on A) moves the body's (v, omega) along sign (lin_k, r x lin_k + ang_k) =: g_k;
+  // the block entry of rows a of p and b of q is g_a . W g_b, W = diag(1/m, I^-1).
+  std::vector<RowEnd>& ends = s.endScratch;
   for (size_t slot = 1; slot < s.onBody.size(); ++slot) {
     const auto& list = s.onBody[slot];
     if (list.empty()) continue;
     const Side& body = s.sides[slot];
-    effects.resize(list.size());
+    ends.resize(list.size());
     for (size_t i = 0; i < list.size(); ++i) {
       const JointRows& jr = s.rows[static_cast<size_t>(list[i].first)];
       const glm::dvec3 r = list[i].second > 0 ? jr.rb : jr.ra;
+      const double sign = list[i].second;
       for (int k = 0; k < jr.n; ++k) {
-        const double sign = list[i].second;
-        effects[i].dv[k] = (sign * body.invMass) * jr.rows[k].lin;
-        effects[i].dw[k] = body.invInertia * (sign * (glm::cross(r, jr.rows[k].lin) + jr.rows[k].ang));
+        const glm::dvec3 lin = sign * jr.rows[k].lin;
+        const glm::dvec3 ang = sign * (glm::cross(r, jr.rows[k].lin) + jr.rows[k].ang);
+        const glm::dvec3 wl = body.invMass * lin, wa = body.invInertia * ang;
+        double* g = ends[i].g[k];
+        double* wg = ends[i].wg[k];
+        g[0] = lin.x, g[1] = lin.y, g[2] = lin.z, g[3] = ang.x, g[4] = ang.y, g[5] = ang.z;
+        wg[0] = wl.x, wg[1] = wl.y, wg[2] = wl.z, wg[3] = wa.x, wg[4] = wa.y, wg[5] = wa.z;
       }
     }
     for (size_t i = 0; i < list.size(); ++i) {
       const int p = s.place[static_cast<size_t>(list[i].first)];
-      const JointRows& jp = s.rows[static_cast<size_t>(list[i].first)];
-      const glm::dvec3 rp = list[i].second > 0 ? jp.rb : jp.ra;
+      const int np = s.rows[static_cast<size_t>(list[i].first)].n;
       for (size_t j = 0; j < list.size(); ++j) {
         const int q = s.place[static_cast<size_t>(list[j].first)];
         if (q < p) continue;  // the block (p, q) with p first in the order
-        const JointRows& jq = s.rows[static_cast<size_t>(list[j].first)];
+        const int nq = s.rows[static_cast<size_t>(list[j].first)].n;
         Block* blk = &s.diag[static_cast<size_t>(p)];
         if (q != p) {
           const auto& l = s.later[static_cast<size_t>(p)];
           blk = &s.off[static_cast<size_t>(p)][static_cast<size_t>(std::lower_bound(l.begin(), l.end(), q) - l.begin())];
         }
-        for (int a = 0; a < jp.n; ++a)
-          for (int b = 0; b < jq.n; ++b) {
-            const glm::dvec3 dv = effects[j].dv[b], dw = effects[j].dw[b];
-            blk->m[a][b] += list[i].second * (glm::dot(jp.rows[a].lin, dv + glm::cross(dw, rp)) +
-                                              glm::dot(jp.rows[a].ang, dw));
+        const RowEnd& ei = ends[i];
+        const RowEnd& ej = ends[j];
+        for (int a = 0; a < np; ++a)
+          for (int c = 0; c < nq; ++c) {
+            const double* x = ei.g[a];
+            const double* y = ej.wg[c];
+            blk->m[a][c] += x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3] + x[4] * y[4] + x[5] * y[5];
           }
       }
     }
@@ -718,37 +779,27 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
     for (int k = 0; k < size(static_cast<int>(p)); ++k) s.scale[p][static_cast<size_t>(k)] = s.diag[p].m[k][k];
   for (size_t p = 0; p < n; ++p) {
     const int np = size(static_cast<int>(p));
-    pseudoInverse(s.diag[p], np, s.scale[p].data(), s.inv[p]);
     const auto& later = s.later[p];
     std::vector<Block>& off = s.off[p];
     std::vector<Block>& scaled = s.scratch;
     scaled.resize(off.size());
-    for (size_t e = 0; e < later.size(); ++e) {
-      const int nq = size(later[e]);
-      for (int i = 0; i < np; ++i)
-        for (int c = 0; c < nq; ++c) {
-          double v = 0;
-          for (int k = 0; k < np; ++k) v += s.inv[p].m[i][k] * off[e].m[k][c];
-          scaled[e].m[i][c] = v;
-        }
-    }
-    for (size_t e1 = 0; e1 < later.size(); ++e1) {
-      const int q = later[e1], nq = size(q);
-      for (size_t e2 = e1; e2 < later.size(); ++e2) {
-        const int r = later[e2], nr = size(r);
-        Block* target = &s.diag[static_cast<size_t>(q)];
-        if (r != q) {
-          const auto& l = s.later[static_cast<size_t>(q)];
-          target = &s.off[static_cast<size_t>(q)][static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
-        }
-        for (int i = 0; i < nq; ++i)
-          for (int c = 0; c < nr; ++c) {
-            double v = 0;
-            for (int k = 0; k < np; ++k) v += off[e1].m[k][i] * scaled[e2].m[k][c];
-            target->m[i][c] -= v;
+    withSize(np, [&](auto NP) {
+      constexpr int kNp = NP();
+      pseudoInverseN<kNp>(s.diag[p], s.scale[p].data(), s.inv[p]);
+      for (size_t e = 0; e < later.size(); ++e) leftMultiply<kNp>(s.inv[p], off[e], size(later[e]), scaled[e]);
+      for (size_t e1 = 0; e1 < later.size(); ++e1) {
+        const int q = later[e1], nq = size(q);
+        for (size_t e2 = e1; e2 < later.size(); ++e2) {
+          const int r = later[e2], nr = size(r);
+          Block* target = &s.diag[static_cast<size_t>(q)];
+          if (r != q) {
+            const auto& l = s.later[static_cast<size_t>(q)];
+            target = &s.off[static_cast<size_t>(q)][static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
           }
+          subtractProduct<kNp>(off[e1], scaled[e2], nq, nr, *target);
+        }
       }
-    }
+    });
     off.swap(scaled);
   }
   // Solve: forward, the diagonal, back.

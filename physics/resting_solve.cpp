@@ -4,7 +4,7 @@
 // - restingSolve: for each island of dynamic bodies joined by contact groups
 //   (no joints, at most settings.restingSolveRows rows: 3 per group, plus one
 //   per axis its patch can hold a torque about) that holds a convex mesh block
-//   and that the contact step left approaching faster than restingSolveTrigger
+//   or a plate (loadBearing) and that the contact step left approaching faster than restingSolveTrigger
 //   somewhere (or that was solved the substep before), the contact step's velocities
 //   are replaced by those of a projected Gauss-Seidel solve of the same groups
 //   (Catto's sequential impulses: accumulated totals, each clamped to what the
@@ -18,8 +18,9 @@
 // Why: the contact step's passes are a few sweeps, enough for a stack whose
 // load goes straight down, not for a ring: an arch carries each voussoir's
 // weight round to both springings, and with ten passes a residual approach
-// is left every step and the crown sags without end. Iterating to convergence
-// costs little on a small island.
+// is left every step and the crown sags without end; cards leaning on each
+// other carry their loads sideways too (a house of two storeys spread and fell
+// in 5 s). Iterating to convergence costs little on a small island.
 #include <algorithm>
 #include <cmath>
 
@@ -57,11 +58,21 @@ int find(std::vector<int>& parent, int i) {
 
 }  // namespace
 
+bool loadBearing(const Shape& shape) {
+  if (shape.type == ShapeType::Mesh) return shape.polytope != nullptr;
+  if (shape.type != ShapeType::Box) return false;
+  glm::dvec3 e = shape.halfExtents;
+  if (e.x > e.y) std::swap(e.x, e.y);
+  if (e.y > e.z) std::swap(e.y, e.z);
+  if (e.x > e.y) std::swap(e.x, e.y);
+  return e.x <= 0.25 * e.y;
+}
+
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0) {
   const int maxRows = ctx.settings.restingSolveRows;
   if (maxRows <= 0) return;
-  if (!ctx.anyMasonry) {
-    // Only islands holding a convex mesh block are solved (below), and there is none: no totals to keep.
+  if (!ctx.anyLoadBearing) {
+    // Only islands holding a block or a plate are solved (below), and there is none: no totals to keep.
     ctx.restingWarm.clear();
     return;
   }
@@ -150,18 +161,16 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     groups.clear();
     rows.clear();
     // Solved when the contact step left an approach at one of its groups, or when it was solved last substep,
-    // and only islands with a convex mesh block (masonry: arches, walls of cut stone). Box stacks and piles
-    // keep the contact step's result: there the projected Gauss-Seidel sweeps did not converge within a few
-    // hundred sweeps (many redundant face rows), and the contact step with shock propagation holds them.
-    bool needed = false, masonry = false;
-    for (int k = first[root]; k < first[root + 1] && !masonry; ++k) {
+    // and only islands with a convex mesh block (masonry: arches, walls of cut stone) or a plate (cards). Piles
+    // of cubes and bricks keep the contact step's result: there the projected Gauss-Seidel sweeps did not
+    // converge within a few hundred sweeps (many redundant face rows; the 1000-box pile went from 2 to 75 ms a
+    // step), and the contact step with shock propagation holds them.
+    bool needed = false, bearing = false;
+    for (int k = first[root]; k < first[root + 1] && !bearing; ++k) {
       const Pair& pair = ctx.pairs[islandPairs[static_cast<size_t>(k)]];
-      for (int i : {pair.a, pair.b}) {
-        const Shape& shape = *ctx.body(i).shape;
-        masonry = masonry || (ctx.body(i).dynamic() && shape.type == ShapeType::Mesh && shape.polytope);
-      }
+      for (int i : {pair.a, pair.b}) bearing = bearing || (ctx.body(i).dynamic() && loadBearing(*ctx.body(i).shape));
     }
-    if (!masonry) return;
+    if (!bearing) return;
     for (int k = first[root]; k < first[root + 1] && !needed; ++k) {
       const size_t pi = islandPairs[static_cast<size_t>(k)];
       const uint64_t pk = key(pi);

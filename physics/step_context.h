@@ -186,7 +186,7 @@ struct StepContext {
   std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
   World::NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
-  bool anyMasonry = false;  // a convex mesh block was ever added (resting_solve.cpp has work only then)
+  bool anyLoadBearing = false;  // a dynamic body of a loadBearing shape was ever added (resting_solve.cpp has work only then)
   double time = 0;
   // Joints (index = id; removed ones stay as holes), what the filter keeps apart.
   std::vector<Joint> joints;
@@ -506,6 +506,9 @@ class ContactRun {
 };
 // resting_solve.cpp (called by contactStep with the velocities it began with)
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0);
+// Whether the resting solve takes the islands a body of this shape is in: a convex mesh block (masonry) or a
+// plate (a box whose thinnest side is at most a quarter of its middle one: a card, a slab, a plank).
+bool loadBearing(const Shape& shape);
 // shock_propagation.cpp
 void shockPropagation(StepContext& ctx);
 // joint_step.cpp

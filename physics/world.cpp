@@ -73,10 +73,11 @@ RigidBody makeBody(const BodyDef& def) {
 }  // namespace
 
 namespace {
-// What the step keeps of every shape ever added: the thinnest half thickness (substeps), any convex mesh block.
-void noteShape(detail::StepContext& c, const Shape& shape) {
-  c.minHalfThickness = std::min(c.minHalfThickness, shape.halfThickness());
-  c.anyMasonry = c.anyMasonry || (shape.type == ShapeType::Mesh && shape.polytope);
+// What the step keeps of every body ever added: the thinnest half thickness (substeps), any block or plate
+// that impulses move (a static or kinematic body never becomes dynamic; grounds are often plates).
+void noteShape(detail::StepContext& c, const BodyDef& def) {
+  c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
+  c.anyLoadBearing = c.anyLoadBearing || (!def.isStatic && !def.kinematic && detail::loadBearing(*def.shape));
 }
 }  // namespace
 
@@ -86,7 +87,7 @@ int World::addBody(const BodyDef& def) {
   c.bodies.push_back(b);
   c.force.emplace_back(0);
   c.torque.emplace_back(0);
-  noteShape(c, *def.shape);
+  noteShape(c, def);
   return static_cast<int>(c.bodies.size() - 1);
 }
 
@@ -101,7 +102,7 @@ BodyId World::add(const BodyDef& def) {
   c.force[slot] = c.torque[slot] = glm::dvec3(0);
   if (slot < c.reportContacts.size()) c.reportContacts[slot] = 0;
   if (slot < c.bumpNormals.size()) c.bumpNormals[slot] = 0;
-  noteShape(c, *def.shape);
+  noteShape(c, def);
   // The kept pairs' candidate lists were built for the old body in this slot.
   c.pairs.clear();
   c.previousPairs.clear();

@@ -64,7 +64,8 @@ struct WorldSettings {
   int shockPasses = 12;
   double shockTolerance = 3e-4;
   // Islands of at most this many contact rows (3 to 6 per contact group; no
-  // joints) holding a convex mesh block (masonry) are solved to convergence at
+  // joints) holding a convex mesh block (masonry) or a plate (a box whose thinnest
+  // side is at most a quarter of its middle one: cards) are solved to convergence at
   // the end of the contact step (projected Gauss-Seidel over accumulated
   // impulses, warm-started, resting_solve.cpp): the contact passes alone carry
   // a load one contact a pass, and a ring of blocks (an arch) would sag a

@@ -313,6 +313,30 @@ TEST_CASE("arch: ten voussoirs on friction alone stand 10 s within 1 cm (convex 
   CHECK(drift < 0.01);
 }
 
+TEST_CASE("card-house: seven cards of two storeys stand 10 s within 1 cm on friction alone") {
+  // tools/make-card-house-scene.py writes the scene and says where each card starts.
+  const std::string scene = std::string(CRUMPLE_SCENES) + "/card-house.json";
+  const json start = json::parse(slurp(scene));
+  const fs::path out = kTmp / "card-house";
+  fs::remove_all(out);
+  REQUIRE(runSim(scene + " --out " + out.string() + " --quiet") == 0);
+  const json s = json::parse(slurp(out / "summary.json"));
+  auto at = [](const json& p) { return glm::dvec3(p[0].get<double>(), p[1].get<double>(), p[2].get<double>()); };
+  int cards = 0;
+  double drift = 0;
+  for (const auto& b : s["bodies"]) {
+    const std::string name = b["name"].get<std::string>();
+    if (name.rfind("card", 0) != 0) continue;
+    ++cards;
+    for (const auto& b0 : start["bodies"])
+      if (b0["name"] == name) drift = std::max(drift, glm::length(at(b["position"]) - at(b0["position"])));
+  }
+  MESSAGE("card-house: largest card drift " << drift * 1000 << " mm after " << s["time"].get<double>() << " s");
+  CHECK(cards == 7);
+  CHECK(s["time"].get<double>() == doctest::Approx(10.0));
+  CHECK(drift < 0.01);
+}
+
 TEST_CASE(
     "brick-wall: a running-bond wall stands until the car hits it; the car breaks through, is dented, the ends stand") {
   // Each block rests half on two blocks below: a face resting off-centre on

@@ -33,7 +33,7 @@ shoot sphere-into-plate main 1.5
 shoot pattern-box wall 3
 shoot pyramid front 2
 shoot arch main 5
-shoot card-house main 5
+shoot card-house main 10
 shoot brick-wall front 5
 shoot mixed-pile main 3
 shoot tank-tracks side 4

@@ -500,8 +500,17 @@ void findCandidates(StepContext& ctx, double h) {
       tree->query(centre, mt, half + 1e-9 * (1 + glm::length(centre) + glm::length(half)), test);
       std::sort(list.begin(), list.end());  // in sample order, as a whole scan finds them
     };
-    collect(A, B, pair.bInA);
-    collect(B, A, pair.aInB);
+    const bool bumpA = ctx.normalModifier && !ctx.bumpNormals.empty() && ctx.bumpNormals[static_cast<size_t>(pair.a)];
+    const bool bumpB = ctx.normalModifier && !ctx.bumpNormals.empty() && ctx.bumpNormals[static_cast<size_t>(pair.b)];
+    const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
+    if (sides.bInA)
+      collect(A, B, pair.bInA);
+    else
+      pair.bInA.clear();
+    if (sides.aInB)
+      collect(B, A, pair.aInB);
+    else
+      pair.aInB.clear();
     pair.builtA = {A.x, A.q};
     pair.builtB = {B.x, B.q};
     pair.builtMargin = built;

@@ -4,7 +4,8 @@
 // - pairContacts / World::findContacts return every sample of either body that
 //   penetrates the other's distance field (phi < 0, the sample radius
 //   subtracted): point on the sampled body's surface, unit normal out of the
-//   field's owner (a), depth phi. pairContacts tests only the pair's candidate
+//   field's owner (a), depth phi. A sphere against a convex shape: only its
+//   centre in the other's field (sampleSides), the one deepest point exactly. pairContacts tests only the pair's candidate
 //   samples (broad_phase.cpp guarantees they hold every sample that can touch).
 //   Two convex polytopes (boxes, convex meshes) that neither sweep nor bend
 //   their normals give instead the penetrating corners of their contact
@@ -165,6 +166,16 @@ void sortContacts(std::vector<Contact>& out) {
 }  // namespace
 
 namespace detail {
+SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) {
+  auto convex = [](const Shape& s) { return s.type != ShapeType::Mesh || s.polytope != nullptr; };
+  SampleSides sides;
+  if (b.type == ShapeType::Sphere && !bumpB && convex(a))
+    sides.aInB = false;  // (two spheres: B's centre in A's field)
+  else if (a.type == ShapeType::Sphere && !bumpA && convex(b))
+    sides.bInA = false;
+  return sides;
+}
+
 void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
   out.clear();
   const RigidBody& A = ctx.body(pair.a);
@@ -183,6 +194,7 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
     sortContacts(out);
     return;
   }
+  // (findCandidates leaves the list of a side sampleSides skips empty)
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
                  bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr,
                  sweepA ? &sa : nullptr, sweepA ? &sb : nullptr);
@@ -201,8 +213,13 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
     sortContacts(out);
     return;
   }
-  contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out);
-  contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out);
+  const bool bumpA = ctx_->normalModifier && static_cast<size_t>(ia) < ctx_->bumpNormals.size() &&
+                     ctx_->bumpNormals[static_cast<size_t>(ia)];
+  const bool bumpB = ctx_->normalModifier && static_cast<size_t>(ib) < ctx_->bumpNormals.size() &&
+                     ctx_->bumpNormals[static_cast<size_t>(ib)];
+  const detail::SampleSides sides = detail::sampleSides(*A.shape, bumpA, *B.shape, bumpB);
+  if (sides.bInA) contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out);
+  if (sides.aInB) contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out);
   sortContacts(out);
 }
 

@@ -224,7 +224,12 @@ void World::setReportContacts(int body, bool on) {
 
 void World::setBumpNormals(int body, bool on) {
   ctx_->bumpNormals.resize(ctx_->bodies.size(), 0);
-  ctx_->bumpNormals.at(static_cast<size_t>(body)) = on;
+  char& flag = ctx_->bumpNormals.at(static_cast<size_t>(body));
+  if (flag == static_cast<char>(on)) return;
+  flag = on;
+  // Which of its pairs' sample sets are tested depends on it (detail::sampleSides): their lists are made anew.
+  for (detail::Pair& pair : ctx_->pairs)
+    if (pair.a == body || pair.b == body) pair.builtMargin = -1;
 }
 
 void World::wake(int i) { ctx_->wake(i); }

@@ -505,3 +505,50 @@ TEST_CASE("broad phase: the hashed grid finds exactly the pairs whose bounds ove
   CHECK(w.lastStats().substeps == 1);
   CHECK(static_cast<size_t>(w.lastStats().pairs) == expected);
 }
+
+TEST_CASE("a ball pressed into a box, a capsule or a ball touches at one point: its lowest, as deep as it sinks") {
+  // A 0.2 m ball 3 mm into the top of each, over a face, over an edge and a corner of the box: one contact, on the
+  // ball's surface where the two meet, the normal out of the other body, 3 mm deep (the ball's centre against the
+  // other's field; the other's surface samples inside the ball only repeated it).
+  struct Case {
+    const char* name;
+    std::shared_ptr<Shape> other;
+    glm::dvec3 top;     // the point of the other's surface the ball sinks into (world)
+    glm::dvec3 normal;  // the other's outward normal there
+  };
+  const double r = 0.2, depth = 0.003;
+  const glm::dvec3 edgeN = glm::normalize(glm::dvec3(1, 1, 0)), cornerN = glm::normalize(glm::dvec3(1, 1, 1));
+  const std::vector<Case> cases = {
+      {"box face", makeBox({1, 0.4, 1}), {0.1, 0.2, -0.2}, {0, 1, 0}},
+      {"box edge", makeBox({1, 0.4, 1}), {0.5, 0.2, 0.1}, edgeN},
+      {"box corner", makeBox({1, 0.4, 1}), {0.5, 0.2, 0.5}, cornerN},
+      {"capsule", makeCapsule(0.15, 0.6), {0, 0.45, 0}, {0, 1, 0}},
+      {"ball", makeSphere(0.3), glm::dvec3(0.3) * glm::normalize(glm::dvec3(1, 2, 0.5)), glm::normalize(glm::dvec3(1, 2, 0.5))},
+  };
+  for (const Case& k : cases) {
+    CAPTURE(std::string(k.name));
+    World w;
+    BodyDef od;
+    od.shape = k.other;
+    const int a = w.addBody(od);
+    BodyDef bd;
+    bd.shape = makeSphere(r);
+    bd.origin = k.top + (r - depth) * k.normal;
+    const int b = w.addBody(bd);
+    std::vector<Contact> contacts;
+    w.findContacts(a, b, {w.body(a).x, w.body(a).q}, {w.body(b).x, w.body(b).q}, contacts);
+    REQUIRE(contacts.size() == 1);
+    const Contact& c = contacts[0];
+    CHECK(c.a == a);
+    CHECK(glm::length(c.normal - k.normal) < 1e-9);
+    CHECK(c.phi == doctest::Approx(-depth).epsilon(1e-6));
+    CHECK(glm::length(c.point - (k.top - depth * k.normal)) < 1e-9);
+    // The same pair the other way round: still one contact as deep, along the same line (two balls: the field
+    // of either may be the one the other's centre is tested in).
+    w.findContacts(b, a, {w.body(b).x, w.body(b).q}, {w.body(a).x, w.body(a).q}, contacts);
+    REQUIRE(contacts.size() == 1);
+    CHECK(contacts[0].phi == doctest::Approx(-depth).epsilon(1e-6));
+    CHECK(glm::length(contacts[0].normal - (contacts[0].a == a ? 1.0 : -1.0) * k.normal) < 1e-9);
+    if (k.other->type != ShapeType::Sphere) CHECK(contacts[0].a == a);
+  }
+}

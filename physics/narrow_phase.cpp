@@ -5,7 +5,8 @@
 //   penetrates the other's distance field (phi < 0, the sample radius
 //   subtracted): point on the sampled body's surface, unit normal out of the
 //   field's owner (a), depth phi. A sphere against a convex shape: only its
-//   centre in the other's field (sampleSides), the one deepest point exactly. pairContacts tests only the pair's candidate
+//   centre in the other's field (sampleSides), the one deepest point exactly;
+//   a capsule: its core samples and its segment's deepest point there. pairContacts tests only the pair's candidate
 //   samples (broad_phase.cpp guarantees they hold every sample that can touch).
 //   Two convex polytopes (boxes, convex meshes) that neither sweep nor bend
 //   their normals give instead the penetrating corners of their contact
@@ -25,6 +26,7 @@
 // - World::raycast returns the nearest surface along the ray within the
 //   distance, to the sphere tracer's tolerance (1e-4 m).
 #include <algorithm>
+#include <cmath>
 
 #include "physics/step_context.h"
 
@@ -32,10 +34,13 @@ namespace crumple {
 
 namespace {
 // Tests samples of `other` (all, or the listed ones) against the field of `owner`.
+// With `segment` (other is a capsule, owner convex: detail::sampleSides), also the point of the capsule's core
+// segment deepest in the owner's field, where it is deeper than every sample: the samples stand a radius apart,
+// and a capsule across a box's edge sank between two of them.
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
                     const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
                     const World::NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
-                    const Pose* startOther = nullptr) {
+                    const Pose* startOther = nullptr, bool segment = false) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
   const double r = st.sampleRadius;
@@ -47,8 +52,9 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   const double hintLen = glm::length(hint);
   hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
   const size_t n = list ? list->size() : st.samples.size();
-  if (n == 0) return;
+  if (n == 0 && !segment) return;
   const bool normals = !st.sampleNormals.empty();
+  const size_t first = out.size();
   // One rigid map from the other's shape frame to the owner's: local = M s + t.
   const glm::dmat3 otherToOwner = rot * rt;
   const glm::dvec3 offset = rot * (pother.position - po.position - rt * other.localCom) + owner.localCom;
@@ -114,6 +120,53 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     c.phi = phi;
     out.push_back(c);
   }
+  if (!segment) return;
+  // The distance to a convex shape along a segment is convex: its least lies between the neighbours of the
+  // nearest core sample (the samples split the segment evenly), where a golden-section search finds it. The
+  // distance changes by at most the distance moved: where the nearest sample is farther than r plus half the
+  // samples' spacing, nothing between them reaches.
+  const glm::dvec3 s0(0, -st.halfHeight, 0), s1(0, st.halfHeight, 0);
+  auto at = [&](double t) { return otherToOwner * (s0 + t * (s1 - s0)) + offset; };
+  auto f = [&](double t) { return so.distance(at(t)); };
+  const size_t ns = st.samples.size();
+  if (ns < 2) return;
+  size_t best = 0;
+  double bestD = 1e300;
+  for (size_t k = 0; k < ns; ++k) {
+    const double d = f(static_cast<double>(k) / static_cast<double>(ns - 1));
+    if (d < bestD) bestD = d, best = k;
+  }
+  const double spacing = 2 * st.halfHeight / static_cast<double>(ns - 1);
+  if (bestD - 0.5 * spacing >= r) return;
+  const double golden = 0.5 * (std::sqrt(5.0) - 1);
+  double t0 = static_cast<double>(best == 0 ? 0 : best - 1) / static_cast<double>(ns - 1);
+  double t1 = static_cast<double>(std::min(best + 1, ns - 1)) / static_cast<double>(ns - 1);
+  double x1 = t1 - golden * (t1 - t0), x2 = t0 + golden * (t1 - t0), f1 = f(x1), f2 = f(x2);
+  // (to a thousandth of a spacing: the depth is then within a thousandth of a radius)
+  for (int it = 0; it < 60 && t1 - t0 > 1e-3 / static_cast<double>(ns - 1); ++it) {
+    if (f1 <= f2) {
+      t1 = x2, x2 = x1, f2 = f1;
+      x1 = t1 - golden * (t1 - t0), f1 = f(x1);
+    } else {
+      t0 = x1, x1 = x2, f1 = f2;
+      x2 = t0 + golden * (t1 - t0), f2 = f(x2);
+    }
+  }
+  const double t = f1 <= f2 ? x1 : x2;
+  const glm::dvec3 local = at(t);
+  glm::dvec3 g;
+  const double phi = so.distance(local, &g, &hint) - r;
+  if (!(phi < 0)) return;
+  for (size_t k = first; k < out.size(); ++k)
+    if (!(phi < out[k].phi - 1e-9)) return;  // a sample is as deep: it stands there already
+  if (modifier) g = glm::normalize((*modifier)(iOwner, local - (phi + r) * g, g));
+  Contact c;
+  c.a = iOwner;
+  c.b = iOther;
+  c.normal = ro * g;
+  c.point = pother.position + rt * (s0 + t * (s1 - s0) - other.localCom) - r * c.normal;
+  c.phi = phi;
+  out.push_back(c);
 }
 // Two convex polytopes (boxes, convex meshes): their contact manifold (polytope.h)
 // instead of the samples, which cannot hold a face lying on a face of the same
@@ -169,10 +222,19 @@ namespace detail {
 SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) {
   auto convex = [](const Shape& s) { return s.type != ShapeType::Mesh || s.polytope != nullptr; };
   SampleSides sides;
-  if (b.type == ShapeType::Sphere && !bumpB && convex(a))
-    sides.aInB = false;  // (two spheres: B's centre in A's field)
-  else if (a.type == ShapeType::Sphere && !bumpA && convex(b))
-    sides.bInA = false;
+  // A sphere first (its centre is exact alone), then a capsule (its core samples and its segment's deepest point).
+  for (ShapeType rounded : {ShapeType::Sphere, ShapeType::Capsule}) {
+    if (b.type == rounded && !bumpB && convex(a)) {
+      sides.aInB = false;  // (two alike: B's core in A's field)
+      sides.segmentB = rounded == ShapeType::Capsule;
+      return sides;
+    }
+    if (a.type == rounded && !bumpA && convex(b)) {
+      sides.bInA = false;
+      sides.segmentA = rounded == ShapeType::Capsule;
+      return sides;
+    }
+  }
   return sides;
 }
 
@@ -195,12 +257,13 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
     return;
   }
   // (findCandidates leaves the list of a side sampleSides skips empty)
-  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out,
-                 bump && ctx.bumpNormals[static_cast<size_t>(pair.a)] ? &ctx.normalModifier : nullptr,
-                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr);
-  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out,
-                 bump && ctx.bumpNormals[static_cast<size_t>(pair.b)] ? &ctx.normalModifier : nullptr,
-                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr);
+  const bool bumpA = bump && ctx.bumpNormals[static_cast<size_t>(pair.a)];
+  const bool bumpB = bump && ctx.bumpNormals[static_cast<size_t>(pair.b)];
+  const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
+  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, bumpA ? &ctx.normalModifier : nullptr,
+                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB);
+  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, bumpB ? &ctx.normalModifier : nullptr,
+                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA);
   sortContacts(out);
 }
 }  // namespace detail
@@ -218,8 +281,8 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   const bool bumpB = ctx_->normalModifier && static_cast<size_t>(ib) < ctx_->bumpNormals.size() &&
                      ctx_->bumpNormals[static_cast<size_t>(ib)];
   const detail::SampleSides sides = detail::sampleSides(*A.shape, bumpA, *B.shape, bumpB);
-  if (sides.bInA) contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out);
-  if (sides.aInB) contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out);
+  if (sides.bInA) contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB);
+  if (sides.aInB) contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out, nullptr, nullptr, nullptr, sides.segmentA);
   sortContacts(out);
 }
 

@@ -439,12 +439,15 @@ struct StepContext {
 // candidate samples (both directions), deepest first.
 void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
 // Which of a pair's two sample sets the narrow phase tests: B's samples in A's field (bInA), A's in B's (aInB).
-// Both, except where one body is a sphere and the other convex (box, sphere, capsule, cylinder, convex mesh):
+// Both, except where one body is a sphere or a capsule and the other convex (box, sphere, capsule, cylinder, convex mesh):
 // the sphere's centre against the other's field finds their one deepest point exactly, and the other's surface
-// samples inside the sphere only repeat it (more contacts for the one point, more work in every pass). A sphere
-// whose normals a bump map bends keeps both (its own field's normals are the bent ones).
+// samples inside the sphere only repeat it (more contacts for the one point, more work in every pass). Likewise a
+// capsule against a convex shape: its core samples (a radius apart along its axis) and its core segment's point
+// deepest in the other's field (segmentA / segmentB: that body is the capsule). A rounded body whose normals a
+// bump map bends keeps both sides (its own field's normals are the bent ones).
 struct SampleSides {
   bool bInA = true, aInB = true;
+  bool segmentA = false, segmentB = false;
 };
 SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB);
 // broad_phase.cpp

@@ -54,6 +54,31 @@ TEST_CASE("a bouncing sphere reaches eps^2 h") {
   }
 }
 
+TEST_CASE("a ball thrown down at a slant leaves the ground rolling at 5/7 of its tangential speed, bouncing eps v") {
+  // A solid ball (no spin) hits the ground at 6 m/s down and 0.7 m/s along; friction 0.57 is enough to stop its
+  // sliding within the impact, so it leaves rolling: v_t = 5/7 * 0.7 = 0.5 m/s, omega = v_t / r, and bounces at
+  // eps * 6 = 1.2 m/s (the default scene's throw). One exact contact gives this; the ground's surface samples
+  // inside the ball added normals tilted by where each sample sat.
+  World w;
+  addGround(w, 0.8, 0.2);
+  BodyDef d;
+  d.shape = makeSphere(0.25);
+  d.origin = {0, 0.26, 0};
+  d.linearVelocity = {0.7, -6, 0};
+  d.friction = 0.4;
+  d.restitution = 0.95;
+  d.density = 7800;
+  const int b = w.addBody(d);
+  w.settings().gravity = glm::dvec3(0);
+  for (int s = 0; s < 12; ++s) w.step(1.0 / 240);
+  const RigidBody& ball = w.body(b);
+  MESSAGE("after the bounce: v = (" << ball.v.x << ", " << ball.v.y << ", " << ball.v.z << "), omega z " << ball.w.z);
+  CHECK(ball.v.x == doctest::Approx(0.5).epsilon(1e-3));
+  CHECK(ball.w.z == doctest::Approx(-0.5 / 0.25).epsilon(1e-3));
+  CHECK(ball.v.y == doctest::Approx(1.2).epsilon(0.02));
+  CHECK(std::abs(ball.v.z) < 1e-9);
+}
+
 TEST_CASE("head-on collision of unequal masses with partial restitution, zero gravity") {
   WorldSettings s;
   s.gravity = {0, 0, 0};

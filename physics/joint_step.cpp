@@ -430,19 +430,31 @@ void pseudoInverseN(const Block& a, const double* scale, Block& inv) {
   }
 }
 
-
 // Calls f(std::integral_constant<int, n>) for n in 1..6 (0: nothing), so that the small dense loops below are
 // unrolled for each row count.
 template <class F>
 void withSize(int n, F&& f) {
   switch (n) {
-    case 1: f(std::integral_constant<int, 1>{}); break;
-    case 2: f(std::integral_constant<int, 2>{}); break;
-    case 3: f(std::integral_constant<int, 3>{}); break;
-    case 4: f(std::integral_constant<int, 4>{}); break;
-    case 5: f(std::integral_constant<int, 5>{}); break;
-    case 6: f(std::integral_constant<int, 6>{}); break;
-    default: break;
+    case 1:
+      f(std::integral_constant<int, 1>{});
+      break;
+    case 2:
+      f(std::integral_constant<int, 2>{});
+      break;
+    case 3:
+      f(std::integral_constant<int, 3>{});
+      break;
+    case 4:
+      f(std::integral_constant<int, 4>{});
+      break;
+    case 5:
+      f(std::integral_constant<int, 5>{});
+      break;
+    case 6:
+      f(std::integral_constant<int, 6>{});
+      break;
+    default:
+      break;
   }
 }
 
@@ -496,7 +508,7 @@ struct JointSystem {
   std::vector<std::vector<Block>> off;    // per position, along `later`
   std::vector<std::array<double, 6>> x;   // per position
   std::vector<Block> scratch;
-  std::vector<RowEnd> endScratch;         // per joint on the body being assembled
+  std::vector<RowEnd> endScratch;  // per joint on the body being assembled
 };
 
 JointSolverCache::JointSolverCache() = default;
@@ -794,7 +806,8 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
           Block* target = &s.diag[static_cast<size_t>(q)];
           if (r != q) {
             const auto& l = s.later[static_cast<size_t>(q)];
-            target = &s.off[static_cast<size_t>(q)][static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
+            target = &s.off[static_cast<size_t>(q)]
+                           [static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
           }
           subtractProduct<kNp>(off[e1], scaled[e2], nq, nr, *target);
         }

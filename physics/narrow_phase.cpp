@@ -6,8 +6,9 @@
 //   subtracted): point on the sampled body's surface, unit normal out of the
 //   field's owner (a), depth phi. A sphere against a convex shape: only its
 //   centre in the other's field (sampleSides), the one deepest point exactly;
-//   a capsule: its core samples and its segment's deepest point there. pairContacts tests only the pair's candidate
-//   samples (broad_phase.cpp guarantees they hold every sample that can touch).
+//   a capsule: its core samples and its segment's deepest point there.
+//   pairContacts tests only the pair's candidate samples (broad_phase.cpp
+//   guarantees they hold every sample that can touch).
 //   Two convex polytopes (boxes, convex meshes) that neither sweep nor bend
 //   their normals give instead the penetrating corners of their contact
 //   manifold (polytope.h), on the incident body's surface, normal out of the
@@ -130,17 +131,20 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   auto f = [&](double t) { return so.distance(at(t)); };
   const size_t ns = st.samples.size();
   if (ns < 2) return;
-  size_t best = 0;
-  double bestD = 1e300;
-  for (size_t k = 0; k < ns; ++k) {
-    const double d = f(static_cast<double>(k) / static_cast<double>(ns - 1));
-    if (d < bestD) bestD = d, best = k;
+  double t0 = 0, t1 = 1;
+  if (ns <= 33) {  // (a longer capsule: the search runs over the whole segment, a few more steps than 33 looks)
+    size_t best = 0;
+    double bestD = 1e300;
+    for (size_t k = 0; k < ns; ++k) {
+      const double d = f(static_cast<double>(k) / static_cast<double>(ns - 1));
+      if (d < bestD) bestD = d, best = k;
+    }
+    const double spacing = 2 * st.halfHeight / static_cast<double>(ns - 1);
+    if (bestD - 0.5 * spacing >= r) return;
+    t0 = static_cast<double>(best == 0 ? 0 : best - 1) / static_cast<double>(ns - 1);
+    t1 = static_cast<double>(std::min(best + 1, ns - 1)) / static_cast<double>(ns - 1);
   }
-  const double spacing = 2 * st.halfHeight / static_cast<double>(ns - 1);
-  if (bestD - 0.5 * spacing >= r) return;
   const double golden = 0.5 * (std::sqrt(5.0) - 1);
-  double t0 = static_cast<double>(best == 0 ? 0 : best - 1) / static_cast<double>(ns - 1);
-  double t1 = static_cast<double>(std::min(best + 1, ns - 1)) / static_cast<double>(ns - 1);
   double x1 = t1 - golden * (t1 - t0), x2 = t0 + golden * (t1 - t0), f1 = f(x1), f2 = f(x2);
   // (to a thousandth of a spacing: the depth is then within a thousandth of a radius)
   for (int it = 0; it < 60 && t1 - t0 > 1e-3 / static_cast<double>(ns - 1); ++it) {

@@ -186,7 +186,8 @@ struct StepContext {
   std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
   World::NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
-  bool anyLoadBearing = false;  // a dynamic body of a loadBearing shape was ever added (resting_solve.cpp has work only then)
+  // A dynamic body of a loadBearing shape was ever added (resting_solve.cpp has work only then).
+  bool anyLoadBearing = false;
   double time = 0;
   // Joints (index = id; removed ones stay as holes), what the filter keeps apart.
   std::vector<Joint> joints;

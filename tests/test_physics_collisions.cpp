@@ -548,7 +548,8 @@ TEST_CASE("a ball pressed into a box, a capsule or a ball touches at one point: 
       {"box edge", makeBox({1, 0.4, 1}), {0.5, 0.2, 0.1}, edgeN},
       {"box corner", makeBox({1, 0.4, 1}), {0.5, 0.2, 0.5}, cornerN},
       {"capsule", makeCapsule(0.15, 0.6), {0, 0.45, 0}, {0, 1, 0}},
-      {"ball", makeSphere(0.3), glm::dvec3(0.3) * glm::normalize(glm::dvec3(1, 2, 0.5)), glm::normalize(glm::dvec3(1, 2, 0.5))},
+      {"ball", makeSphere(0.3), glm::dvec3(0.3) * glm::normalize(glm::dvec3(1, 2, 0.5)),
+       glm::normalize(glm::dvec3(1, 2, 0.5))},
   };
   for (const Case& k : cases) {
     CAPTURE(std::string(k.name));
@@ -578,32 +579,36 @@ TEST_CASE("a ball pressed into a box, a capsule or a ball touches at one point: 
   }
 }
 
-TEST_CASE("a capsule across a box's edge sinks between its core samples: the contact is where its axis passes nearest") {
+TEST_CASE(
+    "a capsule across a box's edge sinks between its core samples: the contact is where its axis passes nearest") {
   // A capsule (radius 0.1 m, straight part 1 m: core samples 0.1 m apart) tilted 20 degrees over the top edge of a
   // box, its axis 0.097 m from the edge at a point 0.03 m from the nearest core sample: 3 mm deep there, while that
   // sample stands 0.1015 m from the edge (no sample touches). The contact: 3 mm deep, normal from the edge to the
-  // axis, on the capsule's surface.
-  World w;
-  BodyDef bd;
-  bd.shape = makeBox({1, 0.4, 1});
-  const int a = w.addBody(bd);
-  const double r = 0.1, depth = 0.003, tilt = glm::radians(20.0);
-  const glm::dvec3 edge(0.5, 0.2, 0.1), u(std::cos(tilt), -std::sin(tilt), 0), n(std::sin(tilt), std::cos(tilt), 0);
-  const glm::dvec3 foot = edge + (r - depth) * n;
-  BodyDef cd;
-  cd.shape = makeCapsule(r, 1.0);
-  cd.orientation = glm::angleAxis(-(glm::half_pi<double>() + tilt), glm::dvec3(0, 0, 1));  // its y axis along u
-  cd.origin = foot + 0.03 * u;  // the foot at y = -0.03 of the capsule's own axis
-  const int b = w.addBody(cd);
-  REQUIRE(glm::length(w.body(b).q * glm::dvec3(0, 1, 0) - u) < 1e-12);
-  std::vector<Contact> contacts;
-  w.findContacts(a, b, {w.body(a).x, w.body(a).q}, {w.body(b).x, w.body(b).q}, contacts);
-  REQUIRE(!contacts.empty());
-  const Contact& c = contacts[0];  // deepest first
-  MESSAGE("capsule over an edge: " << contacts.size() << " contacts, deepest " << -c.phi * 1000 << " mm");
-  CHECK(c.a == a);
-  CHECK(c.phi == doctest::Approx(-depth).epsilon(0.01));
-  CHECK(glm::length(c.normal - n) < 1e-3);
-  CHECK(glm::length(c.point - (foot - r * n)) < 1e-3);
-  CHECK(contacts.size() <= 2);
+  // axis, on the capsule's surface. Also a capsule 10 m long (101 core samples: the search runs over its whole axis).
+  for (double length : {1.0, 10.0}) {
+    CAPTURE(length);
+    World w;
+    BodyDef bd;
+    bd.shape = makeBox({1, 0.4, 1});
+    const int a = w.addBody(bd);
+    const double r = 0.1, depth = 0.003, tilt = glm::radians(20.0);
+    const glm::dvec3 edge(0.5, 0.2, 0.1), u(std::cos(tilt), -std::sin(tilt), 0), n(std::sin(tilt), std::cos(tilt), 0);
+    const glm::dvec3 foot = edge + (r - depth) * n;
+    BodyDef cd;
+    cd.shape = makeCapsule(r, length);
+    cd.orientation = glm::angleAxis(-(glm::half_pi<double>() + tilt), glm::dvec3(0, 0, 1));  // its y axis along u
+    cd.origin = foot + 0.03 * u;  // the foot at y = -0.03 of the capsule's own axis
+    const int b = w.addBody(cd);
+    REQUIRE(glm::length(w.body(b).q * glm::dvec3(0, 1, 0) - u) < 1e-12);
+    std::vector<Contact> contacts;
+    w.findContacts(a, b, {w.body(a).x, w.body(a).q}, {w.body(b).x, w.body(b).q}, contacts);
+    REQUIRE(!contacts.empty());
+    const Contact& c = contacts[0];  // deepest first
+    MESSAGE("capsule over an edge: " << contacts.size() << " contacts, deepest " << -c.phi * 1000 << " mm");
+    CHECK(c.a == a);
+    CHECK(c.phi == doctest::Approx(-depth).epsilon(0.01));
+    CHECK(glm::length(c.normal - n) < 1e-3);
+    CHECK(glm::length(c.point - (foot - r * n)) < 1e-3);
+    CHECK(contacts.size() <= 2);
+  }
 }

@@ -134,8 +134,8 @@ TEST_CASE("joints: a chain of 20 links hanging from one end stays joined, and so
         worst = std::max(worst, glm::length(heavyStart - prevEnd));
       }
     }
-    MESSAGE(std::string(heavy ? "100 kg on 1 kg links" : "20 links") << std::string(variant == 2 ? ", one substep a step" : "")
-                                                                      << ": largest gap " << worst * 1000 << " mm");
+    MESSAGE(std::string(heavy ? "100 kg on 1 kg links" : "20 links")
+            << std::string(variant == 2 ? ", one substep a step" : "") << ": largest gap " << worst * 1000 << " mm");
     CHECK(worst < 0.005);
     CHECK(std::isfinite(t.body(body.back()).x.y));
   }

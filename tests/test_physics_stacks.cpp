@@ -259,7 +259,8 @@ struct CardHouse {
       for (int f = 0; f < frames; ++f) aFrame(x0 + f * span, y);
       y += l * std::cos(tilt) + t * std::sin(tilt) + 0.001;
       if (s + 1 == storeys) break;
-      for (int f = 0; f + 1 < frames; ++f) add({span + 0.01, t, d}, {x0 + (f + 0.5) * span, y + t / 2, 0}, glm::dquat(1, 0, 0, 0));
+      for (int f = 0; f + 1 < frames; ++f)
+        add({span + 0.01, t, d}, {x0 + (f + 0.5) * span, y + t / 2, 0}, glm::dquat(1, 0, 0, 0));
       y += t + 0.001;
     }
   }
@@ -290,7 +291,8 @@ TEST_CASE("cards: an A-frame stands sleeping or not, on the ground and on a loos
     // apex share the load. Shock propagation's passes run until they converge here (with a fixed 3 the apex kept
     // closing by 2 mm/s and the frame fell in 4 s).
     CardHouse onCard;
-    onCard.add({onCard.span + 0.02, CardHouse::t, CardHouse::d}, {0, CardHouse::t / 2 + 0.0005, 0}, glm::dquat(1, 0, 0, 0));
+    onCard.add({onCard.span + 0.02, CardHouse::t, CardHouse::d}, {0, CardHouse::t / 2 + 0.0005, 0},
+               glm::dquat(1, 0, 0, 0));
     onCard.aFrame(0, CardHouse::t + 0.001);
     const double m = onCard.run(false, 10);
     MESSAGE("an A-frame on a loose card, no sleeping: drift " << m << " m in 10 s");
@@ -313,8 +315,8 @@ TEST_CASE("cards: houses of two and three storeys stand 10 s, sleeping or not; w
       REQUIRE(h.ids.size() == (storeys == 2 ? 7u : 15u));
       const double settled = h.run(sleeping, 1);
       const double m = h.run(sleeping, 9);
-      MESSAGE(storeys << " storeys, sleeping " << sleeping << ": drift " << settled * 1000 << " mm after 1 s (settling), "
-                      << m * 1000 << " mm after 10 s");
+      MESSAGE(storeys << " storeys, sleeping " << sleeping << ": drift " << settled * 1000
+                      << " mm after 1 s (settling), " << m * 1000 << " mm after 10 s");
       CHECK(m < 0.01);
       CHECK(m - settled < 0.001);
     }

@@ -442,9 +442,8 @@ void findCandidates(StepContext& ctx, double h) {
     const RigidBody& B = ctx.body(pair.b);
     // Two polytopes meet by their manifold (narrow_phase.cpp) unless the step sweeps or a normal modifier
     // bends their normals: no samples are looked at, no lists needed.
-    const bool bumpy = ctx.normalModifier && !ctx.bumpNormals.empty() &&
-                       (ctx.bumpNormals[static_cast<size_t>(pair.a)] || ctx.bumpNormals[static_cast<size_t>(pair.b)]);
-    if (A.shape->polytope && B.shape->polytope && !ctx.substepsCapped && !bumpy) {
+    const bool bumpA = ctx.bentNormals(pair.a), bumpB = ctx.bentNormals(pair.b);
+    if (A.shape->polytope && B.shape->polytope && !ctx.substepsCapped && !bumpA && !bumpB) {
       pair.bInA.clear();
       pair.aInB.clear();
       pair.builtMargin = -1;
@@ -500,8 +499,6 @@ void findCandidates(StepContext& ctx, double h) {
       tree->query(centre, mt, half + 1e-9 * (1 + glm::length(centre) + glm::length(half)), test);
       std::sort(list.begin(), list.end());  // in sample order, as a whole scan finds them
     };
-    const bool bumpA = ctx.normalModifier && !ctx.bumpNormals.empty() && ctx.bumpNormals[static_cast<size_t>(pair.a)];
-    const bool bumpB = ctx.normalModifier && !ctx.bumpNormals.empty() && ctx.bumpNormals[static_cast<size_t>(pair.b)];
     const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
     if (sides.bInA)
       collect(A, B, pair.bInA);

@@ -54,6 +54,7 @@
 #include <cmath>
 #include <set>
 #include <type_traits>
+#include <utility>
 
 #include "physics/step_context.h"
 
@@ -432,30 +433,13 @@ void pseudoInverseN(const Block& a, const double* scale, Block& inv) {
 
 // Calls f(std::integral_constant<int, n>) for n in 1..6 (0: nothing), so that the small dense loops below are
 // unrolled for each row count.
+template <class F, int... N>
+void withSizeIn(int n, F&& f, std::integer_sequence<int, N...>) {
+  (void)((n == N + 1 && (f(std::integral_constant<int, N + 1>{}), true)) || ...);
+}
 template <class F>
 void withSize(int n, F&& f) {
-  switch (n) {
-    case 1:
-      f(std::integral_constant<int, 1>{});
-      break;
-    case 2:
-      f(std::integral_constant<int, 2>{});
-      break;
-    case 3:
-      f(std::integral_constant<int, 3>{});
-      break;
-    case 4:
-      f(std::integral_constant<int, 4>{});
-      break;
-    case 5:
-      f(std::integral_constant<int, 5>{});
-      break;
-    case 6:
-      f(std::integral_constant<int, 6>{});
-      break;
-    default:
-      break;
-  }
+  withSizeIn(n, f, std::make_integer_sequence<int, 6>{});
 }
 
 // out (np x nq) = inv (np x np) * off (np x nq).

@@ -246,7 +246,7 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   out.clear();
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
-  const bool bump = ctx.normalModifier && !ctx.bumpNormals.empty();
+  const bool bumpA = ctx.bentNormals(pair.a), bumpB = ctx.bentNormals(pair.b);
   // The poses at the substep's start (the bodies have not moved yet): swept tests where a body moves past more
   // than the other's half thickness in the substep (a thin plate the substeps cannot cover).
   // Uncapped substeps keep every body's travel under half the thinnest half thickness: no sweep is needed then.
@@ -255,14 +255,11 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
                                                                       B.shape->boundingRadius)
                                           : 0.0;
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
-  const bool bumpy = bump && (ctx.bumpNormals[static_cast<size_t>(pair.a)] || ctx.bumpNormals[static_cast<size_t>(pair.b)]);
-  if (!sweepA && !sweepB && !bumpy && manifoldContacts(pair.a, A, pa, pair.b, B, pb, out)) {
+  if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, pa, pair.b, B, pb, out)) {
     sortContacts(out);
     return;
   }
   // (findCandidates leaves the list of a side sampleSides skips empty)
-  const bool bumpA = bump && ctx.bumpNormals[static_cast<size_t>(pair.a)];
-  const bool bumpB = bump && ctx.bumpNormals[static_cast<size_t>(pair.b)];
   const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, bumpA ? &ctx.normalModifier : nullptr,
                  sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB);
@@ -280,11 +277,7 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
     sortContacts(out);
     return;
   }
-  const bool bumpA = ctx_->normalModifier && static_cast<size_t>(ia) < ctx_->bumpNormals.size() &&
-                     ctx_->bumpNormals[static_cast<size_t>(ia)];
-  const bool bumpB = ctx_->normalModifier && static_cast<size_t>(ib) < ctx_->bumpNormals.size() &&
-                     ctx_->bumpNormals[static_cast<size_t>(ib)];
-  const detail::SampleSides sides = detail::sampleSides(*A.shape, bumpA, *B.shape, bumpB);
+  const detail::SampleSides sides = detail::sampleSides(*A.shape, ctx_->bentNormals(ia), *B.shape, ctx_->bentNormals(ib));
   if (sides.bInA) contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB);
   if (sides.aInB) contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out, nullptr, nullptr, nullptr, sides.segmentA);
   sortContacts(out);

@@ -334,6 +334,10 @@ struct StepContext {
 
   RigidBody& body(int i) { return bodies[static_cast<size_t>(i)]; }
   const RigidBody& body(int i) const { return bodies[static_cast<size_t>(i)]; }
+  // Whether body i's normals are bent by the normal modifier (World::setBumpNormals and a modifier set).
+  bool bentNormals(int i) const {
+    return normalModifier && static_cast<size_t>(i) < bumpNormals.size() && bumpNormals[static_cast<size_t>(i)];
+  }
 
   void wake(int i) {
     RigidBody& b = bodies.at(static_cast<size_t>(i));

@@ -93,14 +93,17 @@ void AddressPasses::makeSlots(int slots) {
   }
 }
 
-void clearBoxes(const render::Buffer& buffer, int boxes) {
-  std::vector<GLint> empty(static_cast<size_t>(boxes) * 4);
+void clearBoxes(render::Buffer& buffer, int boxes) {
+  std::vector<GLint> empty(std::max(static_cast<size_t>(boxes), buffer.size() / (4 * sizeof(GLint))) * 4);
   for (size_t k = 0; k < empty.size(); k += 4) {
     empty[k] = empty[k + 1] = INT_MAX;
     empty[k + 2] = empty[k + 3] = -1;
   }
-  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the last shaders' reads and atomics, before the upload
-  glNamedBufferSubData(buffer.id(), 0, static_cast<GLsizeiptr>(empty.size() * sizeof(GLint)), empty.data());
+  freshBuffer(buffer, empty.size() * sizeof(GLint), empty.data());
+}
+
+void freshBuffer(render::Buffer& buffer, size_t bytes, const void* data) {
+  buffer = render::Buffer(bytes, data, GL_DYNAMIC_STORAGE_BIT);
 }
 
 void AddressPasses::clearReach(int slots) { clearBoxes(reach_, slots); }
@@ -212,16 +215,13 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
     setup_ = render::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
     large_ = render::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
   }
-  if (entries_.size() < entries.size() * sizeof(Entry))
-    entries_ = render::Buffer(std::max(entries.size(), size_t(32)) * sizeof(Entry) * 2, nullptr);
-  entries_.upload(0, entries.size() * sizeof(Entry), entries.data());
+  freshBuffer(entries_, entries.size() * sizeof(Entry), entries.data());
   std::vector<GLuint> args(static_cast<size_t>(groups) * 3);
   for (int g = 0; g < groups; ++g) {
     args[static_cast<size_t>(g) * 3 + 1] = 1;
     args[static_cast<size_t>(g) * 3 + 2] = static_cast<GLuint>(std::min(kGroup, n - g * kGroup));
   }
-  if (args_.size() < args.size() * sizeof(GLuint)) args_ = render::Buffer(args.size() * sizeof(GLuint) * 2, nullptr);
-  args_.upload(0, args.size() * sizeof(GLuint), args.data());
+  freshBuffer(args_, args.size() * sizeof(GLuint), args.data());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, list_.id());
@@ -266,8 +266,9 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
       glUniform1i(bFirst_, e);
-      glDispatchCompute(static_cast<GLuint>(std::min(triangles, kRowGroups)),
-                        static_cast<GLuint>((triangles + kRowGroups - 1) / kRowGroups), static_cast<GLuint>(f - e));
+      const int groups = (triangles + 63) / 64;  // 64 triangles a workgroup
+      glDispatchCompute(static_cast<GLuint>(std::min(groups, kRowGroups)),
+                        static_cast<GLuint>((groups + kRowGroups - 1) / kRowGroups), static_cast<GLuint>(f - e));
     }
     e = f;
   }
@@ -293,7 +294,11 @@ std::pair<size_t, size_t> AddressPasses::tilesRun(int side) const {
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
   glGetNamedBufferSubData(count_.id(), static_cast<GLintptr>((static_cast<size_t>(side) * countStride() + tiles()) * sizeof(GLuint)),
                           sizeof tail, tail);
-  return {tail[5] ? tiles() : tail[1], tiles()};
+  if (!tail[5]) return {tail[1], tiles()};
+  // Large triangles: every tile of the reach's rectangle (x0 | y0 << 16, x1 | y1 << 16).
+  const int x0 = static_cast<int>(tail[2] & 0xffff), y0 = static_cast<int>(tail[2] >> 16);
+  const int x1 = static_cast<int>(tail[3] & 0xffff), y1 = static_cast<int>(tail[3] >> 16);
+  return {x1 < x0 || y1 < y0 ? 0 : static_cast<size_t>(x1 - x0 + 1) * static_cast<size_t>(y1 - y0 + 1), tiles()};
 }
 
 }  // namespace crumple::deform

@@ -28,9 +28,6 @@ void CommitPass::reserve(size_t sides) {
   if (sides <= sides_) return;
   sides_ = std::max<size_t>(sides, 2);
   normalRegion_ = render::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
-  entries_ = render::Buffer(sides_ * sizeof(CommitEntry), nullptr, GL_DYNAMIC_STORAGE_BIT);
-  const size_t groups = (sides_ + kGroup - 1) / kGroup;
-  args_ = render::Buffer(groups * 9 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
 }
 
 void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
@@ -52,11 +49,11 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
   }
   const int n = static_cast<int>(entries.size()), groups = (n + kGroup - 1) / kGroup;
   if (n == 0) return;
-  entries_.upload(0, entries.size() * sizeof(CommitEntry), entries.data());
+  freshBuffer(entries_, entries.size() * sizeof(CommitEntry), entries.data());
   std::vector<GLuint> args(static_cast<size_t>(groups) * 9, 0);
   for (int g = 0; g < groups; ++g)
     for (int stage = 0; stage < 3; ++stage) args[static_cast<size_t>(g) * 9 + 3 * stage + 2] = std::min(kGroup, n - g * kGroup);
-  args_.upload(0, args.size() * sizeof(GLuint), args.data());
+  freshBuffer(args_, args.size() * sizeof(GLuint), args.data());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, stats.id());
   of.front()->scratch.bind();

@@ -230,9 +230,9 @@ struct Deformer::Impl {
   int allocateStats() {
     if (statsUsed + 2 > statsCapacity) {
       const int cap = std::max(64, statsCapacity * 2);
-      render::Buffer bigger(static_cast<size_t>(cap) * 4 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
-      std::vector<GLuint> zeros(static_cast<size_t>(cap) * 4, 0);
-      bigger.upload(0, zeros.size() * sizeof(GLuint), zeros.data());
+      const std::vector<GLuint> zeros(static_cast<size_t>(cap) * 4, 0);
+      render::Buffer bigger(zeros.size() * sizeof(GLuint), zeros.data(), GL_DYNAMIC_STORAGE_BIT);
+      glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the commits' counts, before the copy reads them
       if (statsCapacity)
         glCopyNamedBufferSubData(stats.id(), bigger.id(), 0, 0,
                                  static_cast<GLsizeiptr>(statsCapacity) * 4 * sizeof(GLuint));

@@ -135,23 +135,20 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
     for (size_t k = e; k < f; ++k) entries[k].sampler = static_cast<GLint>(k - e);
     e = f;
   }
-  if (entries_.size() < entries.size() * sizeof(GatherEntry))
-    entries_ = render::Buffer(std::max<size_t>(entries.size(), 16) * sizeof(GatherEntry) * 2, nullptr);
-  entries_.upload(0, entries.size() * sizeof(GatherEntry), entries.data());
-  // Each dispatch's kept tiles: 4 uints (count, indirect x y z), then up to sides x tiles items; 256-byte aligned.
+  freshBuffer(entries_, entries.size() * sizeof(GatherEntry), entries.data());
+  // Each dispatch's kept tiles: up to sides x tiles items, 256-byte aligned; its head (count, indirect x y z) at
+  // 256 bytes a dispatch in keptHead_.
   size_t keptBytes = 0;
   for (const Dispatch& d : dispatches_) {
     keptAt_.push_back(keptBytes);
     const size_t tiles = d.cover->tiles();
-    keptBytes += ((4 + d.count * tiles) * sizeof(GLuint) + 255) / 256 * 256;
+    keptBytes += (d.count * tiles * sizeof(GLuint) + 255) / 256 * 256;
     tilesRun_ += d.count * tiles;
   }
   if (kept_.size() < keptBytes) kept_ = render::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
-  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the last wave's counts, written by its shaders
-  for (size_t at : keptAt_) {
-    const GLuint head[4] = {0, 0, 1, 1};
-    kept_.upload(at, sizeof head, head);
-  }
+  std::vector<GLuint> heads(dispatches_.size() * kHeadUints, 0);
+  for (size_t k = 0; k < dispatches_.size(); ++k) heads[k * kHeadUints + 2] = heads[k * kHeadUints + 3] = 1;
+  freshBuffer(keptHead_, heads.size() * sizeof(GLuint), heads.data());
   program_.use();
   glUniform1i(uSize_, addressMap);
   glUniform1i(uMode_, 0);
@@ -174,7 +171,9 @@ void ComputeGather::bind(size_t k) const {
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
   const size_t tiles = d.cover->tiles();
   glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 8, kept_.id(), static_cast<GLintptr>(keptAt_[k]),
-                    static_cast<GLsizeiptr>((4 + d.count * tiles) * sizeof(GLuint)));
+                    static_cast<GLsizeiptr>(std::max<size_t>(d.count * tiles, 1) * sizeof(GLuint)));
+  glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 10, keptHead_.id(), static_cast<GLintptr>(k * kHeadUints * sizeof(GLuint)),
+                    static_cast<GLsizeiptr>(4 * sizeof(GLuint)));
   glUniform1i(uFirst_, static_cast<GLint>(d.first));
 }
 
@@ -188,13 +187,13 @@ void ComputeGather::gather(const AddressPasses& passes, const render::Buffer& re
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
   glBindTextureUnit(0, passes.addressOthers().id());
   glBindTextureUnit(1, passes.depthOthers().id());
-  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, kept_.id());
+  glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, keptHead_.id());
   for (size_t k = 0; k < dispatches_.size(); ++k) {
     bind(k);
     const Dispatch& d = dispatches_[k];
     for (size_t j = 0; j < d.count; ++j)
       glBindTextureUnit(static_cast<GLuint>(2 + j), order_[d.first + j]->height->id());
-    glDispatchComputeIndirect(static_cast<GLintptr>(keptAt_[k] + sizeof(GLuint)));
+    glDispatchComputeIndirect(static_cast<GLintptr>((k * kHeadUints + 1) * sizeof(GLuint)));
   }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
 }
@@ -202,9 +201,9 @@ void ComputeGather::gather(const AddressPasses& passes, const render::Buffer& re
 std::pair<size_t, size_t> ComputeGather::lastKept() const {
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
   size_t kept = 0;
-  for (size_t at : keptAt_) {
+  for (size_t k = 0; k < keptAt_.size(); ++k) {
     GLuint count = 0;
-    glGetNamedBufferSubData(kept_.id(), static_cast<GLintptr>(at), sizeof count, &count);
+    glGetNamedBufferSubData(keptHead_.id(), static_cast<GLintptr>(k * kHeadUints * sizeof(GLuint)), sizeof count, &count);
     kept += count;
   }
   return {kept, tilesRun_};
@@ -256,8 +255,8 @@ void CraterRims::run(int side, int res, const render::Texture2D& height, const S
                      const render::Buffer& region) {
   // The ring width depends on the dent's size: found on the GPU from the region, with the dispatch sizes.
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-  const GLuint zero[2] = {0, 0};
-  sums_.upload(static_cast<size_t>(side) * 2 * sizeof(GLuint), sizeof zero, zero);
+  const GLuint zero[4] = {0, 0, 0, 0};
+  freshBuffer(sums_, sizeof zero, zero);
   dispatch_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, rim_.id());

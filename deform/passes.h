@@ -41,8 +41,14 @@ inline render::Program computeProgram(const char* name) {
   return render::Program({{GL_COMPUTE_SHADER, name, deformSource(name)}});
 }
 
-// Uploads `boxes` empty texel boxes (x0, y0, x1, y1 = INT_MAX, INT_MAX, -1, -1: atomics grow them) into `buffer`.
-void clearBoxes(const render::Buffer& buffer, int boxes);
+// `buffer` replaced by a new one of at least `boxes` empty texel boxes (x0, y0, x1, y1 = INT_MAX, INT_MAX, -1, -1:
+// atomics grow them), as many as it held if more.
+void clearBoxes(render::Buffer& buffer, int boxes);
+// `buffer` replaced by a new one holding `bytes` of `data`. Data the CPU hands to a wave's shaders goes into new
+// buffers, never into one that earlier commands may still read: on NVIDIA's driver (580, H200) a
+// glNamedBufferSubData into a buffer that a queued dispatch reads as shader storage reached that dispatch late
+// (a wave's commit ran with the last wave's entries); a buffer made with its data cannot be read before it.
+void freshBuffer(render::Buffer& buffer, size_t bytes, const void* data);
 
 // A side's new heights: resolution^2 uints (float bits, row by row; kUntouched where untouched) from `offset`
 // (uints) of the deformer's scratch buffer, which shaders see at shader-storage binding 2 (uScratch[], their uScratchBase = offset).
@@ -216,9 +222,12 @@ class ComputeGather {
 
  private:
   static constexpr int kGroup = 14;  // the other's address and depth at units 0, 1; X's height maps at 2 .. 15
+  static constexpr size_t kHeadUints = 64;  // a dispatch's head in keptHead_ (256 bytes: any binding alignment)
   render::Program program_;
   GLint uSize_, uFirst_, uMode_;
-  render::Buffer entries_, kept_;  // the sides; each dispatch's kept tiles (texel_gather.comp's Kept)
+  // The sides; each dispatch's kept tiles (texel_gather.comp's Kept) and, 256 bytes a dispatch, their count and
+  // indirect dispatch (KeptHead: made new each run, from the CPU).
+  render::Buffer entries_, kept_, keptHead_;
   std::vector<size_t> keptAt_;     // the last run's dispatches' offsets into kept_
   size_t tilesRun_ = 0;            // the last run's sides' tiles, all of them
   struct Dispatch {                // up to kGroup sides of one mesh and resolution
@@ -256,7 +265,7 @@ class CraterRims {
  private:
   render::Program program_, dispatch_;
   GLint uSide_, uResolution_, uMode_, dSide_, dResolution_;
-  render::Buffer sums_{4 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
+  render::Buffer sums_;
   render::Buffer rim_{8 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
 };
 

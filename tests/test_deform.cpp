@@ -349,6 +349,68 @@ TEST_CASE("the compute raster puts back \"none\" where its last event wrote: a u
   CHECK(differ == 0);
 }
 
+TEST_CASE("large triangles (the plate's faces under a dented ball): the compute raster runs the reach's tiles only") {
+  // X is the ball, the other body the plate, whose faces (0.5 m triangles) each cover more than 1024 of the
+  // address map's tiles: they go to the large list that every tile tests. The raster runs the tiles of the
+  // pixels X's kept texels read (the reach), not the whole map; the dent is the fragment stage's; and a used
+  // deformer (a deeper event first: a larger reach) puts "none" back over its last rectangle.
+  test::glContext();
+  SphereIntoPlate s;
+  constexpr int kAddress = 512, kBallRes = 256;
+  auto run = [&](Deformer& d, double depth) {
+    Surface ball(s.ballGpu, kBallRes, 0.1f, 0.02f,
+                 d.createMaps(kBallRes, nullptr, 0.1f, float(s.ballGpu->metresPerUv / kBallRes)));
+    DeformRequest rq;
+    rq.a = {&ball, s.ballGpu.get(), s.ballModel};
+    rq.b = {nullptr, s.plateGpu.get(), s.plateModel};
+    rq.point = {0, 0.1, 0};
+    rq.normal = {0, -1, 0};
+    rq.deformA = depth;
+    d.deform(rq);
+    return ball.downloadHeight();
+  };
+  auto addressMap = [&](Deformer& d) {
+    std::vector<float> m(size_t(kAddress) * kAddress * 2);
+    glGetTextureImage(d.lastAddressMap().id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(m.size() * sizeof(float)),
+                      m.data());
+    return m;
+  };
+  DeformOptions hw{kAddress, Path::Gather}, cs{kAddress, Path::Gather};
+  hw.addressRaster = AddressRaster::Fragment;
+  cs.addressRaster = AddressRaster::Compute;
+  Deformer fragment(hw), compute(cs), used(cs);
+  const render::Image a = run(fragment, 0.01), b = run(compute, 0.01);
+  const auto [tilesRun, tiles] = compute.lastRasterTiles();
+  int changedA = 0, changedB = 0;
+  double diff = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) {
+    changedA += a.pixels[i] < 0.5f;
+    changedB += b.pixels[i] < 0.5f;
+    diff = std::max(diff, double(std::abs(a.pixels[i] - b.pixels[i])));
+  }
+  run(used, 0.04);
+  const size_t deepTiles = used.lastRasterTiles().first;
+  run(used, 0.01);
+  const std::vector<float> mu = addressMap(used), mc = addressMap(compute);
+  int differ = 0, seen = 0;
+  for (size_t i = 0; i < mu.size(); i += 2) {
+    seen += mc[i] >= 0;
+    differ += std::memcmp(&mu[i], &mc[i], 2 * sizeof(float)) != 0;
+  }
+  MESSAGE("ball texels dented " << changedA << " (fragment) vs " << changedB << " (compute), max difference "
+                                << diff * 0.1 << " m; raster tiles " << tilesRun << " of " << tiles
+                                << " (deeper event " << deepTiles << "); pixels seen " << seen << ", differing "
+                                << differ);
+  CHECK(changedA > 100);
+  CHECK(std::abs(changedA - changedB) <= changedA / 100 + 4);
+  CHECK(diff * 0.1 <= 2e-5);
+  CHECK(tilesRun > 0);
+  CHECK(tilesRun < tiles / 2);  // all of them before: the reach is the ball's lower half (the plate is 0.2 m deep)
+  CHECK(deepTiles > tilesRun);
+  CHECK(seen > 0);
+  CHECK(differ == 0);
+}
+
 TEST_CASE("a batch of events runs in waves of different surfaces and gives the one-by-one maps bit for bit") {
   test::glContext();
   SphereIntoPlate s;

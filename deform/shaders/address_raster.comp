@@ -4,7 +4,7 @@
 // uHeights[sampler]). Dispatched indirectly over the active tiles only (those step 1 gave something to test, all
 // where a large triangle was listed; the other tiles hold "none" already), each workgroup taking every
 // gl_NumWorkGroups.x-th of its side's. The same shader clears (uMode 1, every entry of the wave, before step 1
-// resets the lists: the entry's mode 1, the tiles its last raster listed; 2, every tile; 0, none): a tile's
+// resets the lists: the entry's mode 1, the tiles its last raster ran; 2, every tile; 0, none): a tile's
 // pixels back to "none", so that no pass clears a whole map (glClearTexImage there ran at fragment-stage speed
 // on NVIDIA's compute GPUs: 0.45 ms at 1024). One workgroup an 8 x 8 tile, one invocation a pixel: of
 // the tile's triangles and the large ones (all triangles where its list overflowed),
@@ -124,10 +124,18 @@ void main() {
   uint tilesX = uint((uSize + kTile - 1) / kTile);
   gTiles = tilesX * tilesX;
   gCounts = uint(gE.slot) * (gTiles + 6u);
-  bool everyTile = (uMode == 1 && gE.mode == 2) || uTileCount[gCounts + gTiles + 5u] != 0u;  // large: every tile
-  uint count = everyTile ? gTiles : uTileCount[gCounts + gTiles + 1u];
+  // The tiles to run: every tile of a rectangle (where large triangles are: the reach's tiles, kept by
+  // address_bin.comp; the clear of a target in an unknown state: all), else the listed (active) ones.
+  bool rect = (uMode == 1 && gE.mode == 2) || uTileCount[gCounts + gTiles + 5u] != 0u;
+  uvec4 box = uvec4(0u, 0u, tilesX - 1u, tilesX - 1u);
+  if (rect && !(uMode == 1 && gE.mode == 2)) {
+    uint lo = uTileCount[gCounts + gTiles + 2u], hi = uTileCount[gCounts + gTiles + 3u];
+    box = uvec4(lo & 0xffffu, lo >> 16, hi & 0xffffu, hi >> 16);
+  }
+  uint w = box.z >= box.x ? box.z - box.x + 1u : 0u;
+  uint count = rect ? w * (box.w >= box.y ? box.w - box.y + 1u : 0u) : uTileCount[gCounts + gTiles + 1u];
   for (uint a = gl_WorkGroupID.x; a < count; a += gl_NumWorkGroups.x) {
-    uint tile = everyTile ? a : uActive[uint(gE.slot) * gTiles + a];
+    uint tile = rect ? (box.y + a / w) * tilesX + box.x + a % w : uActive[uint(gE.slot) * gTiles + a];
     if (uMode == 0) rasterTile(tile, tilesX);
     else clearTile(tile, tilesX);
   }

@@ -38,9 +38,10 @@ struct Entry {
   float tangentFloor, pad0, pad1, pad2;
 };
 layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
-// The kept tiles: Tiles[0] their count, [1 .. 3] mode 1's indirect dispatch (x: min(count, 65535)), then
-// (side << 20) | tile each.
+// The kept tiles, (side << 20) | tile each; their head: [0] their count, [1 .. 3] mode 1's indirect dispatch
+// (x: min(count, 65535)).
 layout(std430, binding = 8) buffer Kept { uint uKept[]; };
+layout(std430, binding = 10) buffer KeptHead { uint uHead[4]; };
 // Per slot, the address-map pixels (x0, y0, x1, y1) the kept tiles' texels may read (mode 0 grows it): the
 // compute raster writes only there.
 layout(std430, binding = 9) buffer Reach { ivec4 uReach[]; };
@@ -211,9 +212,9 @@ void main() {
     int tilesX = (gE.resolution + kTile - 1) / kTile;
     uint tileIndex = gl_WorkGroupID.x * 256u + gl_LocalInvocationIndex;
     if (tileIndex >= uint(tilesX * tilesX) || !kept(tileIndex)) return;
-    uint at = atomicAdd(uKept[0], 1u);
-    atomicMax(uKept[1], min(at + 1u, 65535u));
-    uKept[4u + at] = (gl_WorkGroupID.z << 20) | tileIndex;
+    uint at = atomicAdd(uHead[0], 1u);
+    atomicMax(uHead[1], min(at + 1u, 65535u));
+    uKept[at] = (gl_WorkGroupID.z << 20) | tileIndex;
     // The pixels its texels project to (the box holds them), and the next ones a bilinear read takes.
     vec2 plo = (clamp(cmin.xy, -2.0, 2.0) * 0.5 + 0.5) * float(uSize) - 0.5, phi = (clamp(cmax.xy, -2.0, 2.0) * 0.5 + 0.5) * float(uSize) - 0.5;
     ivec2 a = max(ivec2(floor(plo)) - 2, ivec2(0)), b = min(ivec2(ceil(phi)) + 2, ivec2(uSize - 1));
@@ -224,9 +225,9 @@ void main() {
     atomicMax(uReach[gE.slot].w, b.y);
     return;
   }
-  uint listed = uKept[0];
+  uint listed = uHead[0];
   for (uint a = gl_WorkGroupID.x; a < listed; a += gl_NumWorkGroups.x) {
-    uint item = uKept[4u + a];
+    uint item = uKept[a];
     gE = uEntry[uFirst + int(item >> 20)];
     gatherTile(item & 0xfffffu, (gE.resolution + kTile - 1) / kTile);
     barrier();  // the next item's setup overwrites the triangles

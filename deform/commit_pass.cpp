@@ -41,6 +41,7 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
   for (size_t slot = 0; slot < sides.size(); ++slot) {
     const Side& s = sides[slot];
     if (!s.x) continue;
+    if (s.rim) s.x->heightsMayRise();
     const GLint group = static_cast<GLint>(entries.size() / kGroup);
     entries.push_back({static_cast<GLint>(slot), s.x->resolution(), s.rim ? 1 : 0, s.statsIndex, s.scratch.offset,
                        s.x->bumpDepth(), s.x->bumpDepth() / (2 * s.x->texelSize()), group});

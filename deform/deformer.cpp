@@ -305,7 +305,9 @@ std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::
     for (int y = 0; y < resolution; ++y)
       for (int x = 0; x < resolution; ++x) grey[static_cast<size_t>(y) * resolution + x] = initial->at(x, y, 0);
     maps->height.upload(GL_RED, GL_FLOAT, grey.data());
+    maps->highest = *std::max_element(grey.begin(), grey.end());
   } else {
+    maps->highest = 0.5f;
     const float half = 0.5f;
     glClearTexImage(maps->height.id(), 0, GL_RED, GL_FLOAT, &half);
   }
@@ -342,13 +344,15 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   u.tangentFloor = o.tangentFloor;
   u.viewNormal = glm::vec3(n);
   p.otherBumpToDepth = other.surface ? static_cast<float>(other.surface->bumpDepthCollide() / range) : 0.0f;
+  // How far each body's bumps move its points in window depth at most (X's towards the camera, the other's away):
+  // (h - 0.5) k' / range with h its map's highest (a flat map's bumps move nothing).
+  const double raiseX = (static_cast<double>(x.surface->maps().highest) - 0.5) * u.bumpToDepth;
+  const double raiseOther = other.surface ? (static_cast<double>(other.surface->maps().highest) - 0.5) * p.otherBumpToDepth : 0.0;
+  u.bumpReach = static_cast<float>(raiseX);
   // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
-  double farthest = windowDepths(cam, bo).y;
-  if (other.surface) farthest += 0.5 * other.surface->bumpDepthCollide() / range;
-  p.farthestOther = static_cast<float>(farthest + 1e-6);
+  p.farthestOther = static_cast<float>(windowDepths(cam, bo).y + raiseOther + 1e-6);
   // X's nearest window depth (its bounds, raised by its bumps): the other body's depth must pass it to dent.
-  const double nearest =
-      windowDepths(cam, bx).x - 0.5 * x.surface->bumpDepthCollide() / range - 0.5 * p.otherBumpToDepth;
+  const double nearest = windowDepths(cam, bx).x - raiseX - raiseOther;
   p.reachOther = static_cast<float>(nearest - 1e-6);
   return p;
 }

@@ -59,7 +59,7 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::T
   glUniform1i(uResolution_, u.resolution);
   glUniform1f(uViewMargin_, 4.0f / static_cast<float>(passes.size()));
   glUniform1f(uFarthestOther_, farthestOther);
-  glUniform1f(uBumpReach_, 0.5f * u.bumpToDepth);
+  glUniform1f(uBumpReach_, u.bumpReach);
   glUniform1f(uBumpToDepth_, u.bumpToDepth);
   glUniform1f(uDepthToHeight_, u.depthToHeight);
   glUniform1i(uTangentMode_, static_cast<int>(u.tangent));
@@ -80,7 +80,7 @@ struct GatherEntry {
   GLint slot, resolution, sampler, tangentMode;
   GLuint scratchBase;
   float farthestOther, bumpToDepth, depthToHeight;
-  float tangentFloor, pad[3];
+  float tangentFloor, bumpReach, pad[2];
 };
 static_assert(sizeof(GatherEntry) == 176, "GatherEntry must match texel_gather.comp's std430 layout");
 }  // namespace
@@ -124,7 +124,8 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
     g.bumpToDepth = u.bumpToDepth;
     g.depthToHeight = u.depthToHeight;
     g.tangentFloor = u.tangentFloor;
-    g.pad[0] = g.pad[1] = g.pad[2] = 0;
+    g.bumpReach = u.bumpReach;
+    g.pad[0] = g.pad[1] = 0;
   }
   for (size_t e = 0; e < order_.size();) {  // runs of one kind, kGroup sides at most
     const GpuMesh* mesh = order_[e]->mesh;

@@ -64,6 +64,7 @@ struct SideUpdate {
   int resolution = 0;       // X's map
   float depthToHeight = 0;  // (zfar - znear) / k
   float bumpToDepth = 0;    // X's k' / (zfar - znear)
+  float bumpReach = 0;      // how far X's bumps raise a point towards the camera at most: (highest - 0.5) k' / range
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
   glm::vec3 viewNormal{0};  // N_C as owned by X (towards the camera)

@@ -189,6 +189,7 @@ void Surface::makeUnique() {
                      resolution_, resolution_, 1);
   glCopyImageSubData(maps_->bound.id(), GL_TEXTURE_2D, 0, 0, 0, 0, own->bound.id(), GL_TEXTURE_2D, 0, 0, 0, 0,
                      own->bound.width(), own->bound.height(), 1);
+  own->highest = maps_->highest;
   maps_ = std::move(own);
 }
 

@@ -54,6 +54,10 @@ struct SurfaceMaps {
   // map's levels through one image binding (a dispatch then updates 8 maps' pyramids).
   static constexpr int kBoundTile = 16;
   render::Texture2D bound;
+  // No height of the map lies above this: the initial map's highest (Deformer::createMaps), kept while dents only
+  // lower heights, back to 1 once a crater rim raises some. The deformer's culls bound how far bumps reach by it
+  // (a flat map's bumps reach nowhere) instead of by the highest a map could hold.
+  float highest = 1.0f;
   explicit SurfaceMaps(int resolution);
   static int boundSize(int resolution);  // level 0's width and height (S, a power of two)
   int boundLevels() const;               // log2 S + 1
@@ -83,6 +87,8 @@ class Surface {
   const SurfaceMaps& maps() const { return *maps_; }
   // Gives this surface its own maps (copies of the shared ones) before it is changed.
   void makeUnique();
+  // Its heights may now be anywhere up to 1 (a crater rim raised some): SurfaceMaps::highest.
+  void heightsMayRise() { maps_->highest = 1.0f; }
   bool isShared() const { return maps_.use_count() > 1; }
   float texelSize() const { return static_cast<float>(mesh_->metresPerUv / resolution_); }
   render::Image downloadHeight() const;

@@ -24,8 +24,10 @@ namespace {
 
 void GLAPIENTRY debugCallback(GLenum source, GLenum type, GLuint id, GLenum severity, GLsizei, const GLchar* message,
                               const void*) {
-  (void)source;
-  if (severity == GL_DEBUG_SEVERITY_NOTIFICATION) {
+  // The shader compiler's remarks (Mesa's "used uninitialized" for globals set in main) are not errors: a
+  // program that fails to compile or link throws with its log (render::Program).
+  if (severity == GL_DEBUG_SEVERITY_NOTIFICATION ||
+      (source == GL_DEBUG_SOURCE_SHADER_COMPILER && type != GL_DEBUG_TYPE_ERROR)) {
     logDebug("GL: ", message);
     return;
   }

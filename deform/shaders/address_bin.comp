@@ -115,8 +115,14 @@ void main() {
   if (t < uint(gE.triangles)) {
     vec3 p0 = corner(3u * t), p1 = corner(3u * t + 1u), p2 = corner(3u * t + 2u);
     float area = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
+    // Its depth plane's change over a diagonal pixel step: a texel's bilinear read takes the 2 x 2 pixels around
+    // it, so a triangle within a pixel or two of where the other body reaches X is kept too (as the fragment
+    // stage, which draws every back face, would have seen its pixels).
+    float dzdx = ((p1.z - p0.z) * (p2.y - p0.y) - (p2.z - p0.z) * (p1.y - p0.y)) / area;
+    float dzdy = ((p2.z - p0.z) * (p1.x - p0.x) - (p1.z - p0.z) * (p2.x - p0.x)) / area;
+    float ring = 2.0 * (abs(dzdx) + abs(dzdy));
     bool kept = area < 0.0 && !(p0.z < 0.0 && p1.z < 0.0 && p2.z < 0.0) && !(p0.z > 1.0 && p1.z > 1.0 && p2.z > 1.0) &&
-                max(max(p0.z, p1.z), p2.z) >= gE.reach;
+                !(max(max(p0.z, p1.z), p2.z) + ring < gE.reach);
     // Pixel centres (i + 0.5) within the box, within the map.
     vec2 lo = min(min(p0.xy, p1.xy), p2.xy), hi = max(max(p0.xy, p1.xy), p2.xy);
     ivec2 first = max(ivec2(ceil(lo - 0.5)), ivec2(0)), last = min(ivec2(floor(hi - 0.5)), ivec2(uSize - 1));

@@ -21,7 +21,7 @@ out vec3 gNormal;
 flat out vec4 gBox;
 uniform int uResolution;
 uniform float uViewMargin;  // clip units beyond [-1, 1] that are kept (a pixel or two)
-uniform float uBumpReach;   // X's k' / 2 / (zfar - znear): how far its bumps move a point in window depth
+uniform float uBumpReach;   // how far X's bumps raise a point towards the camera at most, in window depth
 uniform float uFarthestOther;  // the other body's farthest window depth (its bounds, with its bumps)
 
 const int kMax = 7;

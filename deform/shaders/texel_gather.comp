@@ -35,7 +35,9 @@ struct Entry {
   float farthestOther;     // the other body's farthest window depth (its bounds, with its bumps)
   float bumpToDepth;       // X's k' / (zfar - znear)
   float depthToHeight;     // (zfar - znear) / k
-  float tangentFloor, pad0, pad1, pad2;
+  float tangentFloor;
+  float bumpReach;         // how far X's bumps raise a point towards the camera at most (window depth)
+  float pad1, pad2;
 };
 layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
 // The kept tiles, (side << 20) | tile each; their head: [0] their count, [1 .. 3] mode 1's indirect dispatch
@@ -94,7 +96,7 @@ void setUp(uint tri, uint j) {
   float area = (t1.x - t0.x) * (t2.y - t0.y) - (t1.y - t0.y) * (t2.x - t0.x);
   // Facing: counter-clockwise in the camera's view, as pass A keeps; within reach of the other body's depth.
   bool kept = (c1.x - c0.x) * (c2.y - c0.y) - (c1.y - c0.y) * (c2.x - c0.x) > 0.0 &&
-              !(min(c0.z, min(c1.z, c2.z)) * 0.5 + 0.5 - 0.5 * gE.bumpToDepth > gE.farthestOther) &&
+              !(min(c0.z, min(c1.z, c2.z)) * 0.5 + 0.5 - gE.bumpReach > gE.farthestOther) &&
               abs(area) >= 1e-12;
   mat3 toWorld = mat3(gE.normalToWorld[0].xyz, gE.normalToWorld[1].xyz, gE.normalToWorld[2].xyz);
   sTri[j * 8u] = vec4(t0, t1);
@@ -139,7 +141,7 @@ bool kept(uint tileIndex) {
     cmax = max(cmax, q);
   }
   return !(cmin.x > lim || cmax.x < -lim || cmin.y > lim || cmax.y < -lim ||
-           cmin.z * 0.5 + 0.5 - 0.5 * gE.bumpToDepth > gE.farthestOther);
+           cmin.z * 0.5 + 0.5 - gE.bumpReach > gE.farthestOther);
 }
 void gatherTile(uint tileIndex, int tilesX) {
   ivec2 tile = ivec2(int(tileIndex) % tilesX, int(tileIndex) / tilesX);

@@ -4,7 +4,8 @@
 # project's Debian packages (the tool library's `device` machines: Ubuntu with
 # NVIDIA's EGL driver). There, from the repository root:
 #   . .devlib/env.sh && .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile
-# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT).
+# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT). A command of your own must
+# read its script from the carried .devlib (the device machine gets the repository and carried paths only).
 # Tests that run crumple-sim find it at build/apps/crumple-sim: .devlib/env.sh puts it there.
 set -euo pipefail
 usage() {
@@ -54,10 +55,14 @@ nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv > "$out/de
 for part in $parts; do
   start=$(date +%s)
   case $part in
-    tests)
+    tests)  # the binaries at once (each has its own GL context); their summaries, and every failure's context
+      mkdir -p /tmp/crumple-tests
       for t in .devlib/bin/test_*; do
-        echo "== $t" && timeout 300 "$t" 2>&1 | tail -3
-      done > "$out/tests.txt" 2>&1 ;;
+        (timeout 300 "$t" > "/tmp/crumple-tests/$(basename "$t").txt" 2>&1; echo "rc $?" >> "/tmp/crumple-tests/$(basename "$t").txt") &
+      done
+      wait
+      for f in /tmp/crumple-tests/*.txt; do echo "== $f" && tail -5 "$f"; done > "$out/tests.txt"
+      grep -h -B3 -A12 -E 'ERROR|FAILED|GL \[' /tmp/crumple-tests/*.txt | head -400 > "$out/testfail.txt" ;;
     gpu)
       timeout 400 .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile --render-profile \
         --repetitions 3 > "$out/gpu.txt" 2>&1 ;;

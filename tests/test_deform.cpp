@@ -733,6 +733,59 @@ TEST_CASE("tangent-space correction: multiply shallows and divide deepens a dent
   CHECK(div > none * 1.003);
 }
 
+TEST_CASE("a map's highest height bounds its bumps' reach: raised bumps dent a ball that clears the flat surface") {
+  // The culls take each map's highest height (SurfaceMaps::highest) for how far its bumps reach. A plate whose
+  // map stands at 0.9 everywhere (bumps 8 mm up: 0.4 of its 2 cm collision bump depth) under a ball 5 mm above
+  // its flat top must dent where the raised surface meets the ball, on both rasterisers; the same ball over a
+  // flat map (highest 0.5: the bumps reach nowhere) dents nothing. A crater rim raises heights: highest 1 after.
+  test::glContext();
+  SphereIntoPlate s;
+  constexpr int kRes = 512;
+  render::Image raised(kRes, kRes, 1);
+  std::fill(raised.pixels.begin(), raised.pixels.end(), 0.9f);
+  for (AddressRaster raster : {AddressRaster::Fragment, AddressRaster::Compute}) {
+    DeformOptions o{256, Path::Gather};
+    o.addressRaster = raster;
+    Deformer d(o);
+    auto dent = [&](const render::Image* initial, float& highest) {
+      Surface plate(s.plateGpu, kRes, 0.1f, 0.02f,
+                    d.createMaps(kRes, initial, 0.1f, float(s.plateGpu->metresPerUv / kRes)));
+      highest = plate.maps().highest;
+      DeformRequest rq;
+      rq.a = {&plate, s.plateGpu.get(), s.plateModel};
+      rq.b = {nullptr, s.ballGpu.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.1 + 0.005 + SphereIntoPlate::R, 0))};
+      rq.point = {0, 0.1, 0};
+      rq.normal = {0, 1, 0};
+      rq.deformA = 0.001;
+      return d.stats(d.deform(rq), 0);
+    };
+    float highestRaised = 0, highestFlat = 0;
+    const SideStats bumpy = dent(&raised, highestRaised), flat = dent(nullptr, highestFlat);
+    MESSAGE(std::string(raster == AddressRaster::Compute ? "compute" : "fragment")
+            << ": raised map dented " << bumpy.texelsChanged << " texels, " << bumpy.maxDent << " m; flat map "
+            << flat.texelsChanged);
+    CHECK(highestRaised == 0.9f);
+    CHECK(highestFlat == 0.5f);
+    CHECK(bumpy.texelsChanged > 40);
+    // The raised surface stands 8 mm up, the plate advanced by 1 mm: 4 mm into a ball 5 mm above.
+    CHECK(bumpy.maxDent == Approx(0.004).epsilon(0.15));
+    CHECK(flat.texelsChanged == 0);
+  }
+  DeformOptions o{128, Path::Gather};
+  o.craterRims = true;
+  Deformer d(o);
+  Surface plate(s.plateGpu, kRes, 0.1f, 0.02f, d.createMaps(kRes, nullptr, 0.1f, float(s.plateGpu->metresPerUv / kRes)));
+  CHECK(plate.maps().highest == 0.5f);
+  DeformRequest rq;
+  rq.a = {&plate, s.plateGpu.get(), s.plateModel};
+  rq.b = {nullptr, s.ballGpu.get(), s.ballModel};
+  rq.point = {0, 0.1, 0};
+  rq.normal = {0, 1, 0};
+  rq.deformA = 0.01;
+  REQUIRE(d.stats(d.deform(rq), 0).texelsChanged > 0);
+  CHECK(plate.maps().highest == 1.0f);
+}
+
 TEST_CASE("lazy maps: bodies share the undeformed map until their first dent") {
   test::glContext();
   SphereIntoPlate s;

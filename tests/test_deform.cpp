@@ -70,18 +70,21 @@ struct SphereIntoPlate {
   render::Image run(Deformer& d, double depth) {
     auto maps = d.createMaps(kRes, nullptr, static_cast<float>(k), static_cast<float>(plateGpu->metresPerUv / kRes));
     Surface plate(plateGpu, kRes, static_cast<float>(k), static_cast<float>(kc), maps);
-    DeformRequest rq;
-    rq.a = {&plate, plateGpu.get(), plateModel};
-    rq.b = {nullptr, ballGpu.get(), ballModel};
-    rq.point = {0, 0.1, 0};
-    rq.normal = {0, 1, 0};
-    rq.penetration = 0;
-    rq.deformA = depth;
-    const int h = d.deform(rq);
+    const int h = d.deform(pressBall(&plate, depth));
     lastStats = d.stats(h, 0);
     return plate.downloadHeight();
   }
   SideStats lastStats;
+  // The ball (ballModel, no surface of its own) pressed `depth` into `plate` at the top's centre.
+  DeformRequest pressBall(Surface* plate, double depth) const {
+    DeformRequest rq;
+    rq.a = {plate, plateGpu.get(), plateModel};
+    rq.b = {nullptr, ballGpu.get(), ballModel};
+    rq.point = {0, 0.1, 0};
+    rq.normal = {0, 1, 0};
+    rq.deformA = depth;
+    return rq;
+  }
   // A ball (surface `ball`, mesh `mesh`) resting on `plate` over `at` (on the plate's top), both sides dented.
   DeformRequest ballOn(Surface* plate, Surface* ball, const GpuMesh* mesh, glm::dvec3 at, double deformA,
                        double deformB) const {
@@ -604,12 +607,7 @@ TEST_CASE("repeated hits saturate at 0 and clamp") {
   Deformer d({256, Path::Gather});
   auto maps = d.createMaps(SphereIntoPlate::kRes, nullptr, 0.1f, static_cast<float>(s.plateGpu->metresPerUv / 512));
   Surface plate(s.plateGpu, SphereIntoPlate::kRes, 0.1f, 0.02f, maps);
-  DeformRequest rq;
-  rq.a = {&plate, s.plateGpu.get(), s.plateModel};
-  rq.b = {nullptr, s.ballGpu.get(), s.ballModel};
-  rq.point = {0, 0.1, 0};
-  rq.normal = {0, 1, 0};
-  rq.deformA = 0.04;  // 0.4 of the map per hit: the third hit hits bottom
+  const DeformRequest rq = s.pressBall(&plate, 0.04);  // 0.4 of the map per hit: the third hit hits bottom
   SideStats last;
   for (int i = 0; i < 3; ++i) last = d.stats(d.deform(rq), 0);
   const render::Image h = plate.downloadHeight();
@@ -751,12 +749,8 @@ TEST_CASE("a map's highest height bounds its bumps' reach: raised bumps dent a b
       Surface plate(s.plateGpu, kRes, 0.1f, 0.02f,
                     d.createMaps(kRes, initial, 0.1f, float(s.plateGpu->metresPerUv / kRes)));
       highest = plate.maps().highest;
-      DeformRequest rq;
-      rq.a = {&plate, s.plateGpu.get(), s.plateModel};
-      rq.b = {nullptr, s.ballGpu.get(), glm::translate(glm::dmat4(1), glm::dvec3(0, 0.1 + 0.005 + SphereIntoPlate::R, 0))};
-      rq.point = {0, 0.1, 0};
-      rq.normal = {0, 1, 0};
-      rq.deformA = 0.001;
+      DeformRequest rq = s.pressBall(&plate, 0.001);
+      rq.b.model = glm::translate(glm::dmat4(1), glm::dvec3(0, 0.1 + 0.005 + SphereIntoPlate::R, 0));  // 5 mm above
       return d.stats(d.deform(rq), 0);
     };
     float highestRaised = 0, highestFlat = 0;
@@ -776,12 +770,7 @@ TEST_CASE("a map's highest height bounds its bumps' reach: raised bumps dent a b
   Deformer d(o);
   Surface plate(s.plateGpu, kRes, 0.1f, 0.02f, d.createMaps(kRes, nullptr, 0.1f, float(s.plateGpu->metresPerUv / kRes)));
   CHECK(plate.maps().highest == 0.5f);
-  DeformRequest rq;
-  rq.a = {&plate, s.plateGpu.get(), s.plateModel};
-  rq.b = {nullptr, s.ballGpu.get(), s.ballModel};
-  rq.point = {0, 0.1, 0};
-  rq.normal = {0, 1, 0};
-  rq.deformA = 0.01;
+  const DeformRequest rq = s.pressBall(&plate, 0.01);
   REQUIRE(d.stats(d.deform(rq), 0).texelsChanged > 0);
   CHECK(plate.maps().highest == 1.0f);
 }
@@ -794,12 +783,7 @@ TEST_CASE("lazy maps: bodies share the undeformed map until their first dent") {
   Surface p1(s.plateGpu, 512, 0.1f, 0.02f, shared), p2(s.plateGpu, 512, 0.1f, 0.02f, shared);
   CHECK(p1.isShared());
   CHECK(p1.height().id() == p2.height().id());
-  DeformRequest rq;
-  rq.a = {&p1, s.plateGpu.get(), s.plateModel};
-  rq.b = {nullptr, s.ballGpu.get(), s.ballModel};
-  rq.point = {0, 0.1, 0};
-  rq.normal = {0, 1, 0};
-  rq.deformA = 0.01;
+  const DeformRequest rq = s.pressBall(&p1, 0.01);
   d.deform(rq);
   CHECK(p1.height().id() != p2.height().id());  // p1 got its own map at its first dent
   float low1 = 1, low2 = 1;

@@ -194,6 +194,8 @@ void ComputeGather::gather(const AddressPasses& passes, const render::Buffer& re
     const Dispatch& d = dispatches_[k];
     for (size_t j = 0; j < d.count; ++j)
       glBindTextureUnit(static_cast<GLuint>(2 + j), order_[d.first + j]->height->id());
+    // The array's other units hold nothing (not a texture of an earlier program's, of another type).
+    glBindTextures(static_cast<GLuint>(2 + d.count), static_cast<GLsizei>(kGroup - d.count), nullptr);
     glDispatchComputeIndirect(static_cast<GLintptr>((k * kHeadUints + 1) * sizeof(GLuint)));
   }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);

@@ -360,10 +360,15 @@ void findPairs(StepContext& ctx, double h) {
         p.builtA = old->builtA;
         p.builtB = old->builtB;
         p.builtMargin = old->builtMargin;
+        std::swap(p.kept, old->kept);
+        p.keptA = old->keptA;
+        p.keptB = old->keptB;
+        p.hasKept = old->hasKept;
       } else {
         p.bInA.clear();
         p.aInB.clear();
         p.builtMargin = -1;
+        p.hasKept = false;
       }
     }
   });

@@ -73,7 +73,7 @@ void CollisionRun::island(size_t island, int worker) {
         const RigidBody& B = ctx.body(ib);
         const Pose pa = predicted(ia), pb = predicted(ib);
         std::vector<Contact>& contacts = ctx.found[pi];
-        pairContacts(ctx, pairs[pi], pa, pb, contacts);
+        lookAtPair(ctx, ctx.pairs[pi], pa, pb, contacts);
         seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
         const Contact* hit = nullptr;
         double approach = 0;

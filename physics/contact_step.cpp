@@ -78,7 +78,7 @@ void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, 
   if (reuse) {
     contacts = &ctx.found[pi];
   } else {
-    pairContacts(ctx, pair, pa, pb, s.fresh);
+    lookAtPair(ctx, ctx.pairs[pi], pa, pb, s.fresh);
   }
   ctx.lookCount[pi] = static_cast<int>(contacts->size());  // this look's points (StepStats::contacts)
   std::vector<ContactGroup>& groups = ctx.groups[pi];

@@ -242,7 +242,7 @@ SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) 
   return sides;
 }
 
-void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
+bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
   out.clear();
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
@@ -257,7 +257,7 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
   if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, pa, pair.b, B, pb, out)) {
     sortContacts(out);
-    return;
+    return true;
   }
   // (findCandidates leaves the list of a side sampleSides skips empty)
   const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
@@ -266,6 +266,59 @@ void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, bumpB ? &ctx.normalModifier : nullptr,
                  sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA);
   sortContacts(out);
+  return false;
+}
+
+void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
+  const double tolerance = ctx.settings.contactRefreshTolerance;
+  ++pair.looks;
+  const RigidBody& A = ctx.body(pair.a);
+  const RigidBody& B = ctx.body(pair.b);
+  // (Capped substeps may sweep (pairContacts), bent normals are the samples' own: both look afresh.)
+  if (pair.hasKept && tolerance > 0 && !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b)) {
+    const double ra = A.shape->boundingRadius + glm::length(A.localCom);
+    const double rb = B.shape->boundingRadius + glm::length(B.localCom);
+    if (!displacementExceeds(pair.keptA, pa, ra, pair.keptB, pb, rb, [&](double m) { return m > tolerance; })) {
+      const glm::dmat3 rotA = glm::mat3_cast(pa.orientation), rotB = glm::mat3_cast(pb.orientation);
+      out.clear();
+      for (const Pair::KeptContact& k : pair.kept) {
+        const glm::dmat3& ro = k.ownerIsA ? rotA : rotB;
+        const glm::dmat3& rt = k.ownerIsA ? rotB : rotA;
+        const Pose& po = k.ownerIsA ? pa : pb;
+        const Pose& pt = k.ownerIsA ? pb : pa;
+        Contact c;
+        c.a = k.ownerIsA ? pair.a : pair.b;
+        c.b = k.ownerIsA ? pair.b : pair.a;
+        c.normal = ro * k.normal;
+        c.point = pt.position + rt * k.onOther;
+        c.phi = glm::dot(c.point - (po.position + ro * k.onOwner), c.normal);
+        if (c.phi < 0) out.push_back(c);
+      }
+      sortContacts(out);
+      ++pair.keptLooks;
+      return;
+    }
+  }
+  // (Not a manifold with no points: two bodies a hair apart would close that gap unseen.)
+  pair.hasKept = pairContacts(ctx, pair, pa, pb, out) && tolerance > 0 && !out.empty();
+  if (!pair.hasKept) return;
+  pair.keptA = pa;
+  pair.keptB = pb;
+  pair.kept.resize(out.size());
+  const glm::dmat3 toA = glm::transpose(glm::mat3_cast(pa.orientation));
+  const glm::dmat3 toB = glm::transpose(glm::mat3_cast(pb.orientation));
+  for (size_t i = 0; i < out.size(); ++i) {
+    const Contact& c = out[i];
+    Pair::KeptContact& k = pair.kept[i];
+    k.ownerIsA = c.a == pair.a;
+    const glm::dmat3& to = k.ownerIsA ? toA : toB;
+    const glm::dmat3& tt = k.ownerIsA ? toB : toA;
+    const Pose& po = k.ownerIsA ? pa : pb;
+    const Pose& pt = k.ownerIsA ? pb : pa;
+    k.normal = to * c.normal;
+    k.onOwner = to * (c.point - c.phi * c.normal - po.position);
+    k.onOther = tt * (c.point - pt.position);
+  }
 }
 }  // namespace detail
 

@@ -71,6 +71,17 @@ struct Pair {
   std::vector<uint32_t> bInA, aInB;
   Pose builtA, builtB;
   double builtMargin = -1;  // < 0: no lists yet
+  // The last full look at a pair of convex polytopes (a manifold, narrow_phase.cpp lookAtPair), kept from one
+  // look, substep and step to the next while the bodies move less than contactRefreshTolerance from where it
+  // was made (keptA, keptB): each point in the frames of the body that owns its normal and of the other.
+  struct KeptContact {
+    bool ownerIsA = true;
+    glm::dvec3 onOwner{0}, onOther{0}, normal{0};  // the reference face's point and normal; the incident point
+  };
+  std::vector<KeptContact> kept;
+  Pose keptA, keptB;
+  bool hasKept = false;
+  int looks = 0, keptLooks = 0;  // this substep's (StepStats)
 };
 
 // A joint as the solver keeps it: its definition and what it keeps in the
@@ -442,7 +453,13 @@ struct StepContext {
 
 // narrow_phase.cpp: the contacts of a pair at the given poses, testing only its
 // candidate samples (both directions), deepest first.
-void pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+// Returns whether they came from the two convex polytopes' manifold (polytope.h) rather than the samples.
+bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+// The same contacts, where the pair's last manifold (Pair::kept) was made at poses from which the bodies have
+// moved less than contactRefreshTolerance: its points carried along with the two bodies and their depths measured
+// again (the incident point from the reference face's plane, as the manifold's clipping finds them; those no
+// longer below it dropped). Resting contact needs no new look until it moves. Else a new look, kept.
+void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
 // Which of a pair's two sample sets the narrow phase tests: B's samples in A's field (bInA), A's in B's (aInB).
 // Both, except where one body is a sphere or a capsule and the other convex (box, sphere, capsule, cylinder, convex mesh):
 // the sphere's centre against the other's field finds their one deepest point exactly, and the other's surface

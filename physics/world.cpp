@@ -546,6 +546,7 @@ void World::substep(double h) {
   });
   detail::findPairs(c, h);
   c.stats.pairs += static_cast<int>(c.pairs.size());
+  for (detail::Pair& p : c.pairs) p.looks = p.keptLooks = 0;
   detail::findIslands(c);
   clock.lap(ms.broadPhase);
   detail::findCandidates(c, h);
@@ -567,6 +568,10 @@ void World::substep(double h) {
     clock.lap(ms.joints);
     detail::contactStep(c, h);
     clock.lap(ms.contact);
+  }
+  for (const detail::Pair& p : c.pairs) {
+    c.stats.looks += p.looks;
+    c.stats.keptLooks += p.keptLooks;
   }
   // 4. shock propagation
   detail::shockPropagation(c);

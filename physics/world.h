@@ -54,6 +54,10 @@ struct WorldSettings {
   int contactRefresh = 5;  // passes between re-finding contact geometry
   // m: at a refresh, a pair whose predicted relative pose has moved less than
   // this since its last look keeps its geometry (resting contact); 0 re-finds all.
+  // Two convex polytopes (boxes, convex meshes) keep their manifold from one step
+  // to the next on the same terms: its points move with the bodies and their
+  // depths are measured again (StepStats::keptLooks), until the bodies have moved
+  // this much from where it was found.
   double contactRefreshTolerance = 0.0005;
   // Shock propagation passes per contact-graph level at most (Jacobi: each body
   // takes the mean of its groups' impulses against the frozen level below, on
@@ -161,6 +165,9 @@ struct StepStats {
   int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
   int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
   int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)
+  // Narrow-phase looks at pairs (collision and contact steps), and those a kept manifold of two convex
+  // polytopes answered: its points carried along, the pair having moved less than contactRefreshTolerance.
+  int looks = 0, keptLooks = 0;
   // Islands of pairs (no movable body in common: the units the threads share out), most in a substep,
   // and the pairs of the largest (a step cannot go faster than that island alone).
   int islands = 0, largestIsland = 0;

@@ -733,6 +733,9 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
                            GL_COLOR_BUFFER_BIT, GL_NEAREST);
   mark("antialias");
   glDisable(GL_FRAMEBUFFER_SRGB);
+  // The shadow map compares depths: a later program's plain sampler on its unit would meet it (NVIDIA flags the
+  // state as undefined behaviour even where the sampler reads nothing), so it is not left bound.
+  glBindTextureUnit(2, 0);
 }
 
 Image Renderer::readPixels() const { return readFramebuffer(impl_->fbo.id(), width_, height_, 3); }

@@ -109,8 +109,7 @@ void solvePair(StepContext& ctx, size_t pi, double eps, double mu, double* pushe
     const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, g.levers);
     glm::dvec3 j, torque;
     if (patchImpulse(g.patchMatrix, g.matrix, u, ctx.relativeSpin(c.a, c.b), c.normal, eps, mu, &g.totals, j, torque)) {
-      ctx.applyImpulse(c.a, c.b, g.levers, j);
-      ctx.applyTorqueImpulse(c.a, c.b, torque);
+      ctx.applyImpulse(c.a, c.b, g.levers, j, torque);
     } else {
       j = frictionImpulse(g.matrix, u, c.normal, eps, mu, &g.totals);
       if (glm::dot(j, j) > 0) ctx.applyImpulse(c.a, c.b, g.levers, j);

@@ -6,9 +6,13 @@
 namespace crumple {
 
 namespace {
-glm::dmat3 cross(const glm::dvec3& r) {
-  // Column-major: columns are the images of the basis vectors.
-  return glm::dmat3(0, r.z, -r.y, -r.z, 0, r.x, r.y, -r.x, 0);
+// M [r]x ([r]x v = r x v), column by column: M (r x e_k), each r x e_k with two components that are not zero.
+glm::dmat3 timesCross(const glm::dmat3& m, const glm::dvec3& r) {
+  return glm::dmat3(r.z * m[1] - r.y * m[2], r.x * m[2] - r.z * m[0], r.y * m[0] - r.x * m[1]);
+}
+// [r]x M: column k is r x M e_k.
+glm::dmat3 crossTimes(const glm::dvec3& r, const glm::dmat3& m) {
+  return glm::dmat3(glm::cross(r, m[0]), glm::cross(r, m[1]), glm::cross(r, m[2]));
 }
 // Kinetic energy change of the relative motion for impulse j: dE = j.u + 1/2 j.K j.
 double energyChange(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& j) {
@@ -18,9 +22,8 @@ double energyChange(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& 
 
 glm::dmat3 collisionMatrix(const ImpulseSide& a, const ImpulseSide& b) {
   glm::dmat3 k((a.invMass + b.invMass));
-  const glm::dmat3 ra = cross(a.r), rb = cross(b.r);
-  k -= ra * a.invInertia * ra;
-  k -= rb * b.invInertia * rb;
+  k -= crossTimes(a.r, timesCross(a.invInertia, a.r));
+  k -= crossTimes(b.r, timesCross(b.invInertia, b.r));
   return k;
 }
 
@@ -139,7 +142,7 @@ void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, 
   p.s1 = 0;
   const PatchExtent& patch = p.patch;
   if (patch.flat() || !k.invertible) return;
-  p.C = b.invInertia * cross(b.r) + a.invInertia * cross(a.r);
+  p.C = timesCross(b.invInertia, b.r) + timesCross(a.invInertia, a.r);
   p.W = a.invInertia + b.invInertia;
   // The system in (J, y), T = y1 t1 + y2 t2 + y3 n, is [K, B; B^T, D] with
   // B = C^T [t1 t2 n], D = [e_i.W e_k]; it is solved through the Schur
@@ -151,11 +154,12 @@ void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, 
     p.b[i] = ct * axes[i];
     p.kb[i] = k.inverse * p.b[i];
   }
+  const glm::dvec3 wAxes[3] = {p.W * axes[0], p.W * axes[1], p.W * axes[2]};
   glm::dmat3 schur;
   double scale = 0;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
-      p.w[i][j] = glm::dot(axes[i], p.W * axes[j]);
+      p.w[i][j] = glm::dot(axes[i], wAxes[j]);
       schur[j][i] = p.w[i][j] - glm::dot(p.b[i], p.kb[j]);
       scale = std::max(scale, std::abs(schur[j][i]));
     }
@@ -194,7 +198,7 @@ PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impulse
       e.hi2 = std::max(e.hi2, glm::dot(d, e.t2));
     }
   p.patch = e;
-  p.C = b.invInertia * cross(b.r) + a.invInertia * cross(a.r);
+  p.C = timesCross(b.invInertia, b.r) + timesCross(a.invInertia, a.r);
   p.W = a.invInertia + b.invInertia;
   p.b[0] = glm::transpose(p.C) * e.t1;
   p.kb[0] = k.inverse * p.b[0];

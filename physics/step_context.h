@@ -406,6 +406,19 @@ struct StepContext {
       B.w += invInertia[static_cast<size_t>(b)] * glm::cross(l.rb, j);
     }
   }
+  // The same with a torque impulse t on b (-t on a) as well: each angular velocity changed once.
+  void applyImpulse(int a, int b, const Levers& l, const glm::dvec3& j, const glm::dvec3& t) {
+    RigidBody& A = bodies[static_cast<size_t>(a)];
+    RigidBody& B = bodies[static_cast<size_t>(b)];
+    if (A.movable() && !frozen[static_cast<size_t>(a)]) {
+      A.v -= j * A.invMass;
+      A.w -= invInertia[static_cast<size_t>(a)] * (glm::cross(l.ra, j) + t);
+    }
+    if (B.movable() && !frozen[static_cast<size_t>(b)]) {
+      B.v += j * B.invMass;
+      B.w += invInertia[static_cast<size_t>(b)] * (glm::cross(l.rb, j) + t);
+    }
+  }
   // t on b, -t on a
   void applyTorqueImpulse(int a, int b, const glm::dvec3& t) {
     RigidBody& A = bodies[static_cast<size_t>(a)];

@@ -658,6 +658,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
       glBindVertexArray(itemVao(it, s));  // the simplified mesh where the settings ask for it
       glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
     }
+    mark("visibility");  // (a profile's "items" is then the shading alone)
     // Each item's pixels shaded over its rectangle on screen.
     const glm::mat4 inverseVp = glm::inverse(vp);
     glBindTextureUnit(10, m.visibilityIds.id());

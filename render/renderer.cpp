@@ -649,6 +649,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     const float far = 1.0f;
     glClearNamedFramebufferuiv(m.visibilityFbo.id(), GL_COLOR, 0, none);
     glClearNamedFramebufferfv(m.visibilityFbo.id(), GL_DEPTH, 0, &far);
+    mark("visibility clear");
     m.visibility.use();
     for (size_t index : visible) {
       const RenderItem& it = items[index];

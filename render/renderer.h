@@ -141,8 +141,8 @@ class Renderer {
   // given (the window's, 0), at the renderer's size.
   void draw(const std::vector<RenderItem>& items, const View& view);
   void drawTo(GLuint framebuffer, const std::vector<RenderItem>& items, const View& view);
-  // Called at the end of each part of a frame ("light", "shadow map", "visibility" where shaded in compute,
-  // "items", "sky", "antialias"), once its commands are issued (crumple-bench --render-profile puts GPU timestamps there); none by default.
+  // Called at the end of each part of a frame ("light", "shadow map", "visibility clear" and "visibility" where
+  // shaded in compute, "items", "sky", "antialias"), once its commands are issued (crumple-bench --render-profile puts GPU timestamps there); none by default.
   void setPassMarker(std::function<void(const char*)> mark) { mark_ = std::move(mark); }
   Image readPixels() const;
   void savePng(const std::string& path) const;

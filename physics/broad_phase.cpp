@@ -466,8 +466,8 @@ void findCandidates(StepContext& ctx, double h) {
     // nearly every substep; more made the narrow phase test too many samples).
     const double skin = 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
     if (pair.builtMargin >= 0) {
-      const double ra = A.shape->boundingRadius + glm::length(A.localCom) + pair.builtMargin;
-      const double rb = B.shape->boundingRadius + glm::length(B.localCom) + pair.builtMargin;
+      const double ra = reachAboutCom(A) + pair.builtMargin;
+      const double rb = reachAboutCom(B) + pair.builtMargin;
       // (the lists still hold every sample that can touch while moved + margin <= builtMargin)
       const bool stale = displacementExceeds(pair.builtA, {A.x, A.q}, ra, pair.builtB, {B.x, B.q}, rb,
                                              [&](double moved) { return !(moved + margin <= pair.builtMargin); });

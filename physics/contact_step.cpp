@@ -220,11 +220,9 @@ void ContactRun::island(size_t island, int worker) {
           // depths follow to first order, endOfStepDepths).
           const RigidBody& A = ctx.body(pair.a);
           const RigidBody& B = ctx.body(pair.b);
-          const double ra = A.shape->boundingRadius + glm::length(A.localCom);
-          const double rb = B.shape->boundingRadius + glm::length(B.localCom);
           const double tolerance = ctx.settings.contactRefreshTolerance;
-          look = displacementExceeds(ctx.lookPoses[pi].first, pa, ra, ctx.lookPoses[pi].second, pb, rb,
-                                     [&](double moved) { return moved > tolerance; });
+          look = displacementExceeds(ctx.lookPoses[pi].first, pa, reachAboutCom(A), ctx.lookPoses[pi].second, pb,
+                                     reachAboutCom(B), [&](double moved) { return moved > tolerance; });
         }
       }
       if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);

@@ -276,9 +276,8 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   const RigidBody& B = ctx.body(pair.b);
   // (Capped substeps may sweep (pairContacts), bent normals are the samples' own: both look afresh.)
   if (pair.hasKept && tolerance > 0 && !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b)) {
-    const double ra = A.shape->boundingRadius + glm::length(A.localCom);
-    const double rb = B.shape->boundingRadius + glm::length(B.localCom);
-    if (!displacementExceeds(pair.keptA, pa, ra, pair.keptB, pb, rb, [&](double m) { return m > tolerance; })) {
+    if (!displacementExceeds(pair.keptA, pa, reachAboutCom(A), pair.keptB, pb, reachAboutCom(B),
+                             [&](double m) { return m > tolerance; })) {
       const glm::dmat3 rotA = glm::mat3_cast(pa.orientation), rotB = glm::mat3_cast(pb.orientation);
       out.clear();
       for (const Pair::KeptContact& k : pair.kept) {

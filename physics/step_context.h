@@ -156,6 +156,10 @@ bool angleExceeds(const glm::dquat& from, const glm::dquat& to, Exceeds&& exceed
   return exceeds(rotationAngle(from, to));
 }
 
+// The reach of a body's points about its centre of mass (the pose's position), at most: its shape's bounding
+// radius about the shape's origin plus the centre of mass's offset from it.
+inline double reachAboutCom(const RigidBody& b) { return b.shape->boundingRadius + glm::length(b.localCom); }
+
 // How far B's points near A can have moved in A's frame between two pairs of
 // poses: the change of B's offset from A, plus each rotation angle times the
 // reach about that body's centre (A's turn moves the points near A by at most

@@ -317,6 +317,28 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
   }
 }
 
+TEST_CASE("the compute gather leaves no texture of another type on its sampler array's unused units") {
+  // A cube map left on unit 15 by an earlier program (the renderer's sky light) would sit in the gather's
+  // sampler2D array: undefined behaviour, which NVIDIA's driver reports.
+  test::glContext();
+  SphereIntoPlate s;
+  DeformOptions cs{128, Path::Gather};
+  cs.addressRaster = AddressRaster::Compute;
+  Deformer d(cs);
+  GLuint cube = 0;
+  glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &cube);
+  glTextureStorage2D(cube, 1, GL_RGBA8, 4, 4);
+  glBindTextureUnit(15, cube);
+  s.run(d, 0.01);
+  REQUIRE(s.lastStats.texelsChanged > 0);
+  glActiveTexture(GL_TEXTURE15);
+  GLint bound = 0;
+  glGetIntegerv(GL_TEXTURE_BINDING_CUBE_MAP, &bound);
+  glActiveTexture(GL_TEXTURE0);
+  CHECK(bound == 0);
+  glDeleteTextures(1, &cube);
+}
+
 TEST_CASE("the compute raster puts back \"none\" where its last event wrote: a used deformer gives a fresh one's map") {
   // The raster writes the active tiles only; the tiles an earlier event wrote are cleared from its lists. A
   // deformer that first took a larger event (the ball 4 cm deeper: more tiles, framed otherwise) must give the

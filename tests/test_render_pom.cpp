@@ -169,6 +169,29 @@ TEST_CASE("golden images: shaded, height and normal views") {
   compareGolden(r.readPixels(), "pom_offset_limited.png");
 }
 
+TEST_CASE("a frame leaves its shadow map (a depth texture compared on sampling) bound to no texture unit") {
+  // A later program with a plain sampler on that unit (the deformer's) would meet it: undefined behaviour, which
+  // NVIDIA's driver reports.
+  test::glContext();
+  Stage s;
+  Renderer r(96, 64);
+  r.draw(s.items(false), topView());
+  GLint units = 0;
+  glGetIntegerv(GL_MAX_COMBINED_TEXTURE_IMAGE_UNITS, &units);
+  int comparing = 0;
+  for (GLint unit = 0; unit < std::min(units, 32); ++unit) {
+    glActiveTexture(static_cast<GLenum>(GL_TEXTURE0 + unit));
+    GLint texture = 0;
+    glGetIntegerv(GL_TEXTURE_BINDING_2D, &texture);
+    if (texture == 0) continue;
+    GLint mode = GL_NONE;
+    glGetTextureParameteriv(static_cast<GLuint>(texture), GL_TEXTURE_COMPARE_MODE, &mode);
+    comparing += mode == GL_COMPARE_REF_TO_TEXTURE;
+  }
+  glActiveTexture(GL_TEXTURE0);
+  CHECK(comparing == 0);
+}
+
 TEST_CASE("a dent shows in the pixels while the silhouette stays the same") {
   test::glContext();
   Stage s;

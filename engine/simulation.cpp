@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -327,6 +328,25 @@ void Simulation::step() {
   if (onStep) onStep(world_.events());
 }
 
+std::string Simulation::nonFiniteMessage(const StepStatus& status) const {
+  std::string name = "#" + std::to_string(status.body);
+  for (const BodyRuntime& b : bodies_)
+    if (b.index == status.body) name = "'" + b.name + "'";
+  auto vec = [](const glm::dvec3& v) {
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "[%.9g, %.9g, %.9g]", v.x, v.y, v.z);
+    return std::string(buf);
+  };
+  const glm::dquat& q = status.lastPose.orientation;
+  char quat[128];
+  std::snprintf(quat, sizeof quat, "[%.9g, %.9g, %.9g, %.9g]", q.w, q.x, q.y, q.z);
+  char when[96];
+  std::snprintf(when, sizeof when, "at step %ld (t = %.9g s)", steps_ + 1, world_.time());
+  return scene_.file + ": body " + name + " left finite numbers " + when + "; its last finite state: centre of mass " +
+         vec(status.lastPose.position) + " m, orientation (w, x, y, z) " + quat + ", velocity " +
+         vec(status.lastVelocity) + " m/s, angular velocity " + vec(status.lastAngularVelocity) + " rad/s";
+}
+
 void Simulation::stepPhysics(double h) {
   if (beforeStep) beforeStep(*this, h);
   for (VehicleRuntime& v : vehicles_) {
@@ -335,7 +355,8 @@ void Simulation::stepPhysics(double h) {
     v.vehicle.apply(world_, c, h);
   }
   driveKinematic(h);
-  world_.step(h);
+  const StepStatus status = world_.step(h);
+  if (!status) throw std::runtime_error(nonFiniteMessage(status));
   if (world_.lastStats().droppedPairs > 0 && !warnedPairs_) {
     warnedPairs_ = true;
     logWarning(scene_.file, ": more than ", world_.settings().maxPairs,

@@ -73,6 +73,8 @@ class Simulation {
   Simulation(const Scene& scene, bool gl);
   ~Simulation();
 
+  // One step of the scene (std::runtime_error naming the body when physics would go non-finite: the state is
+  // then as before the step).
   void step();
   const Scene& scene() const { return scene_; }
   World& world() { return world_; }
@@ -131,7 +133,9 @@ class Simulation {
   // The stages of step(): physics with the vehicles' forces; the decision and
   // deformation of this step's collisions; contact deformation. `bodyOf` maps
   // world body indices to bodies_. The last two return whether anything deformed.
+  // Throws std::runtime_error naming the body when the world refuses a step that went non-finite.
   void stepPhysics(double h);
+  std::string nonFiniteMessage(const StepStatus& status) const;
   bool deformCollisions(const std::vector<int>& bodyOf);
   bool deformContacts(const std::vector<int>& bodyOf, double h);
   // A print of `mesh` (placed by `model`, flat) pressed into contact-deformable

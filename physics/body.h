@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "physics/rotation.h"
 #include "physics/shape.h"
 
 namespace crumple {
@@ -51,6 +52,7 @@ struct RigidBody {
   glm::dvec3 localCom{0};
   double mass = 0, invMass = 0;
   glm::dmat3 inertiaBody{1}, invInertiaBody{0};  // about the centre of mass, shape axes
+  PrincipalInertia principal;                      // of inertiaBody (the torque-free turn, rotation.h)
   glm::dvec3 x{0};
   glm::dquat q{1, 0, 0, 0};
   glm::dvec3 v{0}, w{0};

@@ -42,10 +42,16 @@ bool moving(const RigidBody& b) { return glm::dot(b.v, b.v) > 0 || glm::dot(b.w,
 namespace {
 // The grid cell of a point, per axis.
 using Cell = BroadGrid::Cell;
+// A coordinate's cell, within +-2^62 (a position too far or not finite is held at the edge: never an
+// out-of-range conversion).
+int64_t cellCoordinate(double x) {
+  const double limit = 4611686018427387904.0;
+  const double c = std::floor(x);
+  return c > -limit ? (c < limit ? static_cast<int64_t>(c) : static_cast<int64_t>(limit)) : -static_cast<int64_t>(limit);
+}
 Cell cellOf(const glm::dvec3& p, const glm::dvec3& origin, double inverse) {
-  return {static_cast<int64_t>(std::floor((p.x - origin.x) * inverse)),
-          static_cast<int64_t>(std::floor((p.y - origin.y) * inverse)),
-          static_cast<int64_t>(std::floor((p.z - origin.z) * inverse))};
+  return {cellCoordinate((p.x - origin.x) * inverse), cellCoordinate((p.y - origin.y) * inverse),
+          cellCoordinate((p.z - origin.z) * inverse)};
 }
 uint32_t bucketOf(const Cell& c, uint32_t mask) {
   const uint64_t h = static_cast<uint64_t>(c.x) * 73856093ull ^ static_cast<uint64_t>(c.y) * 19349663ull ^

@@ -2,7 +2,8 @@
 //
 // Guarantees:
 // - integrateVelocities: every movable body's v += h a, omega += h alpha
-//   (gravity, applied forces and torques, the gyroscopic term).
+//   (gravity, applied forces and torques; the gyroscopic term is the position
+//   update's torque-free turn, rotation.h).
 // - contactStep: `contactPasses` passes over the pairs, alternately forward and
 //   backward, with restitution ramped from -1 (exclusive) to 0. Each pair's
 //   penetrating points on the poses predicted with the current velocities are

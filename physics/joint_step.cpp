@@ -116,7 +116,7 @@ struct Side {
     v = b.v;
     w = b.w;
     if (pred) {
-      predicted = {b.x + h * b.v, integrateOrientation(b.q, b.w, h)};
+      predicted = {b.x + h * b.v, turn(b, b.w, h).q};
       Rp = glm::mat3_cast(predicted.orientation);
     }
   }

@@ -6,7 +6,9 @@
 //   depth at the contact step's last look plus h times the change of its
 //   normal relative speed since: its depth at the new positions, to first order
 //   in h (exact for translations).
-// - integratePositions: every movable body moves with its velocities; the
+// - integratePositions: every movable body moves with its velocities; a
+//   dynamic body turns torque-free (rotation.h: its angular momentum and
+//   kinetic energy kept, its angular velocity following its orientation); the
 //   orientation stays a unit quaternion.
 // - projectPositions: `projectionIterations` iterations over the groups push
 //   the two bodies apart along the normal by `penetrationCorrection` of the
@@ -45,7 +47,9 @@ void integratePositions(StepContext& ctx, double h) {
       RigidBody& b = ctx.bodies[i];
       if (!b.movable()) continue;
       b.x += h * b.v;
-      b.q = integrateOrientation(b.q, b.w, h);
+      const FreeRotation r = turn(b, b.w, h);
+      b.q = r.q;
+      b.w = r.w;
     }
   });
 }

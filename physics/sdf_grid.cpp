@@ -216,6 +216,11 @@ double SdfGrid::exactDistance(const glm::dvec3& p) const {
 
 double SdfGrid::distance(const glm::dvec3& p, glm::dvec3* gradient) const {
   const glm::dvec3 g = (p - origin_) / cell_;
+  // A point that is not finite is nowhere: outside, touching nothing (never a grid index).
+  if (!std::isfinite(g.x) || !std::isfinite(g.y) || !std::isfinite(g.z)) {
+    if (gradient) *gradient = glm::dvec3(0, 1, 0);
+    return std::numeric_limits<double>::infinity();
+  }
   const glm::dvec3 maxg = glm::dvec3(dims_ - 1) - 1e-9;
   const glm::dvec3 gc = glm::clamp(g, glm::dvec3(0), maxg);
   const double outside = glm::length((g - gc) * cell_);

@@ -60,6 +60,13 @@ struct BroadGrid {
   std::vector<char> rangeInside;  // per range of bodies: all still in their fat boxes
 };
 
+// A body's state (World::step keeps every body's from before the step).
+struct BodyState {
+  glm::dvec3 x{0};
+  glm::dquat q{1, 0, 0, 0};
+  glm::dvec3 v{0}, w{0};
+};
+
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.
 struct Pair {
   int a = -1, b = -1;
@@ -132,10 +139,11 @@ inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& 
 
 inline Aabb merge(const Aabb& a, const Aabb& b) { return {glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; }
 
-inline glm::dquat integrateOrientation(const glm::dquat& q, const glm::dvec3& w, double h) {
-  const glm::dquat spin(0, w.x, w.y, w.z);
-  glm::dquat r = q + (0.5 * h) * (spin * q);
-  return glm::normalize(r);
+// A movable body's turn over h from its orientation with angular velocity w: torque-free (rotation.h; the angular
+// momentum and kinetic energy kept) for a dynamic body, at constant w for a kinematic one.
+inline FreeRotation turn(const RigidBody& b, const glm::dvec3& w, double h) {
+  if (b.kinematic) return {rotateBy(b.q, w, h), w};
+  return freeRotation(b.principal, b.q, w, h);
 }
 
 // The angle of the rotation from one orientation to another.
@@ -331,6 +339,7 @@ struct StepContext {
   std::vector<Pose> predicted;
   std::vector<uint32_t> predictedVersion;
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
+  std::vector<BodyState> stepBefore;  // every body before the step (World::step undoes a non-finite one)
   std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far
 
@@ -367,13 +376,12 @@ struct StepContext {
     return settings.gravity + force[static_cast<size_t>(i)] * b.invMass;
   }
   // Within a substep: the world inverse inertia is invInertia (orientations
-  // stay put until the position update).
+  // stay put until the position update). Torques only: the gyroscopic part of
+  // Euler's equations is the torque-free turn of the position update (turn).
   glm::dvec3 angularAcceleration(int i) const {
     const RigidBody& b = bodies[static_cast<size_t>(i)];
     if (b.kinematic) return glm::dvec3(0);
-    const glm::dmat3 r = b.rotation();
-    const glm::dvec3 l = r * (b.inertiaBody * (glm::transpose(r) * b.w));  // angular momentum
-    return invInertia[static_cast<size_t>(i)] * (torque[static_cast<size_t>(i)] - glm::cross(b.w, l));
+    return invInertia[static_cast<size_t>(i)] * torque[static_cast<size_t>(i)];
   }
   // The pose after h at the current velocities (with this step's accelerations when asked).
   Pose predict(const RigidBody& b, double h, bool withForces) const {
@@ -384,7 +392,7 @@ struct StepContext {
       v += h * acceleration(i);
       w += h * angularAcceleration(i);
     }
-    return {b.x + h * v, integrateOrientation(b.q, w, h)};
+    return {b.x + h * v, turn(b, w, h).q};
   }
 
   // v_B - v_A at the levers' point.

@@ -40,11 +40,21 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     w.normal = hit.normal;
     w.ground = hit.body;
     const double compression = reach - hit.distance;
-    const double rate = (compression - w.compression) / h;
     w.compression = compression;
     const glm::dvec3 pointVelocity = b.velocityAt(hit.point);
-    // Suspension: spring and damper along the chassis' up axis, never pulling down.
-    w.load = std::max(0.0, params_.stiffness * compression + params_.damping * rate);
+    // Compression rate: the chassis' approach to the ground along the ground's normal, as the ray sees it.
+    const glm::dvec3 groundVelocity = world.body(hit.body).velocityAt(hit.point);
+    const double rate = -glm::dot(hit.normal, pointVelocity - groundVelocity) /
+                        std::max(glm::dot(hit.normal, up), 0.1);
+    // Suspension: spring and damper along the chassis' up axis, never pulling down, integrated implicitly
+    // (backward Euler on the wheel's share of the chassis' mass at its point, which the wheels on the ground
+    // split): stable for any mass, stiffness, damping and step; at most it stops the compression and undoes it
+    // within the step.
+    const glm::dvec3 lever = glm::cross(origin - b.x, up);
+    const double pointInverseMass = b.invMass + glm::dot(lever, b.invInertiaWorld() * lever);
+    const double share = 1.0 / (pointInverseMass * std::max(grounded, 1));
+    const double stiff = params_.stiffness * h + params_.damping;
+    w.load = std::max(0.0, (params_.stiffness * compression + stiff * rate) / (1 + h * stiff / share));
     glm::dvec3 force = up * w.load;
     // Tyre frame on the ground.
     const bool front = params_.wheels[i].x > b.localCom.x;

@@ -1,6 +1,7 @@
 // A raycast vehicle (the usual game-car model): the chassis is a rigid body;
 // each wheel is a ray along the chassis' down axis from its attachment point,
-// held up by a spring-damper, with tyre forces from the slip at the contact:
+// held up by a spring-damper (integrated implicitly: stable at any mass and
+// damping), with tyre forces from the slip at the contact:
 // lateral grip, engine drive and brakes, each limited by friction (Coulomb,
 // mu * load). Forces go through World::addForceAtPoint before each step.
 // Body frame: +x forward, +y up.

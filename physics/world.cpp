@@ -60,6 +60,7 @@ RigidBody makeBody(const BodyDef& def) {
     for (int c = 0; c < 3; ++c)
       if (!finite(b.invInertiaBody[c]) || !finite(b.inertiaBody[c]) || !(b.inertiaBody[c][c] > 0))
         throw std::invalid_argument("inertia is degenerate (a body too thin or too light)");
+    b.principal = principalInertia(b.inertiaBody);
     b.v = def.linearVelocity;
     b.w = def.angularVelocity;
     if (b.kinematic) {
@@ -481,6 +482,49 @@ class StageClock {
 };
 }  // namespace
 
+namespace {
+bool finiteState(const RigidBody& b) {
+  return finite(b.x) && finite(b.v) && finite(b.w) && std::isfinite(b.q.w) && std::isfinite(b.q.x) &&
+         std::isfinite(b.q.y) && std::isfinite(b.q.z);
+}
+
+// After the substeps: every body's state finite, or the step undone (StepStatus).
+StepStatus checkFinite(detail::StepContext& c, const std::vector<detail::BodyState>& before, double timeBefore) {
+  std::vector<int> first(static_cast<size_t>(c.workers()), -1);  // per worker: its lowest non-finite body
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+    int& f = first[static_cast<size_t>(worker)];
+    for (size_t i = begin; i < end; ++i)
+      if (!finiteState(c.bodies[i]) && (f < 0 || static_cast<int>(i) < f)) f = static_cast<int>(i);
+  });
+  int bad = -1;
+  for (int f : first)
+    if (f >= 0 && (bad < 0 || f < bad)) bad = f;
+  StepStatus status;
+  if (bad < 0) return status;
+  for (size_t i = 0; i < c.bodies.size(); ++i) {
+    RigidBody& b = c.bodies[i];
+    b.x = before[i].x;
+    b.q = before[i].q;
+    b.v = before[i].v;
+    b.w = before[i].w;
+  }
+  // What the step found and kept is dropped with it: pairs, manifolds, events, reports, breaks.
+  c.pairs.clear();
+  c.previousPairs.clear();
+  c.events.clear();
+  c.contactReports.clear();
+  c.jointBreaks.clear();
+  c.time = timeBefore;
+  const detail::BodyState& last = before[static_cast<size_t>(bad)];
+  status.ok = false;
+  status.body = bad;
+  status.lastPose = {last.x, last.q};
+  status.lastVelocity = last.v;
+  status.lastAngularVelocity = last.w;
+  return status;
+}
+}  // namespace
+
 void World::collideAndContact(double h) {
   detail::StepContext& c = *ctx_;
   const auto start = std::chrono::steady_clock::now();
@@ -596,7 +640,7 @@ void World::substep(double h) {
   c.time += h;
 }
 
-void World::step(double h) {
+StepStatus World::step(double h) {
   if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
   const auto start = std::chrono::steady_clock::now();
   detail::StepContext& c = *ctx_;
@@ -638,8 +682,16 @@ void World::step(double h) {
   if (ratio > 1) ratio = detail::stepTravel(c, h);
   const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, c.settings.maxSubsteps));
   c.substepsCapped = ratio > n;
+  // Each body's state before the step: what a step that goes non-finite is undone to.
+  std::vector<detail::BodyState>& before = c.stepBefore;
+  before.resize(c.bodies.size());
+  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) before[i] = {c.bodies[i].x, c.bodies[i].q, c.bodies[i].v, c.bodies[i].w};
+  });
+  const double timeBefore = c.time;
   for (int s = 0; s < n; ++s) substep(h / n);
   c.stats.substeps = n;
+  const StepStatus status = checkFinite(c, before, timeBefore);
   std::vector<int> awake(static_cast<size_t>(c.workers()), 0);
   c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
     int count = 0;
@@ -652,6 +704,7 @@ void World::step(double h) {
   });
   for (int a : awake) c.stats.awake += a;
   c.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return status;
 }
 
 }  // namespace crumple

@@ -179,6 +179,20 @@ struct StepContext;
 class ThreadPool;
 }
 
+// What World::step reports. A step that would leave a body's state not finite
+// (a NaN or an infinity: a force, a joint or a contact driven past what doubles
+// hold) is not taken: every body is put back as it was before the step, the
+// step's events and reports are dropped, the time does not advance, and the
+// status names the first such body with its state before the step (the last
+// finite one).
+struct StepStatus {
+  bool ok = true;
+  int body = -1;                 // the first body whose state stopped being finite
+  Pose lastPose;                 // its state before the step
+  glm::dvec3 lastVelocity{0}, lastAngularVelocity{0};
+  explicit operator bool() const { return ok; }
+};
+
 // The whole state of a World (bodies, joints, filters, the caches kept between
 // steps): World::restore(snapshot) and the same steps give bit-identical states.
 class WorldSnapshot {
@@ -220,7 +234,9 @@ class World {
   bool valid(JointId joint) const;
   int index(JointId joint) const;
   JointId jointId(int index) const;  // the handle of the joint now in slot `index`
-  void step(double h);
+  // Advances the world by h seconds (std::invalid_argument unless h is positive and finite). A step that would
+  // make any body's state non-finite is refused and undone (StepStatus): the world never holds a NaN.
+  StepStatus step(double h);
 
   // Joints (physics/joint.h). addJoint throws std::invalid_argument on bad
   // input (an unknown body, a = b, a zero axis, lower > upper, a negative

@@ -8,6 +8,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "physics/mesh.h"
+#include "physics/sdf_grid.h"
 #include "physics_fixture.h"
 
 using namespace crumple;
@@ -114,4 +116,50 @@ TEST_CASE("a step reports the milliseconds of each stage") {
   CHECK(ms.total > 0);
   CHECK(stages <= ms.total * (1 + 1e-9));
   CHECK(ms.contact > 0);
+}
+
+TEST_CASE("a step that would make a body non-finite is refused and undone, naming the body") {
+  World w;
+  BodyDef d;
+  d.shape = makeBox({1, 1, 1});
+  d.origin = {0, 5, 0};
+  d.linearVelocity = {1, 0, 0};
+  w.addBody(d);
+  d.origin = {3, 5, 0};
+  d.mass = 1e-3;
+  const int light = w.addBody(d);
+  REQUIRE(w.step(1.0 / 240));
+  const RigidBody before = w.body(light);
+  const double t = w.time();
+  // A finite force that no double can integrate: 1e308 N on 1 g.
+  w.addForce(light, {1e308, 0, 0});
+  const StepStatus s = w.step(1.0 / 240);
+  CHECK_FALSE(s);
+  CHECK(s.body == light);
+  CHECK(s.lastPose.position == before.x);
+  CHECK(s.lastVelocity == before.v);
+  CHECK(w.body(light).x == before.x);
+  CHECK(w.body(light).v == before.v);
+  CHECK(w.time() == t);
+  for (const RigidBody& b : w.bodies()) CHECK(std::isfinite(glm::dot(b.v, b.v) + glm::dot(b.x, b.x)));
+  // The force is spent: the next step goes on.
+  CHECK(w.step(1.0 / 240));
+  CHECK(w.time() > t);
+}
+
+TEST_CASE("a distance field asked at a point that is not finite answers 'far', never an index") {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  TriangleMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  m.computeNormals();
+  const std::shared_ptr<const Shape> tet = makeMeshShape(m, 8);
+  REQUIRE(tet->grid);
+  for (const glm::dvec3& p : {glm::dvec3(nan, 0, 0), glm::dvec3(0, inf, 0), glm::dvec3(0, 0, -inf)}) {
+    glm::dvec3 g;
+    const double phi = tet->grid->distance(p, &g);
+    CHECK(phi == inf);
+    CHECK(std::isfinite(g.x + g.y + g.z));
+  }
+  CHECK(tet->grid->distance({1e300, -1e300, 0}, nullptr) > 1e299);
 }

@@ -38,7 +38,8 @@
 //   updated.
 // - projectJoints (in the position step's projection, after each iteration over
 //   the contacts): one Gauss-Seidel sweep that translates each joint's bodies,
-//   split by inverse mass, to close its anchor gap (the part the joint forbids).
+//   split by inverse mass, to close its anchor gap (the part the joint forbids),
+//   no body further than the projection's reach (maxCorrectionSpeed x h) in all.
 // - findAnchored: ctx.anchored marks the bodies welded to the world or to a
 //   static body through fixed joints that hold (the collision step's elastic
 //   impulse treats them as part of what they are welded to).
@@ -274,9 +275,19 @@ constexpr int kMainRows = 1, kLimitRow = 2;
 // velocity target (pre = false); a hinge's or slider's limit row joins them
 // where the predicted angle or offset leaves the range (pre), or sits at a
 // bound and moves out of it (post).
-JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, bool pre, int parts = kMainRows | kLimitRow) {
+//
+// Pre, a joint that starts the substep violated by more than `reach` (m, or rad
+// for turns: maxCorrectionSpeed x h) in a row is asked to close only `reach` of
+// that violation by the substep's end (its bodies' own motion still counts in
+// full): a joint that starts far apart closes over a few steps instead of
+// flinging its bodies.
+JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, bool pre, double reach,
+                    int parts = kMainRows | kLimitRow) {
   const JointDef& d = jt.def;
   JointRows out;
+  // What a row's violation now exceeds reach by (0 within it).
+  auto excess = [reach](double now) { return now > reach ? now - reach : (now < -reach ? now + reach : 0.0); };
+  const bool bounded = pre && reach >= 0;
   // Errors at the poses the substep will reach, and (pre) the levers there too: the impulse stands for the
   // joint's force over the substep, and with the end's levers the Newton step's matrix is the derivative of
   // the end-of-substep gap (with the start's levers it was off by the turn over the substep, and chains of
@@ -286,6 +297,7 @@ JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, boo
   out.ra = ra;
   out.rb = rb;
   const glm::dvec3 e = b.point(jt.rB, pre) - a.point(jt.rA, pre);  // anchor gap
+  const glm::dvec3 eNow = bounded ? b.point(jt.rB, false) - a.point(jt.rA, false) : glm::dvec3(0);
   const glm::dvec3 u = (b.v + glm::cross(b.w, rb)) - (a.v + glm::cross(a.w, ra));
   const glm::dvec3 omega = b.w - a.w;
   Row* rows = out.rows;
@@ -293,52 +305,61 @@ JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, boo
   int& n = out.n;
   auto linear = [&](const glm::dvec3& dir) {
     rows[n] = {dir, glm::dvec3(0)};
-    err[n++] = pre ? glm::dot(dir, e) : glm::dot(dir, u);
+    err[n++] = pre ? glm::dot(dir, e) - (bounded ? excess(glm::dot(dir, eNow)) : 0.0) : glm::dot(dir, u);
   };
-  auto angular = [&](const glm::dvec3& dir, double angleError) {
+  auto angular = [&](const glm::dvec3& dir, double angleError, double angleNow) {
     rows[n] = {glm::dvec3(0), dir};
-    err[n++] = pre ? angleError : glm::dot(dir, omega);
+    err[n++] = pre ? angleError - (bounded ? excess(angleNow) : 0.0) : glm::dot(dir, omega);
   };
   const bool axial = d.type == JointType::Hinge || d.type == JointType::Slider;
   const glm::dvec3 axis = axial ? glm::normalize(a.dir(jt.axisA, pre)) : glm::dvec3(0, 1, 0);
   glm::dvec3 t1(0), t2(0);
   if (axial) normalBasis(axis, t1, t2);
   // Relative turn of B against its target relative to A (fixed, slider).
-  auto turnError = [&]() { return rotationVector(b.rot(pre) * glm::conjugate(a.rot(pre) * jt.rel0)); };
+  auto turnError = [&](bool at) { return rotationVector(b.rot(at) * glm::conjugate(a.rot(at) * jt.rel0)); };
   if (parts & kMainRows) switch (d.type) {
     case JointType::Ball:
       for (int k = 0; k < 3; ++k) linear(glm::dvec3(k == 0, k == 1, k == 2));
       break;
     case JointType::Fixed: {
       for (int k = 0; k < 3; ++k) linear(glm::dvec3(k == 0, k == 1, k == 2));
-      const glm::dvec3 th = pre ? turnError() : glm::dvec3(0);
-      for (int k = 0; k < 3; ++k) angular(glm::dvec3(k == 0, k == 1, k == 2), th[k]);
+      const glm::dvec3 th = pre ? turnError(true) : glm::dvec3(0);
+      const glm::dvec3 now = bounded ? turnError(false) : glm::dvec3(0);
+      for (int k = 0; k < 3; ++k) angular(glm::dvec3(k == 0, k == 1, k == 2), th[k], now[k]);
       break;
     }
     case JointType::Hinge: {
       for (int k = 0; k < 3; ++k) linear(glm::dvec3(k == 0, k == 1, k == 2));
       const glm::dvec3 th = pre ? glm::cross(axis, glm::normalize(b.dir(jt.axisB, true))) : glm::dvec3(0);
-      angular(t1, glm::dot(th, t1));
-      angular(t2, glm::dot(th, t2));
+      const glm::dvec3 now =
+          bounded ? glm::cross(glm::normalize(a.dir(jt.axisA, false)), glm::normalize(b.dir(jt.axisB, false)))
+                  : glm::dvec3(0);
+      angular(t1, glm::dot(th, t1), glm::dot(now, t1));
+      angular(t2, glm::dot(th, t2), glm::dot(now, t2));
       break;
     }
     case JointType::Slider: {
       linear(t1);
       linear(t2);
-      const glm::dvec3 th = pre ? turnError() : glm::dvec3(0);
-      for (int k = 0; k < 3; ++k) angular(glm::dvec3(k == 0, k == 1, k == 2), th[k]);
+      const glm::dvec3 th = pre ? turnError(true) : glm::dvec3(0);
+      const glm::dvec3 now = bounded ? turnError(false) : glm::dvec3(0);
+      for (int k = 0; k < 3; ++k) angular(glm::dvec3(k == 0, k == 1, k == 2), th[k], now[k]);
       break;
     }
     case JointType::Distance: {
       const double len = glm::length(e);
       if (len < 1e-9) break;
       const glm::dvec3 dir = e / len;
+      const double lenNow = bounded ? glm::length(eNow) : 0.0;
       if (jt.minLength == jt.maxLength) {
         linear(dir);
-        if (pre) err[n - 1] = len - jt.length;
+        if (pre) err[n - 1] = len - jt.length - (bounded ? excess(lenNow - jt.length) : 0.0);
       } else if (pre && (len > jt.maxLength || len < jt.minLength)) {
         linear(dir);
-        err[n - 1] = len - (len > jt.maxLength ? jt.maxLength : jt.minLength);
+        const double bound = len > jt.maxLength ? jt.maxLength : jt.minLength;
+        const double over = bounded ? excess(lenNow - bound) : 0.0;
+        // Only what is still beyond the bound in the bound's direction is left for later.
+        err[n - 1] = len - bound - ((over > 0) == (len > bound) ? over : 0.0);
       } else if (!pre) {
         // Post: only at a bound and moving out of the range.
         const double l = glm::length(b.point(jt.rB, false) - a.point(jt.rA, false));
@@ -358,7 +379,15 @@ JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, boo
     const double tol = 1e-6;
     if (pre && (value > d.upper || value < d.lower)) {
       rows[n] = row;
-      err[n++] = value - (value > d.upper ? d.upper : d.lower);
+      const double bound = value > d.upper ? d.upper : d.lower;
+      double over = 0;
+      if (bounded) {
+        const double now = hinge ? jt.angle + wrapAngle(hingeAngle(jt, a, b, false) - wrapAngle(jt.angle))
+                                 : glm::dot(eNow, glm::normalize(a.dir(jt.axisA, false)));
+        over = excess(now - bound);
+        if ((over > 0) != (value > bound)) over = 0;  // now beyond the other side: nothing to leave for later
+      }
+      err[n++] = value - bound - over;
     } else if (!pre && ((value >= d.upper - tol && rate > 0) || (value <= d.lower + tol && rate < 0))) {
       rows[n] = row;
       err[n++] = rate;
@@ -648,17 +677,18 @@ JointSystem& buildSystem(StepContext& ctx) {
 // The velocities (and, pre, the predicted poses) of the bodies, then each joint's rows.
 double lookAtJoints(const StepContext& ctx, JointSystem& s, double h, bool pre) {
   for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k].refresh(ctx, h, pre);
+  const double reach = ctx.settings.maxCorrectionSpeed * h;
   double worst = 0;
   for (size_t k = 0; k < s.joints.size(); ++k) {
     const Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
     s.rows[k] = jointRows(jt, s.sides[static_cast<size_t>(s.ends[k].first)],
-                          s.sides[static_cast<size_t>(s.ends[k].second)], h, pre);
+                          s.sides[static_cast<size_t>(s.ends[k].second)], h, pre, reach);
     worst = std::max(worst, s.rows[k].worst);
   }
   for (size_t k = 0; k < s.loops.size(); ++k) {
     const Joint& jt = ctx.joints[static_cast<size_t>(s.loops[k])];
     worst = std::max(worst, jointRows(jt, s.sides[static_cast<size_t>(s.loopEnds[k].first)],
-                                      s.sides[static_cast<size_t>(s.loopEnds[k].second)], h, pre)
+                                      s.sides[static_cast<size_t>(s.loopEnds[k].second)], h, pre, reach)
                                 .worst);
   }
   return worst;
@@ -705,7 +735,7 @@ void solveLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
     for (int part : {pre ? kLimitRow : kMainRows, pre ? kMainRows : kLimitRow}) {
       a.refresh(ctx, h, pre);
       b.refresh(ctx, h, pre);
-      const JointRows jr = jointRows(jt, a, b, h, pre, part);
+      const JointRows jr = jointRows(jt, a, b, h, pre, ctx.settings.maxCorrectionSpeed * h, part);
       if (jr.n == 0) continue;
       double rhs[6], lambda[6];
       for (int r = 0; r < jr.n; ++r) rhs[r] = pre ? -jr.err[r] / h : -jr.err[r];
@@ -960,7 +990,7 @@ void postStabilize(StepContext& ctx, double h) {
   }
 }
 
-void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved) {
+void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach) {
   for (Joint& jt : ctx.joints) {
     if (!active(ctx, jt)) continue;
     const JointDef& d = jt.def;
@@ -970,22 +1000,37 @@ void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved) {
     // Orientations stay put in the projection (translations only).
     auto dir = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).q * local; };
     auto point = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).x + ctx.body(i).q * local; };
-    glm::dvec3 e = point(d.b, jt.rB) - point(d.a, jt.rA);
-    if (d.type == JointType::Slider) {
-      const glm::dvec3 axis = glm::normalize(dir(d.a, jt.axisA));
-      e -= glm::dot(e, axis) * axis;
-    } else if (d.type == JointType::Distance) {
-      const double len = glm::length(e);
-      if (len < 1e-9) continue;
-      const double target = std::clamp(len, jt.minLength, jt.maxLength);
-      e *= (len - target) / len;
-    }
-    const glm::dvec3 da = e * (wa / (wa + wb)), db = -e * (wb / (wa + wb));
+    const glm::dvec3 shiftA = d.a >= 0 ? moved[static_cast<size_t>(d.a)] : glm::dvec3(0);
+    const glm::dvec3 shiftB = moved[static_cast<size_t>(d.b)];
+    // The part of the anchor gap the joint forbids, with the projection's translations so far (`shifted`) or
+    // without them.
+    auto forbidden = [&](bool shifted) {
+      glm::dvec3 e = point(d.b, jt.rB) - point(d.a, jt.rA);
+      if (!shifted) e -= shiftB - shiftA;
+      if (d.type == JointType::Slider) {
+        const glm::dvec3 axis = glm::normalize(dir(d.a, jt.axisA));
+        e -= glm::dot(e, axis) * axis;
+      } else if (d.type == JointType::Distance) {
+        const double len = glm::length(e);
+        if (len < 1e-9) return glm::dvec3(0);
+        const double target = std::clamp(len, jt.minLength, jt.maxLength);
+        e *= (len - target) / len;
+      }
+      return e;
+    };
+    glm::dvec3 e = forbidden(true);
+    if (d.type == JointType::Distance && e == glm::dvec3(0)) continue;
+    // A joint violated by more than the reach before the projection is being closed by pre-stabilisation at
+    // maxCorrectionSpeed: here only what the projection itself opened is closed.
+    const glm::dvec3 before = forbidden(false);
+    if (glm::dot(before, before) > reach * reach) e -= before;
     if (wa > 0) {
+      const glm::dvec3 da = withinReach(moved[static_cast<size_t>(d.a)], e * (wa / (wa + wb)), reach);
       ctx.body(d.a).x += da;
       moved[static_cast<size_t>(d.a)] += da;
     }
     if (wb > 0) {
+      const glm::dvec3 db = withinReach(moved[static_cast<size_t>(d.b)], -e * (wb / (wa + wb)), reach);
       ctx.body(d.b).x += db;
       moved[static_cast<size_t>(d.b)] += db;
     }

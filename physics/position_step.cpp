@@ -12,7 +12,9 @@
 //   orientation stays a unit quaternion.
 // - projectPositions: `projectionIterations` iterations over the groups push
 //   the two bodies apart along the normal by `penetrationCorrection` of the
-//   depth beyond `penetrationSlop`, split by inverse mass. Translations only:
+//   depth beyond `penetrationSlop`, split by inverse mass, no body further
+//   than maxCorrectionSpeed x h in all (deep overlaps part over several
+//   steps, gaining no energy). Translations only:
 //   no velocity changes, except that a group still approaching at the first
 //   iteration loses its approach (an inelastic, frictionless normal impulse;
 //   it never adds energy). Each iteration ends with projectJoints: what it
@@ -58,9 +60,11 @@ void integratePositions(StepContext& ctx, double h) {
 // positions from endOfStepDepths). The projection only translates bodies, so
 // from one iteration to the next each group's depth moves by the two bodies'
 // translations along its normal (exact for flat contact).
-void projectPositions(StepContext& ctx) {
+void projectPositions(StepContext& ctx, double h) {
   const WorldSettings& settings = ctx.settings;
   if (settings.projectionIterations <= 0) return;
+  // No body is translated further than this by the projection in a substep (maxCorrectionSpeed).
+  const double reach = settings.maxCorrectionSpeed * h;
   std::vector<glm::dvec3>& moved = ctx.projected;
   moved.assign(ctx.bodies.size(), glm::dvec3(0));
   // One group's correction in iteration `it` (a body that cannot move is not written: islands share them).
@@ -82,12 +86,14 @@ void projectPositions(StepContext& ctx) {
     }
     const double corr = settings.penetrationCorrection * depth / (wa + wb);
     if (wa > 0) {
-      ca.x -= c.normal * corr * wa;
-      moved[ia] -= c.normal * corr * wa;
+      const glm::dvec3 d = withinReach(moved[ia], -(c.normal * corr * wa), reach);
+      ca.x += d;
+      moved[ia] += d;
     }
     if (wb > 0) {
-      cb.x += c.normal * corr * wb;
-      moved[ib] += c.normal * corr * wb;
+      const glm::dvec3 d = withinReach(moved[ib], c.normal * corr * wb, reach);
+      cb.x += d;
+      moved[ib] += d;
     }
   };
   // (On one thread, in pair order: the islands' order walks the groups out of memory order, 50% slower.)
@@ -106,7 +112,7 @@ void projectPositions(StepContext& ctx) {
       for (const ContactGroup& g : ctx.groups[pi]) project(g, it);
     // The translations above pulled joined bodies apart: the joints' anchors
     // are brought together again, translations only (joint_step.cpp).
-    projectJoints(ctx, moved);
+    projectJoints(ctx, moved, reach);
   }
 }
 

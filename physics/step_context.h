@@ -137,6 +137,18 @@ inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& 
   return {wc - we, wc + we};
 }
 
+// The part of the translation `step` that keeps a body's projection so far (`moved`) within `reach` of where it
+// started: step itself while moved + step stays inside, else the fraction of it that ends on the sphere.
+inline glm::dvec3 withinReach(const glm::dvec3& moved, const glm::dvec3& step, double reach) {
+  const glm::dvec3 end = moved + step;
+  if (glm::dot(end, end) <= reach * reach) return step;
+  // |moved + s step| = reach, s in [0, 1] (moved is inside: the root is the larger one).
+  const double a = glm::dot(step, step), b = glm::dot(moved, step), c = glm::dot(moved, moved) - reach * reach;
+  if (!(a > 0) || c >= 0) return glm::dvec3(0);
+  const double s = (-b + std::sqrt(std::max(0.0, b * b - a * c))) / a;
+  return step * std::clamp(s, 0.0, 1.0);
+}
+
 inline Aabb merge(const Aabb& a, const Aabb& b) { return {glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; }
 
 // A movable body's turn over h from its orientation with angular velocity w: torque-free (rotation.h; the angular
@@ -573,7 +585,7 @@ void shockPropagation(StepContext& ctx);
 // joint_step.cpp
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
-void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved);
+void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach);
 bool anyJointActive(const StepContext& ctx);  // a joint not removed or broken with a dynamic body
 void findAnchored(StepContext& ctx);
 // Whether bodies a and b may collide (groups, joints, the user's filter). Safe on several threads at once
@@ -584,7 +596,7 @@ void refreshJointExclusions(StepContext& ctx);
 // position_step.cpp
 void endOfStepDepths(StepContext& ctx, double h);
 void integratePositions(StepContext& ctx, double h);
-void projectPositions(StepContext& ctx);
+void projectPositions(StepContext& ctx, double h);
 // sleep.cpp
 void updateSleep(StepContext& ctx, double h);
 

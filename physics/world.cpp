@@ -630,7 +630,7 @@ void World::substep(double h) {
   });
   detail::endOfStepDepths(c, h);
   detail::integratePositions(c, h);
-  detail::projectPositions(c);
+  detail::projectPositions(c, h);
   clock.lap(ms.positions);
   detail::postStabilize(c, h);
   clock.lap(ms.joints);

@@ -83,6 +83,11 @@ struct WorldSettings {
   double penetrationSlop = 0.0005;     // m left alone by the positional projection
   double penetrationCorrection = 0.4;  // fraction removed per projection iteration
   int projectionIterations = 3;
+  // m/s: the fastest that corrections move bodies apart. The positional projection translates no body further
+  // than this times the substep (deep overlaps part over several steps instead of in one jump), and joint
+  // stabilisation closes a joint that starts violated (an anchor gap, a turn, a limit or distance range left)
+  // at most this fast (rad/s for turns) beyond what its bodies' velocities already do.
+  double maxCorrectionSpeed = 4;
   int maxSubsteps = 16;
   // At most this many pairs of bodies per substep (Jolt's maxBodyPairs): pairs
   // with a static or kinematic body are kept first. Only a pathological pile

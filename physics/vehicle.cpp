@@ -51,7 +51,12 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     // split): stable for any mass, stiffness, damping and step; at most it stops the compression and undoes it
     // within the step.
     const glm::dvec3 lever = glm::cross(origin - b.x, up);
-    const double pointInverseMass = b.invMass + glm::dot(lever, b.invInertiaWorld() * lever);
+    double pointInverseMass = b.invMass + glm::dot(lever, b.invInertiaWorld() * lever);
+    const RigidBody& ground = world.body(hit.body);
+    if (ground.dynamic()) {  // a body under the wheel takes the reaction: its mass at the point counts too
+      const glm::dvec3 groundLever = glm::cross(hit.point - ground.x, up);
+      pointInverseMass += ground.invMass + glm::dot(groundLever, ground.invInertiaWorld() * groundLever);
+    }
     const double share = 1.0 / (pointInverseMass * std::max(grounded, 1));
     const double stiff = params_.stiffness * h + params_.damping;
     w.load = std::max(0.0, (params_.stiffness * compression + stiff * rate) / (1 + h * stiff / share));
@@ -66,16 +71,24 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     const double friction = params_.grip * w.load;
     const bool rear = !front;
     // Lateral: remove the sideways slip at the contact within a couple of steps.
-    const double vSide = glm::dot(pointVelocity, side);
-    double lateral = -vSide * wheelMass / (2 * h);
+    const double vSide = glm::dot(pointVelocity - groundVelocity, side);
+    // The mass that a tyre force acts against: the wheel's share of the chassis, and with a dynamic body under
+    // it that body's mass at the contact in series (a light body under a heavy car is not flung by the car's mass).
+    auto slipMass = [&](const glm::dvec3& along) {
+      if (!ground.dynamic()) return wheelMass;
+      const glm::dvec3 l = glm::cross(hit.point - ground.x, along);
+      const double inverse = ground.invMass + glm::dot(l, ground.invInertiaWorld() * l);
+      return 1.0 / (1.0 / wheelMass + inverse);
+    };
+    double lateral = -vSide * slipMass(side) / (2 * h);
     const double lateralLimit = (c.handbrake && rear) ? 0.3 * friction : friction;
     lateral = std::clamp(lateral, -lateralLimit, lateralLimit);
     // Longitudinal: engine drive, brakes (never reversing the wheel), friction-limited together.
-    const double vLong = glm::dot(pointVelocity, dir);
+    const double vLong = glm::dot(pointVelocity - groundVelocity, dir);
     double longitudinal = std::clamp(c.throttle, -1.0, 1.0) * params_.engineForce / std::max(grounded, 1);
     double brake = std::clamp(c.brake, 0.0, 1.0) * params_.brakeForce / std::max(grounded, 1);
     if (c.handbrake && rear) brake = std::max(brake, params_.brakeForce / std::max(grounded, 1));
-    const double stop = -vLong * wheelMass / h;  // the force that would stop this wheel in one step
+    const double stop = -vLong * slipMass(dir) / h;  // the force that would stop this wheel in one step
     longitudinal += std::clamp(stop, -brake, brake);
     const double total = std::hypot(lateral, longitudinal);
     if (total > friction && total > 0) {
@@ -84,6 +97,8 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     }
     force += side * lateral + dir * longitudinal;
     world.addForceAtPoint(body_, force, hit.point);
+    // Newton's third law: what the wheel pushes on is pushed back (a car on a loose body moves it).
+    if (ground.dynamic()) world.addForceAtPoint(hit.body, -force, hit.point);
   }
 }
 

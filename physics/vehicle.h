@@ -3,7 +3,8 @@
 // held up by a spring-damper (integrated implicitly: stable at any mass and
 // damping), with tyre forces from the slip at the contact:
 // lateral grip, engine drive and brakes, each limited by friction (Coulomb,
-// mu * load). Forces go through World::addForceAtPoint before each step.
+// mu * load). Forces go through World::addForceAtPoint before each step; a
+// dynamic body under a wheel takes the opposite force.
 // Body frame: +x forward, +y up.
 #pragma once
 #include <glm/glm.hpp>

@@ -5,11 +5,13 @@ usage() {
   cat <<'USAGE'
 Usage: tools/fuzz.sh [--seconds N] [--parallel N] [--targets LIST] [--no-build]
 Builds the libFuzzer targets of tests/fuzz/ with clang into build-fuzz/ (CRUMPLE_FUZZ=ON: ASan and UBSan), replays
-every file of tests/fuzz/corpus/<target>/ once (the shipped scenes and assets, and every reproducer of issue #16:
+every file of tests/fuzz/corpus/<target>/ once (the shipped scenes and assets, and every reproducer kept:
 regression cases), then fuzzes each target for N seconds from that corpus.
   --seconds N    fuzzing time per target (default 15; CI runs the default: about two minutes in all)
   --parallel N   targets fuzzed at once (default 1)
-  --targets LIST comma-separated, from scene,obj,off,ply,gltf,glb (default all)
+  --targets LIST comma-separated, from scene,obj,off,ply,gltf,glb,physics (default all but physics: random
+                 physics scenes against the step's invariants, tests/physics_scenario.h; the suite already runs
+                 200 of them and its corpus; CRUMPLE_FUZZ_JOINTS=1 adds joints)
   --no-build     use the targets already in build-fuzz/
 Inputs that reach new code go to build-fuzz/corpus/<target>/ (not the repository's corpus); a crash, a leak,
 undefined behaviour, an input over 10 s or over 2 GB of memory is written to build-fuzz/findings/<target>/ and
@@ -52,8 +54,8 @@ fi
 IFS=, read -r -a list <<<"$targets"
 for t in "${list[@]}"; do
   case "$t" in
-    scene | obj | off | ply | gltf | glb) ;;
-    *) echo "$(basename "$0"): unknown target '$t' (scene, obj, off, ply, gltf, glb)" >&2; exit 2 ;;
+    scene | obj | off | ply | gltf | glb | physics) ;;
+    *) echo "$(basename "$0"): unknown target '$t' (scene, obj, off, ply, gltf, glb, physics)" >&2; exit 2 ;;
   esac
 done
 cd "$(dirname "$0")/.."
@@ -99,7 +101,9 @@ done
 fuzz_one() {
   local t=$1
   mkdir -p "$out/corpus/$t" "$out/findings/$t"
-  "$root/$bin/fuzz_$t" "${limits[@]}" -max_total_time="$seconds" -max_len=16384 -dict="tests/fuzz/$t.dict" \
+  local dict=()
+  [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
+  "$root/$bin/fuzz_$t" "${limits[@]}" -max_total_time="$seconds" -max_len=16384 "${dict[@]}" \
     -artifact_prefix="$out/findings/$t/" -print_final_stats=1 "$out/corpus/$t" "tests/fuzz/corpus/$t" \
     >"$out/logs/$t.log" 2>&1
 }

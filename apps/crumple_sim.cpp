@@ -32,8 +32,29 @@ using namespace crumple;
 namespace fs = std::filesystem;
 
 namespace {
+// SIGINT and SIGTERM. While the run loads (the scene, its meshes and images, the GL context, the atlases) nothing
+// has been written yet: the process ends at once with 130, whatever it is waiting for. Once the staging folder
+// exists the signal is noted and the run stops at the next step, removing the folder.
 volatile std::sig_atomic_t gInterrupted = 0;
-extern "C" void onSignal(int) { gInterrupted = 1; }
+volatile std::sig_atomic_t gLoading = 1;
+extern "C" void onSignal(int) {
+  if (gLoading) {
+    static const char message[] = "\ncrumple-sim: interrupted while loading: nothing written\n";
+    const ssize_t ignored = ::write(STDERR_FILENO, message, sizeof message - 1);
+    (void)ignored;
+    ::_exit(130);
+  }
+  gInterrupted = 1;
+}
+
+void installSignalHandlers() {
+  struct sigaction action {};
+  action.sa_handler = onSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
 
 // The first executable `name` on PATH, or empty.
 std::string findOnPath(const std::string& name) {
@@ -65,9 +86,8 @@ int runProgram(const std::vector<std::string>& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // From the start: a signal while the scene loads must not leave a staging folder behind either.
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  // From the start: a signal while the scene loads ends the run at once (nothing is written before the loop).
+  installSignalHandlers();
   CLI::App app{
       "crumple-sim: run a crumple scene headless and write its outputs (summary.json, events.jsonl, "
       "heightmaps/, normalmaps/, frames/)."};
@@ -181,8 +201,9 @@ int main(int argc, char** argv) {
       if (videoCamera.empty()) videoCamera = scene.cameras.empty() ? "default" : scene.cameras.front().name;
       bool known = scene.cameras.empty() && videoCamera == "default";
       for (const auto& c : scene.cameras) known = known || c.name == videoCamera;
-      if (!known) throw SceneError(scenePath.empty() ? scene.file : scenePath, "cameras",
-                                   "--video-camera: no camera named '" + videoCamera + "'");
+      if (!known)
+        throw SceneError(scenePath.empty() ? scene.file : scenePath, "cameras",
+                         "--video-camera: no camera named '" + quoteText(videoCamera) + "'");
     }
     OutputWriter writer(outDir);
     writer.setExportGltf(exportFormat == "gltf");
@@ -203,6 +224,9 @@ int main(int argc, char** argv) {
       logInfo("GL: ", gl->description());
     }
     Simulation sim(scene, gl != nullptr);
+    // Loaded: from here a signal is noted and the loop stops at the next step, removing the staging folder.
+    gLoading = 0;
+    writer.begin();
     std::unique_ptr<render::Renderer> renderer;
     const fs::path framesDir = fs::path(writer.staging()) / "frames";
     if (renderFrames) {
@@ -309,7 +333,7 @@ int main(int argc, char** argv) {
     std::cerr << "crumple-sim: error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {
-    std::cerr << "crumple-sim: failed: " << e.what() << "\n";
+    std::cerr << "crumple-sim: failed: " << capText(escapeInvalidUtf8(e.what()), 1000) << "\n";
     return 1;
   }
 }

@@ -15,6 +15,7 @@
 #include <unordered_set>
 
 #include "core/log.h"
+#include "engine/input_file.h"
 #include "engine/mesh_io_detail.h"
 
 namespace crumple {
@@ -268,13 +269,11 @@ void removeDuplicateFaces(TriangleMesh& m, const std::string& path) {
 }  // namespace
 
 TriangleMesh loadMeshFile(const std::string& path, render::Look* look) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw MeshError(path + ": is a folder, not a mesh file");
-  if (!fs::is_regular_file(path, ec)) throw MeshError(path + ": no such file");
-  // The largest mesh crumple reads: larger files are refused before any is read (a body's mesh is drawn and
-  // deformed every step; gigabytes of it are a mistake, not a model).
-  if (fs::file_size(path, ec) > meshio::kMaxFileBytes)
-    throw MeshError(path + ": larger than 1 GiB: refusing to load it");
+  // Only a regular file, of at most 1 GiB, before any is read: not a FIFO (whose open waits for a writer) or a
+  // device (/dev/zero reads forever). The largest mesh crumple reads: a body's mesh is drawn and deformed every
+  // step; gigabytes of it are a mistake, not a model.
+  if (const std::string why = inputFileProblem(path, meshio::kMaxFileBytes, "mesh file"); !why.empty())
+    throw MeshError(path + ": " + why);
   const std::string ext = lower(fs::path(path).extension().string());
   TriangleMesh m;
   if (ext == ".gltf" || ext == ".glb")

@@ -6,6 +6,7 @@
 #include <istream>
 #include <string>
 
+#include "engine/input_file.h"
 #include "engine/mesh_io.h"
 #include "engine/scene.h"
 
@@ -22,7 +23,7 @@ constexpr size_t kMaxLineBytes = 100000;
 // thousands of nodes, or a 1 GiB OBJ of faces, must not take gigabytes.
 constexpr size_t kMaxTriangles = size_t(1) << 22;
 // The largest mesh file read at all.
-constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t(1) << 30;
+constexpr std::uintmax_t kMaxFileBytes = kMaxMeshFileBytes;
 
 std::string lower(std::string s);
 // A token of the file as a message quotes it: at most 40 characters.

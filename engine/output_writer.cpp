@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <set>
+#include <sstream>
 #include <unistd.h>
 
 #include "core/log.h"
@@ -17,20 +18,148 @@ namespace crumple {
 
 namespace fs = std::filesystem;
 
-OutputWriter::OutputWriter(const std::string& dir) : dir_(fs::absolute(dir).lexically_normal().string()) {
-  while (!dir_.empty() && dir_.back() == '/') dir_.pop_back();
+namespace {
+
+// The first line of a small text file ("" when it cannot be read).
+std::string firstLine(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+std::string bootId() { return firstLine("/proc/sys/kernel/random/boot_id"); }
+
+std::string hostName() {
+  char buf[256] = {};
+  if (::gethostname(buf, sizeof buf - 1) != 0) return "";
+  return buf;
+}
+
+// A process's start time (clock ticks after boot, /proc/<pid>/stat's 22nd field); "" when there is no such process.
+std::string processStartTime(long pid) {
+  const std::string stat = firstLine("/proc/" + std::to_string(pid) + "/stat");
+  // After the command name in parentheses (which may hold spaces and parentheses itself): field 3 on.
+  const size_t close = stat.rfind(')');
+  if (close == std::string::npos) return "";
+  std::istringstream fields(stat.substr(close + 1));
+  std::string field;
+  for (int i = 3; i <= 22; ++i)
+    if (!(fields >> field)) return "";
+  return field;
+}
+
+// The owner a staging folder's marker records: this process.
+nlohmann::json ownerRecord() {
+  const long pid = static_cast<long>(::getpid());
+  return {{"pid", pid}, {"start_time", processStartTime(pid)}, {"boot_id", bootId()}, {"host", hostName()}};
+}
+
+// Whether the process that an owner record names is gone for sure: the machine has booted since, or no process of
+// that id started at that time runs now. Unknown (another machine, an unreadable record, no /proc): not gone.
+bool ownerGone(const nlohmann::json& owner) {
+  if (!owner.is_object() || !owner.contains("pid") || !owner["pid"].is_number_integer() ||
+      !owner.contains("start_time") || !owner["start_time"].is_string() || !owner.contains("boot_id") ||
+      !owner["boot_id"].is_string() || !owner.contains("host") || !owner["host"].is_string())
+    return false;
+  const std::string boot = bootId(), host = hostName();
+  if (boot.empty() || host.empty() || owner["host"].get<std::string>() != host) return false;
+  if (owner["boot_id"].get<std::string>() != boot) return true;
+  const long pid = owner["pid"].get<long>();
+  if (pid <= 0) return false;
   std::error_code ec;
+  if (!fs::exists("/proc/self/stat", ec)) return false;  // no /proc: cannot tell
+  const std::string started = processStartTime(pid);
+  return started.empty() || started != owner["start_time"].get<std::string>();
+}
+
+// Whether `name` is `base`.partial-<digits>-<digits>, a staging folder's name.
+bool isStagingName(const std::string& name, const std::string& base) {
+  const std::string prefix = base + ".partial-";
+  if (name.size() <= prefix.size() || name.compare(0, prefix.size(), prefix) != 0) return false;
+  int dashes = 0;
+  bool digit = false;
+  for (size_t i = prefix.size(); i < name.size(); ++i) {
+    if (name[i] == '-') {
+      if (!digit || ++dashes > 1) return false;
+      digit = false;
+    } else if (name[i] >= '0' && name[i] <= '9') {
+      digit = true;
+    } else {
+      return false;
+    }
+  }
+  return dashes == 1 && digit;
+}
+
+}  // namespace
+
+OutputWriter::OutputWriter(const std::string& dir) : given_(dir) {
+  if (dir.empty()) throw SceneError(dir, "", "the output folder's path is empty");
+  if (dir.find('\0') != std::string::npos) throw SceneError(dir, "", "the output folder's path holds a NUL byte");
+  std::error_code ec;
+  dir_ = fs::absolute(dir, ec).lexically_normal().string();
+  if (ec) throw SceneError(dir, "", "cannot make the path absolute: " + ec.message());
+  while (dir_.size() > 1 && dir_.back() == '/') dir_.pop_back();
+  if (fs::path(dir_).filename().empty() || dir_ == "/")
+    throw SceneError(dir, "", "is not a folder that can be written");
   if (fs::exists(dir_, ec)) {
     if (!fs::is_directory(dir_, ec)) throw SceneError(dir, "", "output path exists and is not a folder");
     if (!fs::is_empty(dir_, ec)) checkReplaceable(dir);
   }
+}
+
+void OutputWriter::begin() {
+  if (begun_) return;
+  std::error_code ec;
   const fs::path parent = fs::path(dir_).parent_path();
   fs::create_directories(parent, ec);
-  if (ec) throw SceneError(dir, "", "cannot create the parent folder: " + ec.message());
+  if (ec) throw SceneError(given_, "", "cannot create the parent folder: " + ec.message());
+  removeStaleStaging();
   std::random_device rd;
   staging_ = dir_ + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(rd() % 100000);
   fs::create_directories(staging_, ec);
-  if (ec) throw SceneError(dir, "", "cannot create a folder next to it: " + ec.message());
+  if (ec) throw SceneError(given_, "", "cannot create a folder next to it: " + ec.message());
+  begun_ = true;
+  // Its marker names its owner from the start, so that a later run can tell it was left behind.
+  std::ofstream marker(fs::path(staging_) / kMarker);
+  marker << nlohmann::json{{"format", "crumple-output/1"}, {"files", nlohmann::json::array()}, {"owner", ownerRecord()}}
+                .dump(1)
+         << "\n";
+  if (!marker) throw std::runtime_error(staging_ + ": cannot write " + kMarker);
+}
+
+void OutputWriter::removeStaleStaging() const {
+  const fs::path parent = fs::path(dir_).parent_path();
+  const std::string base = fs::path(dir_).filename().string();
+  std::error_code ec;
+  std::vector<fs::path> stale;
+  for (auto it = fs::directory_iterator(parent, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    const fs::path p = it->path();
+    if (!isStagingName(p.filename().string(), base)) continue;
+    std::error_code sec;
+    // A real folder (not a link to one) holding a regular marker file.
+    if (!fs::is_directory(fs::symlink_status(p, sec)) || !fs::is_regular_file(fs::symlink_status(p / kMarker, sec)))
+      continue;
+    if (fs::file_size(p / kMarker, sec) > (1u << 20) || sec) continue;
+    try {
+      std::ifstream in(p / kMarker);
+      const nlohmann::json marker = nlohmann::json::parse(in);
+      if (marker.is_object() && marker.contains("format") && marker["format"] == "crumple-output/1" &&
+          marker.contains("owner") && ownerGone(marker["owner"]))
+        stale.push_back(p);
+    } catch (const std::exception&) {
+      continue;  // not a marker crumple wrote: not touched
+    }
+  }
+  for (const fs::path& p : stale) {
+    std::error_code rec;
+    fs::remove_all(p, rec);
+    if (rec)
+      logWarning(p.string(), ": cannot remove this staging folder of a run that did not end: ", rec.message());
+    else
+      logInfo("removed ", p.string(), ", the staging folder of a run that did not end");
+  }
 }
 
 void OutputWriter::checkReplaceable(const std::string& dir) const {
@@ -156,7 +285,7 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
   for (const EventRecord& r : sim.events()) deformedSides += r.side[0].deformed + r.side[1].deformed;
   json s;
   s["scene"] = sim.scene().name;
-  s["scene_file"] = sim.scene().file;
+  s["scene_file"] = escapeInvalidUtf8(sim.scene().file);  // a path: bytes, not always UTF-8
   s["steps"] = sim.steps();
   s["time"] = sim.world().time();
   s["bodies"] = bodiesArray(sim);
@@ -209,6 +338,7 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
 }
 
 void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {
+  begin();
   const fs::path root(staging_);
   fs::create_directories(root / "heightmaps");
   fs::create_directories(root / "normalmaps");
@@ -247,6 +377,7 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
 }
 
 void OutputWriter::commit() {
+  if (!begun_ || staging_.empty()) throw std::logic_error("OutputWriter::commit before write");
   std::error_code ec;
   if (fs::exists(dir_, ec) && !fs::is_empty(dir_, ec)) checkReplaceable(dir_);  // again: a file may have come since
   // The marker: every file this run wrote, so that the next run replaces only what crumple wrote.
@@ -254,9 +385,14 @@ void OutputWriter::commit() {
     nlohmann::json files = nlohmann::json::array();
     const fs::path root(staging_);
     for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator(); ++it)
-      if (!it->is_directory()) files.push_back(fs::relative(it->path(), root).generic_string());
+      if (!it->is_directory() && it->path() != root / kMarker)
+        files.push_back(fs::relative(it->path(), root).generic_string());
     std::sort(files.begin(), files.end());
-    std::ofstream(root / kMarker) << nlohmann::json{{"format", "crumple-output/1"}, {"files", files}}.dump(1) << "\n";
+    // Without its owner now: the folder is an output, not a staging folder.
+    std::ofstream marker(root / kMarker);
+    marker << nlohmann::json{{"format", "crumple-output/1"}, {"files", files}}.dump(1) << "\n";
+    marker.close();
+    if (!marker) throw std::runtime_error(staging_ + ": cannot write " + kMarker);
   }
   if (fs::exists(dir_, ec)) {
     const std::string old = staging_ + ".old";

@@ -26,11 +26,20 @@ std::vector<std::string> eventLines(Simulation& sim);
 // A folder is replaced only when crumple wrote it and nothing else is in it: its
 // marker file (kMarker) lists every file crumple wrote there; a folder with any
 // other file, or without the marker, is refused before the run starts.
+//
+// The staging folder, DIR.partial-<pid>-<n>, carries the marker from the start, with its owner: the process id,
+// the process's start time and the machine's boot id. A run killed outright (SIGKILL, a crash, a power cut) leaves
+// it behind; the next writer to DIR removes such folders once their owner is gone (begin()). A folder without the
+// marker, or whose owner still runs (or runs on another machine), is never touched.
 class OutputWriter {
  public:
   static constexpr const char* kMarker = ".crumple-output";
-  explicit OutputWriter(const std::string& dir);  // throws SceneError(dir) if dir is unusable
-  ~OutputWriter();                                // removes the staging folder if not committed
+  // Checks that dir can be written (throws SceneError(dir) if not); creates nothing yet.
+  explicit OutputWriter(const std::string& dir);
+  ~OutputWriter();  // removes the staging folder if not committed
+  // Removes stale staging folders of DIR (above) and creates this writer's own. write() calls it when needed.
+  void begin();
+  // The staging folder (empty before begin()).
   const std::string& staging() const { return staging_; }
   void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
   // With it on, write() also writes export/scene.gltf (engine/gltf_export.h) into the folder.
@@ -41,8 +50,9 @@ class OutputWriter {
 
  private:
   void checkReplaceable(const std::string& dir) const;
-  std::string dir_, staging_;
-  bool committed_ = false;
+  void removeStaleStaging() const;
+  std::string given_, dir_, staging_;
+  bool begun_ = false, committed_ = false;
   bool exportGltf_ = false;
 };
 

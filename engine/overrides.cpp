@@ -24,16 +24,30 @@ bool allDigits(const std::string& s) {
   return true;
 }
 
+// Key paths are short: a scene's deepest key path has a handful of parts. The bounds are checked before anything
+// else, and the path is read in one pass: a key of 60000 parts is refused at once, not parsed into 60000 objects.
+constexpr size_t kMaxKeyPathBytes = 1024, kMaxKeyPathParts = 64;
+
 std::vector<PathStep> splitPath(const std::string& key, const std::string& file) {
-  auto fail = [&](const std::string& why) -> void { throw SceneError(file, key, "bad key path: " + why); };
+  // A key path too long to name in full is quoted: its start and end, escaped.
+  auto fail = [&](const std::string& why) -> void {
+    throw SceneError(file, key.size() > kMaxKeyPathBytes ? quoteText(key) : key, "bad key path: " + why);
+  };
+  if (key.size() > kMaxKeyPathBytes)
+    fail("longer than " + std::to_string(kMaxKeyPathBytes) + " characters (" + std::to_string(key.size()) + ")");
+  if (!isValidUtf8(key)) fail("not valid UTF-8");
   std::vector<PathStep> steps;
   size_t i = 0;
+  auto push = [&](PathStep s) {
+    if (steps.size() == kMaxKeyPathParts) fail("more than " + std::to_string(kMaxKeyPathParts) + " parts");
+    steps.push_back(std::move(s));
+  };
   auto readKey = [&]() {
     const size_t start = i;
     while (i < key.size() && key[i] != '.' && key[i] != '[') ++i;
     if (i == start) fail(start == 0 ? "it starts with '" + std::string(1, key[0]) + "'" : "an empty key at column " +
                                                                                               std::to_string(start + 1));
-    steps.push_back({false, false, key.substr(start, i - start)});
+    push({false, false, key.substr(start, i - start)});
   };
   if (key.empty()) fail("it is empty");
   if (key[0] != '[') readKey();
@@ -66,7 +80,7 @@ std::vector<PathStep> splitPath(const std::string& key, const std::string& file)
         i = end;
       }
       ++i;  // past ']'
-      steps.push_back(std::move(s));
+      push(std::move(s));
       if (i < key.size() && key[i] != '.' && key[i] != '[')
         fail("expected '.' or '[' after ']' at column " + std::to_string(i + 1));
     } else {
@@ -93,7 +107,7 @@ std::string lastKey(const std::string& path) {
 
 std::string listNames(const std::vector<std::string>& names) {
   std::string out;
-  for (size_t i = 0; i < names.size() && i < 12; ++i) out += (i ? ", " : "") + capText(names[i], 40);
+  for (size_t i = 0; i < names.size() && i < 12; ++i) out += (i ? ", " : "") + quoteText(names[i], 40);
   if (names.size() > 12) out += ", ... (" + std::to_string(names.size()) + " in all)";
   return out.empty() ? "none" : out;
 }
@@ -125,8 +139,8 @@ struct OverriddenScope {
 // Applies one override; returns its canonical path and appends it, and every object it created, to `written`.
 std::string applyOne(json& root, const Override& o, const std::string& file, std::vector<std::string>& written) {
   const std::string& key = o.first;
-  const json value = overrideValue(file, key, o.second);
   const std::vector<PathStep> steps = splitPath(key, file);
+  const json value = overrideValue(file, key, o.second);
   json* cur = &root;
   std::string path;  // canonical so far
   for (size_t s = 0; s < steps.size(); ++s) {
@@ -165,7 +179,7 @@ std::string applyOne(json& root, const Override& o, const std::string& file, std
         }
         if (index == cur->size())
           throw SceneError(file, key,
-                           "no " + singular(arrayKey) + " is named '" + capText(step.text, 100) + "' (" +
+                           "no " + singular(arrayKey) + " is named '" + quoteText(step.text) + "' (" +
                                (path.empty() ? std::string("names") : path) + ": " + listNames(names) + ")");
       }
       path += "[" + std::to_string(index) + "]";
@@ -173,7 +187,8 @@ std::string applyOne(json& root, const Override& o, const std::string& file, std
       continue;
     }
     if (!cur->is_object())
-      throw SceneError(file, key, where + " is " + kindOf(*cur) + ", not an object: it has no key '" + step.text + "'");
+      throw SceneError(file, key,
+                       where + " is " + kindOf(*cur) + ", not an object: it has no key '" + quoteText(step.text) + "'");
     const std::string child = path.empty() ? step.text : path + "." + step.text;
     if (!cur->contains(step.text)) {
       // A material is set key by key only when it is defined (a typo would make a new material silently).
@@ -181,7 +196,7 @@ std::string applyOne(json& root, const Override& o, const std::string& file, std
         std::vector<std::string> names;
         for (auto it = cur->begin(); it != cur->end(); ++it) names.push_back(it.key());
         throw SceneError(file, key,
-                         "no material is named '" + capText(step.text, 100) + "' (materials: " + listNames(names) + ")");
+                         "no material is named '" + quoteText(step.text) + "' (materials: " + listNames(names) + ")");
       }
       if (path.empty() && step.text == "materials" && !last)
         throw SceneError(file, key, "the scene defines no materials");
@@ -234,6 +249,8 @@ Override parseOverride(const std::string& assignment) {
 }
 
 json overrideValue(const std::string& file, const std::string& key, const std::string& value) {
+  // A plain word is taken as a string as it is: it must be text, as a scene file's strings are.
+  if (!isValidUtf8(value)) throw SceneError(file, key, "the value '" + quoteText(value) + "' is not valid UTF-8");
   try {
     return json::parse(value);
   } catch (const json::exception& e) {
@@ -244,7 +261,7 @@ json overrideValue(const std::string& file, const std::string& key, const std::s
       std::string what = e.what();
       const size_t pos = what.find("] ");
       if (pos != std::string::npos) what = what.substr(pos + 2);
-      throw SceneError(file, key, "the value '" + capText(value, 60) + "' is not valid JSON: " + what);
+      throw SceneError(file, key, "the value '" + quoteText(value) + "' is not valid JSON: " + what);
     }
     return json(value);  // a plain word: a string
   }

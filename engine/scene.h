@@ -17,20 +17,41 @@
 
 namespace crumple {
 
-// `text` kept to at most `limit` characters: its start and end, with what was left out counted between.
+// `text` kept to at most `limit` bytes: its start and end, with what was left out counted between. The cuts fall
+// between UTF-8 sequences, never inside one.
 inline std::string capText(const std::string& text, size_t limit) {
   if (text.size() <= limit) return text;
-  const size_t keep = limit / 2;
-  return text.substr(0, keep) + "...(" + std::to_string(text.size() - 2 * keep) + " characters)..." +
-         text.substr(text.size() - keep);
+  auto continuation = [&](size_t i) { return i < text.size() && (static_cast<unsigned char>(text[i]) & 0xC0) == 0x80; };
+  size_t head = limit / 2, tail = text.size() - limit / 2;
+  while (head > 0 && continuation(head)) --head;
+  while (tail < text.size() && continuation(tail)) ++tail;
+  return text.substr(0, head) + "...(" + std::to_string(tail - head) + " characters)..." + text.substr(tail);
 }
 
+// Whether `text` is well-formed UTF-8 (no overlong forms, surrogates, or code points beyond U+10FFFF).
+bool isValidUtf8(const std::string& text);
+// `text` with every byte that is not part of well-formed UTF-8 written as \xNN: safe to print and to hand to
+// Python, the rest unchanged.
+std::string escapeInvalidUtf8(const std::string& text);
+// `text` as a message quotes it: control characters and bytes that are not UTF-8 escaped (\n, \xNN), and at most
+// `limit` characters (its start and end, what was left out counted between).
+std::string quoteText(const std::string& text, size_t limit = 60);
+
+// The longest name crumple takes (a scene, a body, a camera, a joint, a material, a collision group), in bytes.
+constexpr size_t kMaxNameBytes = 128;
+// Why `name` cannot name an output file or folder (the scene's out/<name>, a body's heightmaps/<name>.png, a
+// camera's frames/<name>_<frame>.png): empty, longer than kMaxNameBytes, not UTF-8, '/', '\\' or a control
+// character in it, or '.' or '..'. "" when it can.
+std::string fileNameProblem(const std::string& name);
+
 // Bad input: names the file, the key path and what is wrong. Apps exit with 2. Each part is capped
-// (a 100000-character path or an echoed value must not make a 100 KB message).
+// (a 100000-character path or an echoed value must not make a 100 KB message) and bytes that are not UTF-8 are
+// escaped in the message.
 struct SceneError : std::runtime_error {
   SceneError(const std::string& file, const std::string& keyPath, const std::string& what)
-      : std::runtime_error(capText(file, 300) + ": " + (keyPath.empty() ? "" : capText(keyPath, 300) + ": ") +
-                           capText(what, 600)),
+      : std::runtime_error(capText(escapeInvalidUtf8(file), 300) + ": " +
+                           (keyPath.empty() ? "" : capText(escapeInvalidUtf8(keyPath), 300) + ": ") +
+                           capText(escapeInvalidUtf8(what), 600)),
         file(file),
         keyPath(keyPath),
         reason(what) {}

@@ -6,8 +6,9 @@
 #include <set>
 #include <sstream>
 
-#include "engine/scene.h"
+#include "engine/input_file.h"
 #include "engine/overrides.h"
+#include "engine/scene.h"
 #include "core/log.h"
 
 namespace crumple {
@@ -82,7 +83,7 @@ class Node {
       bool ok = false;
       for (const char* k : known) ok = ok || it.key() == k;
       if (!ok && isOverriddenPath(join(it.key()))) fail(it.key(), "unknown key");  // set by an override
-      if (!ok) logWarning(file_, ": ", join(it.key()), ": unknown key, ignored");
+      if (!ok) logWarning(quoteText(file_, 300), ": ", quoteText(join(it.key()), 300), ": unknown key, ignored");
     }
   }
 
@@ -140,7 +141,7 @@ class Node {
       if (names[i].first == v) return names[i].second;
       list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + ("\"" + names[i].first + "\"");
     }
-    fail(key, "must be " + list + ", got '" + v + "'");
+    fail(key, "must be " + list + ", got '" + quoteText(v) + "'");
   }
   std::string requiredString(const std::string& key) const {
     if (!has(key)) fail(key, "is required");
@@ -216,9 +217,19 @@ Material parseMaterial(const Node& n, const std::string& name) {
   m.roughness = static_cast<float>(n.number("roughness", m.roughness, 0, 1));
   m.texture = n.string("texture", m.texture);
   if (m.texture != "none" && m.texture != "asphalt" && m.texture != "concrete" && m.texture != "clay")
-    n.fail("texture", "unknown texture '" + m.texture + "' (expected asphalt, concrete, clay or none)");
+    n.fail("texture", "unknown texture '" + quoteText(m.texture) + "' (expected asphalt, concrete, clay or none)");
   m.textureScale = static_cast<float>(n.number("texture_scale", m.textureScale, 0.01, 100));
   return m;
+}
+
+// The longest file name a scene gives (a mesh, an image), in bytes: Linux's PATH_MAX.
+constexpr size_t kMaxPathBytes = 4096;
+
+// A name that does not name files (a joint, a material, a collision group): at most kMaxNameBytes, not empty.
+std::string nameProblem(const std::string& name) {
+  if (name.empty()) return "must not be empty";
+  if (name.size() > kMaxNameBytes) return "longer than " + std::to_string(kMaxNameBytes) + " characters";
+  return "";
 }
 
 // Shapes thinner than this are rejected: their mass properties and atlases degenerate.
@@ -247,9 +258,10 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
     n.checkKeys({"type", "file", "scale"});
     const std::string f = n.requiredString("file");
     if (f.empty()) n.fail("file", "must not be empty");
+    if (f.size() > kMaxPathBytes) n.fail("file", "longer than " + std::to_string(kMaxPathBytes) + " characters");
     s.file = resolvePath(baseDir, f);
-    std::error_code ec;
-    if (!fs::is_regular_file(s.file, ec)) n.fail("file", "no such file: " + s.file);
+    if (const std::string why = inputFileProblem(s.file, kMaxMeshFileBytes, "mesh file"); !why.empty())
+      n.fail("file", s.file + ": " + why);
     if (n.has("scale")) {
       const json& v = n.raw("scale");
       if (v.is_number()) {
@@ -263,7 +275,7 @@ ShapeDesc parseShape(const Node& n, const std::string& baseDir) {
       }
     }
   } else {
-    n.fail("type", "unknown shape type '" + s.type + "' (expected box, sphere, capsule, cylinder or mesh)");
+    n.fail("type", "unknown shape type '" + quoteText(s.type) + "' (expected box, sphere, capsule, cylinder or mesh)");
   }
   return s;
 }
@@ -350,20 +362,15 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
                "bump_map", "vehicle", "contact_deformation", "kinematic", "path", "group"});
   BodyDesc b;
   b.name = n.requiredString("name");
-  if (b.name.empty()) n.fail("name", "must not be empty");
-  if (b.name.size() > 128) n.fail("name", "longer than 128 characters");
-  for (unsigned char c : b.name) {
-    if (c < 32 || c == '/' || c == '\\' || c == 127)
-      n.fail("name", "must not contain '/', '\\' or control characters (it names output files)");
-  }
-  if (b.name == "." || b.name == "..") n.fail("name", "must not be '.' or '..'");
+  if (const std::string why = fileNameProblem(b.name); !why.empty()) n.fail("name", why);
   if (!n.has("shape")) n.fail("shape", "is required");
   b.shape = parseShape(n.child("shape"), baseDir);
   b.material = n.requiredString("material");
   if (!scene.materials.count(b.material)) {
     std::string known;
-    for (const auto& [k, v] : scene.materials) known += (known.empty() ? "" : ", ") + k;
-    n.fail("material", "unknown material '" + b.material + "' (defined: " + (known.empty() ? "none" : known) + ")");
+    for (const auto& [k, v] : scene.materials) known += (known.empty() ? "" : ", ") + quoteText(k, 40);
+    n.fail("material",
+           "unknown material '" + quoteText(b.material) + "' (defined: " + (known.empty() ? "none" : known) + ")");
   }
   b.isStatic = n.boolean("static", false);
   b.position = n.vec3("position", b.position);
@@ -379,10 +386,10 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
     if (bm.has("image")) {
       const std::string img = bm.string("image", "");
       if (img.empty()) bm.fail("image", "must not be empty");
+      if (img.size() > kMaxPathBytes) bm.fail("image", "longer than " + std::to_string(kMaxPathBytes) + " characters");
       b.bumpMap.image = resolvePath(baseDir, img);
-      std::error_code ec;
-      if (fs::is_directory(b.bumpMap.image, ec)) bm.fail("image", "is a folder, not an image file: " + b.bumpMap.image);
-      if (!fs::is_regular_file(b.bumpMap.image, ec)) bm.fail("image", "no such file: " + b.bumpMap.image);
+      if (const std::string why = inputFileProblem(b.bumpMap.image, kMaxImageFileBytes, "image file"); !why.empty())
+        bm.fail("image", b.bumpMap.image + ": " + why);
     }
     if (bm.has("bump_depth")) b.bumpMap.bumpDepth = bm.number("bump_depth", 0.1, 0, 10, true);
     if (bm.has("bump_depth_collide")) b.bumpMap.bumpDepthCollide = bm.number("bump_depth_collide", 0.02, 0, 10);
@@ -416,7 +423,7 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
     }
   }
   b.group = n.string("group", b.group);
-  if (b.group.empty()) n.fail("group", "must not be empty");
+  if (const std::string why = nameProblem(b.group); !why.empty()) n.fail("group", why);
   return b;
 }
 
@@ -426,7 +433,7 @@ JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& b
                "collide_connected", "length", "min", "max"});
   JointDesc j;
   j.name = n.string("name", "joint" + std::to_string(index));
-  if (j.name.empty()) n.fail("name", "must not be empty");
+  if (const std::string why = nameProblem(j.name); !why.empty()) n.fail("name", why);
   const std::string type = n.requiredString("type");
   if (type == "ball")
     j.def.type = JointType::Ball;
@@ -439,14 +446,14 @@ JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& b
   else if (type == "distance")
     j.def.type = JointType::Distance;
   else
-    n.fail("type", "unknown joint type '" + type + "' (expected ball, hinge, slider, fixed or distance)");
+    n.fail("type", "unknown joint type '" + quoteText(type) + "' (expected ball, hinge, slider, fixed or distance)");
   auto bodyName = [&](const char* key, bool optional) {
     if (!n.has(key) || (optional && n.raw(key).is_null())) {
       if (!optional) n.fail(key, "is required (a body name)");
       return std::string();
     }
     const std::string name = n.string(key, "");
-    if (!bodies.count(name)) n.fail(key, "no body is named '" + name + "'");
+    if (!bodies.count(name)) n.fail(key, "no body is named '" + quoteText(name) + "'");
     return name;
   };
   j.a = bodyName("a", true);
@@ -534,9 +541,16 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   s.file = file;
   if (n.has("format")) {
     const std::string f = n.string("format", "");
-    if (f != "crumple-scene/1") n.fail("format", "unsupported format '" + f + "' (expected crumple-scene/1)");
+    if (f != "crumple-scene/1")
+      n.fail("format", "unsupported format '" + quoteText(f) + "' (expected crumple-scene/1)");
   }
   s.name = n.string("name", fs::path(file).stem().string());
+  // It names the default output folder, out/<name>: a name such as "../x" would write outside out/.
+  if (const std::string why = fileNameProblem(s.name); !why.empty())
+    n.fail("name", n.has("name")
+                       ? why
+                       : "the file name's '" + quoteText(s.name) + "', the scene's name without a \"name\", " + why +
+                             " (give the scene a \"name\")");
   s.gravity = n.vec3("gravity", s.gravity, 1e3);
   s.timestep = n.number("timestep", s.timestep, 1e-5, 0.1, false);
   if (n.has("timestep") && !(n.raw("timestep").get<double>() > 0)) n.fail("timestep", "must be positive");
@@ -548,6 +562,8 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     Node mats = n.child("materials");
     for (auto it = mats.value().begin(); it != mats.value().end(); ++it) {
       if (it.key().empty()) mats.fail("", "a material name must not be empty");
+      if (const std::string why = nameProblem(it.key()); !why.empty())
+        mats.fail("", "the material name '" + quoteText(it.key()) + "' is " + why);
       s.materials[it.key()] = parseMaterial(Node(it.value(), mats.join(it.key()), file), it.key());
     }
   }
@@ -571,7 +587,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     else if (path == "readback")
       o.path = deform::Path::Readback;
     else
-      d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + path + "'");
+      d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + quoteText(path) + "'");
     o.addressRaster = d.choice<deform::AddressRaster>("address_raster", {{"auto", deform::AddressRaster::Auto},
                                                                          {"compute", deform::AddressRaster::Compute},
                                                                          {"fragment", deform::AddressRaster::Fragment}});
@@ -592,7 +608,8 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   for (size_t i = 0; i < bodies.size(); ++i) {
     const std::string path = "bodies[" + std::to_string(i) + "]";
     BodyDesc b = parseBody(Node(bodies[i], path, file), s, baseDir);
-    if (!names.insert(b.name).second) throw SceneError(file, path + ".name", "duplicate body name '" + b.name + "'");
+    if (!names.insert(b.name).second)
+      throw SceneError(file, path + ".name", "duplicate body name '" + quoteText(b.name) + "'");
     s.bodies.push_back(std::move(b));
   }
   std::set<std::string> groups;
@@ -610,7 +627,8 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     for (size_t i = 0; i < js.size(); ++i) {
       const std::string path = "joints[" + std::to_string(i) + "]";
       JointDesc j = parseJoint(Node(js[i], path, file), i, names);
-      if (!jointNames.insert(j.name).second) throw SceneError(file, path + ".name", "duplicate joint name '" + j.name + "'");
+      if (!jointNames.insert(j.name).second)
+        throw SceneError(file, path + ".name", "duplicate joint name '" + quoteText(j.name) + "'");
       s.joints.push_back(std::move(j));
     }
   }
@@ -624,7 +642,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
       for (size_t k = 0; k < 2; ++k)
         if (!groups.count(nc[i][k].get<std::string>()))
           throw SceneError(file, path + "[" + std::to_string(k) + "]",
-                           "no body is in group '" + nc[i][k].get<std::string>() + "'");
+                           "no body is in group '" + quoteText(nc[i][k].get<std::string>()) + "'");
       s.noCollide.push_back({nc[i][0].get<std::string>(), nc[i][1].get<std::string>()});
     }
   }
@@ -638,16 +656,15 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
       c.checkKeys({"name", "position", "target", "up", "fov", "follow", "follow_heading", "displace"});
       CameraDesc cd;
       cd.name = c.string("name", "camera" + std::to_string(i));
-      for (unsigned char ch : cd.name)
-        if (ch < 32 || ch == '/' || ch == '\\') c.fail("name", "must not contain '/', '\\' or control characters");
-      if (cd.name.empty()) c.fail("name", "must not be empty");
-      if (!camNames.insert(cd.name).second) c.fail("name", "duplicate camera name '" + cd.name + "'");
+      if (const std::string why = fileNameProblem(cd.name); !why.empty()) c.fail("name", why);
+      if (!camNames.insert(cd.name).second) c.fail("name", "duplicate camera name '" + quoteText(cd.name) + "'");
       cd.position = c.vec3("position", cd.position);
       cd.target = c.vec3("target", cd.target);
       cd.up = c.vec3("up", cd.up);
       cd.fov = c.number("fov", cd.fov, 0, 180, true, true);
       cd.follow = c.string("follow", "");
-      if (c.has("follow") && !names.count(cd.follow)) c.fail("follow", "no body is named '" + cd.follow + "'");
+      if (c.has("follow") && !names.count(cd.follow))
+        c.fail("follow", "no body is named '" + quoteText(cd.follow) + "'");
       cd.followHeading = c.boolean("follow_heading", false);
       if (c.has("follow_heading") && cd.follow.empty()) c.fail("follow_heading", "needs \"follow\"");
       cd.displace = c.boolean("displace", false);
@@ -663,15 +680,15 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
 Scene loadScene(const std::string& path) { return loadScene(path, {}); }
 
 Scene loadScene(const std::string& path, const std::vector<std::pair<std::string, std::string>>& overrides) {
+  std::string text;
+  try {
+    text = readInputFile(path, kMaxSceneFileBytes, "scene file");
+  } catch (const InputFileError& e) {
+    throw SceneError(path, "", e.what());
+  }
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw SceneError(path, "", "no such file");
-  if (fs::is_directory(path, ec)) throw SceneError(path, "", "is a directory, not a scene file");
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw SceneError(path, "", "cannot be opened for reading");
-  std::ostringstream os;
-  os << f.rdbuf();
   const std::string base = fs::absolute(path, ec).parent_path().string();
-  return parseScene(os.str(), path, base, overrides);
+  return parseScene(text, path, base, overrides);
 }
 
 }  // namespace crumple

@@ -2,6 +2,7 @@
 // JSON, and every path that does not exist refused with the key path named.
 #include <doctest/doctest.h>
 
+#include <chrono>
 #include <string>
 
 #include "engine/overrides.h"
@@ -119,4 +120,44 @@ TEST_CASE("overrides: applyOverrides returns the paths as the loader writes them
   CHECK(paths == std::vector<std::string>{"bodies[1].velocity", "cameras[0].fov"});
   CHECK(doc["bodies"][1]["velocity"] == json::array({0, -8, 0}));
   CHECK(doc["cameras"][0]["fov"] == json(20));
+}
+
+TEST_CASE("overrides: key paths are bounded (64 parts, 1024 characters) and read in one pass") {
+  // 65 parts: refused for its parts, before any object is made for them.
+  std::string parts = "a";
+  for (int i = 1; i < 65; ++i) parts += ".a";
+  REQUIRE(error({{parts, "1"}}) == "t.json: " + parts + ": bad key path: more than 64 parts");
+  std::string brackets = "bodies";
+  for (int i = 0; i < 64; ++i) brackets += "[0]";
+  CHECK(error({{brackets, "1"}}).find("bad key path: more than 64 parts") != std::string::npos);
+  // 64 parts are a path like any other (here one the scene does not have).
+  std::string sixtyFour = "a";
+  for (int i = 1; i < 64; ++i) sixtyFour += ".a";
+  CHECK(error({{sixtyFour, "1"}}).find("unknown key") != std::string::npos);
+  // Over 1024 characters: refused for its length, quoted in the message.
+  const std::string longKey = "bodies[" + std::string(2000, 'x') + "].velocity";
+  CHECK(error({{longKey, "1"}}) == "t.json: bodies[" + std::string(23, 'x') + "...(1957 characters)..." +
+                                       std::string(20, 'x') +
+                                       "].velocity: bad key path: longer than 1024 characters (2017)");
+  // The fuzzer's key: 60000 dotted parts (memory grew with its square). Now refused at once, in a short message.
+  std::string huge = "a";
+  for (int i = 1; i < 60000; ++i) huge += ".a";
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string hugeError = error({{huge, "1"}});
+  CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 0.5);
+  CHECK(hugeError.find("bad key path: longer than 1024 characters (119999)") != std::string::npos);
+  CHECK(hugeError.size() < 200);
+}
+
+TEST_CASE("overrides: a key or a value that is not UTF-8 is bad input, quoted escaped") {
+  CHECK_THROWS_WITH_AS(load({{"bodies[ball].name", "ball\xff"}}),
+                       "t.json: bodies[ball].name: the value 'ball\\xFF' is not valid UTF-8", SceneError);
+  CHECK_THROWS_WITH_AS(load({{"name", "\"\xc3\""}}),
+                       doctest::Contains("t.json: name: the value '\"\\xC3\"' is not valid UTF-8"), SceneError);
+  CHECK_THROWS_WITH_AS(load({{"bodies[b\xe9].velocity", "[0,1,0]"}}),
+                       "t.json: bodies[b\\xE9].velocity: bad key path: not valid UTF-8", SceneError);
+  // A long value is quoted: its start and end.
+  const std::string longValue = "[" + std::string(5000, '1');
+  CHECK(error({{"duration", longValue}}).find("the value '[" + std::string(29, '1') + "...(4941 characters)...") !=
+        std::string::npos);
 }

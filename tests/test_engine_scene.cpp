@@ -2,13 +2,17 @@
 // every error names the file, the key path and the reason.
 #include <doctest/doctest.h>
 
+#include <fcntl.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "engine/assets.h"
 #include "engine/atlas.h"
@@ -807,4 +811,158 @@ TEST_CASE("a GLB whose header lies about its length, or a glTF of millions of JS
             tempFile("values.gltf", gltfWith("\"byteLength\": 72", "\"byteLength\": 72, \"extras\": [" + zeros + "]")))
             .find("more than 4194304 values") != std::string::npos);
   CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 2);
+}
+
+TEST_CASE(
+    "a scene's name names its output folder: a path, '..', a control character or over 128 characters is refused") {
+  // The name makes crumple-sim's default output folder out/<name>: "../../escaped" would write outside out/.
+  for (const std::string& bad : {std::string("../../escaped"), std::string(".."), std::string("."), std::string("a/b"),
+                                 std::string("a\\\\b"), std::string("a\\tb"), std::string(129, 'x'), std::string("")}) {
+    CAPTURE(bad);
+    const std::string err = errorOf(mutate("\"name\": \"t\"", "\"name\": \"" + bad + "\""));
+    CAPTURE(err);
+    CHECK(err.find("bad.json: name: ") == 0);
+    CHECK(err.size() < 300);
+  }
+  CHECK(errorOf(mutate("\"name\": \"t\"", "\"name\": \"../../escaped\"")) ==
+        "bad.json: name: must not contain '/', '\\' or control characters (it names output files)");
+  CHECK(errorOf(mutate("\"name\": \"t\"", "\"name\": \"" + std::string(129, 'x') + "\"")) ==
+        "bad.json: name: longer than 128 characters");
+  // Without "name" the file's name is the scene's: "...json" would be "..", a file name of bytes that are not
+  // UTF-8 would be a name summary.json cannot hold.
+  const std::string unnamed = mutate("\"name\": \"t\", ", "");
+  for (const std::string& file : {std::string("dir/...json"), std::string("dir/caf\xe9.json")}) {
+    CAPTURE(file);
+    try {
+      parseScene(unnamed, file, ".");
+      FAIL("no error");
+    } catch (const SceneError& e) {
+      CAPTURE(e.what());
+      CHECK(e.keyPath == "name");
+      CHECK(std::string(e.what()).find("give the scene a \"name\"") != std::string::npos);
+      CHECK(isValidUtf8(e.what()));
+    }
+  }
+  // Names that are fine: spaces, dots inside, UTF-8, 128 characters.
+  CHECK(parseScene(mutate("\"name\": \"t\"", "\"name\": \"run 2 (v1.5)\""), "x.json", ".").name == "run 2 (v1.5)");
+  CHECK(parseScene(mutate("\"name\": \"t\"", "\"name\": \"d\xc3\xa9j\xc3\xa0\""), "x.json", ".").name ==
+        "d\xc3\xa9j\xc3\xa0");
+  CHECK(
+      parseScene(mutate("\"name\": \"t\"", "\"name\": \"" + std::string(128, 'x') + "\""), "x.json", ".").name.size() ==
+      128);
+  CHECK(parseScene(unnamed, "dir/my-run.json", ".").name == "my-run");
+}
+
+TEST_CASE("camera, joint, material and group names over 128 characters are bad input with a short message") {
+  const std::string longName(5000, 'c');
+  const std::string camera = errorOf(mutate("\"name\": \"main\"", "\"name\": \"" + longName + "\""));
+  CHECK(camera == "bad.json: cameras[0].name: longer than 128 characters");
+  CHECK(errorOf(mutate("\"name\": \"main\"", "\"name\": \"..\"")) ==
+        "bad.json: cameras[0].name: must not be '.' or '..'");
+  const std::string material = errorOf(mutate("\"clay\": {", "\"" + longName + "\": {}, \"clay\": {"));
+  CAPTURE(material);
+  CHECK(material.find("bad.json: materials: the material name 'cccc") == 0);
+  CHECK(material.find("longer than 128 characters") != std::string::npos);
+  CHECK(material.size() < 200);
+  const std::string group =
+      errorOf(mutate("\"velocity\": [0, -6, 0]", "\"velocity\": [0, -6, 0], \"group\": \"" + longName + "\""));
+  CHECK(group == "bad.json: bodies[1].group: longer than 128 characters");
+  const std::string joint = errorOf(mutate("\"cameras\"", "\"joints\": [{\"name\": \"" + longName +
+                                                              "\", \"type\": \"ball\", \"b\": \"ball\", "
+                                                              "\"anchor\": [0, 1, 0]}], \"cameras\""));
+  CHECK(joint == "bad.json: joints[0].name: longer than 128 characters");
+  // A name echoed in a message is quoted: at most 60 characters, escaped.
+  const std::string unknown = errorOf(mutate("\"material\": \"clay\", \"position\": [0, 0.6",
+                                             "\"material\": \"" + longName + "\\n\", \"position\": [0, 0.6"));
+  CAPTURE(unknown);
+  CHECK(unknown.find("bodies[1].material: unknown material 'ccccc") != std::string::npos);
+  CHECK(unknown.find("...(4941 characters)...") != std::string::npos);
+  CHECK(unknown.find("cc\\n' (defined: clay)") != std::string::npos);
+  CHECK(unknown.size() < 200);
+}
+
+TEST_CASE(
+    "messages stay UTF-8: quoted text escapes control characters and bytes that are not UTF-8, caps cut between "
+    "characters") {
+  CHECK(isValidUtf8(""));
+  CHECK(isValidUtf8("plain ascii"));
+  CHECK(isValidUtf8("d\xc3\xa9j\xc3\xa0 \xe2\x82\xac \xf0\x9f\x98\x80"));
+  CHECK_FALSE(isValidUtf8("a\xff"));
+  CHECK_FALSE(isValidUtf8("\xc3"));              // cut short
+  CHECK_FALSE(isValidUtf8("\xc0\xaf"));          // overlong '/'
+  CHECK_FALSE(isValidUtf8("\xed\xa0\x80"));      // a surrogate
+  CHECK_FALSE(isValidUtf8("\xf4\x90\x80\x80"));  // beyond U+10FFFF
+  CHECK(quoteText("a\xff"
+                  "b\n\x01") == "a\\xFFb\\n\\x01");
+  CHECK(quoteText("d\xc3\xa9j\xc3\xa0") == "d\xc3\xa9j\xc3\xa0");
+  const std::string quoted = quoteText(std::string(5000, 'x'));
+  CHECK(quoted == std::string(30, 'x') + "...(4940 characters)..." + std::string(30, 'x'));
+  CHECK(escapeInvalidUtf8("ok \xc3\xa9 \xfe") == "ok \xc3\xa9 \\xFE");
+  // 200 two-byte characters capped at 102 bytes (51 each side): the cuts do not split one.
+  std::string accents;
+  for (int i = 0; i < 200; ++i) accents += "\xc3\xa9";
+  CHECK(isValidUtf8(capText(accents, 102)));
+  const SceneError e("f\xff.json", "k", "bad \xfe");
+  CHECK(std::string(e.what()) == "f\\xFF.json: k: bad \\xFE");
+}
+
+namespace {
+// The message of what loadScene throws for `path` ("" when it loads).
+std::string loadError(const fs::path& path) {
+  try {
+    loadScene(path.string());
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE(
+    "only regular files of a bounded size are read as scenes, meshes and images: a FIFO, /dev/zero, a folder or a "
+    "file over the bound is refused before it is read") {
+  const fs::path dir = tempFile("x", "").parent_path();
+  const fs::path fifo = dir / "scene-fifo.json";
+  fs::remove(fifo);
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  // A FIFO's open waits for a writer: should the loader open it, this opens and closes a writer end after
+  // 3 s, and the loader reads an empty file instead of the refusal.
+  std::atomic<bool> done{false};
+  std::thread unblock([&] {
+    for (int i = 0; i < 300 && !done; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (done) return;
+    const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (fd >= 0) ::close(fd);
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string fifoError = loadError(fifo);
+  done = true;
+  unblock.join();
+  CHECK(fifoError == fifo.string() + ": is a FIFO (named pipe), not a regular file: refusing to read it");
+  CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 1);
+  CHECK(loadError("/dev/zero") == "/dev/zero: is a character device, not a regular file: refusing to read it");
+  CHECK(loadError(dir) == dir.string() + ": is a folder, not a scene file");
+  CHECK(loadError(dir / "nope.json") == (dir / "nope.json").string() + ": no such file");
+  // Over 64 MiB (sparse: no disk used): refused by its size.
+  const fs::path big = tempFile("big-scene.json", "{}");
+  fs::resize_file(big, (std::uintmax_t(64) << 20) + 1);
+  CHECK(loadError(big).find(big.string() + ": is larger than 64 MiB (67108865 bytes)") == 0);
+  fs::remove(big);
+  // The same for a mesh: a FIFO as a body's mesh is named for what it is, by the loader and by loadMeshFile.
+  const fs::path meshFifo = dir / "mesh-fifo.obj";
+  fs::remove(meshFifo);
+  REQUIRE(::mkfifo(meshFifo.c_str(), 0600) == 0);
+  const std::string meshError = sceneErrorWithMesh(meshFifo);
+  CAPTURE(meshError);
+  CHECK(meshError.find("bodies[1].shape.file: " + meshFifo.string() + ": is a FIFO (named pipe)") != std::string::npos);
+  CHECK(meshErrorOf(meshFifo) ==
+        meshFifo.string() + ": is a FIFO (named pipe), not a regular file: refusing to read it");
+  CHECK(meshErrorOf("/dev/zero").find("is a character device") != std::string::npos);
+  // And a bump map's image.
+  const std::string image = errorOf(mutate("\"resolution\": 128", "\"image\": \"/dev/zero\""));
+  CHECK(image ==
+        "bad.json: bodies[0].bump_map.image: /dev/zero: is a character device, not a regular file: refusing "
+        "to read it");
+  fs::remove(fifo);
+  fs::remove(meshFifo);
 }

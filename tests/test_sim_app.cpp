@@ -2,9 +2,13 @@
 // folders, determinism, a user's glTF model as a mesh body.
 #include <doctest/doctest.h>
 
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +17,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "core/version.h"
 #include "dent_metrics.h"
@@ -1238,4 +1243,293 @@ TEST_CASE("motion a crash makes runs to the end with every number finite: a cow 
     // No event line carries a number that is not finite (null).
     CHECK(slurp(dir / "events.jsonl").find("null") == std::string::npos);
   }
+}
+
+namespace {
+// A small scene without bump maps (no GL context): `extra` goes into its top level, `camera` is its camera's name.
+std::string smallScene(const std::string& extra, const std::string& camera = "main") {
+  return R"({"format": "crumple-scene/1", )" + extra + R"( "duration": 0.05,
+    "materials": {"steel": {"density": 7800}},
+    "bodies": [{"name": "floor", "shape": {"type": "box", "size": [2, 0.2, 2]}, "material": "steel", "static": true},
+               {"name": "ball", "shape": {"type": "sphere", "radius": 0.1}, "material": "steel", "position": [0, 1, 0]}],
+    "cameras": [{"name": ")" +
+         camera + R"(", "position": [2, 1, 2], "target": [0, 0, 0]}]})";
+}
+
+// Runs `shellCommand` (stdout and stderr into the log) and returns its exit status (-1 when killed).
+int runShell(const std::string& shellCommand, std::string* output) {
+  const fs::path log = kTmp / "shell-log.txt";
+  const int rc = std::system(("( " + shellCommand + " ) > " + log.string() + " 2>&1").c_str());
+  *output = slurp(log);
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+bool anyPathNamed(const fs::path& root, const std::string& name) {
+  for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator(); ++it)
+    if (it->path().filename() == name) return true;
+  return false;
+}
+}  // namespace
+
+TEST_CASE(
+    "a scene's name makes out/<name>: '../../escaped', '..' or a long name is bad input (exit 2), nothing written") {
+  const fs::path cwd = kTmp / "name_cwd" / "run";
+  fs::remove_all(kTmp / "name_cwd");
+  fs::create_directories(cwd);
+  std::string log;
+  writeScene("escaping.json", smallScene(R"("name": "../../escaped",)"));
+  // Without --out the output folder is out/<name>: out/../../escaped is beside the working folder.
+  CHECK(runShell("cd " + cwd.string() + " && " + CRUMPLE_SIM + " " + (kTmp / "escaping.json").string() + " --quiet",
+                 &log) == 2);
+  CHECK(log == "crumple-sim: error: " + (kTmp / "escaping.json").string() +
+                   ": name: must not contain '/', '\\' or control characters (it names output files)\n");
+  CHECK_FALSE(anyPathNamed(kTmp / "name_cwd", "escaped"));
+  CHECK_FALSE(fs::exists(cwd / "out"));
+  // A file named "...json" without a "name" would be the scene "..": out/.. is the working folder.
+  writeScene("...json", smallScene(""));
+  CHECK(runShell("cd " + cwd.string() + " && " + CRUMPLE_SIM + " " + (kTmp / "...json").string() + " --quiet", &log) ==
+        2);
+  CHECK(log.find(": name: the file name's '..', the scene's name without a \"name\", must not be '.' or '..'") !=
+        std::string::npos);
+  CHECK(fs::is_empty(cwd));
+  // A name set on the command line is checked the same way.
+  writeScene("named.json", smallScene(R"("name": "fine",)"));
+  CHECK(runShell("cd " + cwd.string() + " && " + CRUMPLE_SIM + " " + (kTmp / "named.json").string() +
+                     " --quiet --set 'name=\"../up\"'",
+                 &log) == 2);
+  CHECK(log.find("named.json: name: must not contain '/'") != std::string::npos);
+  CHECK(fs::is_empty(cwd));
+  // A good name runs into out/<name>.
+  CHECK(runShell("cd " + cwd.string() + " && " + CRUMPLE_SIM + " " + (kTmp / "named.json").string() + " --quiet",
+                 &log) == 0);
+  CHECK(fs::exists(cwd / "out" / "fine" / "summary.json"));
+}
+
+TEST_CASE(
+    "only regular files are read as scenes and meshes: a FIFO, /dev/zero or a 65 MiB scene is bad input at once") {
+  std::string log;
+  const fs::path fifo = kTmp / "fifo.json";
+  fs::remove(fifo);
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  // A FIFO used to block crumple-sim for good (SIGTERM ignored): `timeout -s KILL` ends such a run with -1.
+  CHECK(runShell("timeout -s KILL 20 " + std::string(CRUMPLE_SIM) + " " + fifo.string() + " --out " +
+                     (kTmp / "fifo_out").string(),
+                 &log) == 2);
+  CHECK(log ==
+        "crumple-sim: error: " + fifo.string() + ": is a FIFO (named pipe), not a regular file: refusing to read it\n");
+  // /dev/zero used to be read to 4 GB (here, in 2 GB of address space, to a failure, exit 1).
+  CHECK(runShell("ulimit -v 2000000; timeout -s KILL 20 " + std::string(CRUMPLE_SIM) + " /dev/zero --out " +
+                     (kTmp / "zero_out").string(),
+                 &log) == 2);
+  CHECK(log == "crumple-sim: error: /dev/zero: is a character device, not a regular file: refusing to read it\n");
+  // Over 64 MiB (sparse).
+  const fs::path big = writeScene("big.json", "{}");
+  fs::resize_file(big, std::uintmax_t(65) << 20);
+  CHECK(runSim(big.string() + " --out " + (kTmp / "big_out").string(), &log) == 2);
+  CHECK(log.find(big.string() + ": is larger than 64 MiB (68157440 bytes): refusing to read it") != std::string::npos);
+  fs::remove(big);
+  // A FIFO as a body's mesh: named for what it is, at the key path.
+  const fs::path meshFifo = kTmp / "fifo.obj";
+  fs::remove(meshFifo);
+  REQUIRE(::mkfifo(meshFifo.c_str(), 0600) == 0);
+  std::string scene = smallScene(R"("name": "fifo-mesh",)");
+  const std::string ball = R"({"type": "sphere", "radius": 0.1})";
+  scene.replace(scene.find(ball), ball.size(), R"({"type": "mesh", "file": "fifo.obj"})");
+  writeScene("fifo-mesh.json", scene);
+  CHECK(runShell("timeout -s KILL 20 " + std::string(CRUMPLE_SIM) + " " + (kTmp / "fifo-mesh.json").string() +
+                     " --out " + (kTmp / "fifo_mesh_out").string(),
+                 &log) == 2);
+  CHECK(log.find("fifo-mesh.json: bodies[1].shape.file: " + meshFifo.string() + ": is a FIFO (named pipe)") !=
+        std::string::npos);
+  for (const char* out : {"fifo_out", "zero_out", "big_out", "fifo_mesh_out"}) CHECK_FALSE(fs::exists(kTmp / out));
+  CHECK(noPartialFolders());
+  fs::remove(fifo);
+  fs::remove(meshFifo);
+}
+
+TEST_CASE("SIGTERM while a scene loads ends crumple-sim at once with 130 and writes nothing") {
+  // A sheet of 97000 triangles without texture coordinates: its atlas takes crumple-sim many seconds to make.
+  {
+    std::ofstream obj(kTmp / "slow.obj");
+    const int n = 220;
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; j <= n; ++j)
+        obj << "v " << double(i) / n << " " << 0.05 * std::sin(i * 0.7) * std::cos(j * 0.9) << " " << double(j) / n
+            << "\n";
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const int a = i * (n + 1) + j + 1, b = a + 1, c = a + n + 2, d = a + n + 1;
+        obj << "f " << a << " " << b << " " << c << "\nf " << a << " " << c << " " << d << "\n";
+      }
+  }
+  std::string scene = smallScene(R"("name": "slow",)");
+  const std::string floor = R"({"type": "box", "size": [2, 0.2, 2]})";
+  scene.replace(scene.find(floor), floor.size(), R"({"type": "mesh", "file": "slow.obj"})");
+  writeScene("slow.json", scene);
+  const fs::path out = kTmp / "slow_out";
+  fs::remove_all(out);
+  const std::string sim = CRUMPLE_SIM, scenePath = (kTmp / "slow.json").string(), outPath = out.string(),
+                    logPath = (kTmp / "slow-log.txt").string();
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    std::freopen(logPath.c_str(), "w", stderr);
+    ::execl(sim.c_str(), sim.c_str(), scenePath.c_str(), "--out", outPath.c_str(), "--quiet",
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ::kill(pid, SIGTERM);
+  // It used to go on loading (the signal noted for the first step): many seconds more.
+  const auto t0 = std::chrono::steady_clock::now();
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(5)) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      FAIL("crumple-sim was still loading 5 s after SIGTERM");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  CAPTURE(slurp(logPath));
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 130);
+  CHECK(slurp(logPath).find("crumple-sim: interrupted while loading: nothing written") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));
+  CHECK(noPartialFolders());
+}
+
+namespace {
+std::string firstLineOf(const fs::path& p) {
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+// This process's start time (/proc/self/stat's 22nd field).
+std::string ownStartTime() {
+  const std::string stat = firstLineOf("/proc/self/stat");
+  std::istringstream fields(stat.substr(stat.rfind(')') + 1));
+  std::string field;
+  for (int i = 3; i <= 22; ++i) fields >> field;
+  return field;
+}
+
+// A staging folder as a crumple-sim run makes it, with a file in it, and a marker naming `owner` (none: no marker).
+void fakeStaging(const fs::path& dir, const json* owner) {
+  fs::create_directories(dir / "heightmaps");
+  std::ofstream(dir / "heightmaps" / "floor.png") << "png";
+  if (owner)
+    std::ofstream(dir / ".crumple-output")
+        << json{{"format", "crumple-output/1"}, {"files", json::array()}, {"owner", *owner}};
+}
+}  // namespace
+
+TEST_CASE(
+    "a staging folder left by a killed run is removed by the next run to its folder; a live run's, or one "
+    "without crumple's marker, never is") {
+  const fs::path root = kTmp / "stale";
+  fs::remove_all(root);
+  fs::create_directories(root);
+  const fs::path out = root / "run";
+  std::string log;
+  // A run killed outright while it writes: its staging folder stays behind.
+  const std::string sim = CRUMPLE_SIM, scenePath = std::string(CRUMPLE_SCENES) + "/highway.json",
+                    outPath = out.string();
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    std::freopen("/dev/null", "w", stderr);
+    ::execl(sim.c_str(), sim.c_str(), scenePath.c_str(), "--duration", "1000", "--quiet", "--out", outPath.c_str(),
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  fs::path killed;
+  for (int i = 0; i < 1200 && killed.empty(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    for (const auto& e : fs::directory_iterator(root))
+      if (e.path().filename().string().rfind("run.partial-", 0) == 0 && fs::exists(e.path() / ".crumple-output"))
+        killed = e.path();
+  }
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  REQUIRE_FALSE(killed.empty());
+  REQUIRE(fs::exists(killed));
+  const json marker = json::parse(slurp(killed / ".crumple-output"));
+  CHECK(marker["owner"]["pid"] == pid);
+
+  // Folders of other owners beside it.
+  const std::string boot = firstLineOf("/proc/sys/kernel/random/boot_id");
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  const json self = {{"pid", ::getpid()}, {"start_time", ownStartTime()}, {"boot_id", boot}, {"host", host}};
+  json reused = self, rebooted = self, elsewhere = self;
+  reused["start_time"] = "1";                                    // this pid, another process before it: gone
+  rebooted["boot_id"] = "00000000-0000-0000-0000-000000000000";  // before a reboot: gone
+  elsewhere["host"] = std::string(host) + "-another-machine";    // cannot tell: kept
+  fakeStaging(root / "run.partial-1-1", &self);                  // this test runs: kept
+  fakeStaging(root / "run.partial-2-2", &reused);                // removed
+  fakeStaging(root / "run.partial-3-3", &rebooted);              // removed
+  fakeStaging(root / "run.partial-4-4", &elsewhere);             // kept
+  fakeStaging(root / "run.partial-5-5", nullptr);                // no marker: kept
+  fakeStaging(root / "run.partial-6-6.old", &reused);            // not a staging folder's name: kept
+  fakeStaging(root / "other.partial-7-7", &reused);              // another folder's: kept
+  fakeStaging(root / "target", &reused);
+  fs::create_directory_symlink(root / "target", root / "run.partial-8-8");  // a link: kept, its target too
+  {
+    json noOwner = {{"format", "crumple-output/1"}, {"files", json::array()}};  // an output's marker: kept
+    fs::create_directories(root / "run.partial-9-9");
+    std::ofstream(root / "run.partial-9-9" / ".crumple-output") << noOwner;
+  }
+
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/highway.json --steps 3 --quiet --out " + out.string(), &log) == 0);
+  CAPTURE(log);
+  CHECK_FALSE(fs::exists(killed));
+  CHECK_FALSE(fs::exists(root / "run.partial-2-2"));
+  CHECK_FALSE(fs::exists(root / "run.partial-3-3"));
+  for (const char* kept : {"run.partial-1-1", "run.partial-4-4", "run.partial-5-5", "run.partial-6-6.old",
+                           "other.partial-7-7", "run.partial-8-8", "run.partial-9-9"}) {
+    CAPTURE(kept);
+    CHECK(fs::exists(root / kept / ".crumple-output") == (std::string(kept) != "run.partial-5-5"));
+    CHECK(fs::exists(root / kept));
+  }
+  CHECK(fs::exists(root / "target" / "heightmaps" / "floor.png"));
+  // The output's marker lists its files, not itself, and names no owner.
+  const json done = json::parse(slurp(out / ".crumple-output"));
+  CHECK_FALSE(done.contains("owner"));
+  CHECK(std::find(done["files"].begin(), done["files"].end(), ".crumple-output") == done["files"].end());
+  CHECK(std::find(done["files"].begin(), done["files"].end(), "summary.json") != done["files"].end());
+  fs::remove_all(root);
+}
+
+TEST_CASE(
+    "bad UTF-8, a 5000-character camera name and a key of 60000 parts are bad input (exit 2) in a short message") {
+  std::string log;
+  writeScene("utf8.json", smallScene(R"("name": "utf8",)"));
+  const std::string scene = (kTmp / "utf8.json").string(), out = " --out " + (kTmp / "utf8_out").string();
+  CHECK(runShell(std::string(CRUMPLE_SIM) + " " + scene +
+                     " --steps 2 --set \"bodies[ball].name=$(printf 'ball\\377')\"" + out,
+                 &log) == 2);
+  CHECK(log == "crumple-sim: error: " + scene + ": bodies[ball].name: the value 'ball\\xFF' is not valid UTF-8\n");
+  CHECK(runShell(std::string(CRUMPLE_SIM) + " " + scene +
+                     " --steps 2 --set \"$(printf 'bodies[b\\351].velocity')=[0,1,0]\"" + out,
+                 &log) == 2);
+  CHECK(log == "crumple-sim: error: " + scene + ": bodies[b\\xE9].velocity: bad key path: not valid UTF-8\n");
+  // A camera name of 5000 characters used to fail at the first frame (exit 1, a 5 KB message).
+  writeScene("long-camera.json", smallScene(R"("name": "long-camera",)", std::string(5000, 'c')));
+  CHECK(runSim((kTmp / "long-camera.json").string() + " --steps 2 --render --size 16x16" + out, &log) == 2);
+  CHECK(log == "crumple-sim: error: " + (kTmp / "long-camera.json").string() +
+                   ": cameras[0].name: longer than 128 characters\n");
+  // 60000 dotted parts (memory grew with their square: here 2 GB of address space would not have been enough).
+  std::string key = "a";
+  for (int i = 1; i < 60000; ++i) key += ".a";
+  std::ofstream(kTmp / "key.txt") << key << "=1";
+  CHECK(runShell("ulimit -v 2000000; " + std::string(CRUMPLE_SIM) + " " + scene + " --set \"$(cat " +
+                     (kTmp / "key.txt").string() + ")\"" + out,
+                 &log) == 2);
+  CHECK(log.find("bad key path: longer than 1024 characters (119999)") != std::string::npos);
+  CHECK(log.size() < 300);
+  CHECK_FALSE(fs::exists(kTmp / "utf8_out"));
 }

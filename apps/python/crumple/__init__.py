@@ -10,6 +10,7 @@ The full API is in docs/python.md; scene files in docs/scene-format.md.
 """
 
 import json as _json
+import os as _os
 
 from . import _crumple
 
@@ -52,11 +53,29 @@ def _overrides(overrides):
     return out
 
 
+def _path(function, parameter, value):
+    """A path argument (str, bytes or os.PathLike) as the bytes the file system takes (a name that is not UTF-8
+    included): TypeError for anything else, ValueError for an empty path or one that holds a NUL byte (a C string
+    would end there and name another file)."""
+    try:
+        text = _os.fspath(value)
+    except TypeError:
+        raise TypeError(f"{function}: {parameter} must be a str or an os.PathLike, got {type(value).__name__}") from None
+    if isinstance(text, str):
+        text = _os.fsencode(text)
+    if not text:
+        raise ValueError(f"{function}: {parameter} must not be empty")
+    if b"\0" in text:
+        raise ValueError(f"{function}: {parameter} holds a NUL byte")
+    return text
+
+
 def load_scene(path=None, overrides=None):
     """Loads and checks a scene without running it (no OpenGL). Returns a dict: name, file, timestep,
     duration, steps (the run's step count), bodies ([{name, static, bump_map: resolution or None}]),
     cameras and joints (names). Raises SceneError as Simulation does. path None: the built-in default scene."""
-    return _json.loads(_crumple._load_scene(None if path is None else str(path), _overrides(overrides)))
+    return _json.loads(_crumple._load_scene(None if path is None else _path("load_scene", "path", path),
+                                            _overrides(overrides)))
 
 
 class Simulation(_crumple._Simulation):
@@ -78,28 +97,40 @@ class Simulation(_crumple._Simulation):
             raise ValueError(f"gpu must be a device number >= 0, got {gpu!r}")
         if threads is not None and (not isinstance(threads, int) or isinstance(threads, bool) or not 0 <= threads <= 256):
             raise ValueError(f"threads must be an int in [0, 256], got {threads!r}")
-        super().__init__(None if path is None else str(path), _overrides(overrides), -1 if gpu is None else gpu,
-                         -1 if threads is None else threads)
+        super().__init__(None if path is None else _path("Simulation", "path", path), _overrides(overrides),
+                         -1 if gpu is None else gpu, -1 if threads is None else threads)
         self._scene = _json.loads(self._scene_json)
+
+    def _info(self):
+        # The scene as loaded; an object made by __new__ without __init__ has none (the C++ side says so).
+        scene = self.__dict__.get("_scene")
+        return scene if scene is not None else _json.loads(self._scene_json)
 
     @property
     def name(self):
         """The scene's name."""
-        return self._scene["name"]
+        return self._info()["name"]
 
     @property
     def timestep(self):
         """Seconds per step."""
-        return self._scene["timestep"]
+        return self._info()["timestep"]
 
     @property
     def duration(self):
         """The scene's duration in seconds (run() runs to it)."""
-        return self._scene["duration"]
+        return self._info()["duration"]
 
     def cameras(self):
         """The scene's camera names ("default" for a scene without cameras), as render() takes them."""
-        return list(self._scene["cameras"]) or ["default"]
+        return list(self._info()["cameras"]) or ["default"]
+
+    def write_outputs(self, dir):
+        """Writes what crumple-sim --out dir writes, for the state now (docs/python.md). dir: a str, bytes or
+        os.PathLike."""
+        return super().write_outputs(_path("write_outputs", "dir", dir))
 
     def __repr__(self):
+        if self.__dict__.get("_scene") is None:
+            return "<crumple.Simulation (not initialised)>"
         return f"<crumple.Simulation {self.name!r} t={self.time:.4f} s, {self.steps} steps>"

@@ -6,8 +6,11 @@ Run by ctest with PYTHONPATH=build/python; by hand:
 
 import json
 import os
+import pathlib
 import subprocess
+import sys
 import tempfile
+import threading
 import unittest
 
 import numpy as np
@@ -215,6 +218,153 @@ class Default(unittest.TestCase):
         self.assertEqual(sim.run(), 2)
         self.assertRegex(crumple.__version__, r"^\d+\.\d+\.\d+")
         self.assertIn("sphere-into-plate", repr(sim))
+
+
+class Robustness(unittest.TestCase):
+    def test_an_object_made_without_init_raises_instead_of_crashing(self):
+        # In a child interpreter: it used to end in a segmentation fault.
+        code = """
+import crumple, tempfile
+sim = crumple.Simulation.__new__(crumple.Simulation)
+raw = crumple._crumple._Simulation.__new__(crumple._crumple._Simulation)
+print(repr(sim))
+calls = {
+    "step": lambda s: s.step(1), "run": lambda s: s.run(), "time": lambda s: s.time, "steps": lambda s: s.steps,
+    "total_steps": lambda s: s.total_steps, "gl": lambda s: s.gl, "bodies": lambda s: s.bodies(),
+    "events": lambda s: s.events(), "height_map": lambda s: s.height_map("plate"),
+    "normal_map": lambda s: s.normal_map("plate"), "render": lambda s: s.render(),
+    "write_outputs": lambda s: s.write_outputs(tempfile.mkdtemp() + "/out"),
+}
+for name, call in calls.items():
+    for obj in (sim, raw):
+        try:
+            call(obj)
+            print(name, "no error")
+        except TypeError as e:
+            assert "not initialised" in str(e), (name, str(e))
+for name in ("name", "timestep", "duration"):
+    try:
+        getattr(sim, name)
+        print(name, "no error")
+    except TypeError as e:
+        assert "not initialised" in str(e), (name, str(e))
+print("done")
+"""
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stdout, "<crumple.Simulation (not initialised)>\ndone\n")
+
+    def test_a_simulation_runs_and_renders_from_any_thread(self):
+        made_here = crumple.Simulation(DROP)
+        made_there = {}
+        errors = []
+
+        def use(sim):
+            try:
+                sim.step(6)
+                frame = sim.render(width=64, height=48)
+                assert frame.shape == (48, 64, 3), frame.shape
+                sim.height_map("plate")
+                sim.bodies()
+                sim.events()
+                assert "EGL" in sim.gl or sim.gl.startswith("none"), sim.gl
+            except Exception as e:  # reported below
+                errors.append(repr(e))
+
+        def make():
+            try:
+                made_there["sim"] = crumple.Simulation(DROP)
+            except Exception as e:
+                errors.append(repr(e))
+
+        # Made on this thread, used on another (EGL_BAD_ACCESS before), then here again.
+        t = threading.Thread(target=use, args=(made_here,))
+        t.start()
+        t.join()
+        self.assertEqual(errors, [])
+        use(made_here)
+        self.assertEqual(errors, [])
+        # Made on another thread, used here.
+        t = threading.Thread(target=make)
+        t.start()
+        t.join()
+        self.assertEqual(errors, [])
+        use(made_there["sim"])
+        self.assertEqual(errors, [])
+        # Two threads taking turns on one simulation, and on their own at once: the runs of one thread's.
+        shared = crumple.Simulation(DROP)
+        threads = [threading.Thread(target=use, args=(shared,)) for _ in range(2)]
+        threads += [threading.Thread(target=use, args=(crumple.Simulation(DROP),)) for _ in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        self.assertEqual(errors, [])
+        alone = crumple.Simulation(DROP)
+        alone.step(12)
+        self.assertEqual(shared.steps, 12)  # 6 from each of the threads
+        self.assertEqual(shared.bodies(), alone.bodies())
+        shared.step(12)
+        alone.step(12)
+        self.assertEqual(shared.bodies(), alone.bodies())
+        self.assertTrue(np.array_equal(shared.height_map("plate"), alone.height_map("plate")))
+
+    def test_failures_at_run_time_raise_runtime_error(self):
+        # The engine's own std::invalid_argument, length_error and out_of_range used to arrive as ValueError and
+        # IndexError, which say the caller passed a bad value.
+        for kind in ("invalid_argument", "length_error", "out_of_range", "runtime_error"):
+            with self.subTest(kind=kind):
+                with self.assertRaises(RuntimeError) as cm:
+                    crumple._crumple._raise_for_test(kind)
+                self.assertNotIsInstance(cm.exception, ValueError)
+                self.assertEqual(str(cm.exception), f"{kind} from C++")
+        # Bad input stays SceneError, its text UTF-8 whatever the file name's bytes.
+        with self.assertRaises(crumple.SceneError) as cm:
+            crumple._crumple._raise_for_test("scene_error")
+        self.assertEqual(str(cm.exception), "f\\xFF.json: k: bad")
+        self.assertEqual(cm.exception.file, "f\\xFF.json")
+        # No such GPU: RuntimeError.
+        with self.assertRaises(RuntimeError):
+            crumple.Simulation(DROP, gpu=1023)
+
+    def test_paths_are_str_bytes_or_path_like_never_empty_or_with_a_nul_byte(self):
+        sim = crumple.Simulation(DROP, overrides={"duration": 0.01})
+        sim.run()
+        with tempfile.TemporaryDirectory() as tmp:
+            with self.assertRaisesRegex(ValueError, "^write_outputs: dir must not be empty$"):
+                sim.write_outputs("")
+            # A NUL byte used to cut the path short: out\0side wrote to "out".
+            with self.assertRaisesRegex(ValueError, "^write_outputs: dir holds a NUL byte$"):
+                sim.write_outputs(os.path.join(tmp, "out\0side"))
+            with self.assertRaisesRegex(ValueError, "dir must not be empty"):
+                crumple._crumple._Simulation.write_outputs(sim, "")
+            with self.assertRaisesRegex(ValueError, "dir holds a NUL byte"):
+                crumple._crumple._Simulation.write_outputs(sim, os.path.join(tmp, "out\0side"))
+            self.assertEqual(os.listdir(tmp), [])
+            with self.assertRaisesRegex(TypeError, "write_outputs: dir must be a str or an os.PathLike, got int"):
+                sim.write_outputs(3)
+            sim.write_outputs(pathlib.Path(tmp) / "as-path")
+            sim.write_outputs(os.fsencode(os.path.join(tmp, "as-bytes")))
+            self.assertTrue(os.path.isfile(os.path.join(tmp, "as-path", "summary.json")))
+            self.assertTrue(os.path.isfile(os.path.join(tmp, "as-bytes", "summary.json")))
+            # A scene in a folder whose name is not UTF-8 loads and writes (its path escaped in summary.json).
+            folder = os.path.join(os.fsencode(tmp), b"caf\xe9")
+            os.mkdir(folder)
+            with open(DROP, "rb") as f, open(os.path.join(folder, b"drop.json"), "wb") as g:
+                g.write(f.read())
+            odd = crumple.Simulation(os.fsdecode(os.path.join(folder, b"drop.json")), overrides={"duration": 0.01})
+            self.assertEqual(odd.name, "drop")
+            odd.write_outputs(os.path.join(tmp, "odd"))
+            with open(os.path.join(tmp, "odd", "summary.json")) as f:
+                self.assertTrue(json.load(f)["scene_file"].endswith("caf\\xE9/drop.json"))
+        for bad, error in (("", "^Simulation: path must not be empty$"), ("a\0b", "^Simulation: path holds a NUL byte$")):
+            with self.assertRaisesRegex(ValueError, error):
+                crumple.Simulation(bad)
+            with self.assertRaisesRegex(ValueError, error.replace("Simulation", "load_scene")):
+                crumple.load_scene(bad)
+        self.assertEqual(crumple.load_scene(pathlib.Path(DROP))["name"], "drop")
+        with self.assertRaises(TypeError):
+            crumple.Simulation(3)
 
 
 if __name__ == "__main__":

@@ -59,7 +59,13 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     }
     const double share = 1.0 / (pointInverseMass * std::max(grounded, 1));
     const double stiff = params_.stiffness * h + params_.damping;
-    w.load = std::max(0.0, (params_.stiffness * compression + stiff * rate) / (1 + h * stiff / share));
+    // What else pushes the wheel's point into the ground during the step (the chassis' weight, the other wheels,
+    // the engine's pitch) is what this wheel held against it in the last step: its load then (on landing, its
+    // share of the weight). It speeds the point's approach by load / share over the step. So at rest, and under
+    // any steady load, k x = the load, as an explicit spring holds it; only changes are damped implicitly.
+    const double weight = -glm::dot(world.settings().gravity, up) * b.mass / std::max(grounded, 1);
+    const double approach = rate + h * (w.load > 0 ? w.load : std::max(weight, 0.0)) / share;
+    w.load = std::max(0.0, (params_.stiffness * compression + stiff * approach) / (1 + h * stiff / share));
     glm::dvec3 force = up * w.load;
     // Tyre frame on the ground.
     const bool front = params_.wheels[i].x > b.localCom.x;

@@ -23,13 +23,16 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     WheelState& w = wheels_[i];
     const glm::dvec3 origin = b.x + r * (params_.wheels[i] - b.localCom);
     RayHit hit;
-    w.onGround = world.raycast(origin, -up, reach, body_, hit);
+    // A wheel whose attachment point is inside a body (the chassis sunk into it, or a body inside the chassis)
+    // stands on nothing: that body meets the chassis' own contacts (a spring found fully compressed from one
+    // step to the next would hand it energy from nowhere).
+    w.onGround = world.raycast(origin, -up, reach, body_, hit) && hit.distance > 0;
     grounded += w.onGround;
   }
   for (size_t i = 0; i < params_.wheels.size(); ++i) {
     WheelState& w = wheels_[i];
     if (!w.onGround) {
-      w.compression = 0;
+      w.compression = w.spring = 0;
       w.load = 0;
       continue;
     }
@@ -60,12 +63,12 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     const double share = 1.0 / (pointInverseMass * std::max(grounded, 1));
     const double stiff = params_.stiffness * h + params_.damping;
     // What else pushes the wheel's point into the ground during the step (the chassis' weight, the other wheels,
-    // the engine's pitch) is what this wheel held against it in the last step: its load then (on landing, its
-    // share of the weight). It speeds the point's approach by load / share over the step. So at rest, and under
-    // any steady load, k x = the load, as an explicit spring holds it; only changes are damped implicitly.
-    const double weight = -glm::dot(world.settings().gravity, up) * b.mass / std::max(grounded, 1);
-    const double approach = rate + h * (w.load > 0 ? w.load : std::max(weight, 0.0)) / share;
-    w.load = std::max(0.0, (params_.stiffness * compression + stiff * approach) / (1 + h * stiff / share));
+    // the engine's pitch) is what this wheel held against it in the last step: its load then (0 on landing). It
+    // speeds the point's approach by load / share over the step. So at rest, and under any steady load,
+    // k x = the load, as an explicit spring holds it; only changes are damped implicitly.
+    const double approach = rate + h * w.load / share;
+    w.spring = std::min(compression, w.spring + h * (std::max(rate, 0.0) + world.settings().maxCorrectionSpeed));
+    w.load = std::max(0.0, (params_.stiffness * w.spring + stiff * approach) / (1 + h * stiff / share));
     glm::dvec3 force = up * w.load;
     // Tyre frame on the ground.
     const bool front = params_.wheels[i].x > b.localCom.x;

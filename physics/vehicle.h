@@ -37,6 +37,10 @@ struct VehicleControls {
 struct WheelState {
   bool onGround = false;
   double compression = 0;  // m
+  // m: the spring's compression, which follows `compression` but grows no faster than the chassis approaches the
+  // ground plus World's maxCorrectionSpeed (a body swept under a wheel, or a car set down deep on its springs,
+  // loads the spring over a few steps instead of releasing its whole energy in one).
+  double spring = 0;
   glm::dvec3 contact{0};
   glm::dvec3 normal{0, 1, 0};  // of the ground at the contact
   int ground = -1;             // the body under the wheel

@@ -252,6 +252,11 @@ double hingeAngle(const Joint& jt, const Side& a, const Side& b, bool pred) {
   return std::atan2(glm::dot(n, glm::cross(ra, rb)), glm::dot(ra, rb));
 }
 
+double kineticEnergy(const RigidBody& b) {
+  const glm::dmat3 r = b.rotation();
+  return 0.5 * b.mass * glm::dot(b.v, b.v) + 0.5 * glm::dot(b.w, r * (b.inertiaBody * (glm::transpose(r) * b.w)));
+}
+
 bool active(const StepContext& ctx, const Joint& jt) {
   if (jt.removed || jt.broken) return false;
   const bool ma = jt.def.a >= 0 && ctx.body(jt.def.a).dynamic(), mb = ctx.body(jt.def.b).dynamic();
@@ -957,6 +962,29 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
   }
   startCall(ctx);
   JointSystem& s = buildSystem(ctx);
+  // The joined bodies' velocities, kinetic energy and the joints' books before the sweeps, and what the sweeps may
+  // add to that energy: closing violations at maxCorrectionSpeed (as speed and as turn) and the motors' work.
+  const double c = ctx.settings.maxCorrectionSpeed;
+  std::vector<BodyState>& saved = ctx.jointSaved;
+  saved.clear();
+  double before = 0, budget = 0, fastest = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i < 0 || !ctx.body(i).dynamic()) continue;
+    const RigidBody& b = ctx.body(i);
+    saved.push_back({b.x, b.q, b.v, b.w});
+    before += kineticEnergy(b);
+    budget += 0.5 * (b.mass + b.principal.moments.z) * c * c;
+    fastest = std::max(fastest, glm::length(b.v) + glm::length(b.w) * (b.shape->boundingRadius + glm::length(b.localCom)));
+  }
+  for (int j : s.joints) {
+    const JointDef& d = ctx.joints[static_cast<size_t>(j)].def;
+    if (d.motor.enabled) budget += d.motor.maxForce * h * (std::abs(d.motor.speed) + fastest + c);
+  }
+  std::vector<Joint>& books = ctx.jointBooks;
+  books.clear();
+  for (int j : s.joints) books.push_back(ctx.joints[static_cast<size_t>(j)]);
+  for (int j : s.loops) books.push_back(ctx.joints[static_cast<size_t>(j)]);
   for (int sweep = 0; sweep < sweeps; ++sweep) {
     for (size_t k = 0; k < s.joints.size(); ++k) {
       Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
@@ -967,6 +995,33 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     ++ctx.stats.jointSweeps;
     if (lookAtJoints(ctx, s, h, true) < ctx.settings.jointTolerance) break;
     solvePass(ctx, s, h, true);
+  }
+  // Sweeps that handed the joined bodies more energy than that (joints that contradict each other, a loop solved
+  // joint by joint past its fixed point, a lever the direct solve cannot condition) are undone: the joints then
+  // only take away the relative velocities they forbid, as post-stabilisation does, which never adds energy.
+  double after = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i >= 0 && ctx.body(i).dynamic()) after += kineticEnergy(ctx.body(i));
+  }
+  if (!(after <= before + budget + 1e-9 * before)) {
+    size_t n = 0;
+    for (size_t k = 1; k < s.sides.size(); ++k) {
+      const int i = s.sides[k].index;
+      if (i < 0 || !ctx.body(i).dynamic()) continue;
+      ctx.body(i).v = saved[n].v;
+      ctx.body(i).w = saved[n].w;
+      ++n;
+    }
+    size_t m = 0;
+    for (int j : s.joints) ctx.joints[static_cast<size_t>(j)] = books[m++];
+    for (int j : s.loops) ctx.joints[static_cast<size_t>(j)] = books[m++];
+    ++ctx.stats.jointFallbacks;
+    for (int pass = 0; pass < ctx.settings.jointPostIterations; ++pass) {
+      if (!(lookAtJoints(ctx, s, h, false) > 1e-3 * ctx.settings.jointTolerance)) break;
+      solvePass(ctx, s, h, false);
+      if (!s.conditional && s.loops.empty()) break;
+    }
   }
   yieldJoints(ctx, h);
 }

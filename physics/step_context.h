@@ -352,6 +352,8 @@ struct StepContext {
   std::vector<uint32_t> predictedVersion;
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
   std::vector<BodyState> stepBefore;  // every body before the step (World::step undoes a non-finite one)
+  std::vector<BodyState> jointSaved;  // the joined bodies before a pre-stabilisation call (joint_step.cpp)
+  std::vector<Joint> jointBooks;      // the joints before it
   std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far
 

@@ -168,6 +168,9 @@ struct StepStats {
   int contacts = 0;
   int awake = 0;
   int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
+  // Pre-stabilisation calls undone for handing the joined bodies more energy than closing violations at
+  // maxCorrectionSpeed and the motors' work allow (their joints then only removed forbidden relative velocity).
+  int jointFallbacks = 0;
   int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
   int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)
   // Narrow-phase looks at pairs (collision and contact steps), and those a kept manifold of two convex

@@ -1,6 +1,8 @@
 #include "engine/output_writer.h"
 
 #include <algorithm>
+#include <cmath>
+#include <stdexcept>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -226,7 +228,16 @@ json bodiesArray(const Simulation& sim) {
 
 }  // namespace
 
-std::string bodiesJson(const Simulation& sim) { return bodiesArray(sim).dump(); }
+// Every number in `j` finite, or std::runtime_error naming `what` (a NaN would be written as null: never).
+const json& finiteNumbers(const json& j, const std::string& what) {
+  if (j.is_number_float() && !std::isfinite(j.get<double>()))
+    throw std::runtime_error(what + ": a number that is not finite; nothing written");
+  if (j.is_structured())
+    for (const auto& item : j) finiteNumbers(item, what);
+  return j;
+}
+
+std::string bodiesJson(const Simulation& sim) { return finiteNumbers(bodiesArray(sim), "bodies").dump(); }
 
 std::vector<std::string> eventLines(Simulation& sim) {
   sim.resolveEventStats();
@@ -240,7 +251,7 @@ std::vector<std::string> eventLines(Simulation& sim) {
       line["type"] = "joint_break";
       line["joint"] = breaks[nextBreak].joint;
       line["impulse"] = breaks[nextBreak].impulse;
-      lines.push_back(line.dump());
+      lines.push_back(finiteNumbers(line, "events.jsonl").dump());
     }
   };
   for (const EventRecord& r : sim.events()) {
@@ -273,7 +284,7 @@ std::vector<std::string> eventLines(Simulation& sim) {
       side["saturated"] = d.stats.saturated;
       line[s == 0 ? "a_side" : "b_side"] = side;
     }
-    lines.push_back(line.dump());
+    lines.push_back(finiteNumbers(line, "events.jsonl").dump());
   }
   addBreaks(std::numeric_limits<double>::infinity());
   return lines;
@@ -334,7 +345,7 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
   }
   s["timings"] = tj;
   for (const auto& [k, v] : extra) s[k] = v;
-  return s.dump(2);
+  return finiteNumbers(s, "summary.json").dump(2);
 }
 
 void OutputWriter::write(Simulation& sim, const std::map<std::string, std::string>& extra) {

@@ -41,6 +41,7 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     world.raycast(origin, -up, reach, body_, hit);
     w.contact = hit.point;
     w.normal = hit.normal;
+    const bool sameGround = w.ground == hit.body;  // the body this wheel stood on in the last step
     w.ground = hit.body;
     const double compression = reach - hit.distance;
     w.compression = compression;
@@ -63,10 +64,11 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     const double share = 1.0 / (pointInverseMass * std::max(grounded, 1));
     const double stiff = params_.stiffness * h + params_.damping;
     // What else pushes the wheel's point into the ground during the step (the chassis' weight, the other wheels,
-    // the engine's pitch) is what this wheel held against it in the last step: its load then (0 on landing). It
-    // speeds the point's approach by load / share over the step. So at rest, and under any steady load,
-    // k x = the load, as an explicit spring holds it; only changes are damped implicitly.
-    const double approach = rate + h * w.load / share;
+    // the engine's pitch) is what this wheel held against it in the last step: its load then (0 on landing, or
+    // on another body than the last step's). It speeds the point's approach by load / share over the step. So at
+    // rest, and under any steady load, k x = the load, as an explicit spring holds it; only changes are damped
+    // implicitly.
+    const double approach = rate + (sameGround ? h * w.load / share : 0.0);
     w.spring = std::min(compression, w.spring + h * (std::max(rate, 0.0) + world.settings().maxCorrectionSpeed));
     w.load = std::max(0.0, (params_.stiffness * w.spring + stiff * approach) / (1 + h * stiff / share));
     glm::dvec3 force = up * w.load;

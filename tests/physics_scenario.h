@@ -3,7 +3,8 @@
 // (which replays tests/fuzz/corpus/physics/ and a range of seeds) share it.
 //
 // A scenario is built from bytes: each choice takes the next byte, and once the
-// bytes run out, numbers from a generator seeded by their hash. Every scene it
+// bytes run out, numbers from a generator seeded by their hash; every choice is
+// its own statement (or in a braced list), so every compiler builds the same scene. Every scene it
 // builds is valid input: boxes, spheres, capsules and cylinders of 2 cm to 2 m
 // (thin plates among them) of 10 g to 10 t, thrown at up to 20 m/s and spun at
 // up to 100 rad/s, some started inside each other; kinematic bodies spinning
@@ -137,7 +138,10 @@ inline void buildScenario(Scenario& sc, ScenarioInput& in) {
     const double size = in.logRange(0.02, 2.0);
     switch (type) {
       case 0: {
-        glm::dvec3 s(size, in.logRange(0.02, 2.0), in.logRange(0.02, 2.0));
+        // (Each choice in its own statement: the order of a call's arguments is the compiler's.)
+        const double height = in.logRange(0.02, 2.0);
+        const double depth = in.logRange(0.02, 2.0);
+        glm::dvec3 s(size, height, depth);
         if (in.chance(0.2)) s.y = std::max(0.02, 0.05 * std::min(s.x, s.z));  // a plate
         b.shape = makeBox(s);
         d << "box " << s.x << "x" << s.y << "x" << s.z;
@@ -157,8 +161,9 @@ inline void buildScenario(Scenario& sc, ScenarioInput& in) {
         break;
     }
     b.origin = {in.range(-3, 3), in.range(0.05, 5), in.range(-3, 3)};
-    b.orientation = glm::normalize(glm::dquat(in.range(-1, 1), in.range(-1, 1), in.range(-1, 1), in.range(-1, 1)) +
-                                   glm::dquat(0.01, 0, 0, 0));
+    const glm::dvec3 turn = in.vec(1);
+    const double turnW = in.range(-1, 1);
+    b.orientation = glm::normalize(glm::dquat(turnW, turn.x, turn.y, turn.z) + glm::dquat(0.01, 0, 0, 0));
     if (in.chance(0.5)) b.mass = in.logRange(0.01, 10000);
     else b.density = in.logRange(10, 20000);
     b.restitution = in.range(0, 1);

@@ -300,8 +300,7 @@ inline void buildScenario(Scenario& sc, ScenarioInput& in) {
 inline double scenarioEnergy(const World& w) {
   double e = 0;
   for (const RigidBody& b : w.bodies()) {
-    if (!b.dynamic() && !b.asleep) continue;
-    if (b.isStatic || b.kinematic || b.removed) continue;
+    if (b.isStatic || b.kinematic || b.removed) continue;  // sleeping bodies count (their height)
     const glm::dmat3 r = b.rotation();
     const glm::dvec3 l = r * (b.inertiaBody * (glm::transpose(r) * b.w));
     e += 0.5 * b.mass * glm::dot(b.v, b.v) + 0.5 * glm::dot(b.w, l) - b.mass * glm::dot(w.settings().gravity, b.x);

@@ -74,6 +74,12 @@ struct RigidBody {
     const glm::dmat3 r = rotation();
     return r * invInertiaBody * glm::transpose(r);
   }
+  // World angular momentum about the centre of mass, and kinetic energy (translation and turn).
+  glm::dvec3 angularMomentum() const {
+    const glm::dmat3 r = rotation();
+    return r * (inertiaBody * (glm::transpose(r) * w));
+  }
+  double kineticEnergy() const { return 0.5 * mass * glm::dot(v, v) + 0.5 * glm::dot(w, angularMomentum()); }
   glm::dvec3 velocityAt(const glm::dvec3& p) const { return v + glm::cross(w, p - x); }
   bool movable() const { return !isStatic && !asleep; }
   // Moved by impulses (not static, kinematic or asleep).

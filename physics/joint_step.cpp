@@ -45,9 +45,9 @@
 //   impulse treats them as part of what they are welded to).
 // - Breaking (at the end of each pre- and post-stabilisation call): a joint
 //   whose linear impulse summed over the step so far passes its breakImpulse
-//   yields: of that call's impulse it keeps only what takes it to its strength
-//   (the rest is taken back from the bodies), breaks (one JointBreak, with the
-//   impulse it was asked for) and enforces nothing from then on.
+//   breaks at the call's start (one JointBreak, with the impulse it was asked
+//   for): the call is solved again from its start without it, and it enforces
+//   nothing from then on.
 // - A joint between two bodies that cannot move (static, kinematic, asleep) does
 //   nothing; a sleeping body joined to an awake one is woken first.
 #include <algorithm>
@@ -135,7 +135,7 @@ Side sideAt(const StepContext& ctx, int i) {
   if (!b.movable()) return s;
   if (b.dynamic()) {
     s.invMass = b.invMass;
-    s.invInertia = ctx.invInertia[static_cast<size_t>(i)];
+    s.invInertia = b.invInertiaWorld();  // at the pose now (post-stabilisation runs after the position update)
   }
   s.v = b.v;
   s.w = b.w;
@@ -250,11 +250,6 @@ glm::dvec3 rotationVector(glm::dquat q) {
 double hingeAngle(const Joint& jt, const Side& a, const Side& b, bool pred) {
   const glm::dvec3 n = a.dir(jt.axisA, pred), ra = a.dir(jt.refA, pred), rb = b.dir(jt.refB, pred);
   return std::atan2(glm::dot(n, glm::cross(ra, rb)), glm::dot(ra, rb));
-}
-
-double kineticEnergy(const RigidBody& b) {
-  const glm::dmat3 r = b.rotation();
-  return 0.5 * b.mass * glm::dot(b.v, b.v) + 0.5 * glm::dot(b.w, r * (b.inertiaBody * (glm::transpose(r) * b.w)));
 }
 
 bool active(const StepContext& ctx, const Joint& jt) {
@@ -725,29 +720,31 @@ void solveMotor(StepContext& ctx, Joint& jt, Side& a, Side& b, double h) {
   if (lambda != 0) applyRows(ctx, jt, ra, rb, a, b, &row, 1, &lambda);
 }
 
+// One joint alone, a Newton step with the velocities of the moment; pre: its
+// motor, its limit row, then its other rows; post: its rows, then its limit row.
+void solveAlone(StepContext& ctx, Joint& jt, Side& a, Side& b, double h, bool pre) {
+  if (pre && jt.def.motor.enabled && (jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider))
+    solveMotor(ctx, jt, a, b, h);
+  for (int part : {pre ? kLimitRow : kMainRows, pre ? kMainRows : kLimitRow}) {
+    a.refresh(ctx, h, pre);
+    b.refresh(ctx, h, pre);
+    const JointRows jr = jointRows(jt, a, b, h, pre, ctx.settings.maxCorrectionSpeed * h, part);
+    if (jr.n == 0) continue;
+    double rhs[6], lambda[6];
+    for (int r = 0; r < jr.n; ++r) rhs[r] = pre ? -jr.err[r] / h : -jr.err[r];
+    solveRows(mobility(a, b, jr.ra, jr.rb), jr.rows, jr.n, rhs, lambda);
+    applyRows(ctx, jt, jr.ra, jr.rb, a, b, jr.rows, jr.n, lambda);
+  }
+}
+
 // One Gauss-Seidel sweep over the joints of components with loops (a second
 // joint between two bodies, a ring, a second anchor to what cannot move),
 // where a direct solve would split the load between redundant rows at random:
-// each joint alone in id order, a Newton step with the velocities of the
-// moment; pre: its motor, its limit row, then its other rows; post: its rows, then its limit row.
+// each joint alone in id order.
 void solveLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
-  for (size_t k = 0; k < s.loops.size(); ++k) {
-    Joint& jt = ctx.joints[static_cast<size_t>(s.loops[k])];
-    Side& a = s.sides[static_cast<size_t>(s.loopEnds[k].first)];
-    Side& b = s.sides[static_cast<size_t>(s.loopEnds[k].second)];
-    if (pre && jt.def.motor.enabled && (jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider))
-      solveMotor(ctx, jt, a, b, h);
-    for (int part : {pre ? kLimitRow : kMainRows, pre ? kMainRows : kLimitRow}) {
-      a.refresh(ctx, h, pre);
-      b.refresh(ctx, h, pre);
-      const JointRows jr = jointRows(jt, a, b, h, pre, ctx.settings.maxCorrectionSpeed * h, part);
-      if (jr.n == 0) continue;
-      double rhs[6], lambda[6];
-      for (int r = 0; r < jr.n; ++r) rhs[r] = pre ? -jr.err[r] / h : -jr.err[r];
-      solveRows(mobility(a, b, jr.ra, jr.rb), jr.rows, jr.n, rhs, lambda);
-      applyRows(ctx, jt, jr.ra, jr.rb, a, b, jr.rows, jr.n, lambda);
-    }
-  }
+  for (size_t k = 0; k < s.loops.size(); ++k)
+    solveAlone(ctx, ctx.joints[static_cast<size_t>(s.loops[k])], s.sides[static_cast<size_t>(s.loopEnds[k].first)],
+               s.sides[static_cast<size_t>(s.loopEnds[k].second)], h, pre);
 }
 
 // Solves every joint's rows at once and applies the impulses.
@@ -898,37 +895,142 @@ void startCall(StepContext& ctx) {
   }
 }
 
+// The books of the joints of s (in the order of s.joints, then s.loops), and a call undone: the joined dynamic
+// bodies' velocities (`saved`, in the order of s.sides) and the joints' books put back.
+void saveBooks(const StepContext& ctx, const JointSystem& s, std::vector<Joint>& books) {
+  books.clear();
+  for (int j : s.joints) books.push_back(ctx.joints[static_cast<size_t>(j)]);
+  for (int j : s.loops) books.push_back(ctx.joints[static_cast<size_t>(j)]);
+}
+void restoreCall(StepContext& ctx, const JointSystem& s, const std::vector<BodyState>& saved,
+                 const std::vector<Joint>& books) {
+  size_t n = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i < 0 || !ctx.body(i).dynamic()) continue;
+    ctx.body(i).v = saved[n].v;
+    ctx.body(i).w = saved[n].w;
+    ++n;
+  }
+  size_t m = 0;
+  for (int j : s.joints) ctx.joints[static_cast<size_t>(j)] = books[m++];
+  for (int j : s.loops) ctx.joints[static_cast<size_t>(j)] = books[m++];
+}
+
 // After a call's sweeps: a joint whose impulse over the step now passes its
-// breakImpulse yields. It keeps only the part of this call's impulse that
-// takes it to its strength (the rest is taken back) and breaks: a weld never
-// passes on more than it can bear.
-void yieldJoints(StepContext& ctx, double h) {
+// breakImpulse breaks, at the call's start: it passes on nothing of the call
+// (a weld never passes on more than it can bear), and the other joints'
+// impulses, found with it holding, go too (a hinge's share of a load the weld
+// carried would fling a light body; a share of the weld's own impulse, without
+// the others' that balanced it, as well). The call is undone (the joined
+// bodies' velocities `saved` and the joints' books at its start) for the caller
+// to solve again without it. Returns whether any joint broke.
+bool yieldJoints(StepContext& ctx, const JointSystem& s, double h, const std::vector<BodyState>& saved,
+                 const std::vector<Joint>& books) {
+  std::vector<std::pair<int, double>>& breaking = ctx.jointBreaking;
+  breaking.clear();
   for (size_t i = 0; i < ctx.joints.size(); ++i) {
-    Joint& jt = ctx.joints[i];
+    const Joint& jt = ctx.joints[i];
     if (jt.removed || jt.broken) continue;
     const double demand = glm::length(jt.stepImpulse);
-    if (!(demand > jt.def.breakImpulse)) continue;
-    // f in [0, 1] with |callStart + f callLinear| = breakImpulse (|callStart| <= breakImpulse).
-    const glm::dvec3 p = jt.callStart, j = jt.callLinear;
-    const double jj = glm::dot(j, j), pj = glm::dot(p, j), B = jt.def.breakImpulse;
-    double f = 0;
-    if (jj > 0) f = std::clamp((-pj + std::sqrt(std::max(0.0, pj * pj - jj * (glm::dot(p, p) - B * B)))) / jj, 0.0, 1.0);
-    const Side a = sideAt(ctx, jt.def.a), b = sideAt(ctx, jt.def.b);
-    if (a.index >= 0 && a.invMass > 0) {
-      RigidBody& A = ctx.body(a.index);
-      A.v += (1 - f) * a.invMass * j;
-      A.w += a.invInertia * ((1 - f) * jt.callTurnA);
-    }
-    if (b.invMass > 0) {
-      RigidBody& B = ctx.body(b.index);
-      B.v -= (1 - f) * b.invMass * j;
-      B.w -= b.invInertia * ((1 - f) * jt.callTurnB);
-    }
-    jt.stepImpulse = p + f * j;
-    jt.broken = true;
-    ctx.jointExcludedDirty = true;
-    ctx.jointBreaks.push_back({ctx.time + h, static_cast<int>(i), demand});
+    if (demand > jt.def.breakImpulse) breaking.emplace_back(static_cast<int>(i), demand);
   }
+  if (breaking.empty()) return false;
+  restoreCall(ctx, s, saved, books);
+  for (const auto& [joint, demand] : breaking) {
+    ctx.joints[static_cast<size_t>(joint)].broken = true;
+    ctx.jointBreaks.push_back({ctx.time + h, joint, demand});
+  }
+  ctx.jointExcludedDirty = true;
+  return true;
+}
+
+// The kinetic energy that closing the violations the joints of s start the substep with (each row's, at most
+// reach = maxCorrectionSpeed x h of it) within the substep takes: per row, (violation / h)^2 / 2 against the row's
+// effective mass, twice over (the rows' coupling, and the turn a fast spin makes a holding joint's anchors drift
+// through within the substep). A joint that holds has no budget: whatever its pre-stabilisation adds beyond this
+// is the solver's, not the scene's.
+double closingEnergy(StepContext& ctx, JointSystem& s, double h) {
+  const double reach = ctx.settings.maxCorrectionSpeed * h;
+  double energy = 0;
+  auto add = [&](const Joint& jt, Side a, Side b) {
+    a.refresh(ctx, 0, true);  // predicted = now
+    b.refresh(ctx, 0, true);
+    const JointRows jr = jointRows(jt, a, b, h, true, reach);
+    const Mobility m = mobility(a, b, jr.ra, jr.rb);
+    for (int k = 0; k < jr.n; ++k) {
+      const Row& row = jr.rows[k];
+      const double inverse = glm::dot(row.lin, m.K * row.lin + m.C * row.ang) +
+                             glm::dot(row.ang, glm::transpose(m.C) * row.lin + m.A * row.ang);
+      if (!(inverse > 0)) continue;
+      const double speed = jr.err[k] / h;
+      energy += speed * speed / inverse;  // 2 x (speed^2 / 2 / inverse)
+    }
+  };
+  for (size_t k = 0; k < s.joints.size(); ++k)
+    add(ctx.joints[static_cast<size_t>(s.joints[k])], s.sides[static_cast<size_t>(s.ends[k].first)],
+        s.sides[static_cast<size_t>(s.ends[k].second)]);
+  for (size_t k = 0; k < s.loops.size(); ++k)
+    add(ctx.joints[static_cast<size_t>(s.loops[k])], s.sides[static_cast<size_t>(s.loopEnds[k].first)],
+        s.sides[static_cast<size_t>(s.loopEnds[k].second)]);
+  return energy;
+}
+
+// Takes away the relative velocities the joints of s forbid. The velocity rows are linear: one direct solve
+// removes them; more passes only where limit or range rows may join or leave. Removing forbidden velocity never
+// adds energy beyond what the joints' kinematic ends drive (every joined body brought to the fastest speed a
+// kinematic end's points have); a direct solve that does (a system the factorisation cannot condition: a light
+// body carrying a heavy one on a long lever through two joints) is undone, and the joints are taken one at a
+// time instead (Gauss-Seidel: each joint's own small solve between its two bodies), which converges slower but
+// never gains.
+void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
+  std::vector<BodyState>& saved = ctx.jointVelocitySaved;
+  saved.clear();
+  double before = 0, mass = 0, drive = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i < 0 || !ctx.body(i).movable()) continue;
+    const RigidBody& b = ctx.body(i);
+    if (!b.dynamic()) {
+      double reach = 0;
+      for (size_t o = 1; o < s.sides.size(); ++o)
+        if (s.sides[o].index >= 0)
+          reach = std::max(reach, glm::length(ctx.body(s.sides[o].index).x - b.x) +
+                                      ctx.body(s.sides[o].index).shape->boundingRadius);
+      drive = std::max(drive, glm::length(b.v) + glm::length(b.w) * reach);
+      continue;
+    }
+    saved.push_back({b.x, b.q, b.v, b.w});
+    before += b.kineticEnergy();
+    mass += b.mass + b.principal.moments.z;
+  }
+  std::vector<Joint>& books = ctx.jointVelocityBooks;
+  saveBooks(ctx, s, books);
+  auto passes = [&](auto&& pass) {
+    for (int p = 0; p < ctx.settings.jointPostIterations; ++p) {
+      if (!(lookAtJoints(ctx, s, h, false) > 1e-3 * ctx.settings.jointTolerance)) break;
+      if (!pass()) break;
+    }
+  };
+  passes([&] {
+    solvePass(ctx, s, h, false);
+    return s.conditional || !s.loops.empty();
+  });
+  double after = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i >= 0 && ctx.body(i).dynamic()) after += ctx.body(i).kineticEnergy();
+  }
+  if (after <= before + 0.5 * mass * drive * drive + 1e-9 * before) return;
+  restoreCall(ctx, s, saved, books);
+  ++ctx.stats.jointFallbacks;
+  passes([&] {
+    for (size_t k = 0; k < s.joints.size(); ++k)
+      solveAlone(ctx, ctx.joints[static_cast<size_t>(s.joints[k])], s.sides[static_cast<size_t>(s.ends[k].first)],
+                 s.sides[static_cast<size_t>(s.ends[k].second)], h, false);
+    solveLoops(ctx, s, h, false);
+    return true;
+  });
 }
 
 void wakeJoined(StepContext& ctx) {
@@ -960,84 +1062,69 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
                                         touched[static_cast<size_t>(jt.def.b)]));
     if (!any) return;
   }
-  startCall(ctx);
-  JointSystem& s = buildSystem(ctx);
-  // The joined bodies' velocities, kinetic energy and the joints' books before the sweeps, and what the sweeps may
-  // add to that energy: closing violations at maxCorrectionSpeed (as speed and as turn) and the motors' work.
-  const double c = ctx.settings.maxCorrectionSpeed;
-  std::vector<BodyState>& saved = ctx.jointSaved;
-  saved.clear();
-  double before = 0, budget = 0, fastest = 0;
-  for (size_t k = 1; k < s.sides.size(); ++k) {
-    const int i = s.sides[k].index;
-    if (i < 0 || !ctx.body(i).dynamic()) continue;
-    const RigidBody& b = ctx.body(i);
-    saved.push_back({b.x, b.q, b.v, b.w});
-    before += kineticEnergy(b);
-    budget += 0.5 * (b.mass + b.principal.moments.z) * c * c;
-    fastest = std::max(fastest, glm::length(b.v) + glm::length(b.w) * (b.shape->boundingRadius + glm::length(b.localCom)));
-  }
-  for (int j : s.joints) {
-    const JointDef& d = ctx.joints[static_cast<size_t>(j)].def;
-    if (d.motor.enabled) budget += d.motor.maxForce * h * (std::abs(d.motor.speed) + fastest + c);
-  }
-  std::vector<Joint>& books = ctx.jointBooks;
-  books.clear();
-  for (int j : s.joints) books.push_back(ctx.joints[static_cast<size_t>(j)]);
-  for (int j : s.loops) books.push_back(ctx.joints[static_cast<size_t>(j)]);
-  for (int sweep = 0; sweep < sweeps; ++sweep) {
-    for (size_t k = 0; k < s.joints.size(); ++k) {
-      Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
-      if (jt.def.motor.enabled && (jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider))
-        solveMotor(ctx, jt, s.sides[static_cast<size_t>(s.ends[k].first)], s.sides[static_cast<size_t>(s.ends[k].second)],
-                   h);
-    }
-    ++ctx.stats.jointSweeps;
-    if (lookAtJoints(ctx, s, h, true) < ctx.settings.jointTolerance) break;
-    solvePass(ctx, s, h, true);
-  }
-  // Sweeps that handed the joined bodies more energy than that (joints that contradict each other, a loop solved
-  // joint by joint past its fixed point, a lever the direct solve cannot condition) are undone: the joints then
-  // only take away the relative velocities they forbid, as post-stabilisation does, which never adds energy.
-  double after = 0;
-  for (size_t k = 1; k < s.sides.size(); ++k) {
-    const int i = s.sides[k].index;
-    if (i >= 0 && ctx.body(i).dynamic()) after += kineticEnergy(ctx.body(i));
-  }
-  if (!(after <= before + budget + 1e-9 * before)) {
-    size_t n = 0;
+  // Again without the joints that break in it (yieldJoints).
+  for (bool again = true; again;) {
+    startCall(ctx);
+    JointSystem& s = buildSystem(ctx);
+    // The joined bodies' velocities, kinetic energy and the joints' books before the sweeps, and what the sweeps may
+    // add to that energy: closing the violations the joints start the substep with (at most maxCorrectionSpeed of
+    // each, as speed and as turn) and the motors' work.
+    const double c = ctx.settings.maxCorrectionSpeed;
+    std::vector<BodyState>& saved = ctx.jointSaved;
+    saved.clear();
+    double before = 0, fastest = 0, moving = 0;
     for (size_t k = 1; k < s.sides.size(); ++k) {
       const int i = s.sides[k].index;
       if (i < 0 || !ctx.body(i).dynamic()) continue;
-      ctx.body(i).v = saved[n].v;
-      ctx.body(i).w = saved[n].w;
-      ++n;
+      const RigidBody& b = ctx.body(i);
+      saved.push_back({b.x, b.q, b.v, b.w});
+      before += b.kineticEnergy();
+      moving += 0.5 * (b.mass + b.principal.moments.z) * c * c;  // every joined body at maxCorrectionSpeed
+      fastest = std::max(fastest, glm::length(b.v) + glm::length(b.w) * (b.shape->boundingRadius + glm::length(b.localCom)));
     }
-    size_t m = 0;
-    for (int j : s.joints) ctx.joints[static_cast<size_t>(j)] = books[m++];
-    for (int j : s.loops) ctx.joints[static_cast<size_t>(j)] = books[m++];
-    ++ctx.stats.jointFallbacks;
-    for (int pass = 0; pass < ctx.settings.jointPostIterations; ++pass) {
-      if (!(lookAtJoints(ctx, s, h, false) > 1e-3 * ctx.settings.jointTolerance)) break;
-      solvePass(ctx, s, h, false);
-      if (!s.conditional && s.loops.empty()) break;
+    double budget = std::min(closingEnergy(ctx, s, h), moving);
+    for (int j : s.joints) {
+      const JointDef& d = ctx.joints[static_cast<size_t>(j)].def;
+      if (d.motor.enabled) budget += d.motor.maxForce * h * (std::abs(d.motor.speed) + fastest + c);
     }
+    std::vector<Joint>& books = ctx.jointBooks;
+    saveBooks(ctx, s, books);
+    for (int sweep = 0; sweep < sweeps; ++sweep) {
+      for (size_t k = 0; k < s.joints.size(); ++k) {
+        Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
+        if (jt.def.motor.enabled && (jt.def.type == JointType::Hinge || jt.def.type == JointType::Slider))
+          solveMotor(ctx, jt, s.sides[static_cast<size_t>(s.ends[k].first)], s.sides[static_cast<size_t>(s.ends[k].second)],
+                     h);
+      }
+      ++ctx.stats.jointSweeps;
+      if (lookAtJoints(ctx, s, h, true) < ctx.settings.jointTolerance) break;
+      solvePass(ctx, s, h, true);
+    }
+    // Sweeps that handed the joined bodies more energy than that (joints that contradict each other, a loop solved
+    // joint by joint past its fixed point, a lever the direct solve cannot condition) are undone: the joints then
+    // only take away the relative velocities they forbid, as post-stabilisation does, which never adds energy.
+    double after = 0;
+    for (size_t k = 1; k < s.sides.size(); ++k) {
+      const int i = s.sides[k].index;
+      if (i >= 0 && ctx.body(i).dynamic()) after += ctx.body(i).kineticEnergy();
+    }
+    if (!(after <= before + budget + 1e-9 * before)) {
+      restoreCall(ctx, s, saved, books);
+      ++ctx.stats.jointFallbacks;
+      removeForbiddenVelocity(ctx, s, h);
+    }
+    again = yieldJoints(ctx, s, h, saved, books);
   }
-  yieldJoints(ctx, h);
 }
 
 void postStabilize(StepContext& ctx, double h) {
   if (ctx.joints.empty()) return;
-  startCall(ctx);
-  JointSystem& s = buildSystem(ctx);
-  // The velocity rows are linear: one solve removes them; more passes only
-  // where limit or range rows may join or leave.
-  for (int pass = 0; pass < ctx.settings.jointPostIterations; ++pass) {
-    if (!(lookAtJoints(ctx, s, h, false) > 1e-3 * ctx.settings.jointTolerance)) break;
-    solvePass(ctx, s, h, false);
-    if (!s.conditional && s.loops.empty()) break;
+  for (bool again = true; again;) {
+    startCall(ctx);
+    JointSystem& s = buildSystem(ctx);
+    removeForbiddenVelocity(ctx, s, h);
+    again = yieldJoints(ctx, s, h, ctx.jointVelocitySaved, ctx.jointVelocityBooks);
   }
-  yieldJoints(ctx, h);
   for (Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.type != JointType::Hinge) continue;
     const Side a = sideAt(ctx, jt.def.a), b = sideAt(ctx, jt.def.b);

@@ -127,6 +127,9 @@ struct JointSolverCache {
 // ---- helpers the stages share ------------------------------------------------
 
 inline bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+inline bool finite(const glm::dquat& q) {
+  return std::isfinite(q.w) && std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
+}
 
 inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& pose) {
   const glm::dvec3 c = (s.boundsMin + s.boundsMax) * 0.5, e = (s.boundsMax - s.boundsMin) * 0.5;
@@ -353,6 +356,9 @@ struct StepContext {
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
   std::vector<BodyState> stepBefore;  // every body before the step (World::step undoes a non-finite one)
   std::vector<BodyState> jointSaved;  // the joined bodies before a pre-stabilisation call (joint_step.cpp)
+  std::vector<BodyState> jointVelocitySaved;  // ... before the joints' forbidden velocity is taken away
+  std::vector<Joint> jointVelocityBooks;  // the joints' books at the same moment
+  std::vector<std::pair<int, double>> jointBreaking;  // joints breaking in a call, with their demand
   std::vector<Joint> jointBooks;      // the joints before it
   std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far

@@ -27,9 +27,7 @@ namespace {
 // The body that `def` describes, checked (std::invalid_argument on bad input).
 RigidBody makeBody(const BodyDef& def) {
   if (!def.shape) throw std::invalid_argument("body has no shape");
-  if (!finite(def.origin) || !finite(def.linearVelocity) || !finite(def.angularVelocity) ||
-      !std::isfinite(def.orientation.w) || !std::isfinite(def.orientation.x) || !std::isfinite(def.orientation.y) ||
-      !std::isfinite(def.orientation.z)) {
+  if (!finite(def.origin) || !finite(def.linearVelocity) || !finite(def.angularVelocity) || !finite(def.orientation)) {
     throw std::invalid_argument("body state is not finite");
   }
   if (!(def.restitution >= 0 && def.restitution <= 1)) throw std::invalid_argument("restitution outside [0, 1]");
@@ -199,8 +197,7 @@ void World::setAngularVelocity(int i, const glm::dvec3& w) {
 void World::setPose(int i, const Pose& pose) {
   RigidBody& b = liveBody(*ctx_, i);
   const glm::dquat& q = pose.orientation;
-  if (!finite(pose.position) || !std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
-      !std::isfinite(q.z))
+  if (!finite(pose.position) || !finite(q))
     throw std::invalid_argument("pose is not finite");
   if (!(glm::dot(q, q) > 0)) throw std::invalid_argument("orientation is not a rotation (zero quaternion)");
   b.x = pose.position;
@@ -383,8 +380,7 @@ void World::setKinematicTarget(int i, const Pose& target, double h) {
   RigidBody& b = liveBody(*ctx_, i);
   if (!b.kinematic) throw std::invalid_argument("body " + std::to_string(i) + " is not kinematic");
   const glm::dquat& q = target.orientation;
-  if (!finite(target.position) || !std::isfinite(q.w) || !std::isfinite(q.x) || !std::isfinite(q.y) ||
-      !std::isfinite(q.z) || !(glm::dot(q, q) > 0))
+  if (!finite(target.position) || !finite(q) || !(glm::dot(q, q) > 0))
     throw std::invalid_argument("kinematic target is not a finite pose");
   if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
   b.v = (target.position - b.x) / h;
@@ -484,8 +480,7 @@ class StageClock {
 
 namespace {
 bool finiteState(const RigidBody& b) {
-  return finite(b.x) && finite(b.v) && finite(b.w) && std::isfinite(b.q.w) && std::isfinite(b.q.x) &&
-         std::isfinite(b.q.y) && std::isfinite(b.q.z);
+  return finite(b.x) && finite(b.v) && finite(b.w) && finite(b.q);
 }
 
 // After the substeps: every body's state finite, or the step undone (StepStatus).

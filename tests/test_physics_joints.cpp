@@ -31,9 +31,7 @@ double kineticEnergy(const World& w) {
   double e = 0;
   for (const RigidBody& b : w.bodies()) {
     if (!b.dynamic()) continue;
-    const glm::dmat3 r = b.rotation();
-    const glm::dvec3 l = r * (b.inertiaBody * (glm::transpose(r) * b.w));
-    e += 0.5 * b.mass * glm::dot(b.v, b.v) + 0.5 * glm::dot(b.w, l);
+    e += b.kineticEnergy();
   }
   return e;
 }

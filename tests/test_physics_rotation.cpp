@@ -13,11 +13,8 @@ using namespace crumple;
 
 namespace {
 
-glm::dvec3 angularMomentum(const RigidBody& b) {
-  const glm::dmat3 r = b.rotation();
-  return r * (b.inertiaBody * (glm::transpose(r) * b.w));
-}
-double spinEnergy(const RigidBody& b) { return 0.5 * glm::dot(b.w, angularMomentum(b)); }
+glm::dvec3 angularMomentum(const RigidBody& b) { return b.angularMomentum(); }
+double spinEnergy(const RigidBody& b) { return 0.5 * glm::dot(b.w, b.angularMomentum()); }
 
 WorldSettings freeSpace() {
   WorldSettings s;

@@ -9,9 +9,8 @@ every file of tests/fuzz/corpus/<target>/ once (the shipped scenes and assets, a
 regression cases), then fuzzes each target for N seconds from that corpus.
   --seconds N    fuzzing time per target (default 15; CI runs the default: about two minutes in all)
   --parallel N   targets fuzzed at once (default 1)
-  --targets LIST comma-separated, from scene,obj,off,ply,gltf,glb,physics (default all but physics: random
-                 physics scenes against the step's invariants, tests/physics_scenario.h; the suite already runs
-                 200 of them and its corpus; CRUMPLE_FUZZ_JOINTS=1 adds joints)
+  --targets LIST comma-separated, from scene,obj,off,ply,gltf,glb,physics (default all; physics: random
+                 physics scenes checked against the step's invariants after every step, tests/physics_scenario.h)
   --no-build     use the targets already in build-fuzz/
 Inputs that reach new code go to build-fuzz/corpus/<target>/ (not the repository's corpus); a crash, a leak,
 undefined behaviour, an input over 10 s or over 2 GB of memory is written to build-fuzz/findings/<target>/ and
@@ -22,7 +21,7 @@ USAGE
 }
 seconds=15
 parallel=1
-targets="scene,obj,off,ply,gltf,glb"
+targets="scene,obj,off,ply,gltf,glb,physics"
 build=1
 while [ $# -gt 0 ]; do
   case "$1" in

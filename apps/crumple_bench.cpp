@@ -39,9 +39,9 @@
 #include "engine/builtin_scenes.h"
 #include "engine/simulation.h"
 #include "physics/world.h"
-#include "render/gl_context.h"
-#include "render/gl_objects.h"
-#include "render/gpu_timer.h"
+#include "gl/context.h"
+#include "gl/objects.h"
+#include "gl/gpu_timer.h"
 #include "render/renderer.h"
 
 using namespace crumple;
@@ -448,7 +448,7 @@ void deformBench(benchmark::State& state, deform::Path path, deform::AddressRast
   o.addressRaster = raster;
   DeformCase c(o);
   warmUp([&] { c.deformer.deform(c.request); });
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     c.deformer.deform(c.request);
@@ -502,7 +502,7 @@ void deformBatchBench(benchmark::State& state, int events, deform::AddressRaster
   deformer.deform(requests);  // warm-up: shaders, lazy allocations
   warmUp([&] { deformer.deform(requests); });
   const long waves = deformer.wavesRun();
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     deformer.deform(requests);
@@ -594,7 +594,7 @@ void renderBench(benchmark::State& state, const std::string& off) {
   r.draw(items, view);  // untimed: the shaders of this view's features are compiled on first use
   glFinish();
   warmUp([&] { r.draw(items, view); });
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     r.draw(items, view);
@@ -613,12 +613,12 @@ void visibilityBench(benchmark::State& state) {
   Simulation sim(builtinHighway(), true);
   for (int s = 0; s < 900; ++s) sim.step();
   const int w = 1280, h = 720;
-  render::Texture2D ids(w, h, GL_RG32UI), depth(w, h, GL_DEPTH_COMPONENT32F);
-  render::Framebuffer fbo;
+  gl::Texture2D ids(w, h, GL_RG32UI), depth(w, h, GL_DEPTH_COMPONENT32F);
+  gl::Framebuffer fbo;
   fbo.attachColor(ids, 0);
   fbo.attachDepth(depth);
   fbo.checkComplete();
-  const render::Program program({{GL_VERTEX_SHADER, "visibility.vert",
+  const gl::Program program({{GL_VERTEX_SHADER, "visibility.vert",
                                   "#version 450 core\nlayout(location = 0) in vec3 aPosition;\nuniform mat4 uMvp;\n"
                                   "void main() { gl_Position = uMvp * vec4(aPosition, 1.0); }\n"},
                                  {GL_FRAGMENT_SHADER, "visibility.frag",
@@ -671,7 +671,7 @@ void visibilityBench(benchmark::State& state) {
   frame();
   glFinish();
   warmUp(frame);
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     frame();
@@ -850,10 +850,10 @@ int main(int argc, char** argv) {
                                    threadsName(c, t), t)
           ->Iterations(gSteps)
           ->Unit(benchmark::kMillisecond);
-  std::unique_ptr<render::GlContext> gl;
+  std::unique_ptr<gl::GlContext> gl;
   std::unique_ptr<DeformStage> stage;
   if (!noGl) {
-    gl = render::createHeadlessContext({true, false});
+    gl = gl::createHeadlessContext({true, false});
     std::printf("GL: %s\n", gl->description().c_str());
     std::printf("deform: the gather's address pass is rasterised by %s here (DeformOptions::addressRaster auto)\n",
                 deform::addressRasterName(deform::resolveAddressRaster(

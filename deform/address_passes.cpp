@@ -8,8 +8,8 @@
 namespace crumple::deform {
 
 namespace {
-render::Program addressProgram() {
-  return render::Program({{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
+gl::Program addressProgram() {
+  return gl::Program({{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
                           {GL_FRAGMENT_SHADER, "address.frag", std::string(deformShader("address.frag"))}});
 }
 }  // namespace
@@ -37,12 +37,12 @@ AddressPasses::AddressPasses(int size)
 void AddressPasses::resize(int n) {
   size_ = n;
   for (int s = 0; s < 2; ++s) {
-    addressX_[s] = render::Texture2D(n, n, GL_RG32F);
-    depthX_[s] = render::Texture2D(n, n, GL_R32F);
-    normalX_[s] = render::Texture2D(n, n, GL_RGBA16F);
-    depthBuffer_[s] = render::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
+    addressX_[s] = gl::Texture2D(n, n, GL_RG32F);
+    depthX_[s] = gl::Texture2D(n, n, GL_R32F);
+    normalX_[s] = gl::Texture2D(n, n, GL_RGBA16F);
+    depthBuffer_[s] = gl::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
     for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s]}) t->setFilter(GL_NEAREST, GL_NEAREST);
-    fboX_[s] = render::Framebuffer();
+    fboX_[s] = gl::Framebuffer();
     fboX_[s].attachColor(addressX_[s], 0);
     fboX_[s].attachColor(depthX_[s], 1);
     fboX_[s].attachColor(normalX_[s], 2);
@@ -66,24 +66,24 @@ size_t AddressPasses::tiles() const {
 
 void AddressPasses::makeSlots(int slots) {
   const int n = size_;
-  addressArray_ = render::TextureArray(n, n, slots, GL_RG32F);
-  depthArray_ = render::TextureArray(n, n, slots, GL_R32F);
+  addressArray_ = gl::TextureArray(n, n, slots, GL_RG32F);
+  depthArray_ = gl::TextureArray(n, n, slots, GL_R32F);
   addressO_.clear();
   depthO_.clear();
   for (int s = 0; s < slots; ++s) {
-    addressO_.push_back(render::Texture2D::layerView(addressArray_, s));
-    depthO_.push_back(render::Texture2D::layerView(depthArray_, s));
+    addressO_.push_back(gl::Texture2D::layerView(addressArray_, s));
+    depthO_.push_back(gl::Texture2D::layerView(depthArray_, s));
     addressO_.back().setFilter(GL_NEAREST, GL_NEAREST);
     depthO_.back().setFilter(GL_NEAREST, GL_NEAREST);
   }
   held_.assign(static_cast<size_t>(slots), Held::Unknown);
   const size_t t = tiles(), k = static_cast<size_t>(slots);
-  count_ = render::Buffer(k * countStride() * sizeof(GLuint), nullptr);
-  list_ = render::Buffer(k * t * kTileCapacity * sizeof(GLuint), nullptr);
-  active_ = render::Buffer(k * t * sizeof(GLuint), nullptr);
-  reach_ = render::Buffer(k * 4 * sizeof(GLint), nullptr);
+  count_ = gl::Buffer(k * countStride() * sizeof(GLuint), nullptr);
+  list_ = gl::Buffer(k * t * kTileCapacity * sizeof(GLuint), nullptr);
+  active_ = gl::Buffer(k * t * sizeof(GLuint), nullptr);
+  reach_ = gl::Buffer(k * 4 * sizeof(GLint), nullptr);
   for (int s = 0; s < 2; ++s) {  // the fragment stage's pass B draws into slots 0 and 1
-    fboO_[s] = render::Framebuffer();
+    fboO_[s] = gl::Framebuffer();
     fboO_[s].attachColor(addressO_[static_cast<size_t>(s)], 0);
     fboO_[s].attachColor(depthO_[static_cast<size_t>(s)], 1);
     fboO_[s].attachDepth(depthBuffer_[s]);
@@ -93,7 +93,7 @@ void AddressPasses::makeSlots(int slots) {
   }
 }
 
-void clearBoxes(render::Buffer& buffer, int boxes) {
+void clearBoxes(gl::Buffer& buffer, int boxes) {
   std::vector<GLint> empty(std::max(static_cast<size_t>(boxes), buffer.size() / (4 * sizeof(GLint))) * 4);
   for (size_t k = 0; k < empty.size(); k += 4) {
     empty[k] = empty[k + 1] = INT_MAX;
@@ -102,8 +102,8 @@ void clearBoxes(render::Buffer& buffer, int boxes) {
   freshBuffer(buffer, empty.size() * sizeof(GLint), empty.data());
 }
 
-void freshBuffer(render::Buffer& buffer, size_t bytes, const void* data) {
-  buffer = render::Buffer(bytes, data, GL_DYNAMIC_STORAGE_BIT);
+void freshBuffer(gl::Buffer& buffer, size_t bytes, const void* data) {
+  buffer = gl::Buffer(bytes, data, GL_DYNAMIC_STORAGE_BIT);
 }
 
 void AddressPasses::clearReach(int slots) { clearBoxes(reach_, slots); }
@@ -212,8 +212,8 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
   }
   const size_t setupBytes = std::max<size_t>(setup, 1) * 6 * 4 * sizeof(float);
   if (setup_.size() < setupBytes) {
-    setup_ = render::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
-    large_ = render::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
+    setup_ = gl::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
+    large_ = gl::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
   }
   freshBuffer(entries_, entries.size() * sizeof(Entry), entries.data());
   std::vector<GLuint> args(static_cast<size_t>(groups) * 3);

@@ -27,17 +27,17 @@ CommitPass::CommitPass()
 void CommitPass::reserve(size_t sides) {
   if (sides <= sides_) return;
   sides_ = std::max<size_t>(sides, 2);
-  normalRegion_ = render::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  normalRegion_ = gl::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
 }
 
-void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
+void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, const gl::Buffer& stats,
                      const PhaseMark& phase) {
   // Sides (by slot; some without X) in groups of kGroup, a dispatch a group and stage; each group dispatched
   // over the largest region of its sides (region_dispatch.comp), the others' workgroups returning at once.
   reserve(sides.size());
   std::vector<CommitEntry> entries;
   std::vector<const Side*> of;
-  const render::Buffer* rim = nullptr;
+  const gl::Buffer* rim = nullptr;
   for (size_t slot = 0; slot < sides.size(); ++slot) {
     const Side& s = sides[slot];
     if (!s.x) continue;
@@ -70,7 +70,7 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   of.front()->scratch.bind();
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args_.id());
-  auto eachGroup = [&](const render::Program& program, int stage, const auto& bind) {
+  auto eachGroup = [&](const gl::Program& program, int stage, const auto& bind) {
     program.use();
     for (int g = 0; g < groups; ++g) {
       for (int k = g * kGroup; k < std::min(n, (g + 1) * kGroup); ++k) bind(k - g * kGroup, *of[static_cast<size_t>(k)]->x);

@@ -29,16 +29,16 @@ GatherUpdate::GatherUpdate()
 void GatherUpdate::bindTexelSpace(int res) {
   auto it = texelSpace_.find(res);
   if (it == texelSpace_.end()) {
-    it = texelSpace_.emplace(res, render::Framebuffer()).first;
+    it = texelSpace_.emplace(res, gl::Framebuffer()).first;
     glNamedFramebufferParameteri(it->second.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, res);
     glNamedFramebufferParameteri(it->second.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, res);
   }
   it->second.bind();
 }
 
-void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& vp,
+void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const gl::Texture2D& height, const glm::dmat4& vp,
                        const glm::dmat4& model, const AddressPasses& passes, float farthestOther,
-                       const Scratch& scratch, const render::Buffer& region) {
+                       const Scratch& scratch, const gl::Buffer& region) {
   program_.use();
   bindTexelSpace(u.resolution);
   glViewport(0, 0, u.resolution, u.resolution);
@@ -91,7 +91,7 @@ ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {
   uMode_ = program_.uniform("uMode");
 }
 
-void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const render::Buffer& reach) {
+void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const gl::Buffer& reach) {
   order_.clear();
   dispatches_.clear();
   keptAt_.clear();
@@ -146,7 +146,7 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
     keptBytes += (d.count * tiles * sizeof(GLuint) + 255) / 256 * 256;
     tilesRun_ += d.count * tiles;
   }
-  if (kept_.size() < keptBytes) kept_ = render::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
+  if (kept_.size() < keptBytes) kept_ = gl::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
   std::vector<GLuint> heads(dispatches_.size() * kHeadUints, 0);
   for (size_t k = 0; k < dispatches_.size(); ++k) heads[k * kHeadUints + 2] = heads[k * kHeadUints + 3] = 1;
   freshBuffer(keptHead_, heads.size() * sizeof(GLuint), heads.data());
@@ -178,7 +178,7 @@ void ComputeGather::bind(size_t k) const {
   glUniform1i(uFirst_, static_cast<GLint>(d.first));
 }
 
-void ComputeGather::gather(const AddressPasses& passes, const render::Buffer& region) {
+void ComputeGather::gather(const AddressPasses& passes, const gl::Buffer& region) {
   if (dispatches_.empty()) return;
   program_.use();
   glUniform1i(uSize_, passes.size());
@@ -222,8 +222,8 @@ ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {
   uViewNormal_ = program_.uniform("uViewNormal");
 }
 
-void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-                        const Scratch& scratch, const render::Buffer& region) {
+void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const gl::Texture2D& height,
+                        const Scratch& scratch, const gl::Buffer& region) {
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   program_.use();
   glBindTextureUnit(0, passes.addressX(u.side).id());
@@ -254,8 +254,8 @@ CraterRims::CraterRims()
   dResolution_ = dispatch_.uniform("uResolution");
 }
 
-void CraterRims::run(int side, int res, const render::Texture2D& height, const Scratch& scratch,
-                     const render::Buffer& region) {
+void CraterRims::run(int side, int res, const gl::Texture2D& height, const Scratch& scratch,
+                     const gl::Buffer& region) {
   // The ring width depends on the dent's size: found on the GPU from the region, with the dispatch sizes.
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   const GLuint zero[4] = {0, 0, 0, 0};

@@ -7,11 +7,25 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
-#include "render/capture.h"
-#include "render/gl_context.h"
+#include "gl/capture.h"
+#include "gl/context.h"
 #include "render/look.h"
 
 namespace crumple::render {
+
+using gl::Framebuffer;
+using gl::GlName;
+using gl::Image;
+using gl::Program;
+using gl::Renderbuffer;
+using gl::Texture2D;
+using gl::VertexArray;
+namespace detail = gl::detail;
+
+namespace shaders {
+std::string_view shaderSource(std::string_view name);
+}
+std::string_view renderShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
 
 namespace {
 Program program(const char* vs, const char* fs) {
@@ -199,7 +213,7 @@ struct Renderer::Impl {
   std::vector<size_t> visible;                      // the items drawn this frame, in that order
   // Shading from a visibility buffer (RendererSettings::shading): the pass's programs and targets; Auto picks it
   // on GPUs with few graphics units.
-  bool fewGraphicsUnits = render::fewGraphicsUnits(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  bool fewGraphicsUnits = gl::fewGraphicsUnits(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
   Program visibility = program("visibility.vert", "visibility.frag");
   std::map<uint32_t, Program> pomComputeVariants;
   Texture2D visibilityIds{1, 1, GL_RG32UI};
@@ -740,8 +754,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   glBindTextureUnit(2, 0);
 }
 
-Image Renderer::readPixels() const { return readFramebuffer(impl_->fbo.id(), width_, height_, 3); }
+Image Renderer::readPixels() const { return gl::readFramebuffer(impl_->fbo.id(), width_, height_, 3); }
 
-void Renderer::savePng(const std::string& path) const { writePng(path, readPixels(), 8); }
+void Renderer::savePng(const std::string& path) const { gl::writePng(path, readPixels(), 8); }
 
 }  // namespace crumple::render

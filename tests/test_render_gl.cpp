@@ -6,11 +6,13 @@
 #include <filesystem>
 
 #include "gl_fixture.h"
-#include "render/capture.h"
-#include "render/gl_objects.h"
-#include "render/gpu_timer.h"
+#include "gl/capture.h"
+#include "gl/objects.h"
+#include "gl/gpu_timer.h"
+#include "render/renderer.h"
 
 using namespace crumple;
+using namespace crumple::gl;
 using namespace crumple::render;
 
 TEST_CASE("headless context is OpenGL 4.5 core") {

@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-namespace crumple::render {
+namespace crumple::gl {
 
 template <void (*Deleter)(GLuint)>
 class GlName {
@@ -151,7 +151,4 @@ class Program : public GlName<detail::deleteProgram> {
   mutable std::unordered_map<std::string, GLint, NameHash, std::equal_to<>> locations_;
 };
 
-// Source of a shader embedded from render/shaders at build time.
-std::string_view renderShader(std::string_view fileName);
-
-}  // namespace crumple::render
+}  // namespace crumple::gl

@@ -1,13 +1,8 @@
-#include "render/gl_objects.h"
+#include "gl/objects.h"
 
 #include <stdexcept>
 
-namespace crumple::render {
-
-namespace shaders {
-std::string_view shaderSource(std::string_view name);
-}
-std::string_view renderShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
+namespace crumple::gl {
 
 static GLuint makeBuffer() {
   GLuint id = 0;
@@ -179,4 +174,4 @@ GLint Program::uniform(const char* name) const {
   return found->second;
 }
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

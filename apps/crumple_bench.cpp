@@ -42,6 +42,7 @@
 #include "gl/context.h"
 #include "gl/objects.h"
 #include "gl/gpu_timer.h"
+#include "gl/program.h"
 #include "render/renderer.h"
 
 using namespace crumple;
@@ -661,8 +662,8 @@ void visibilityBench(benchmark::State& state) {
     program.use();
     for (const auto& [d, i] : order) {
       const glm::mat4 mvp = vp * items[i].model;
-      glUniformMatrix4fv(program.uniform("uMvp"), 1, GL_FALSE, glm::value_ptr(mvp));
-      glUniform1ui(program.uniform("uItem"), static_cast<GLuint>(i));
+      glUniformMatrix4fv(program.location("uMvp"), 1, GL_FALSE, glm::value_ptr(mvp));
+      glUniform1ui(program.location("uItem"), static_cast<GLuint>(i));
       glBindVertexArray(items[i].vao);
       glDrawElements(GL_TRIANGLES, items[i].indexCount, GL_UNSIGNED_INT, nullptr);
     }

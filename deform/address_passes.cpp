@@ -18,17 +18,17 @@ AddressPasses::AddressPasses(int size)
     : program_(addressProgram()),
       bin_(computeProgram("address_bin.comp")),
       raster_(computeProgram("address_raster.comp")) {
-  bSize_ = bin_.uniform("uSize");
-  bCapacity_ = bin_.uniform("uCapacity");
-  bFirst_ = bin_.uniform("uFirst");
-  rSize_ = raster_.uniform("uSize");
-  rCapacity_ = raster_.uniform("uCapacity");
-  rMode_ = raster_.uniform("uMode");
-  rFirst_ = raster_.uniform("uFirst");
-  uMvp_ = program_.uniform("uModelViewProjection");
-  uNormalToWorld_ = program_.uniform("uNormalToWorld");
-  uSign_ = program_.uniform("uSign");
-  uBumpToDepth_ = program_.uniform("uBumpToDepth");
+  bSize_ = bin_.location("uSize");
+  bCapacity_ = bin_.location("uCapacity");
+  bFirst_ = bin_.location("uFirst");
+  rSize_ = raster_.location("uSize");
+  rCapacity_ = raster_.location("uCapacity");
+  rMode_ = raster_.location("uMode");
+  rFirst_ = raster_.location("uFirst");
+  uMvp_ = program_.location("uModelViewProjection");
+  uNormalToWorld_ = program_.location("uNormalToWorld");
+  uSign_ = program_.location("uSign");
+  uBumpToDepth_ = program_.location("uBumpToDepth");
   const float half = 0.5f;
   flat_.upload(GL_RED, GL_FLOAT, &half);
   resize(size);

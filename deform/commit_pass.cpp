@@ -64,8 +64,8 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
   dispatch_.use();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, args_.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, (rim ? rim : &region)->id());  // read only where a side grows
-  glUniform1i(dispatch_.uniform("uCount"), n);
-  glUniform1i(dispatch_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  glUniform1i(dispatch_.location("uCount"), n);
+  glUniform1i(dispatch_.location("uTile"), SurfaceMaps::kBoundTile);
   glDispatchCompute(static_cast<GLuint>((n + 63) / 64), 1, 1);
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   of.front()->scratch.bind();
@@ -74,7 +74,7 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
     program.use();
     for (int g = 0; g < groups; ++g) {
       for (int k = g * kGroup; k < std::min(n, (g + 1) * kGroup); ++k) bind(k - g * kGroup, *of[static_cast<size_t>(k)]->x);
-      glUniform1i(program.uniform("uFirst"), g * kGroup);
+      glUniform1i(program.location("uFirst"), g * kGroup);
       glDispatchComputeIndirect(static_cast<GLintptr>(g * 9 + 3 * stage) * sizeof(GLuint));
     }
   };
@@ -84,7 +84,7 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("commit");
   normals_.use();
-  glUniform1i(normals_.uniform("uFull"), 0);
+  glUniform1i(normals_.location("uFull"), 0);
   eachGroup(normals_, 1, [](int unit, const Surface& x) {
     glBindTextureUnit(static_cast<GLuint>(unit), x.height().id());
     glBindImageTexture(static_cast<GLuint>(unit), x.normal().id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
@@ -92,8 +92,8 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   phase("normal map");
   bound_.use();
-  glUniform1i(bound_.uniform("uFull"), 0);
-  glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  glUniform1i(bound_.location("uFull"), 0);
+  glUniform1i(bound_.location("uTile"), SurfaceMaps::kBoundTile);
   eachGroup(bound_, 2, [](int unit, const Surface& x) {
     glBindTextureUnit(static_cast<GLuint>(unit), x.height().id());
     glBindImageTexture(static_cast<GLuint>(unit), x.maps().bound.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
@@ -102,13 +102,13 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   // The levels above level 0: one workgroup a map, all its levels (height_bound_up.comp), 8 maps a dispatch.
   boundUp_.use();
-  glUniform1i(boundUp_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  glUniform1i(boundUp_.location("uTile"), SurfaceMaps::kBoundTile);
   for (int g = 0; g < groups; ++g) {
     const int count = std::min(kGroup, n - g * kGroup);
     for (int k = 0; k < count; ++k)
       glBindImageTexture(static_cast<GLuint>(k), of[static_cast<size_t>(g * kGroup + k)]->x->maps().bound.id(), 0,
                          GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
-    glUniform1i(boundUp_.uniform("uFirst"), g * kGroup);
+    glUniform1i(boundUp_.location("uFirst"), g * kGroup);
     glDispatchCompute(1, 1, static_cast<GLuint>(count));
   }
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
@@ -119,21 +119,21 @@ void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeSca
   normals_.use();
   glBindTextureUnit(0, maps.height.id());
   glBindImageTexture(0, maps.normal.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
-  glUniform1i(normals_.uniform("uFull"), 1);
-  glUniform4i(normals_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
-  glUniform1i(normals_.uniform("uFullResolution"), resolution);
-  glUniform1f(normals_.uniform("uFullSlopeScale"), slopeScale);
+  glUniform1i(normals_.location("uFull"), 1);
+  glUniform4i(normals_.location("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
+  glUniform1i(normals_.location("uFullResolution"), resolution);
+  glUniform1f(normals_.location("uFullSlopeScale"), slopeScale);
   glDispatchCompute(dispatchGroups(hi.x - lo.x + 1), dispatchGroups(hi.y - lo.y + 1), 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   // The bound pyramid over [lo, hi], level by level.
   bound_.use();
   glBindTextureUnit(0, maps.height.id());
-  glUniform1i(bound_.uniform("uFull"), 1);
-  glUniform4i(bound_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
-  glUniform1i(bound_.uniform("uFullResolution"), resolution);
-  glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  glUniform1i(bound_.location("uFull"), 1);
+  glUniform4i(bound_.location("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
+  glUniform1i(bound_.location("uFullResolution"), resolution);
+  glUniform1i(bound_.location("uTile"), SurfaceMaps::kBoundTile);
   for (int level = 0; level < maps.boundLevels(); ++level) {
-    glUniform1i(bound_.uniform("uLevel"), level);
+    glUniform1i(bound_.location("uLevel"), level);
     glBindImageTexture(0, maps.bound.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
     // Level 0 takes a workgroup a bound texel, the levels above 8 x 8 texels.
     const int span = SurfaceMaps::kBoundTile << level;

@@ -11,19 +11,19 @@ GatherUpdate::GatherUpdate()
     : program_({{GL_VERTEX_SHADER, "texel.vert", std::string(deformShader("texel.vert"))},
                 {GL_GEOMETRY_SHADER, "texel.geom", std::string(deformShader("texel.geom"))},
                 {GL_FRAGMENT_SHADER, "texel_gather.frag", std::string(deformShader("texel_gather.frag"))}}) {
-  uMvp_ = program_.uniform("uModelViewProjection");
-  uNormalToWorld_ = program_.uniform("uNormalToWorld");
-  uResolution_ = program_.uniform("uResolution");
-  uViewMargin_ = program_.uniform("uViewMargin");
-  uFarthestOther_ = program_.uniform("uFarthestOther");
-  uBumpReach_ = program_.uniform("uBumpReach");
-  uSide_ = program_.uniform("uSide");
-  uSize_ = program_.uniform("uSize");
-  uBumpToDepth_ = program_.uniform("uBumpToDepth");
-  uDepthToHeight_ = program_.uniform("uDepthToHeight");
-  uTangentMode_ = program_.uniform("uTangentMode");
-  uTangentFloor_ = program_.uniform("uTangentFloor");
-  uViewNormal_ = program_.uniform("uViewNormal");
+  uMvp_ = program_.location("uModelViewProjection");
+  uNormalToWorld_ = program_.location("uNormalToWorld");
+  uResolution_ = program_.location("uResolution");
+  uViewMargin_ = program_.location("uViewMargin");
+  uFarthestOther_ = program_.location("uFarthestOther");
+  uBumpReach_ = program_.location("uBumpReach");
+  uSide_ = program_.location("uSide");
+  uSize_ = program_.location("uSize");
+  uBumpToDepth_ = program_.location("uBumpToDepth");
+  uDepthToHeight_ = program_.location("uDepthToHeight");
+  uTangentMode_ = program_.location("uTangentMode");
+  uTangentFloor_ = program_.location("uTangentFloor");
+  uViewNormal_ = program_.location("uViewNormal");
 }
 
 void GatherUpdate::bindTexelSpace(int res) {
@@ -52,7 +52,7 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const gl::Textu
   glBindTextureUnit(3, passes.depthOther(u.side).id());
   glBindTextureUnit(5, height.id());
   scratch.bind();
-  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
+  glUniform1ui(program_.location("uScratchBase"), scratch.offset);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glUniform1i(uSide_, u.side);
   glUniform1i(uSize_, passes.size());
@@ -86,9 +86,9 @@ static_assert(sizeof(GatherEntry) == 176, "GatherEntry must match texel_gather.c
 }  // namespace
 
 ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {
-  uSize_ = program_.uniform("uSize");
-  uFirst_ = program_.uniform("uFirst");
-  uMode_ = program_.uniform("uMode");
+  uSize_ = program_.location("uSize");
+  uFirst_ = program_.location("uFirst");
+  uMode_ = program_.location("uMode");
 }
 
 void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const gl::Buffer& reach) {
@@ -213,13 +213,13 @@ std::pair<size_t, size_t> ComputeGather::lastKept() const {
 }
 
 ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {
-  uSide_ = program_.uniform("uSide");
-  uSize_ = program_.uniform("uSize");
-  uResolution_ = program_.uniform("uResolution");
-  uDepthToHeight_ = program_.uniform("uDepthToHeight");
-  uTangentMode_ = program_.uniform("uTangentMode");
-  uTangentFloor_ = program_.uniform("uTangentFloor");
-  uViewNormal_ = program_.uniform("uViewNormal");
+  uSide_ = program_.location("uSide");
+  uSize_ = program_.location("uSize");
+  uResolution_ = program_.location("uResolution");
+  uDepthToHeight_ = program_.location("uDepthToHeight");
+  uTangentMode_ = program_.location("uTangentMode");
+  uTangentFloor_ = program_.location("uTangentFloor");
+  uViewNormal_ = program_.location("uViewNormal");
 }
 
 void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const gl::Texture2D& height,
@@ -233,7 +233,7 @@ void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const 
   glBindTextureUnit(4, passes.normalX(u.side).id());
   glBindTextureUnit(5, height.id());
   scratch.bind();
-  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
+  glUniform1ui(program_.location("uScratchBase"), scratch.offset);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
   glUniform1i(uSide_, u.side);
   glUniform2i(uSize_, passes.size(), passes.size());
@@ -247,11 +247,11 @@ void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const 
 
 CraterRims::CraterRims()
     : program_(computeProgram("crater_rim.comp")), dispatch_(computeProgram("rim_dispatch.comp")) {
-  uSide_ = program_.uniform("uSide");
-  uResolution_ = program_.uniform("uResolution");
-  uMode_ = program_.uniform("uMode");
-  dSide_ = dispatch_.uniform("uSide");
-  dResolution_ = dispatch_.uniform("uResolution");
+  uSide_ = program_.location("uSide");
+  uResolution_ = program_.location("uResolution");
+  uMode_ = program_.location("uMode");
+  dSide_ = dispatch_.location("uSide");
+  dResolution_ = dispatch_.location("uResolution");
 }
 
 void CraterRims::run(int side, int res, const gl::Texture2D& height, const Scratch& scratch,
@@ -269,7 +269,7 @@ void CraterRims::run(int side, int res, const gl::Texture2D& height, const Scrat
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   program_.use();
   scratch.bind();
-  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
+  glUniform1ui(program_.location("uScratchBase"), scratch.offset);
   glBindTextureUnit(1, height.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, sums_.id());
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, rim_.id());

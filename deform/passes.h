@@ -28,6 +28,7 @@
 
 #include "deform/deformer.h"
 #include "gl/objects.h"
+#include "gl/program.h"
 
 namespace crumple::deform {
 

@@ -1,6 +1,9 @@
 #include "gl/objects.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <stdexcept>
+#include <string>
 
 namespace crumple::gl {
 
@@ -127,51 +130,5 @@ static GLuint makeVertexArray() {
   return id;
 }
 VertexArray::VertexArray() : GlName(makeVertexArray()) {}
-
-Program::Program(const std::vector<Stage>& stages) : GlName(glCreateProgram()) {
-  std::vector<GLuint> shaders;
-  for (const auto& s : stages) {
-    label_ += (label_.empty() ? "" : "+") + s.name;
-    GLuint sh = glCreateShader(s.type);
-    const char* src = s.source.c_str();
-    glShaderSource(sh, 1, &src, nullptr);
-    glCompileShader(sh);
-    GLint ok = 0;
-    glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      GLint len = 0;
-      glGetShaderiv(sh, GL_INFO_LOG_LENGTH, &len);
-      std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
-      glGetShaderInfoLog(sh, len, nullptr, log.data());
-      glDeleteShader(sh);
-      for (GLuint o : shaders) glDeleteShader(o);
-      throw std::runtime_error("shader " + s.name + " failed to compile:\n" + log);
-    }
-    glAttachShader(id(), sh);
-    shaders.push_back(sh);
-  }
-  glLinkProgram(id());
-  for (GLuint sh : shaders) {
-    glDetachShader(id(), sh);
-    glDeleteShader(sh);
-  }
-  GLint ok = 0;
-  glGetProgramiv(id(), GL_LINK_STATUS, &ok);
-  if (!ok) {
-    GLint len = 0;
-    glGetProgramiv(id(), GL_INFO_LOG_LENGTH, &len);
-    std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
-    glGetProgramInfoLog(id(), len, nullptr, log.data());
-    throw std::runtime_error("program " + label_ + " failed to link:\n" + log);
-  }
-}
-
-void Program::use() const { glUseProgram(id()); }
-GLint Program::uniform(const char* name) const {
-  const std::string_view key(name);
-  auto found = locations_.find(key);
-  if (found == locations_.end()) found = locations_.emplace(std::string(key), glGetUniformLocation(id(), name)).first;
-  return found->second;
-}
 
 }  // namespace crumple::gl

@@ -9,6 +9,7 @@
 
 #include "gl/capture.h"
 #include "gl/context.h"
+#include "gl/program.h"
 #include "render/look.h"
 
 namespace crumple::render {
@@ -327,11 +328,11 @@ struct Renderer::Impl {
     const GpuLook* look = it.look;
     if (!look || look->materialCount() == 0) return;
     const int n = look->materialCount();
-    glUniform3i(p.uniform("uLookOwn"), it.ownColor, it.ownMetallic, it.ownRoughness);
-    glUniform4fv(p.uniform("uLookBase"), n, glm::value_ptr(look->baseColor[0]));
-    glUniform4fv(p.uniform("uLookParams"), n, glm::value_ptr(look->params[0]));
-    glUniform4fv(p.uniform("uLookEmissive"), n, glm::value_ptr(look->emissive[0]));
-    glUniform4iv(p.uniform("uLookLayers"), n, glm::value_ptr(look->layers[0]));
+    glUniform3i(p.location("uLookOwn"), it.ownColor, it.ownMetallic, it.ownRoughness);
+    glUniform4fv(p.location("uLookBase"), n, glm::value_ptr(look->baseColor[0]));
+    glUniform4fv(p.location("uLookParams"), n, glm::value_ptr(look->params[0]));
+    glUniform4fv(p.location("uLookEmissive"), n, glm::value_ptr(look->emissive[0]));
+    glUniform4iv(p.location("uLookLayers"), n, glm::value_ptr(look->layers[0]));
     glBindTextureUnit(8, look->srgbArray() ? look->srgbArray() : flatArray.id());
     glBindTextureUnit(9, look->linearArray() ? look->linearArray() : flatArray.id());
   }
@@ -342,16 +343,16 @@ struct Renderer::Impl {
     for (int face = 0; face < 6; ++face) {
       glNamedFramebufferTextureLayer(bakeFbo.id(), GL_COLOR_ATTACHMENT0, cube, level, face);
       const glm::mat3 basis = faceBasis(face);
-      glUniformMatrix3fv(p.uniform("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
+      glUniformMatrix3fv(p.location("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
       glDrawArrays(GL_TRIANGLES, 0, 3);
     }
   }
   void setSkyUniforms(const Program& p, const RendererSettings& s) {
     const glm::vec3 toSun = -glm::normalize(s.sunDirection);
-    glUniform3fv(p.uniform("uToSun"), 1, glm::value_ptr(toSun));
-    glUniform3fv(p.uniform("uSunColor"), 1, glm::value_ptr(s.sunColor));
-    glUniform3fv(p.uniform("uSkyColor"), 1, glm::value_ptr(s.skyColor));
-    glUniform3fv(p.uniform("uGroundColor"), 1, glm::value_ptr(s.groundColor));
+    glUniform3fv(p.location("uToSun"), 1, glm::value_ptr(toSun));
+    glUniform3fv(p.location("uSunColor"), 1, glm::value_ptr(s.sunColor));
+    glUniform3fv(p.location("uSkyColor"), 1, glm::value_ptr(s.skyColor));
+    glUniform3fv(p.location("uGroundColor"), 1, glm::value_ptr(s.groundColor));
   }
   // The split-sum table once; the sky's cube maps again when the sun or sky changes.
   void prepareLight(const RendererSettings& s) {
@@ -371,20 +372,20 @@ struct Renderer::Impl {
       std::copy(key, key + 4, skyKey);
       sky.use();
       setSkyUniforms(sky, s);
-      glUniform1i(sky.uniform("uBackground"), 0);
+      glUniform1i(sky.location("uBackground"), 0);
       bakeFaces(sky, env.id(), kEnvSize, 0);
       glGenerateTextureMipmap(env.id());
       prefilter.use();
       glBindTextureUnit(0, env.id());
-      glUniform1i(prefilter.uniform("uMode"), 0);
+      glUniform1i(prefilter.location("uMode"), 0);
       for (int level = 0; level < kPrefilterLevels; ++level) {
         const float roughness = static_cast<float>(level) / (kPrefilterLevels - 1);
-        glUniform1f(prefilter.uniform("uRoughness"), roughness);
-        glUniform1i(prefilter.uniform("uSamples"), level == 0 ? 1 : 48);
+        glUniform1f(prefilter.location("uRoughness"), roughness);
+        glUniform1i(prefilter.location("uSamples"), level == 0 ? 1 : 48);
         bakeFaces(prefilter, prefiltered.id(), kPrefilterSize, level);
       }
-      glUniform1i(prefilter.uniform("uMode"), 1);
-      glUniform1i(prefilter.uniform("uSamples"), 128);
+      glUniform1i(prefilter.location("uMode"), 1);
+      glUniform1i(prefilter.location("uSamples"), 128);
       bakeFaces(prefilter, irradiance.id(), kIrradianceSize, 0);
       skyDone = true;
     }
@@ -422,7 +423,7 @@ struct Renderer::Impl {
     glDisable(GL_DEPTH_TEST);
     glEnable(GL_FRAMEBUFFER_SRGB);
     fxaa.use();
-    glUniform2f(fxaa.uniform("uTexel"), 1.0f / static_cast<float>(w), 1.0f / static_cast<float>(h));
+    glUniform2f(fxaa.location("uTexel"), 1.0f / static_cast<float>(w), 1.0f / static_cast<float>(h));
     glBindTextureUnit(0, sceneColor.id());
     glBindVertexArray(emptyVao.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -515,7 +516,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
         const RenderItem& it = items[i];
         ++stats_.shadowCasters;
         const glm::mat4 mvp = lightVP * it.model;
-        glUniformMatrix4fv(m.shadow.uniform("uLightModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+        glUniformMatrix4fv(m.shadow.location("uLightModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
         glBindVertexArray(casterVao(it, s));
         glDrawElements(GL_TRIANGLES, casterIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
       }
@@ -576,7 +577,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   auto prepare = [&](const Program& p) {
     if (std::find(prepared.begin(), prepared.end(), p.id()) != prepared.end()) return;
     prepared.push_back(p.id());
-    auto u = [&](const char* n) { return p.uniform(n); };
+    auto u = [&](const char* n) { return p.location(n); };
     glUniformMatrix4fv(u("uViewProjection"), 1, GL_FALSE, glm::value_ptr(vp));
     glUniformMatrix4fv(u("uLightViewProjection"), 1, GL_FALSE, glm::value_ptr(lightVP));
     glUniform3fv(u("uEye"), 1, glm::value_ptr(view.eye));
@@ -631,7 +632,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   }
   // The item's own uniforms and maps, in either path's program.
   auto bindItem = [&](const Program& p, const RenderItem& it) {
-    auto u = [&](const char* n) { return p.uniform(n); };
+    auto u = [&](const char* n) { return p.location(n); };
     const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
     glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));
     glUniformMatrix3fv(u("uNormalMatrix"), 1, GL_FALSE, glm::value_ptr(nrm));
@@ -668,8 +669,8 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     for (size_t index : visible) {
       const RenderItem& it = items[index];
       const glm::mat4 mvp = vp * it.model;
-      glUniformMatrix4fv(m.visibility.uniform("uModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
-      glUniform1ui(m.visibility.uniform("uItem"), static_cast<GLuint>(index));
+      glUniformMatrix4fv(m.visibility.location("uModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+      glUniform1ui(m.visibility.location("uItem"), static_cast<GLuint>(index));
       glBindVertexArray(itemVao(it, s));  // the simplified mesh where the settings ask for it
       glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
     }
@@ -685,14 +686,14 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
         p.use();
         current = p.id();
         prepare(p);
-        glUniformMatrix4fv(p.uniform("uInvViewProjection"), 1, GL_FALSE, glm::value_ptr(inverseVp));
-        glUniform2i(p.uniform("uFrameSize"), width_, height_);
+        glUniformMatrix4fv(p.location("uInvViewProjection"), 1, GL_FALSE, glm::value_ptr(inverseVp));
+        glUniform2i(p.location("uFrameSize"), width_, height_);
       }
       bindItem(p, it);
       const glm::ivec4 rect = screenRect(vp * it.model, it.boundsMin, it.boundsMax, width_, height_);
       if (rect.z <= 0 || rect.w <= 0) continue;
-      glUniform1ui(p.uniform("uItem"), static_cast<GLuint>(index));
-      glUniform4iv(p.uniform("uRect"), 1, glm::value_ptr(rect));
+      glUniform1ui(p.location("uItem"), static_cast<GLuint>(index));
+      glUniform4iv(p.location("uRect"), 1, glm::value_ptr(rect));
       const Impl::MeshBuffers& b = buffers[index];
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, b.vertices);
       glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, b.indices);
@@ -731,9 +732,9 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     const glm::vec3 up = glm::cross(right, fwd);
     const float tanY = std::tan(glm::radians(view.fovDegrees) * 0.5f);
     const glm::mat3 basis(right * tanY * aspect, up * tanY, fwd);
-    glUniformMatrix3fv(m.sky.uniform("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
-    glUniform1i(m.sky.uniform("uBackground"), 1);
-    glUniform1f(m.sky.uniform("uExposure"), s.exposure);
+    glUniformMatrix3fv(m.sky.location("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
+    glUniform1i(m.sky.location("uBackground"), 1);
+    glUniform1f(m.sky.location("uExposure"), s.exposure);
     glDepthFunc(GL_LEQUAL);
     glDepthMask(GL_FALSE);
     glBindVertexArray(m.emptyVao.id());

@@ -2,6 +2,7 @@
 
 #include "deform/passes.h"
 #include "gl/context.h"
+#include "gl/state.h"
 
 #include <algorithm>
 #include <cmath>
@@ -427,8 +428,7 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
   clearBoxes(region, slots);
   std::vector<SidePlan> plans(static_cast<size_t>(slots));
   std::vector<char> rimsMade(static_cast<size_t>(slots), 0);  // the commit region grows by their ring
-  GLint savedViewport[4];
-  glGetIntegerv(GL_VIEWPORT, savedViewport);
+  const gl::StateGuard callerState;  // the passes' viewports, framebuffers, programs and depth and cull state
   for (size_t e = 0; e < n; ++e) {
     handles[e] = allocateStats();
     const DeformRequest& rq = *events[e];
@@ -462,8 +462,6 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
                                           scratchFor(slot, x.resolution()), handles[e] + slot % 2};
   }
   commit.run(commits, region, stats, phaseMark);
-  glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);
-  glDisable(GL_CULL_FACE);
 }
 
 int Deformer::deform(const DeformRequest& rq) {

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "deform/bindings.h"
 #include "deform/deformer.h"
 #include "gl/objects.h"
 #include "gl/program.h"
@@ -52,11 +53,12 @@ void clearBoxes(gl::Buffer& buffer, int boxes);
 void freshBuffer(gl::Buffer& buffer, size_t bytes, const void* data);
 
 // A side's new heights: resolution^2 uints (float bits, row by row; kUntouched where untouched) from `offset`
-// (uints) of the deformer's scratch buffer, which shaders see at shader-storage binding 2 (uScratch[], their uScratchBase = offset).
+// (uints) of the deformer's scratch buffer, which shaders see at bindings::kScratch (uScratch[], their
+// uScratchBase = offset).
 struct Scratch {
   const gl::Buffer* buffer = nullptr;
   GLuint offset = 0;
-  void bind() const { glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, buffer->id()); }
+  void bind() const { gl::bindStorage(bindings::kScratch, buffer->id()); }
 };
 
 // What the updates share about one side of one event.
@@ -131,8 +133,12 @@ class AddressPasses {
   void draw(const DeformBody& body, const glm::dmat4& viewProjection, const glm::dmat4& model, float sign,
             float bumpToDepth);
   gl::Program program_, bin_, raster_;
-  GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
-  GLint bSize_, bCapacity_, bFirst_, rSize_, rCapacity_, rMode_, rFirst_;
+  gl::Uniform<glm::mat4> uMvp_{program_, "uModelViewProjection"};
+  gl::Uniform<glm::mat3> uNormalToWorld_{program_, "uNormalToWorld"};
+  gl::Uniform<float> uSign_{program_, "uSign"}, uBumpToDepth_{program_, "uBumpToDepth"};
+  gl::Uniform<int> bSize_{bin_, "uSize"}, bCapacity_{bin_, "uCapacity"}, bFirst_{bin_, "uFirst"};
+  gl::Uniform<int> rSize_{raster_, "uSize"}, rCapacity_{raster_, "uCapacity"}, rMode_{raster_, "uMode"},
+      rFirst_{raster_, "uFirst"};
   static constexpr int kTile = 8, kTileCapacity = 64;
   static constexpr int kGroup = 16;  // sides a raster dispatch: its height maps at texture units 0 .. 15
   size_t tiles() const;
@@ -170,8 +176,15 @@ class GatherUpdate {
  private:
   void bindTexelSpace(int resolution);
   gl::Program program_;
-  GLint uMvp_, uNormalToWorld_, uResolution_, uViewMargin_, uFarthestOther_, uBumpReach_, uSide_, uSize_, uBumpToDepth_,
-      uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+  gl::Uniform<glm::mat4> uMvp_{program_, "uModelViewProjection"};
+  gl::Uniform<glm::mat3> uNormalToWorld_{program_, "uNormalToWorld"};
+  gl::Uniform<int> uResolution_{program_, "uResolution"}, uSide_{program_, "uSide"}, uSize_{program_, "uSize"},
+      uTangentMode_{program_, "uTangentMode"};
+  gl::Uniform<float> uViewMargin_{program_, "uViewMargin"}, uFarthestOther_{program_, "uFarthestOther"},
+      uBumpReach_{program_, "uBumpReach"}, uBumpToDepth_{program_, "uBumpToDepth"},
+      uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"};
+  gl::Uniform<glm::vec3> uViewNormal_{program_, "uViewNormal"};
+  gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
   // Framebuffers without attachments, one per map size drawn (a software rasteriser bins all of it); kept, so
   // that sides of different sizes in a row do not reconfigure one.
   std::map<int, gl::Framebuffer> texelSpace_;
@@ -226,7 +239,7 @@ class ComputeGather {
   static constexpr int kGroup = 14;  // the other's address and depth at units 0, 1; X's height maps at 2 .. 15
   static constexpr size_t kHeadUints = 64;  // a dispatch's head in keptHead_ (256 bytes: any binding alignment)
   gl::Program program_;
-  GLint uSize_, uFirst_, uMode_;
+  gl::Uniform<int> uSize_{program_, "uSize"}, uFirst_{program_, "uFirst"}, uMode_{program_, "uMode"};
   // The sides; each dispatch's kept tiles (texel_gather.comp's Kept) and, 256 bytes a dispatch, their count and
   // indirect dispatch (KeptHead: made new each run, from the CPU).
   gl::Buffer entries_, kept_, keptHead_;
@@ -250,7 +263,12 @@ class ScatterUpdate {
 
  private:
   gl::Program program_;
-  GLint uSide_, uSize_, uResolution_, uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+  gl::Uniform<int> uSide_{program_, "uSide"}, uResolution_{program_, "uResolution"},
+      uTangentMode_{program_, "uTangentMode"};
+  gl::Uniform<glm::ivec2> uSize_{program_, "uSize"};
+  gl::Uniform<float> uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"};
+  gl::Uniform<glm::vec3> uViewNormal_{program_, "uViewNormal"};
+  gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
 };
 
 // Ring width (texels) of the crater rim for a dent whose touched region is w x h texels: craterRing(), found on
@@ -266,7 +284,9 @@ class CraterRims {
 
  private:
   gl::Program program_, dispatch_;
-  GLint uSide_, uResolution_, uMode_, dSide_, dResolution_;
+  gl::Uniform<int> uSide_{program_, "uSide"}, uResolution_{program_, "uResolution"}, uMode_{program_, "uMode"};
+  gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
+  gl::Uniform<int> dSide_{dispatch_, "uSide"}, dResolution_{dispatch_, "uResolution"};
   gl::Buffer sums_;
   gl::Buffer rim_{8 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
 };
@@ -306,6 +326,17 @@ class CommitPass {
   void reserve(size_t sides);
   static constexpr int kGroup = 8;  // sides a dispatch: their maps at units 0 .. 7 (8 image units: GL's least)
   gl::Program dispatch_, commit_, normals_, bound_, boundUp_;
+  gl::Uniform<int> dCount_{dispatch_, "uCount"}, dTile_{dispatch_, "uTile"};
+  gl::Uniform<int> cFirst_{commit_, "uFirst"};
+  // normal_map.comp and height_bound.comp run over a wave's sides (uFull 0) or one whole map (uFull 1, its
+  // region and resolution in uFullRegion, uFullResolution).
+  gl::Uniform<int> nFirst_{normals_, "uFirst"}, nFull_{normals_, "uFull"}, nFullResolution_{normals_, "uFullResolution"};
+  gl::Uniform<glm::ivec4> nFullRegion_{normals_, "uFullRegion"};
+  gl::Uniform<float> nFullSlopeScale_{normals_, "uFullSlopeScale"};
+  gl::Uniform<int> bFirst_{bound_, "uFirst"}, bFull_{bound_, "uFull"}, bFullResolution_{bound_, "uFullResolution"},
+      bTile_{bound_, "uTile"}, bLevel_{bound_, "uLevel"};
+  gl::Uniform<glm::ivec4> bFullRegion_{bound_, "uFullRegion"};
+  gl::Uniform<int> upFirst_{boundUp_, "uFirst"}, upTile_{boundUp_, "uTile"};
   size_t sides_ = 0;
   // Per slot: the region grown by a texel (ivec4); per side the entry (commit_side.glsl); per group of kGroup
   // the commit's, the normals' and level 0 of the bound's indirect dispatch (9 uints).

@@ -25,7 +25,6 @@
 #include <cstdio>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
-#include <glm/gtc/type_ptr.hpp>
 #include <map>
 #include <memory>
 #include <string>
@@ -625,6 +624,8 @@ void visibilityBench(benchmark::State& state) {
                                  {GL_FRAGMENT_SHADER, "visibility.frag",
                                   "#version 450 core\nuniform uint uItem;\nout uvec2 id;\n"
                                   "void main() { id = uvec2(uItem, uint(gl_PrimitiveID)); }\n"}});
+  const gl::Uniform<glm::mat4> uMvp(program, "uMvp");
+  const gl::Uniform<GLuint> uItem(program, "uItem");
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   const glm::mat4 vp = glm::perspective(glm::radians(view.fovDegrees), float(w) / float(h), view.zNear, view.zFar) *
@@ -662,8 +663,8 @@ void visibilityBench(benchmark::State& state) {
     program.use();
     for (const auto& [d, i] : order) {
       const glm::mat4 mvp = vp * items[i].model;
-      glUniformMatrix4fv(program.location("uMvp"), 1, GL_FALSE, glm::value_ptr(mvp));
-      glUniform1ui(program.location("uItem"), static_cast<GLuint>(i));
+      uMvp.set(mvp);
+      uItem.set(static_cast<GLuint>(i));
       glBindVertexArray(items[i].vao);
       glDrawElements(GL_TRIANGLES, items[i].indexCount, GL_UNSIGNED_INT, nullptr);
     }

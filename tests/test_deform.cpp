@@ -11,6 +11,7 @@
 #include <set>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "deform/bindings.h"
 #include "deform/cpu_reference.h"
 #include "deform/deformer.h"
 #include "engine/primitives.h"
@@ -318,7 +319,7 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
 }
 
 TEST_CASE("the compute gather leaves no texture of another type on its sampler array's unused units") {
-  // A cube map left on unit 15 by an earlier program (the renderer's sky light) would sit in the gather's
+  // A cube map left on the array's last unit by an earlier program (the renderer's sky light) would sit in the gather's
   // sampler2D array: undefined behaviour, which NVIDIA's driver reports.
   test::glContext();
   SphereIntoPlate s;
@@ -328,10 +329,11 @@ TEST_CASE("the compute gather leaves no texture of another type on its sampler a
   GLuint cube = 0;
   glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &cube);
   glTextureStorage2D(cube, 1, GL_RGBA8, 4, 4);
-  glBindTextureUnit(15, cube);
+  const gl::TextureUnit last = bindings::gather::kHeights + 13;  // texel_gather.comp's uHeights[14]: the last
+  gl::bindTexture(last, cube);
   s.run(d, 0.01);
   REQUIRE(s.lastStats.texelsChanged > 0);
-  glActiveTexture(GL_TEXTURE15);
+  glActiveTexture(GL_TEXTURE0 + last.index);
   GLint bound = 0;
   glGetIntegerv(GL_TEXTURE_BINDING_CUBE_MAP, &bound);
   glActiveTexture(GL_TEXTURE0);

@@ -140,7 +140,7 @@ class AddressPasses {
   gl::Uniform<int> rSize_{raster_, "uSize"}, rCapacity_{raster_, "uCapacity"}, rMode_{raster_, "uMode"},
       rFirst_{raster_, "uFirst"};
   static constexpr int kTile = 8, kTileCapacity = 64;
-  static constexpr int kGroup = 16;  // sides a raster dispatch: its height maps at texture units 0 .. 15
+  static constexpr int kGroup = 16;  // sides a raster dispatch: its height maps from bindings::address::kHeights
   size_t tiles() const;
   size_t countStride() const { return tiles() + 6; }  // uints of a slot's counts (address_bin.comp)
   // What a slot's targets hold outside the tiles to write: "none" everywhere (None), "none" outside the active
@@ -236,7 +236,7 @@ class ComputeGather {
   std::pair<size_t, size_t> lastKept() const;
 
  private:
-  static constexpr int kGroup = 14;  // the other's address and depth at units 0, 1; X's height maps at 2 .. 15
+  static constexpr int kGroup = 14;  // X's height maps from bindings::gather::kHeights (units 2 .. 15)
   static constexpr size_t kHeadUints = 64;  // a dispatch's head in keptHead_ (256 bytes: any binding alignment)
   gl::Program program_;
   gl::Uniform<int> uSize_{program_, "uSize"}, uFirst_{program_, "uFirst"}, uMode_{program_, "uMode"};
@@ -324,7 +324,7 @@ class CommitPass {
 
  private:
   void reserve(size_t sides);
-  static constexpr int kGroup = 8;  // sides a dispatch: their maps at units 0 .. 7 (8 image units: GL's least)
+  static constexpr int kGroup = 8;  // sides a dispatch: their maps from bindings::commit (8 image units: GL's least)
   gl::Program dispatch_, commit_, normals_, bound_, boundUp_;
   gl::Uniform<int> dCount_{dispatch_, "uCount"}, dTile_{dispatch_, "uTile"};
   gl::Uniform<int> cFirst_{commit_, "uFirst"};

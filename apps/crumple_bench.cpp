@@ -25,7 +25,6 @@
 #include <cstdio>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
-#include <glm/gtc/type_ptr.hpp>
 #include <map>
 #include <memory>
 #include <string>
@@ -39,9 +38,10 @@
 #include "engine/builtin_scenes.h"
 #include "engine/simulation.h"
 #include "physics/world.h"
-#include "render/gl_context.h"
-#include "render/gl_objects.h"
-#include "render/gpu_timer.h"
+#include "gl/context.h"
+#include "gl/objects.h"
+#include "gl/gpu_timer.h"
+#include "gl/program.h"
 #include "render/renderer.h"
 
 using namespace crumple;
@@ -448,7 +448,7 @@ void deformBench(benchmark::State& state, deform::Path path, deform::AddressRast
   o.addressRaster = raster;
   DeformCase c(o);
   warmUp([&] { c.deformer.deform(c.request); });
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     c.deformer.deform(c.request);
@@ -502,7 +502,7 @@ void deformBatchBench(benchmark::State& state, int events, deform::AddressRaster
   deformer.deform(requests);  // warm-up: shaders, lazy allocations
   warmUp([&] { deformer.deform(requests); });
   const long waves = deformer.wavesRun();
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     deformer.deform(requests);
@@ -594,7 +594,7 @@ void renderBench(benchmark::State& state, const std::string& off) {
   r.draw(items, view);  // untimed: the shaders of this view's features are compiled on first use
   glFinish();
   warmUp([&] { r.draw(items, view); });
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     r.draw(items, view);
@@ -613,17 +613,19 @@ void visibilityBench(benchmark::State& state) {
   Simulation sim(builtinHighway(), true);
   for (int s = 0; s < 900; ++s) sim.step();
   const int w = 1280, h = 720;
-  render::Texture2D ids(w, h, GL_RG32UI), depth(w, h, GL_DEPTH_COMPONENT32F);
-  render::Framebuffer fbo;
+  gl::Texture2D ids(w, h, GL_RG32UI), depth(w, h, GL_DEPTH_COMPONENT32F);
+  gl::Framebuffer fbo;
   fbo.attachColor(ids, 0);
   fbo.attachDepth(depth);
   fbo.checkComplete();
-  const render::Program program({{GL_VERTEX_SHADER, "visibility.vert",
+  const gl::Program program({{GL_VERTEX_SHADER, "visibility.vert",
                                   "#version 450 core\nlayout(location = 0) in vec3 aPosition;\nuniform mat4 uMvp;\n"
                                   "void main() { gl_Position = uMvp * vec4(aPosition, 1.0); }\n"},
                                  {GL_FRAGMENT_SHADER, "visibility.frag",
                                   "#version 450 core\nuniform uint uItem;\nout uvec2 id;\n"
                                   "void main() { id = uvec2(uItem, uint(gl_PrimitiveID)); }\n"}});
+  const gl::Uniform<glm::mat4> uMvp(program, "uMvp");
+  const gl::Uniform<GLuint> uItem(program, "uItem");
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   const glm::mat4 vp = glm::perspective(glm::radians(view.fovDegrees), float(w) / float(h), view.zNear, view.zFar) *
@@ -661,8 +663,8 @@ void visibilityBench(benchmark::State& state) {
     program.use();
     for (const auto& [d, i] : order) {
       const glm::mat4 mvp = vp * items[i].model;
-      glUniformMatrix4fv(program.uniform("uMvp"), 1, GL_FALSE, glm::value_ptr(mvp));
-      glUniform1ui(program.uniform("uItem"), static_cast<GLuint>(i));
+      uMvp.set(mvp);
+      uItem.set(static_cast<GLuint>(i));
       glBindVertexArray(items[i].vao);
       glDrawElements(GL_TRIANGLES, items[i].indexCount, GL_UNSIGNED_INT, nullptr);
     }
@@ -671,7 +673,7 @@ void visibilityBench(benchmark::State& state) {
   frame();
   glFinish();
   warmUp(frame);
-  render::GpuTimer timer;
+  gl::GpuTimer timer;
   for (auto _ : state) {
     timer.begin();
     frame();
@@ -850,10 +852,10 @@ int main(int argc, char** argv) {
                                    threadsName(c, t), t)
           ->Iterations(gSteps)
           ->Unit(benchmark::kMillisecond);
-  std::unique_ptr<render::GlContext> gl;
+  std::unique_ptr<gl::GlContext> gl;
   std::unique_ptr<DeformStage> stage;
   if (!noGl) {
-    gl = render::createHeadlessContext({true, false});
+    gl = gl::createHeadlessContext({true, false});
     std::printf("GL: %s\n", gl->description().c_str());
     std::printf("deform: the gather's address pass is rasterised by %s here (DeformOptions::addressRaster auto)\n",
                 deform::addressRasterName(deform::resolveAddressRaster(

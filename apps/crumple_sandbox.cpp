@@ -30,8 +30,8 @@
 #include "core/log.h"
 #include "core/version.h"
 #include "render/auto_quality.h"
-#include "render/capture.h"
-#include "render/gl_context.h"
+#include "gl/capture.h"
+#include "gl/context.h"
 #include "render/renderer.h"
 
 using namespace crumple;
@@ -223,7 +223,7 @@ void panel(App& app) {
   ImGui::Begin("crumple");
   ImGui::Text("t = %.2f s   step %ld", app.sim->world().time(), app.sim->steps());
   ImGui::Text("physics %.2f ms  deform %.2f ms  render %.2f ms", app.physicsMs, app.deformMs, app.renderMs);
-  if (render::GpuTimer* t = app.sim->renderTimer(); t && t->measured() > 0) {
+  if (gl::GpuTimer* t = app.sim->renderTimer(); t && t->measured() > 0) {
     // The GPU's own time (timer queries, read a few frames behind): the CPU times above only issue the work.
     app.sim->gpuTimes(false);
     const Timings& tm = app.sim->timings();
@@ -406,13 +406,13 @@ int main(int argc, char** argv) {
   try {
     std::unique_ptr<OutputWriter> writer;
     if (!outDir.empty()) writer = std::make_unique<OutputWriter>(outDir);
-    render::WindowOptions wo;
+    gl::WindowOptions wo;
     wo.width = width;
     wo.height = height;
     wo.title = "crumple sandbox: " + app.scene.name;
     wo.vsync = frames == 0;
     wo.debug = false;
-    render::WindowContext window(wo);
+    gl::WindowContext window(wo);
     logInfo("GL: ", window.description());
     app.reset();
     app.renderer = std::make_unique<render::Renderer>(width, height);
@@ -516,7 +516,7 @@ int main(int argc, char** argv) {
       if (pressed(GLFW_KEY_F12) || (last && !screenshot.empty())) {
         const std::string path =
             last && !screenshot.empty() ? screenshot : "crumple-shot-" + std::to_string(app.shots++) + ".png";
-        render::captureToPng(0, fw, fh, path);
+        gl::captureToPng(0, fw, fh, path);
         logInfo("screenshot: ", path);
       }
       window.swapBuffers();

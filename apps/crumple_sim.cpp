@@ -24,7 +24,7 @@
 #include "engine/simulation.h"
 #include "core/log.h"
 #include "core/version.h"
-#include "render/gl_context.h"
+#include "gl/context.h"
 #include "engine/scene_view.h"
 #include "render/renderer.h"
 
@@ -210,14 +210,14 @@ int main(int argc, char** argv) {
 
     bool needGl = renderFrames;
     for (const auto& b : scene.bodies) needGl = needGl || b.bumpMap.present;
-    std::unique_ptr<render::GlContext> gl;
+    std::unique_ptr<gl::GlContext> gl;
     if (needGl) {
       try {
-        render::HeadlessOptions glOptions;
+        gl::HeadlessOptions glOptions;
         glOptions.debug = verbose;
         glOptions.device = gpu;
-        gl = render::createHeadlessContext(glOptions);
-      } catch (const render::ContextError& e) {
+        gl = gl::createHeadlessContext(glOptions);
+      } catch (const gl::ContextError& e) {
         std::cerr << "crumple-sim: " << e.what() << "\n";
         return 1;
       }

@@ -13,8 +13,9 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 # The libraries, lowest layer first, as folder:target. A target's exported name is its folder's last part
-# (crumple::core, crumple::physics, crumple::deform_model, crumple::render, crumple::deform, crumple::engine).
-set(CRUMPLE_LIBRARIES core:crumple_core physics:crumple_physics deform/model:crumple_deform_model
+# (crumple::core, crumple::physics, crumple::deform_model, crumple::gl, crumple::render, crumple::deform,
+# crumple::engine).
+set(CRUMPLE_LIBRARIES core:crumple_core physics:crumple_physics deform/model:crumple_deform_model gl:crumple_gl
   render:crumple_render deform:crumple_deform engine:crumple_engine)
 set(CRUMPLE_LIBRARY_TARGETS)
 foreach(entry ${CRUMPLE_LIBRARIES})
@@ -46,7 +47,7 @@ foreach(entry ${CRUMPLE_LIBRARIES})
   string(REPLACE ":" ";" parts "${entry}")
   list(GET parts 0 folder)
   file(GLOB headers RELATIVE "${PROJECT_SOURCE_DIR}" CONFIGURE_DEPENDS "${PROJECT_SOURCE_DIR}/${folder}/*.h")
-  list(REMOVE_ITEM headers physics/step_context.h deform/passes.h)
+  list(REMOVE_ITEM headers physics/step_context.h deform/passes.h deform/bindings.h)
   install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/${folder})
 endforeach()
 # Generated headers.
@@ -75,7 +76,7 @@ else()
   set(CRUMPLE_PC_REQUIRES_PRIVATE "")
 endif()
 # Link order: each library before those it uses.
-set(CRUMPLE_PC_LIBS "-lcrumple_engine -lcrumple_deform -lcrumple_render -lcrumple_deform_model -lcrumple_physics -lcrumple_core")
+set(CRUMPLE_PC_LIBS "-lcrumple_engine -lcrumple_deform -lcrumple_render -lcrumple_gl -lcrumple_deform_model -lcrumple_physics -lcrumple_core")
 # meshoptimizer (crumple_deform) has no pkg-config module: named on the link line.
 string(APPEND CRUMPLE_PC_LIBS " -lmeshoptimizer")
 foreach(lib ${CMAKE_DL_LIBS})

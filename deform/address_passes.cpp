@@ -1,15 +1,14 @@
 // The address-map passes of figure 11 (RenderPassA/B), into per-side targets.
 #include <algorithm>
 #include <climits>
-#include <glm/gtc/type_ptr.hpp>
 
 #include "deform/passes.h"
 
 namespace crumple::deform {
 
 namespace {
-render::Program addressProgram() {
-  return render::Program({{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
+gl::Program addressProgram() {
+  return gl::Program({{GL_VERTEX_SHADER, "address.vert", std::string(deformShader("address.vert"))},
                           {GL_FRAGMENT_SHADER, "address.frag", std::string(deformShader("address.frag"))}});
 }
 }  // namespace
@@ -18,17 +17,6 @@ AddressPasses::AddressPasses(int size)
     : program_(addressProgram()),
       bin_(computeProgram("address_bin.comp")),
       raster_(computeProgram("address_raster.comp")) {
-  bSize_ = bin_.uniform("uSize");
-  bCapacity_ = bin_.uniform("uCapacity");
-  bFirst_ = bin_.uniform("uFirst");
-  rSize_ = raster_.uniform("uSize");
-  rCapacity_ = raster_.uniform("uCapacity");
-  rMode_ = raster_.uniform("uMode");
-  rFirst_ = raster_.uniform("uFirst");
-  uMvp_ = program_.uniform("uModelViewProjection");
-  uNormalToWorld_ = program_.uniform("uNormalToWorld");
-  uSign_ = program_.uniform("uSign");
-  uBumpToDepth_ = program_.uniform("uBumpToDepth");
   const float half = 0.5f;
   flat_.upload(GL_RED, GL_FLOAT, &half);
   resize(size);
@@ -37,12 +25,12 @@ AddressPasses::AddressPasses(int size)
 void AddressPasses::resize(int n) {
   size_ = n;
   for (int s = 0; s < 2; ++s) {
-    addressX_[s] = render::Texture2D(n, n, GL_RG32F);
-    depthX_[s] = render::Texture2D(n, n, GL_R32F);
-    normalX_[s] = render::Texture2D(n, n, GL_RGBA16F);
-    depthBuffer_[s] = render::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
+    addressX_[s] = gl::Texture2D(n, n, GL_RG32F);
+    depthX_[s] = gl::Texture2D(n, n, GL_R32F);
+    normalX_[s] = gl::Texture2D(n, n, GL_RGBA16F);
+    depthBuffer_[s] = gl::Texture2D(n, n, GL_DEPTH_COMPONENT32F);
     for (auto* t : {&addressX_[s], &depthX_[s], &normalX_[s]}) t->setFilter(GL_NEAREST, GL_NEAREST);
-    fboX_[s] = render::Framebuffer();
+    fboX_[s] = gl::Framebuffer();
     fboX_[s].attachColor(addressX_[s], 0);
     fboX_[s].attachColor(depthX_[s], 1);
     fboX_[s].attachColor(normalX_[s], 2);
@@ -66,24 +54,24 @@ size_t AddressPasses::tiles() const {
 
 void AddressPasses::makeSlots(int slots) {
   const int n = size_;
-  addressArray_ = render::TextureArray(n, n, slots, GL_RG32F);
-  depthArray_ = render::TextureArray(n, n, slots, GL_R32F);
+  addressArray_ = gl::TextureArray(n, n, slots, GL_RG32F);
+  depthArray_ = gl::TextureArray(n, n, slots, GL_R32F);
   addressO_.clear();
   depthO_.clear();
   for (int s = 0; s < slots; ++s) {
-    addressO_.push_back(render::Texture2D::layerView(addressArray_, s));
-    depthO_.push_back(render::Texture2D::layerView(depthArray_, s));
+    addressO_.push_back(gl::Texture2D::layerView(addressArray_, s));
+    depthO_.push_back(gl::Texture2D::layerView(depthArray_, s));
     addressO_.back().setFilter(GL_NEAREST, GL_NEAREST);
     depthO_.back().setFilter(GL_NEAREST, GL_NEAREST);
   }
   held_.assign(static_cast<size_t>(slots), Held::Unknown);
   const size_t t = tiles(), k = static_cast<size_t>(slots);
-  count_ = render::Buffer(k * countStride() * sizeof(GLuint), nullptr);
-  list_ = render::Buffer(k * t * kTileCapacity * sizeof(GLuint), nullptr);
-  active_ = render::Buffer(k * t * sizeof(GLuint), nullptr);
-  reach_ = render::Buffer(k * 4 * sizeof(GLint), nullptr);
+  count_ = gl::Buffer(k * countStride() * sizeof(GLuint), nullptr);
+  list_ = gl::Buffer(k * t * kTileCapacity * sizeof(GLuint), nullptr);
+  active_ = gl::Buffer(k * t * sizeof(GLuint), nullptr);
+  reach_ = gl::Buffer(k * 4 * sizeof(GLint), nullptr);
   for (int s = 0; s < 2; ++s) {  // the fragment stage's pass B draws into slots 0 and 1
-    fboO_[s] = render::Framebuffer();
+    fboO_[s] = gl::Framebuffer();
     fboO_[s].attachColor(addressO_[static_cast<size_t>(s)], 0);
     fboO_[s].attachColor(depthO_[static_cast<size_t>(s)], 1);
     fboO_[s].attachDepth(depthBuffer_[s]);
@@ -93,7 +81,7 @@ void AddressPasses::makeSlots(int slots) {
   }
 }
 
-void clearBoxes(render::Buffer& buffer, int boxes) {
+void clearBoxes(gl::Buffer& buffer, int boxes) {
   std::vector<GLint> empty(std::max(static_cast<size_t>(boxes), buffer.size() / (4 * sizeof(GLint))) * 4);
   for (size_t k = 0; k < empty.size(); k += 4) {
     empty[k] = empty[k + 1] = INT_MAX;
@@ -102,8 +90,8 @@ void clearBoxes(render::Buffer& buffer, int boxes) {
   freshBuffer(buffer, empty.size() * sizeof(GLint), empty.data());
 }
 
-void freshBuffer(render::Buffer& buffer, size_t bytes, const void* data) {
-  buffer = render::Buffer(bytes, data, GL_DYNAMIC_STORAGE_BIT);
+void freshBuffer(gl::Buffer& buffer, size_t bytes, const void* data) {
+  buffer = gl::Buffer(bytes, data, GL_DYNAMIC_STORAGE_BIT);
 }
 
 void AddressPasses::clearReach(int slots) { clearBoxes(reach_, slots); }
@@ -116,11 +104,11 @@ void AddressPasses::draw(const DeformBody& body, const glm::dmat4& vp, const glm
                          float bumpToDepth) {
   const glm::mat4 mvp = glm::mat4(vp * model);
   const glm::mat3 nrm = glm::mat3(glm::transpose(glm::inverse(glm::dmat3(model))));
-  glUniformMatrix4fv(uMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
-  glUniformMatrix3fv(uNormalToWorld_, 1, GL_FALSE, glm::value_ptr(nrm));
-  glUniform1f(uSign_, sign);
-  glUniform1f(uBumpToDepth_, bumpToDepth);
-  glBindTextureUnit(0, body.surface ? body.surface->height().id() : flat_.id());
+  uMvp_.set(mvp);
+  uNormalToWorld_.set(nrm);
+  uSign_.set(sign);
+  uBumpToDepth_.set(bumpToDepth);
+  gl::bindTexture(bindings::address::kHeights, body.surface ? body.surface->height().id() : flat_.id());
   body.mesh->draw();
 }
 
@@ -212,8 +200,8 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
   }
   const size_t setupBytes = std::max<size_t>(setup, 1) * 6 * 4 * sizeof(float);
   if (setup_.size() < setupBytes) {
-    setup_ = render::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
-    large_ = render::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
+    setup_ = gl::Buffer(std::max(setupBytes, 2 * setup_.size()), nullptr);
+    large_ = gl::Buffer(setup_.size() / (6 * 4), nullptr);  // a uint a triangle
   }
   freshBuffer(entries_, entries.size() * sizeof(Entry), entries.data());
   std::vector<GLuint> args(static_cast<size_t>(groups) * 3);
@@ -222,22 +210,23 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
     args[static_cast<size_t>(g) * 3 + 2] = static_cast<GLuint>(std::min(kGroup, n - g * kGroup));
   }
   freshBuffer(args_, args.size() * sizeof(GLuint), args.data());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, setup_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, count_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, list_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, large_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, active_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, args_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, reach_.id());
-  glBindImageTexture(0, addressArray_.id(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_RG32F);
-  glBindImageTexture(1, depthArray_.id(), 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_R32F);
+  namespace b = bindings::address;
+  gl::bindStorage(b::kSetup, setup_.id());
+  gl::bindStorage(b::kTileCount, count_.id());
+  gl::bindStorage(b::kTileList, list_.id());
+  gl::bindStorage(b::kLarge, large_.id());
+  gl::bindStorage(b::kActive, active_.id());
+  gl::bindStorage(b::kEntries, entries_.id());
+  gl::bindStorage(b::kArgs, args_.id());
+  gl::bindStorage(b::kReach, reach_.id());
+  gl::bindImage(b::kAddress, addressArray_.id(), GL_WRITE_ONLY, GL_RG32F, true);
+  gl::bindImage(b::kDepth, depthArray_.id(), GL_WRITE_ONLY, GL_R32F, true);
   raster_.use();
-  glUniform1i(rSize_, size_);
-  glUniform1i(rCapacity_, kTileCapacity);
+  rSize_.set(size_);
+  rCapacity_.set(kTileCapacity);
   if (clears) {  // "none" back where each side's last raster wrote (from its lists, before they are reset)
-    glUniform1i(rMode_, 1);
-    glUniform1i(rFirst_, 0);
+    rMode_.set(1);
+    rFirst_.set(0);
     glDispatchCompute(static_cast<GLuint>(std::min<size_t>(tiles(), 1024)), 1, static_cast<GLuint>(n));
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
   }
@@ -254,8 +243,8 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
     a = b;
   }
   bin_.use();
-  glUniform1i(bSize_, size_);
-  glUniform1i(bCapacity_, kTileCapacity);
+  bSize_.set(size_);
+  bCapacity_.set(kTileCapacity);
   constexpr int kRowGroups = 32768;  // address_bin.comp's workgroups a row
   for (int e = 0; e < n;) {
     const GpuMesh& mesh = *order[static_cast<size_t>(e)]->other->mesh;
@@ -263,9 +252,9 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
     while (f < n && order[static_cast<size_t>(f)]->other->mesh == &mesh) ++f;
     const int triangles = mesh.indexCount / 3;
     if (triangles > 0) {
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, mesh.vertices.id());
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, mesh.indices.id());
-      glUniform1i(bFirst_, e);
+      gl::bindStorage(b::kVertices, mesh.vertices.id());
+      gl::bindStorage(b::kIndices, mesh.indices.id());
+      bFirst_.set(e);
       const int groups = (triangles + 63) / 64;  // 64 triangles a workgroup
       glDispatchCompute(static_cast<GLuint>(std::min(groups, kRowGroups)),
                         static_cast<GLuint>((groups + kRowGroups - 1) / kRowGroups), static_cast<GLuint>(f - e));
@@ -275,14 +264,14 @@ void AddressPasses::rasterOthers(const std::vector<OtherPass>& in, const PhaseMa
   phase("address bins");
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_COMMAND_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   raster_.use();
-  glUniform1i(rMode_, 0);
+  rMode_.set(0);
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args_.id());
   for (int g = 0; g < groups; ++g) {
     for (int e = g * kGroup; e < std::min(n, (g + 1) * kGroup); ++e) {
       const DeformBody& other = *order[static_cast<size_t>(e)]->other;
-      glBindTextureUnit(static_cast<GLuint>(e - g * kGroup), other.surface ? other.surface->height().id() : flat_.id());
+      gl::bindTexture(b::kHeights + (e - g * kGroup), other.surface ? other.surface->height().id() : flat_.id());
     }
-    glUniform1i(rFirst_, g * kGroup);
+    rFirst_.set(g * kGroup);
     glDispatchComputeIndirect(static_cast<GLintptr>(g) * 3 * sizeof(GLuint));
   }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);

@@ -27,17 +27,17 @@ CommitPass::CommitPass()
 void CommitPass::reserve(size_t sides) {
   if (sides <= sides_) return;
   sides_ = std::max<size_t>(sides, 2);
-  normalRegion_ = render::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  normalRegion_ = gl::Buffer(sides_ * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
 }
 
-void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
+void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, const gl::Buffer& stats,
                      const PhaseMark& phase) {
   // Sides (by slot; some without X) in groups of kGroup, a dispatch a group and stage; each group dispatched
   // over the largest region of its sides (region_dispatch.comp), the others' workgroups returning at once.
   reserve(sides.size());
   std::vector<CommitEntry> entries;
   std::vector<const Side*> of;
-  const render::Buffer* rim = nullptr;
+  const gl::Buffer* rim = nullptr;
   for (size_t slot = 0; slot < sides.size(); ++slot) {
     const Side& s = sides[slot];
     if (!s.x) continue;
@@ -55,60 +55,59 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
   for (int g = 0; g < groups; ++g)
     for (int stage = 0; stage < 3; ++stage) args[static_cast<size_t>(g) * 9 + 3 * stage + 2] = std::min(kGroup, n - g * kGroup);
   freshBuffer(args_, args.size() * sizeof(GLuint), args.data());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, stats.id());
+  namespace b = bindings::commit;
+  gl::bindStorage(bindings::kRegion, region.id());
+  gl::bindStorage(b::kStats, stats.id());
   of.front()->scratch.bind();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, normalRegion_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, entries_.id());
+  gl::bindStorage(b::kNormalRegion, normalRegion_.id());
+  gl::bindStorage(b::kEntries, entries_.id());
   // The regions (grown by their rims) become the groups' dispatch sizes.
   dispatch_.use();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, args_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, (rim ? rim : &region)->id());  // read only where a side grows
-  glUniform1i(dispatch_.uniform("uCount"), n);
-  glUniform1i(dispatch_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  gl::bindStorage(b::kArgs, args_.id());
+  gl::bindStorage(b::kRim, (rim ? rim : &region)->id());  // read only where a side grows
+  dCount_.set(n);
+  dTile_.set(SurfaceMaps::kBoundTile);
   glDispatchCompute(static_cast<GLuint>((n + 63) / 64), 1, 1);
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   of.front()->scratch.bind();
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, args_.id());
-  auto eachGroup = [&](const render::Program& program, int stage, const auto& bind) {
+  // `first`: the program's uFirst (its group's first entry).
+  auto eachGroup = [&](const gl::Program& program, const gl::Uniform<int>& first, int stage, const auto& bind) {
     program.use();
     for (int g = 0; g < groups; ++g) {
       for (int k = g * kGroup; k < std::min(n, (g + 1) * kGroup); ++k) bind(k - g * kGroup, *of[static_cast<size_t>(k)]->x);
-      glUniform1i(program.uniform("uFirst"), g * kGroup);
+      first.set(g * kGroup);
       glDispatchComputeIndirect(static_cast<GLintptr>(g * 9 + 3 * stage) * sizeof(GLuint));
     }
   };
-  eachGroup(commit_, 0, [](int unit, const Surface& x) {
-    glBindImageTexture(static_cast<GLuint>(unit), x.height().id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+  eachGroup(commit_, cFirst_, 0, [](int k, const Surface& x) {
+    gl::bindImage(b::kMaps + k, x.height().id(), GL_READ_WRITE, GL_R32F);
   });
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("commit");
-  normals_.use();
-  glUniform1i(normals_.uniform("uFull"), 0);
-  eachGroup(normals_, 1, [](int unit, const Surface& x) {
-    glBindTextureUnit(static_cast<GLuint>(unit), x.height().id());
-    glBindImageTexture(static_cast<GLuint>(unit), x.normal().id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
+  nFull_.set(0);
+  eachGroup(normals_, nFirst_, 1, [](int k, const Surface& x) {
+    gl::bindTexture(b::kHeights + k, x.height().id());
+    gl::bindImage(b::kMaps + k, x.normal().id(), GL_WRITE_ONLY, GL_RGBA8);
   });
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   phase("normal map");
-  bound_.use();
-  glUniform1i(bound_.uniform("uFull"), 0);
-  glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
-  eachGroup(bound_, 2, [](int unit, const Surface& x) {
-    glBindTextureUnit(static_cast<GLuint>(unit), x.height().id());
-    glBindImageTexture(static_cast<GLuint>(unit), x.maps().bound.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+  bFull_.set(0);
+  bTile_.set(SurfaceMaps::kBoundTile);
+  eachGroup(bound_, bFirst_, 2, [](int k, const Surface& x) {
+    gl::bindTexture(b::kHeights + k, x.height().id());
+    gl::bindImage(b::kMaps + k, x.maps().bound.id(), GL_READ_WRITE, GL_R32F);
   });
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   // The levels above level 0: one workgroup a map, all its levels (height_bound_up.comp), 8 maps a dispatch.
   boundUp_.use();
-  glUniform1i(boundUp_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  upTile_.set(SurfaceMaps::kBoundTile);
   for (int g = 0; g < groups; ++g) {
     const int count = std::min(kGroup, n - g * kGroup);
     for (int k = 0; k < count; ++k)
-      glBindImageTexture(static_cast<GLuint>(k), of[static_cast<size_t>(g * kGroup + k)]->x->maps().bound.id(), 0,
-                         GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
-    glUniform1i(boundUp_.uniform("uFirst"), g * kGroup);
+      gl::bindImage(b::kMaps + k, of[static_cast<size_t>(g * kGroup + k)]->x->maps().bound.id(), GL_READ_WRITE, GL_R32F);
+    upFirst_.set(g * kGroup);
     glDispatchCompute(1, 1, static_cast<GLuint>(count));
   }
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
@@ -116,25 +115,26 @@ void CommitPass::run(const std::vector<Side>& sides, const render::Buffer& regio
 }
 
 void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi) {
+  namespace b = bindings::commit;
   normals_.use();
-  glBindTextureUnit(0, maps.height.id());
-  glBindImageTexture(0, maps.normal.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
-  glUniform1i(normals_.uniform("uFull"), 1);
-  glUniform4i(normals_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
-  glUniform1i(normals_.uniform("uFullResolution"), resolution);
-  glUniform1f(normals_.uniform("uFullSlopeScale"), slopeScale);
+  gl::bindTexture(b::kHeights, maps.height.id());
+  gl::bindImage(b::kMaps, maps.normal.id(), GL_WRITE_ONLY, GL_RGBA8);
+  nFull_.set(1);
+  nFullRegion_.set(glm::ivec4(lo, hi));
+  nFullResolution_.set(resolution);
+  nFullSlopeScale_.set(slopeScale);
   glDispatchCompute(dispatchGroups(hi.x - lo.x + 1), dispatchGroups(hi.y - lo.y + 1), 1);
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   // The bound pyramid over [lo, hi], level by level.
   bound_.use();
-  glBindTextureUnit(0, maps.height.id());
-  glUniform1i(bound_.uniform("uFull"), 1);
-  glUniform4i(bound_.uniform("uFullRegion"), lo.x, lo.y, hi.x, hi.y);
-  glUniform1i(bound_.uniform("uFullResolution"), resolution);
-  glUniform1i(bound_.uniform("uTile"), SurfaceMaps::kBoundTile);
+  gl::bindTexture(b::kHeights, maps.height.id());
+  bFull_.set(1);
+  bFullRegion_.set(glm::ivec4(lo, hi));
+  bFullResolution_.set(resolution);
+  bTile_.set(SurfaceMaps::kBoundTile);
   for (int level = 0; level < maps.boundLevels(); ++level) {
-    glUniform1i(bound_.uniform("uLevel"), level);
-    glBindImageTexture(0, maps.bound.id(), 0, GL_FALSE, 0, GL_READ_WRITE, GL_R32F);
+    bLevel_.set(level);
+    gl::bindImage(b::kMaps, maps.bound.id(), GL_READ_WRITE, GL_R32F);
     // Level 0 takes a workgroup a bound texel, the levels above 8 x 8 texels.
     const int span = SurfaceMaps::kBoundTile << level;
     const int nx = hi.x / span - lo.x / span + 1, ny = hi.y / span - lo.y / span + 1;

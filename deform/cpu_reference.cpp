@@ -11,7 +11,7 @@ namespace crumple::deform {
 
 namespace {
 
-float sampleBilinear(const render::Image* img, glm::dvec2 uv) {
+float sampleBilinear(const gl::Image* img, glm::dvec2 uv) {
   if (!img) return 0.5f;
   const double x = uv.x * img->width - 0.5, y = uv.y * img->height - 0.5;
   const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
@@ -65,11 +65,11 @@ bool hit(const ViewTriangle& t, double x, double y, glm::dvec3& bc) {
 
 }  // namespace
 
-render::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, const glm::dvec3& point,
+gl::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, const glm::dvec3& point,
                               const glm::dvec3& n, double penetration, double depth) {
-  render::Image out = x.height ? *x.height : render::Image(256, 256, 1, 0.5f);
+  gl::Image out = x.height ? *x.height : gl::Image(256, 256, 1, 0.5f);
   const int res = out.width;
-  const render::Image in = out;
+  const gl::Image in = out;
   const glm::dmat4 modelX = glm::translate(glm::dmat4(1), n * (depth - penetration)) * x.model;
   // Bounds exactly as the GPU path computes them, from the mesh bounds.
   auto bounds = [](const TriangleMesh& m, const glm::dmat4& model, glm::dvec3 b[2]) {

@@ -1,7 +1,8 @@
 #include "deform/deformer.h"
 
 #include "deform/passes.h"
-#include "render/gl_context.h"
+#include "gl/context.h"
+#include "gl/state.h"
 
 #include <algorithm>
 #include <cmath>
@@ -53,7 +54,7 @@ const char* addressRasterName(AddressRaster r) {
 
 AddressRaster resolveAddressRaster(AddressRaster r, const char* renderer) {
   if (r != AddressRaster::Auto) return r;
-  return render::fewGraphicsUnits(renderer) ? AddressRaster::Compute : AddressRaster::Fragment;
+  return gl::fewGraphicsUnits(renderer) ? AddressRaster::Compute : AddressRaster::Fragment;
 }
 
 const char* pathName(Path p) {
@@ -191,11 +192,11 @@ struct Deformer::Impl {
   CraterRims rims;
   CommitPass commit;
   // New heights (passes.h, Scratch): per slot and resolution a range of one buffer, made on first use and kept.
-  render::Buffer scratchBuffer;
+  gl::Buffer scratchBuffer;
   size_t scratchUsed = 0;  // uints
   std::map<std::pair<int, int>, GLuint> scratchRanges;
-  render::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per slot
-  render::Buffer stats;
+  gl::Buffer region{4 * sizeof(GLint) * 2, nullptr, GL_DYNAMIC_STORAGE_BIT};  // touched texels per slot
+  gl::Buffer stats;
   int statsCapacity = 0, statsUsed = 0, statsRead = -1;
   std::vector<GLuint> statsHost;
   const PhaseMark phaseMark = [this](const char* name) { phase(name); };
@@ -210,7 +211,7 @@ struct Deformer::Impl {
     if (it == scratchRanges.end()) {
       const size_t texels = static_cast<size_t>(resolution) * static_cast<size_t>(resolution);
       if ((scratchUsed + texels) * sizeof(GLuint) > scratchBuffer.size()) {  // grows, keeping what it holds
-        render::Buffer bigger(std::max((scratchUsed + texels) * sizeof(GLuint), 2 * scratchBuffer.size()), nullptr);
+        gl::Buffer bigger(std::max((scratchUsed + texels) * sizeof(GLuint), 2 * scratchBuffer.size()), nullptr);
         glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the commits' writes, before the copy reads them
         if (scratchUsed)
           glCopyNamedBufferSubData(scratchBuffer.id(), bigger.id(), 0, 0,
@@ -231,7 +232,7 @@ struct Deformer::Impl {
     if (statsUsed + 2 > statsCapacity) {
       const int cap = std::max(64, statsCapacity * 2);
       const std::vector<GLuint> zeros(static_cast<size_t>(cap) * 4, 0);
-      render::Buffer bigger(zeros.size() * sizeof(GLuint), zeros.data(), GL_DYNAMIC_STORAGE_BIT);
+      gl::Buffer bigger(zeros.size() * sizeof(GLuint), zeros.data(), GL_DYNAMIC_STORAGE_BIT);
       glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);  // the commits' counts, before the copy reads them
       if (statsCapacity)
         glCopyNamedBufferSubData(stats.id(), bigger.id(), 0, 0,
@@ -264,7 +265,7 @@ struct Deformer::Impl {
   void reserveSlots(int slots) {
     passes.reserveSlots(slots);
     if (region.size() < static_cast<size_t>(slots) * 4 * sizeof(GLint))
-      region = render::Buffer(static_cast<size_t>(slots) * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+      region = gl::Buffer(static_cast<size_t>(slots) * 4 * sizeof(GLint), nullptr, GL_DYNAMIC_STORAGE_BIT);
   }
   // The paper's update (scatter or read-back) of one side; whether it made a crater rim the commit must grow by.
   bool paperSide(const DeformOptions& o, const SidePlan& p);
@@ -282,7 +283,7 @@ void Deformer::setOptions(const DeformOptions& options) {
   options_ = options;
 }
 
-const render::Texture2D& Deformer::lastAddressMap() const {
+const gl::Texture2D& Deformer::lastAddressMap() const {
   return options_.path == Path::Gather ? impl_->passes.addressOther(0) : impl_->passes.addressX(0);
 }
 std::pair<size_t, size_t> Deformer::lastRasterTiles() const { return impl_->passes.tilesRun(0); }
@@ -297,7 +298,7 @@ size_t Deformer::waveLimit() const {
   return waves ? std::max<size_t>(1, options_.waveMemory / (2 * AddressPasses::slotBytes(options_.addressMap))) : 1;
 }
 
-std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const render::Image* initial, float bumpDepth,
+std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const gl::Image* initial, float bumpDepth,
                                                   float texelSize) {
   auto maps = std::make_shared<SurfaceMaps>(resolution);
   if (initial) {
@@ -427,8 +428,7 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
   clearBoxes(region, slots);
   std::vector<SidePlan> plans(static_cast<size_t>(slots));
   std::vector<char> rimsMade(static_cast<size_t>(slots), 0);  // the commit region grows by their ring
-  GLint savedViewport[4];
-  glGetIntegerv(GL_VIEWPORT, savedViewport);
+  const gl::StateGuard callerState;  // the passes' viewports, framebuffers, programs and depth and cull state
   for (size_t e = 0; e < n; ++e) {
     handles[e] = allocateStats();
     const DeformRequest& rq = *events[e];
@@ -462,8 +462,6 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
                                           scratchFor(slot, x.resolution()), handles[e] + slot % 2};
   }
   commit.run(commits, region, stats, phaseMark);
-  glViewport(savedViewport[0], savedViewport[1], savedViewport[2], savedViewport[3]);
-  glDisable(GL_CULL_FACE);
 }
 
 int Deformer::deform(const DeformRequest& rq) {

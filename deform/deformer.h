@@ -33,7 +33,7 @@
 
 #include "deform/options.h"
 #include "deform/surface.h"
-#include "render/gl_objects.h"
+#include "gl/objects.h"
 
 namespace crumple::deform {
 
@@ -111,13 +111,13 @@ class Deformer {
   SideStats stats(int handle, int side);
 
   // Maps for a new surface: a flat map or the given image, with its normal map.
-  std::shared_ptr<SurfaceMaps> createMaps(int resolution, const render::Image* initial, float bumpDepth,
+  std::shared_ptr<SurfaceMaps> createMaps(int resolution, const gl::Image* initial, float bumpDepth,
                                           float texelSize);
   // Recomputes the normal map of a surface over texels [lo, hi] (inclusive).
   void regenerateNormals(Surface& s, glm::ivec2 lo, glm::ivec2 hi);
   // The last address map of side 0, for the renderer's debug view: the uv of X
   // (scatter paths) or of the other body (the gather renders only its pass).
-  const render::Texture2D& lastAddressMap() const;
+  const gl::Texture2D& lastAddressMap() const;
   // With the address pass in compute: the tiles of lastAddressMap's map its raster ran (those with triangles to
   // test), and the map's tiles (read back from the GPU; for tests).
   std::pair<size_t, size_t> lastRasterTiles() const;

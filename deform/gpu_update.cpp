@@ -1,7 +1,6 @@
 // The updates that stay on the GPU: the per-texel gather (the default), the
 // paper's scatter as a compute pass, and crater rims.
 #include <algorithm>
-#include <glm/gtc/type_ptr.hpp>
 
 #include "deform/passes.h"
 
@@ -10,35 +9,21 @@ namespace crumple::deform {
 GatherUpdate::GatherUpdate()
     : program_({{GL_VERTEX_SHADER, "texel.vert", std::string(deformShader("texel.vert"))},
                 {GL_GEOMETRY_SHADER, "texel.geom", std::string(deformShader("texel.geom"))},
-                {GL_FRAGMENT_SHADER, "texel_gather.frag", std::string(deformShader("texel_gather.frag"))}}) {
-  uMvp_ = program_.uniform("uModelViewProjection");
-  uNormalToWorld_ = program_.uniform("uNormalToWorld");
-  uResolution_ = program_.uniform("uResolution");
-  uViewMargin_ = program_.uniform("uViewMargin");
-  uFarthestOther_ = program_.uniform("uFarthestOther");
-  uBumpReach_ = program_.uniform("uBumpReach");
-  uSide_ = program_.uniform("uSide");
-  uSize_ = program_.uniform("uSize");
-  uBumpToDepth_ = program_.uniform("uBumpToDepth");
-  uDepthToHeight_ = program_.uniform("uDepthToHeight");
-  uTangentMode_ = program_.uniform("uTangentMode");
-  uTangentFloor_ = program_.uniform("uTangentFloor");
-  uViewNormal_ = program_.uniform("uViewNormal");
-}
+                {GL_FRAGMENT_SHADER, "texel_gather.frag", std::string(deformShader("texel_gather.frag"))}}) {}
 
 void GatherUpdate::bindTexelSpace(int res) {
   auto it = texelSpace_.find(res);
   if (it == texelSpace_.end()) {
-    it = texelSpace_.emplace(res, render::Framebuffer()).first;
+    it = texelSpace_.emplace(res, gl::Framebuffer()).first;
     glNamedFramebufferParameteri(it->second.id(), GL_FRAMEBUFFER_DEFAULT_WIDTH, res);
     glNamedFramebufferParameteri(it->second.id(), GL_FRAMEBUFFER_DEFAULT_HEIGHT, res);
   }
   it->second.bind();
 }
 
-void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& vp,
+void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const gl::Texture2D& height, const glm::dmat4& vp,
                        const glm::dmat4& model, const AddressPasses& passes, float farthestOther,
-                       const Scratch& scratch, const render::Buffer& region) {
+                       const Scratch& scratch, const gl::Buffer& region) {
   program_.use();
   bindTexelSpace(u.resolution);
   glViewport(0, 0, u.resolution, u.resolution);
@@ -46,25 +31,25 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const render::T
   glDisable(GL_CULL_FACE);
   const glm::mat4 mvp = glm::mat4(vp * model);
   const glm::mat3 nrm = glm::mat3(glm::transpose(glm::inverse(glm::dmat3(model))));
-  glUniformMatrix4fv(uMvp_, 1, GL_FALSE, glm::value_ptr(mvp));
-  glUniformMatrix3fv(uNormalToWorld_, 1, GL_FALSE, glm::value_ptr(nrm));
-  glBindTextureUnit(2, passes.addressOther(u.side).id());
-  glBindTextureUnit(3, passes.depthOther(u.side).id());
-  glBindTextureUnit(5, height.id());
+  uMvp_.set(mvp);
+  uNormalToWorld_.set(nrm);
+  gl::bindTexture(bindings::update::kAddressOther, passes.addressOther(u.side).id());
+  gl::bindTexture(bindings::update::kDepthOther, passes.depthOther(u.side).id());
+  gl::bindTexture(bindings::update::kHeightX, height.id());
   scratch.bind();
-  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
-  glUniform1i(uSide_, u.side);
-  glUniform1i(uSize_, passes.size());
-  glUniform1i(uResolution_, u.resolution);
-  glUniform1f(uViewMargin_, 4.0f / static_cast<float>(passes.size()));
-  glUniform1f(uFarthestOther_, farthestOther);
-  glUniform1f(uBumpReach_, u.bumpReach);
-  glUniform1f(uBumpToDepth_, u.bumpToDepth);
-  glUniform1f(uDepthToHeight_, u.depthToHeight);
-  glUniform1i(uTangentMode_, static_cast<int>(u.tangent));
-  glUniform1f(uTangentFloor_, u.tangentFloor);
-  glUniform3fv(uViewNormal_, 1, glm::value_ptr(u.viewNormal));
+  uScratchBase_.set(scratch.offset);
+  gl::bindStorage(bindings::kRegion, region.id());
+  uSide_.set(u.side);
+  uSize_.set(passes.size());
+  uResolution_.set(u.resolution);
+  uViewMargin_.set(4.0f / static_cast<float>(passes.size()));
+  uFarthestOther_.set(farthestOther);
+  uBumpReach_.set(u.bumpReach);
+  uBumpToDepth_.set(u.bumpToDepth);
+  uDepthToHeight_.set(u.depthToHeight);
+  uTangentMode_.set(static_cast<int>(u.tangent));
+  uTangentFloor_.set(u.tangentFloor);
+  uViewNormal_.set(u.viewNormal);
   mesh.draw();
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glEnable(GL_DEPTH_TEST);
@@ -85,13 +70,9 @@ struct GatherEntry {
 static_assert(sizeof(GatherEntry) == 176, "GatherEntry must match texel_gather.comp's std430 layout");
 }  // namespace
 
-ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {
-  uSize_ = program_.uniform("uSize");
-  uFirst_ = program_.uniform("uFirst");
-  uMode_ = program_.uniform("uMode");
-}
+ComputeGather::ComputeGather() : program_(computeProgram("texel_gather.comp")) {}
 
-void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const render::Buffer& reach) {
+void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const gl::Buffer& reach) {
   order_.clear();
   dispatches_.clear();
   keptAt_.clear();
@@ -146,15 +127,15 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
     keptBytes += (d.count * tiles * sizeof(GLuint) + 255) / 256 * 256;
     tilesRun_ += d.count * tiles;
   }
-  if (kept_.size() < keptBytes) kept_ = render::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
+  if (kept_.size() < keptBytes) kept_ = gl::Buffer(std::max(keptBytes, 2 * kept_.size()), nullptr);
   std::vector<GLuint> heads(dispatches_.size() * kHeadUints, 0);
   for (size_t k = 0; k < dispatches_.size(); ++k) heads[k * kHeadUints + 2] = heads[k * kHeadUints + 3] = 1;
   freshBuffer(keptHead_, heads.size() * sizeof(GLuint), heads.data());
   program_.use();
-  glUniform1i(uSize_, addressMap);
-  glUniform1i(uMode_, 0);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, reach.id());
+  uSize_.set(addressMap);
+  uMode_.set(0);
+  gl::bindStorage(bindings::gather::kEntries, entries_.id());
+  gl::bindStorage(bindings::gather::kReach, reach.id());
   for (size_t k = 0; k < dispatches_.size(); ++k) {
     bind(k);
     const Dispatch& d = dispatches_[k];
@@ -165,37 +146,39 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const rend
 
 void ComputeGather::bind(size_t k) const {
   const Dispatch& d = dispatches_[k];
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, d.mesh->vertices.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, d.mesh->indices.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, d.cover->start.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, d.cover->triangles.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, d.cover->boxes.id());
+  namespace b = bindings::gather;
+  gl::bindStorage(b::kVertices, d.mesh->vertices.id());
+  gl::bindStorage(b::kIndices, d.mesh->indices.id());
+  gl::bindStorage(b::kTileStart, d.cover->start.id());
+  gl::bindStorage(b::kTileTriangles, d.cover->triangles.id());
+  gl::bindStorage(b::kTileBoxes, d.cover->boxes.id());
   const size_t tiles = d.cover->tiles();
-  glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 8, kept_.id(), static_cast<GLintptr>(keptAt_[k]),
-                    static_cast<GLsizeiptr>(std::max<size_t>(d.count * tiles, 1) * sizeof(GLuint)));
-  glBindBufferRange(GL_SHADER_STORAGE_BUFFER, 10, keptHead_.id(), static_cast<GLintptr>(k * kHeadUints * sizeof(GLuint)),
-                    static_cast<GLsizeiptr>(4 * sizeof(GLuint)));
-  glUniform1i(uFirst_, static_cast<GLint>(d.first));
+  gl::bindStorage(b::kKept, kept_.id(), static_cast<GLintptr>(keptAt_[k]),
+                  static_cast<GLsizeiptr>(std::max<size_t>(d.count * tiles, 1) * sizeof(GLuint)));
+  gl::bindStorage(b::kKeptHead, keptHead_.id(), static_cast<GLintptr>(k * kHeadUints * sizeof(GLuint)),
+                  static_cast<GLsizeiptr>(4 * sizeof(GLuint)));
+  uFirst_.set(static_cast<GLint>(d.first));
 }
 
-void ComputeGather::gather(const AddressPasses& passes, const render::Buffer& region) {
+void ComputeGather::gather(const AddressPasses& passes, const gl::Buffer& region) {
   if (dispatches_.empty()) return;
   program_.use();
-  glUniform1i(uSize_, passes.size());
-  glUniform1i(uMode_, 1);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
+  namespace b = bindings::gather;
+  uSize_.set(passes.size());
+  uMode_.set(1);
+  gl::bindStorage(bindings::kRegion, region.id());
   order_.front()->scratch.bind();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, entries_.id());
-  glBindTextureUnit(0, passes.addressOthers().id());
-  glBindTextureUnit(1, passes.depthOthers().id());
+  gl::bindStorage(b::kEntries, entries_.id());
+  gl::bindTexture(b::kAddressOthers, passes.addressOthers().id());
+  gl::bindTexture(b::kDepthOthers, passes.depthOthers().id());
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, keptHead_.id());
   for (size_t k = 0; k < dispatches_.size(); ++k) {
     bind(k);
     const Dispatch& d = dispatches_[k];
     for (size_t j = 0; j < d.count; ++j)
-      glBindTextureUnit(static_cast<GLuint>(2 + j), order_[d.first + j]->height->id());
+      gl::bindTexture(b::kHeights + j, order_[d.first + j]->height->id());
     // The array's other units hold nothing (not a texture of an earlier program's, of another type).
-    glBindTextures(static_cast<GLuint>(2 + d.count), static_cast<GLsizei>(kGroup - d.count), nullptr);
+    gl::unbindTextures(b::kHeights + d.count, static_cast<GLsizei>(kGroup - d.count));
     glDispatchComputeIndirect(static_cast<GLintptr>((k * kHeadUints + 1) * sizeof(GLuint)));
   }
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, 0);
@@ -212,71 +195,58 @@ std::pair<size_t, size_t> ComputeGather::lastKept() const {
   return {kept, tilesRun_};
 }
 
-ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {
-  uSide_ = program_.uniform("uSide");
-  uSize_ = program_.uniform("uSize");
-  uResolution_ = program_.uniform("uResolution");
-  uDepthToHeight_ = program_.uniform("uDepthToHeight");
-  uTangentMode_ = program_.uniform("uTangentMode");
-  uTangentFloor_ = program_.uniform("uTangentFloor");
-  uViewNormal_ = program_.uniform("uViewNormal");
-}
+ScatterUpdate::ScatterUpdate() : program_(computeProgram("dent_update.comp")) {}
 
-void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-                        const Scratch& scratch, const render::Buffer& region) {
+void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const gl::Texture2D& height,
+                        const Scratch& scratch, const gl::Buffer& region) {
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_UPDATE_BARRIER_BIT);
   program_.use();
-  glBindTextureUnit(0, passes.addressX(u.side).id());
-  glBindTextureUnit(1, passes.depthX(u.side).id());
-  glBindTextureUnit(2, passes.addressOther(u.side).id());
-  glBindTextureUnit(3, passes.depthOther(u.side).id());
-  glBindTextureUnit(4, passes.normalX(u.side).id());
-  glBindTextureUnit(5, height.id());
+  namespace b = bindings::update;
+  gl::bindTexture(b::kAddressX, passes.addressX(u.side).id());
+  gl::bindTexture(b::kDepthX, passes.depthX(u.side).id());
+  gl::bindTexture(b::kAddressOther, passes.addressOther(u.side).id());
+  gl::bindTexture(b::kDepthOther, passes.depthOther(u.side).id());
+  gl::bindTexture(b::kNormalX, passes.normalX(u.side).id());
+  gl::bindTexture(b::kHeightX, height.id());
   scratch.bind();
-  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
-  glUniform1i(uSide_, u.side);
-  glUniform2i(uSize_, passes.size(), passes.size());
-  glUniform1i(uResolution_, u.resolution);
-  glUniform1f(uDepthToHeight_, u.depthToHeight);
-  glUniform1i(uTangentMode_, static_cast<int>(u.tangent));
-  glUniform1f(uTangentFloor_, u.tangentFloor);
-  glUniform3fv(uViewNormal_, 1, glm::value_ptr(u.viewNormal));
+  uScratchBase_.set(scratch.offset);
+  gl::bindStorage(bindings::kRegion, region.id());
+  uSide_.set(u.side);
+  uSize_.set(glm::ivec2(passes.size(), passes.size()));
+  uResolution_.set(u.resolution);
+  uDepthToHeight_.set(u.depthToHeight);
+  uTangentMode_.set(static_cast<int>(u.tangent));
+  uTangentFloor_.set(u.tangentFloor);
+  uViewNormal_.set(u.viewNormal);
   glDispatchCompute(dispatchGroups(passes.size()), dispatchGroups(passes.size()), 1);
 }
 
 CraterRims::CraterRims()
-    : program_(computeProgram("crater_rim.comp")), dispatch_(computeProgram("rim_dispatch.comp")) {
-  uSide_ = program_.uniform("uSide");
-  uResolution_ = program_.uniform("uResolution");
-  uMode_ = program_.uniform("uMode");
-  dSide_ = dispatch_.uniform("uSide");
-  dResolution_ = dispatch_.uniform("uResolution");
-}
+    : program_(computeProgram("crater_rim.comp")), dispatch_(computeProgram("rim_dispatch.comp")) {}
 
-void CraterRims::run(int side, int res, const render::Texture2D& height, const Scratch& scratch,
-                     const render::Buffer& region) {
+void CraterRims::run(int side, int res, const gl::Texture2D& height, const Scratch& scratch,
+                     const gl::Buffer& region) {
   // The ring width depends on the dent's size: found on the GPU from the region, with the dispatch sizes.
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   const GLuint zero[4] = {0, 0, 0, 0};
   freshBuffer(sums_, sizeof zero, zero);
   dispatch_.use();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, region.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, rim_.id());
-  glUniform1i(dSide_, side);
-  glUniform1i(dResolution_, res);
+  gl::bindStorage(bindings::kRegion, region.id());
+  gl::bindStorage(bindings::rim::kRim, rim_.id());
+  dSide_.set(side);
+  dResolution_.set(res);
   glDispatchCompute(1, 1, 1);
   glMemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
   program_.use();
   scratch.bind();
-  glUniform1ui(program_.uniform("uScratchBase"), scratch.offset);
-  glBindTextureUnit(1, height.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, sums_.id());
+  uScratchBase_.set(scratch.offset);
+  gl::bindTexture(bindings::rim::kHeight, height.id());
+  gl::bindStorage(bindings::rim::kSums, sums_.id());
   glBindBuffer(GL_DISPATCH_INDIRECT_BUFFER, rim_.id());
-  glUniform1i(uSide_, side);
-  glUniform1i(uResolution_, res);
+  uSide_.set(side);
+  uResolution_.set(res);
   for (int mode = 0; mode < 3; ++mode) {
-    glUniform1i(uMode_, mode);
+    uMode_.set(mode);
     glDispatchComputeIndirect(static_cast<GLintptr>(side) * 3 * sizeof(GLuint));
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
   }

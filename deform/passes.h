@@ -26,8 +26,10 @@
 #include <string>
 #include <vector>
 
+#include "deform/bindings.h"
 #include "deform/deformer.h"
-#include "render/gl_objects.h"
+#include "gl/objects.h"
+#include "gl/program.h"
 
 namespace crumple::deform {
 
@@ -37,25 +39,26 @@ using PhaseMark = std::function<void(const char*)>;
 inline GLuint dispatchGroups(int n) { return static_cast<GLuint>((n + 15) / 16); }
 // A deform shader's source with each line `#include "file"` replaced by that embedded file.
 std::string deformSource(const char* name);
-inline render::Program computeProgram(const char* name) {
-  return render::Program({{GL_COMPUTE_SHADER, name, deformSource(name)}});
+inline gl::Program computeProgram(const char* name) {
+  return gl::Program({{GL_COMPUTE_SHADER, name, deformSource(name)}});
 }
 
 // `buffer` replaced by a new one of at least `boxes` empty texel boxes (x0, y0, x1, y1 = INT_MAX, INT_MAX, -1, -1:
 // atomics grow them), as many as it held if more.
-void clearBoxes(render::Buffer& buffer, int boxes);
+void clearBoxes(gl::Buffer& buffer, int boxes);
 // `buffer` replaced by a new one holding `bytes` of `data`. Data the CPU hands to a wave's shaders goes into new
 // buffers, never into one that earlier commands may still read: on NVIDIA's driver (580, H200) a
 // glNamedBufferSubData into a buffer that a queued dispatch reads as shader storage reached that dispatch late
 // (a wave's commit ran with the last wave's entries); a buffer made with its data cannot be read before it.
-void freshBuffer(render::Buffer& buffer, size_t bytes, const void* data);
+void freshBuffer(gl::Buffer& buffer, size_t bytes, const void* data);
 
 // A side's new heights: resolution^2 uints (float bits, row by row; kUntouched where untouched) from `offset`
-// (uints) of the deformer's scratch buffer, which shaders see at shader-storage binding 2 (uScratch[], their uScratchBase = offset).
+// (uints) of the deformer's scratch buffer, which shaders see at bindings::kScratch (uScratch[], their
+// uScratchBase = offset).
 struct Scratch {
-  const render::Buffer* buffer = nullptr;
+  const gl::Buffer* buffer = nullptr;
   GLuint offset = 0;
-  void bind() const { glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, buffer->id()); }
+  void bind() const { gl::bindStorage(bindings::kScratch, buffer->id()); }
 };
 
 // What the updates share about one side of one event.
@@ -113,27 +116,31 @@ class AddressPasses {
   void rasterOthers(const std::vector<OtherPass>& passes, const PhaseMark& phase);
   // Per slot, the pixels (x0, y0, x1, y1, inclusive) the compute raster writes; outside them it leaves "none".
   // clearReach() empties the slots' rectangles; ComputeGather::cull grows them to what its texels can read.
-  const render::Buffer& reach() const { return reach_; }
+  const gl::Buffer& reach() const { return reach_; }
   void clearReach(int slots);
-  const render::Texture2D& addressX(int side) const { return addressX_[side]; }
-  const render::Texture2D& depthX(int side) const { return depthX_[side]; }
-  const render::Texture2D& normalX(int side) const { return normalX_[side]; }
+  const gl::Texture2D& addressX(int side) const { return addressX_[side]; }
+  const gl::Texture2D& depthX(int side) const { return depthX_[side]; }
+  const gl::Texture2D& normalX(int side) const { return normalX_[side]; }
   // The tiles the last compute raster of a slot ran, and all of the map's (read back: waits for the GPU; tests).
   std::pair<size_t, size_t> tilesRun(int side) const;
-  const render::Texture2D& addressOther(int side) const { return addressO_[side]; }
+  const gl::Texture2D& addressOther(int side) const { return addressO_[side]; }
   // All slots' pass B targets (layer = slot).
-  const render::TextureArray& addressOthers() const { return addressArray_; }
-  const render::TextureArray& depthOthers() const { return depthArray_; }
-  const render::Texture2D& depthOther(int side) const { return depthO_[side]; }
+  const gl::TextureArray& addressOthers() const { return addressArray_; }
+  const gl::TextureArray& depthOthers() const { return depthArray_; }
+  const gl::Texture2D& depthOther(int side) const { return depthO_[side]; }
 
  private:
   void draw(const DeformBody& body, const glm::dmat4& viewProjection, const glm::dmat4& model, float sign,
             float bumpToDepth);
-  render::Program program_, bin_, raster_;
-  GLint uMvp_, uNormalToWorld_, uSign_, uBumpToDepth_;
-  GLint bSize_, bCapacity_, bFirst_, rSize_, rCapacity_, rMode_, rFirst_;
+  gl::Program program_, bin_, raster_;
+  gl::Uniform<glm::mat4> uMvp_{program_, "uModelViewProjection"};
+  gl::Uniform<glm::mat3> uNormalToWorld_{program_, "uNormalToWorld"};
+  gl::Uniform<float> uSign_{program_, "uSign"}, uBumpToDepth_{program_, "uBumpToDepth"};
+  gl::Uniform<int> bSize_{bin_, "uSize"}, bCapacity_{bin_, "uCapacity"}, bFirst_{bin_, "uFirst"};
+  gl::Uniform<int> rSize_{raster_, "uSize"}, rCapacity_{raster_, "uCapacity"}, rMode_{raster_, "uMode"},
+      rFirst_{raster_, "uFirst"};
   static constexpr int kTile = 8, kTileCapacity = 64;
-  static constexpr int kGroup = 16;  // sides a raster dispatch: its height maps at texture units 0 .. 15
+  static constexpr int kGroup = 16;  // sides a raster dispatch: its height maps from bindings::address::kHeights
   size_t tiles() const;
   size_t countStride() const { return tiles() + 6; }  // uints of a slot's counts (address_bin.comp)
   // What a slot's targets hold outside the tiles to write: "none" everywhere (None), "none" outside the active
@@ -144,16 +151,16 @@ class AddressPasses {
   // the active tiles', 3 unused, whether every tile is active), tile lists and active tiles; per wave, each
   // side's triangle setups and large triangles (at its entry's `setup`), the entries (address_bin.comp's Entry)
   // and each raster group's indirect dispatch (3 uints).
-  render::Buffer count_, list_, active_, setup_, large_, entries_, args_, reach_;
-  render::Texture2D flat_{1, 1, GL_R32F};
+  gl::Buffer count_, list_, active_, setup_, large_, entries_, args_, reach_;
+  gl::Texture2D flat_{1, 1, GL_R32F};
   int size_ = 0;
   // Per side: address, depth copy, world normal; one depth buffer shared by the passes of a side.
-  render::Texture2D addressX_[2], depthX_[2], normalX_[2], depthBuffer_[2];
+  gl::Texture2D addressX_[2], depthX_[2], normalX_[2], depthBuffer_[2];
   // Per slot (at least 2): pass B's address and depth, layers of one array each, and a 2D view of each layer.
-  render::TextureArray addressArray_, depthArray_;
-  std::vector<render::Texture2D> addressO_, depthO_;
+  gl::TextureArray addressArray_, depthArray_;
+  std::vector<gl::Texture2D> addressO_, depthO_;
   void makeSlots(int slots);  // (re)makes the slots' targets and buffers at the current size
-  render::Framebuffer fboX_[2], fboO_[2];
+  gl::Framebuffer fboX_[2], fboO_[2];
 };
 
 class GatherUpdate {
@@ -162,18 +169,25 @@ class GatherUpdate {
   // Draws X (at `model`, seen through `viewProjection`) in its texture space over the texels the camera sees
   // and that reach the other body's farthest window depth. No barriers of its own: before it, the address
   // pass's targets must be made visible to texture fetches; after it, its image and storage writes.
-  void run(const SideUpdate& u, const GpuMesh& mesh, const render::Texture2D& height, const glm::dmat4& viewProjection,
+  void run(const SideUpdate& u, const GpuMesh& mesh, const gl::Texture2D& height, const glm::dmat4& viewProjection,
            const glm::dmat4& model, const AddressPasses& passes, float farthestOther, const Scratch& scratch,
-           const render::Buffer& region);
+           const gl::Buffer& region);
 
  private:
   void bindTexelSpace(int resolution);
-  render::Program program_;
-  GLint uMvp_, uNormalToWorld_, uResolution_, uViewMargin_, uFarthestOther_, uBumpReach_, uSide_, uSize_, uBumpToDepth_,
-      uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+  gl::Program program_;
+  gl::Uniform<glm::mat4> uMvp_{program_, "uModelViewProjection"};
+  gl::Uniform<glm::mat3> uNormalToWorld_{program_, "uNormalToWorld"};
+  gl::Uniform<int> uResolution_{program_, "uResolution"}, uSide_{program_, "uSide"}, uSize_{program_, "uSize"},
+      uTangentMode_{program_, "uTangentMode"};
+  gl::Uniform<float> uViewMargin_{program_, "uViewMargin"}, uFarthestOther_{program_, "uFarthestOther"},
+      uBumpReach_{program_, "uBumpReach"}, uBumpToDepth_{program_, "uBumpToDepth"},
+      uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"};
+  gl::Uniform<glm::vec3> uViewNormal_{program_, "uViewNormal"};
+  gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
   // Framebuffers without attachments, one per map size drawn (a software rasteriser bins all of it); kept, so
   // that sides of different sizes in a row do not reconfigure one.
-  std::map<int, render::Framebuffer> texelSpace_;
+  std::map<int, gl::Framebuffer> texelSpace_;
 };
 
 // Which of a mesh's triangles reach each tile of kTile x kTile texels of its map at one resolution: those whose
@@ -185,9 +199,9 @@ class GatherUpdate {
 struct TexelCover {
   static constexpr int kTile = 16;
   int resolution = 0, tilesX = 0;
-  render::Buffer start;      // tilesX^2 + 1 uints: tile k's triangles are triangles[start[k] .. start[k + 1])
-  render::Buffer triangles;  // triangle indices
-  render::Buffer boxes;      // 2 vec4 a tile: min xyz, max xyz (shape frame; empty tiles min > max)
+  gl::Buffer start;      // tilesX^2 + 1 uints: tile k's triangles are triangles[start[k] .. start[k + 1])
+  gl::Buffer triangles;  // triangle indices
+  gl::Buffer boxes;      // 2 vec4 a tile: min xyz, max xyz (shape frame; empty tiles min > max)
   size_t listed = 0;         // entries in `triangles`
   size_t tiles() const { return static_cast<size_t>(tilesX) * static_cast<size_t>(tilesX); }
   static std::shared_ptr<const TexelCover> of(const GpuMesh& mesh, int resolution);
@@ -207,7 +221,7 @@ class ComputeGather {
   struct Side {
     const SideUpdate* u = nullptr;
     const GpuMesh* mesh = nullptr;
-    const render::Texture2D* height = nullptr;
+    const gl::Texture2D* height = nullptr;
     glm::dmat4 viewProjection{1}, model{1};
     float farthestOther = 0;
     Scratch scratch;
@@ -215,20 +229,20 @@ class ComputeGather {
   // First (before the address pass): keeps each side's tiles near its camera and grows the side's slot's pixel
   // rectangle in `reach` (AddressPasses::reach) to hold where their texels and the pixels a bilinear read takes
   // lie: the address pass then rasterises no pixel outside it. `sides` must live until gather().
-  void cull(const std::vector<Side>& sides, int addressMap, const render::Buffer& reach);
+  void cull(const std::vector<Side>& sides, int addressMap, const gl::Buffer& reach);
   // Then (after the address pass and a texture-fetch barrier): the kept tiles' texels. No barriers of its own.
-  void gather(const AddressPasses& passes, const render::Buffer& region);
+  void gather(const AddressPasses& passes, const gl::Buffer& region);
   // The last run's kept tiles (summed over its sides) and all of its sides' tiles (read back: waits; tests).
   std::pair<size_t, size_t> lastKept() const;
 
  private:
-  static constexpr int kGroup = 14;  // the other's address and depth at units 0, 1; X's height maps at 2 .. 15
+  static constexpr int kGroup = 14;  // X's height maps from bindings::gather::kHeights (units 2 .. 15)
   static constexpr size_t kHeadUints = 64;  // a dispatch's head in keptHead_ (256 bytes: any binding alignment)
-  render::Program program_;
-  GLint uSize_, uFirst_, uMode_;
+  gl::Program program_;
+  gl::Uniform<int> uSize_{program_, "uSize"}, uFirst_{program_, "uFirst"}, uMode_{program_, "uMode"};
   // The sides; each dispatch's kept tiles (texel_gather.comp's Kept) and, 256 bytes a dispatch, their count and
   // indirect dispatch (KeptHead: made new each run, from the CPU).
-  render::Buffer entries_, kept_, keptHead_;
+  gl::Buffer entries_, kept_, keptHead_;
   std::vector<size_t> keptAt_;     // the last run's dispatches' offsets into kept_
   size_t tilesRun_ = 0;            // the last run's sides' tiles, all of them
   struct Dispatch {                // up to kGroup sides of one mesh and resolution
@@ -244,12 +258,17 @@ class ComputeGather {
 class ScatterUpdate {
  public:
   ScatterUpdate();
-  void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-           const Scratch& scratch, const render::Buffer& region);
+  void run(const SideUpdate& u, const AddressPasses& passes, const gl::Texture2D& height,
+           const Scratch& scratch, const gl::Buffer& region);
 
  private:
-  render::Program program_;
-  GLint uSide_, uSize_, uResolution_, uDepthToHeight_, uTangentMode_, uTangentFloor_, uViewNormal_;
+  gl::Program program_;
+  gl::Uniform<int> uSide_{program_, "uSide"}, uResolution_{program_, "uResolution"},
+      uTangentMode_{program_, "uTangentMode"};
+  gl::Uniform<glm::ivec2> uSize_{program_, "uSize"};
+  gl::Uniform<float> uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"};
+  gl::Uniform<glm::vec3> uViewNormal_{program_, "uViewNormal"};
+  gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
 };
 
 // Ring width (texels) of the crater rim for a dent whose touched region is w x h texels: craterRing(), found on
@@ -258,22 +277,24 @@ class CraterRims {
  public:
   CraterRims();
   // The rim of side's dent into the scratch; its ring width stays in ring() for the commit.
-  void run(int side, int resolution, const render::Texture2D& height, const Scratch& scratch,
-           const render::Buffer& region);
+  void run(int side, int resolution, const gl::Texture2D& height, const Scratch& scratch,
+           const gl::Buffer& region);
   // Per side: the rim passes' indirect dispatch sizes (3 uints each), then the ring widths (2 ints).
-  const render::Buffer& ring() const { return rim_; }
+  const gl::Buffer& ring() const { return rim_; }
 
  private:
-  render::Program program_, dispatch_;
-  GLint uSide_, uResolution_, uMode_, dSide_, dResolution_;
-  render::Buffer sums_;
-  render::Buffer rim_{8 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
+  gl::Program program_, dispatch_;
+  gl::Uniform<int> uSide_{program_, "uSide"}, uResolution_{program_, "uResolution"}, uMode_{program_, "uMode"};
+  gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
+  gl::Uniform<int> dSide_{dispatch_, "uSide"}, dResolution_{dispatch_, "uResolution"};
+  gl::Buffer sums_;
+  gl::Buffer rim_{8 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT};
 };
 
 class ReadbackUpdate {
  public:
-  void run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height, bool craterRims,
-           const Scratch& scratch, render::Buffer& region, const PhaseMark& phase);
+  void run(const SideUpdate& u, const AddressPasses& passes, const gl::Texture2D& height, bool craterRims,
+           const Scratch& scratch, gl::Buffer& region, const PhaseMark& phase);
 
  private:
   void scatter(const SideUpdate& u, const AddressPasses& passes, const std::vector<float>& h, bool craterRims,
@@ -288,7 +309,7 @@ class CommitPass {
   // rim's CraterRims::ring() buffer when it has a rim (the region grows by its ring).
   struct Side {
     Surface* x = nullptr;
-    const render::Buffer* rim = nullptr;
+    const gl::Buffer* rim = nullptr;
     Scratch scratch;
     int statsIndex = 0;
   };
@@ -296,19 +317,30 @@ class CommitPass {
   // changed into stats entry statsIndex, puts the scratch back to untouched, and regenerates the normals and the
   // bound pyramid there. The sides (different maps) go stage by stage, one memory barrier a stage for all, each
   // stage one dispatch for up to kGroup sides (the bound's levels above level 0: one a map).
-  void run(const std::vector<Side>& sides, const render::Buffer& region, const render::Buffer& stats,
+  void run(const std::vector<Side>& sides, const gl::Buffer& region, const gl::Buffer& stats,
            const PhaseMark& phase);
   // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
   void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);
 
  private:
   void reserve(size_t sides);
-  static constexpr int kGroup = 8;  // sides a dispatch: their maps at units 0 .. 7 (8 image units: GL's least)
-  render::Program dispatch_, commit_, normals_, bound_, boundUp_;
+  static constexpr int kGroup = 8;  // sides a dispatch: their maps from bindings::commit (8 image units: GL's least)
+  gl::Program dispatch_, commit_, normals_, bound_, boundUp_;
+  gl::Uniform<int> dCount_{dispatch_, "uCount"}, dTile_{dispatch_, "uTile"};
+  gl::Uniform<int> cFirst_{commit_, "uFirst"};
+  // normal_map.comp and height_bound.comp run over a wave's sides (uFull 0) or one whole map (uFull 1, its
+  // region and resolution in uFullRegion, uFullResolution).
+  gl::Uniform<int> nFirst_{normals_, "uFirst"}, nFull_{normals_, "uFull"}, nFullResolution_{normals_, "uFullResolution"};
+  gl::Uniform<glm::ivec4> nFullRegion_{normals_, "uFullRegion"};
+  gl::Uniform<float> nFullSlopeScale_{normals_, "uFullSlopeScale"};
+  gl::Uniform<int> bFirst_{bound_, "uFirst"}, bFull_{bound_, "uFull"}, bFullResolution_{bound_, "uFullResolution"},
+      bTile_{bound_, "uTile"}, bLevel_{bound_, "uLevel"};
+  gl::Uniform<glm::ivec4> bFullRegion_{bound_, "uFullRegion"};
+  gl::Uniform<int> upFirst_{boundUp_, "uFirst"}, upTile_{boundUp_, "uTile"};
   size_t sides_ = 0;
   // Per slot: the region grown by a texel (ivec4); per side the entry (commit_side.glsl); per group of kGroup
   // the commit's, the normals' and level 0 of the bound's indirect dispatch (9 uints).
-  render::Buffer normalRegion_, entries_, args_;
+  gl::Buffer normalRegion_, entries_, args_;
 };
 
 }  // namespace crumple::deform

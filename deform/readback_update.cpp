@@ -57,8 +57,8 @@ void craterRimsCpu(std::vector<float>& out, const std::vector<float>& old, int r
 }
 }  // namespace
 
-void ReadbackUpdate::run(const SideUpdate& u, const AddressPasses& passes, const render::Texture2D& height,
-                         bool craterRims, const Scratch& scratch, render::Buffer& region, const PhaseMark& phase) {
+void ReadbackUpdate::run(const SideUpdate& u, const AddressPasses& passes, const gl::Texture2D& height,
+                         bool craterRims, const Scratch& scratch, gl::Buffer& region, const PhaseMark& phase) {
   const size_t px = static_cast<size_t>(passes.size()) * passes.size();
   const bool tangent = u.tangent != TangentMode::None;
   ca_.resize(px * 2);

@@ -116,22 +116,22 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
     }
   }
   metresPerUv = areaUv > 0 ? std::sqrt(area3 / areaUv) : 1.0;
-  vertices = render::Buffer::fromVector(v);
-  indices = render::Buffer::fromVector(idx);
+  vertices = gl::Buffer::fromVector(v);
+  indices = gl::Buffer::fromVector(idx);
   indexCount = static_cast<GLsizei>(idx.size());
   boundsMin = mesh.boundsMin();
   boundsMax = mesh.boundsMax();
   describeVertices(vao.id(), vertices.id(), indices.id());
   if (mesh.triangles.size() > kSimplifyAbove) {
     const std::vector<uint32_t> fewer = simplifiedTriangles(v, kFloats, idx);
-    simplifiedIndices = render::Buffer::fromVector(fewer);
+    simplifiedIndices = gl::Buffer::fromVector(fewer);
     simplifiedIndexCount = static_cast<GLsizei>(fewer.size());
     describeVertices(simplifiedVao.id(), vertices.id(), simplifiedIndices.id());
     std::vector<float> positions;
     std::vector<uint32_t> triangles;
     shadowMesh(v, kFloats, idx, positions, triangles);
-    shadowVertices = render::Buffer::fromVector(positions);
-    shadowIndices = render::Buffer::fromVector(triangles);
+    shadowVertices = gl::Buffer::fromVector(positions);
+    shadowIndices = gl::Buffer::fromVector(triangles);
     shadowIndexCount = static_cast<GLsizei>(triangles.size());
     const GLuint a = shadowVao.id();
     glVertexArrayVertexBuffer(a, 0, shadowVertices.id(), 0, 3 * sizeof(float));
@@ -193,8 +193,8 @@ void Surface::makeUnique() {
   maps_ = std::move(own);
 }
 
-render::Image Surface::downloadHeight() const {
-  render::Image img(resolution_, resolution_, 1);
+gl::Image Surface::downloadHeight() const {
+  gl::Image img(resolution_, resolution_, 1);
   maps_->height.download(GL_RED, GL_FLOAT, img.pixels.data(), img.pixels.size() * sizeof(float));
   return img;
 }

@@ -9,18 +9,18 @@
 #include <memory>
 
 #include "physics/mesh.h"
-#include "render/gl_objects.h"
-#include "render/image.h"
+#include "gl/objects.h"
+#include "gl/image.h"
 
 namespace crumple::deform {
 
 struct TexelCover;  // deform/passes.h: which triangles reach each tile of the texels, at one map resolution
 
 struct GpuMesh {
-  render::VertexArray vao;
-  render::Buffer vertices;  // position (3), normal (3), uv (2), colour (3, sRGB; white without), material uv (2),
+  gl::VertexArray vao;
+  gl::Buffer vertices;  // position (3), normal (3), uv (2), colour (3, sRGB; white without), material uv (2),
                             // material (1, -1 none), normal averaged over the vertices at its position (3) floats
-  render::Buffer indices;
+  gl::Buffer indices;
   GLsizei indexCount = 0;
   // For interactive views (render::RendererSettings::simplified), meshes over kSimplifyAbove triangles get
   // - the same vertices under fewer triangles: simplified (meshoptimizer's edge collapses, which keep uv seams
@@ -30,11 +30,11 @@ struct GpuMesh {
   // The counts are 0 for smaller meshes.
   static constexpr size_t kSimplifyAbove = 1000;
   static constexpr float kSimplifyError = 0.003f, kShadowError = 0.01f;
-  render::VertexArray simplifiedVao;
-  render::Buffer simplifiedIndices;
+  gl::VertexArray simplifiedVao;
+  gl::Buffer simplifiedIndices;
   GLsizei simplifiedIndexCount = 0;
-  render::VertexArray shadowVao;
-  render::Buffer shadowVertices, shadowIndices;
+  gl::VertexArray shadowVao;
+  gl::Buffer shadowVertices, shadowIndices;
   GLsizei shadowIndexCount = 0;
   glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame
   double metresPerUv = 1;                // sqrt(surface area / uv area)
@@ -45,15 +45,15 @@ struct GpuMesh {
 };
 
 struct SurfaceMaps {
-  render::Texture2D height;  // R32F
-  render::Texture2D normal;  // RGBA8, tangent space
+  gl::Texture2D height;  // R32F
+  gl::Texture2D normal;  // RGBA8, tangent space
   // The height's bound pyramid (height_bound.comp, R32F, kept with the normals): level 0 holds per tile of
   // kBoundTile x kBoundTile texels the largest |h - 0.5| there, each level above the largest of 2 x 2 below
   // (sizes powers of two; texels past the map 0). The renderer's parallax march skips rays it bounds at 0.
   // The levels lie side by side in one level of one texture (boundOrigin), so that a shader writes all of a
   // map's levels through one image binding (a dispatch then updates 8 maps' pyramids).
   static constexpr int kBoundTile = 16;
-  render::Texture2D bound;
+  gl::Texture2D bound;
   // No height of the map lies above this: the initial map's highest (Deformer::createMaps), kept while dents only
   // lower heights, back to 1 once a crater rim raises some. The deformer's culls bound how far bumps reach by it
   // (a flat map's bumps reach nowhere) instead of by the highest a map could hold.
@@ -82,8 +82,8 @@ class Surface {
     k_ = k;
     kCollide_ = kCollide;
   }
-  const render::Texture2D& height() const { return maps_->height; }
-  const render::Texture2D& normal() const { return maps_->normal; }
+  const gl::Texture2D& height() const { return maps_->height; }
+  const gl::Texture2D& normal() const { return maps_->normal; }
   const SurfaceMaps& maps() const { return *maps_; }
   // Gives this surface its own maps (copies of the shared ones) before it is changed.
   void makeUnique();
@@ -91,7 +91,7 @@ class Surface {
   void heightsMayRise() { maps_->highest = 1.0f; }
   bool isShared() const { return maps_.use_count() > 1; }
   float texelSize() const { return static_cast<float>(mesh_->metresPerUv / resolution_); }
-  render::Image downloadHeight() const;
+  gl::Image downloadHeight() const;
 
  private:
   std::shared_ptr<const GpuMesh> mesh_;

@@ -114,9 +114,9 @@ std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolu
   }
   start[tiles] = static_cast<GLuint>(all.size());
   if (all.empty()) all.push_back(0);
-  cover->start = render::Buffer::fromVector(start);
-  cover->triangles = render::Buffer::fromVector(all);
-  cover->boxes = render::Buffer::fromVector(boxes);
+  cover->start = gl::Buffer::fromVector(start);
+  cover->triangles = gl::Buffer::fromVector(all);
+  cover->boxes = gl::Buffer::fromVector(boxes);
   cover->listed = start[tiles];
   mesh.texelCovers[resolution] = cover;
   return cover;

@@ -31,12 +31,12 @@ std::string shapeKey(const ShapeDesc& s) {
 BodyAssets AssetCache::load(const BodyDesc& d, const std::string& where) {
   const int res = d.bumpMap.present ? d.bumpMap.resolution : 256;
   BodyAssets out;
-  render::Image& initial = out.initialMap;
+  gl::Image& initial = out.initialMap;
   bool& hasImage = out.hasImage;
   if (d.bumpMap.present && !d.bumpMap.image.empty()) {
     try {
-      initial = render::readPng(d.bumpMap.image, 1);
-    } catch (const render::ImageError& e) {
+      initial = gl::readPng(d.bumpMap.image, 1);
+    } catch (const gl::ImageError& e) {
       throw SceneError(sceneFile_, where + ".bump_map.image", e.what());
     }
     if (initial.width != initial.height)

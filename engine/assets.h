@@ -11,7 +11,7 @@
 #include "deform/surface.h"
 #include "engine/scene.h"
 #include "physics/shape.h"
-#include "render/image.h"
+#include "gl/image.h"
 #include "render/look.h"
 
 namespace crumple {
@@ -21,7 +21,7 @@ struct BodyAssets {
   std::shared_ptr<const Shape> shape;
   std::shared_ptr<const TriangleMesh> mesh;  // render mesh, shape frame, one-to-one uvs
   int mapResolution = 256;                   // the bump map's (its image's when it has one)
-  render::Image initialMap;                  // the bump map's image, when it has one
+  gl::Image initialMap;                  // the bump map's image, when it has one
   bool hasImage = false;
   std::string meshKey;  // shape and map resolution: what the render mesh depends on
   std::shared_ptr<const render::Look> look;  // the mesh file's own materials (glTF), null when it has none

@@ -13,7 +13,7 @@
 #define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
 
-#include "render/image.h"
+#include "gl/image.h"
 
 namespace crumple {
 
@@ -171,10 +171,10 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
         fs::copy_file(maps / "heightmaps" / file, root / "heightmaps" / file, fs::copy_options::overwrite_existing, ec);
         if (ec) throw std::runtime_error((root / "heightmaps" / file).string() + ": " + ec.message());
         // The normal map with green inverted: crumple's green points down the image, glTF's up.
-        render::Image nm = render::readPng((maps / "normalmaps" / file).string(), 3);
+        gl::Image nm = gl::readPng((maps / "normalmaps" / file).string(), 3);
         for (size_t i = 1; i < nm.pixels.size(); i += 3) nm.pixels[i] = 1.0f - nm.pixels[i];
         fs::create_directories(root / "normalmaps");
-        render::writePng((root / "normalmaps" / file).string(), nm, 8);
+        gl::writePng((root / "normalmaps" / file).string(), nm, 8);
 
         tinygltf::Image image;
         image.name = b.name + "_normal";

@@ -14,7 +14,7 @@
 
 #include "core/log.h"
 #include "engine/gltf_export.h"
-#include "render/image.h"
+#include "gl/image.h"
 
 namespace crumple {
 
@@ -370,16 +370,16 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
       continue;
     }
     written[b.surface->height().id()] = b.name + ".png";
-    const render::Image h = b.surface->downloadHeight();
-    render::writePng(heightPath.string(), h, 16);
+    const gl::Image h = b.surface->downloadHeight();
+    gl::writePng(heightPath.string(), h, 16);
     const int n = b.surface->resolution();
     std::vector<unsigned char> rgba(static_cast<size_t>(n) * n * 4);
     b.surface->normal().download(GL_RGBA, GL_UNSIGNED_BYTE, rgba.data(), rgba.size());
-    render::Image nm(n, n, 3);
+    gl::Image nm(n, n, 3);
     for (size_t i = 0; i < static_cast<size_t>(n) * n; ++i)
       for (int c = 0; c < 3; ++c)
         nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
-    render::writePng(normalPath.string(), nm, 8);
+    gl::writePng(normalPath.string(), nm, 8);
   }
   if (exportGltf_) writeGltfExport(sim, (root / "export").string(), root.string());
   std::ofstream f(root / "summary.json");

@@ -18,7 +18,7 @@
 #include "engine/primitives.h"
 #include "core/log.h"
 #include "deform/model/stress_strain.h"
-#include "render/image.h"
+#include "gl/image.h"
 
 namespace crumple {
 
@@ -46,8 +46,8 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
   world_.settings().threads = scene.threads;
   if (gl_) {
     deformer_ = std::make_unique<deform::Deformer>(scene.deformation.options);
-    deformTimer_ = std::make_unique<render::GpuTimer>();
-    renderTimer_ = std::make_unique<render::GpuTimer>();
+    deformTimer_ = std::make_unique<gl::GpuTimer>();
+    renderTimer_ = std::make_unique<gl::GpuTimer>();
   }
   bodies_.reserve(scene.bodies.size());
   // Collision groups: the names the bodies use, numbered in name order (the loader allows at most 64).

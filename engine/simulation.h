@@ -16,7 +16,7 @@
 #include "physics/sdf_grid.h"
 #include "physics/vehicle.h"
 #include "physics/world.h"
-#include "render/gpu_timer.h"
+#include "gl/gpu_timer.h"
 
 namespace crumple {
 
@@ -92,7 +92,7 @@ class Simulation {
   // Brings timings()' GPU times up to date: the results back so far, or (wait) all of them.
   void gpuTimes(bool wait);
   // The frames' GPU timer (drawFrame; null without GL).
-  render::GpuTimer* renderTimer() { return renderTimer_.get(); }
+  gl::GpuTimer* renderTimer() { return renderTimer_.get(); }
   deform::Deformer* deformer() { return deformer_.get(); }
   std::vector<VehicleRuntime>& vehicles() { return vehicles_; }
   // Live changes (the sandbox's panel).
@@ -166,7 +166,7 @@ class Simulation {
   };
   std::map<int, NormalLookup> normalLookups_;  // by body index in bodies_
   std::unique_ptr<deform::Deformer> deformer_;
-  std::unique_ptr<render::GpuTimer> deformTimer_, renderTimer_;
+  std::unique_ptr<gl::GpuTimer> deformTimer_, renderTimer_;
   AssetCache assets_;
   long steps_ = 0;
   Timings timings_;

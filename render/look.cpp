@@ -78,8 +78,8 @@ GpuLook::GpuLook(const Look& look) {
   for (int i : linearImages) w = std::max(w, look.images[size_t(i)].width), h = std::max(h, look.images[size_t(i)].height);
   w = std::min(w, 2048);
   h = std::min(h, 2048);
-  srgb_ = GlName<detail::deleteTexture>(makeArray(look, srgbImages, GL_SRGB8_ALPHA8, w, h));
-  linear_ = GlName<detail::deleteTexture>(makeArray(look, linearImages, GL_RGBA8, w, h));
+  srgb_ = gl::GlName<gl::detail::deleteTexture>(makeArray(look, srgbImages, GL_SRGB8_ALPHA8, w, h));
+  linear_ = gl::GlName<gl::detail::deleteTexture>(makeArray(look, linearImages, GL_RGBA8, w, h));
 }
 
 }  // namespace crumple::render

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "render/gl_objects.h"
+#include "gl/objects.h"
 
 namespace crumple::render {
 
@@ -48,7 +48,7 @@ class GpuLook {
   std::vector<glm::ivec4> layers;    // base colour (sRGB array), metallic-roughness, normal, occlusion (linear); -1 none
 
  private:
-  GlName<detail::deleteTexture> srgb_, linear_;
+  gl::GlName<gl::detail::deleteTexture> srgb_, linear_;
 };
 
 }  // namespace crumple::render

@@ -5,13 +5,29 @@
 #include <cstdio>
 #include <map>
 #include <glm/gtc/matrix_transform.hpp>
-#include <glm/gtc/type_ptr.hpp>
 
-#include "render/capture.h"
-#include "render/gl_context.h"
+#include "gl/bindings.h"
+#include "gl/capture.h"
+#include "gl/context.h"
+#include "gl/program.h"
 #include "render/look.h"
 
 namespace crumple::render {
+
+using gl::Framebuffer;
+using gl::GlName;
+using gl::Image;
+using gl::Program;
+using gl::Renderbuffer;
+using gl::Texture2D;
+using gl::Uniform;
+using gl::VertexArray;
+namespace detail = gl::detail;
+
+namespace shaders {
+std::string_view shaderSource(std::string_view name);
+}
+std::string_view renderShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
 
 namespace {
 Program program(const char* vs, const char* fs) {
@@ -27,6 +43,17 @@ constexpr int kShadowSize = 2048;
 constexpr int kEnvSize = 64, kEnvLevels = 7;              // the sky as rendered, mipmapped
 constexpr int kPrefilterSize = 64, kPrefilterLevels = 5;  // roughness 0, 0.25, .. 1
 constexpr int kIrradianceSize = 16, kLutSize = 64;
+
+// The shaders' binding points, as render/shaders/ declares them with layout(binding = N) (each declaration names
+// its constant): pom.frag's samplers (pom_displace.tese's uHeight too) and pom_shade.comp's.
+namespace pom {
+constexpr gl::TextureUnit kHeight{0}, kNormalMap{1}, kShadowMap{2}, kPrefiltered{3}, kIrradiance{4}, kBrdfLut{5},
+    kHeightBound{6}, kLookSrgb{8}, kLookLinear{9}, kVisibilityIds{10};
+constexpr gl::ImageUnit kShaded{0};
+constexpr gl::StorageBinding kVertices{0}, kIndices{1};
+}  // namespace pom
+// The one input of the full-screen passes: address_view.frag's uAddress, fxaa.frag's uScene, prefilter.frag's uEnv.
+constexpr gl::TextureUnit kSource{0};
 
 // A cube map with immutable storage.
 GLuint makeCube(int size, int levels, GLenum format) {
@@ -194,23 +221,69 @@ struct PomFeatures {
   }
 };
 
+// A variant of the main pass's program (pom.frag drawn, or shaded in pom_shade.comp) and its uniforms.
+struct PomProgram {
+  explicit PomProgram(const std::vector<Program::Stage>& stages) : program(stages) {}
+  Program program;
+  // The frame's (Renderer::render's prepare).
+  Uniform<glm::mat4> viewProjection{program, "uViewProjection"}, lightViewProjection{program, "uLightViewProjection"};
+  Uniform<glm::vec3> eye{program, "uEye"}, toSun{program, "uToSun"}, sunColor{program, "uSunColor"},
+      skyColor{program, "uSkyColor"}, groundColor{program, "uGroundColor"};
+  Uniform<float> exposure{program, "uExposure"}, prefilteredMaxLod{program, "uPrefilteredMaxLod"};
+  Uniform<int> minSteps{program, "uMinSteps"}, maxSteps{program, "uMaxSteps"};
+  Uniform<glm::vec2> lodFade{program, "uLodFade"};
+  Uniform<glm::vec2> viewport{program, "uViewport"};  // the displaced path's tessellation
+  Uniform<float> segmentPixels{program, "uSegmentPixels"}, maxLevel{program, "uMaxLevel"};
+  // The item's (bindItem).
+  Uniform<glm::mat4> model{program, "uModel"}, worldToModel{program, "uWorldToModel"};
+  Uniform<glm::mat3> normalMatrix{program, "uNormalMatrix"};
+  Uniform<glm::vec3> color{program, "uColor"};
+  Uniform<float> bumpDepth{program, "uBumpDepth"}, metallic{program, "uMetallic"}, roughness{program, "uRoughness"},
+      textureScale{program, "uTextureScale"};
+  Uniform<int> boundTile{program, "uBoundTile"};
+  // The item's look (bindLook): arrays of its materials.
+  Uniform<glm::ivec3> lookOwn{program, "uLookOwn"};
+  Uniform<glm::vec4> lookBase{program, "uLookBase"}, lookParams{program, "uLookParams"},
+      lookEmissive{program, "uLookEmissive"};
+  Uniform<glm::ivec4> lookLayers{program, "uLookLayers"};
+  // Shading from the visibility buffer (pom_shade.comp).
+  Uniform<glm::mat4> invViewProjection{program, "uInvViewProjection"};
+  Uniform<glm::ivec2> frameSize{program, "uFrameSize"};
+  Uniform<GLuint> item{program, "uItem"};
+  Uniform<glm::ivec4> rect{program, "uRect"};
+};
+
+// sky.frag's uniforms (the sky drawn as the background, or into the cube map the light is made from).
+struct SkyUniforms {
+  explicit SkyUniforms(const Program& p)
+      : basis(p, "uBasis"), toSun(p, "uToSun"), sunColor(p, "uSunColor"), skyColor(p, "uSkyColor"),
+        groundColor(p, "uGroundColor"), background(p, "uBackground"), exposure(p, "uExposure") {}
+  Uniform<glm::mat3> basis;
+  Uniform<glm::vec3> toSun, sunColor, skyColor, groundColor;
+  Uniform<int> background;
+  Uniform<float> exposure;
+};
+
 struct Renderer::Impl {
   std::vector<std::pair<float, size_t>> drawOrder;  // the items' drawing order of the last frame (front to back)
   std::vector<size_t> visible;                      // the items drawn this frame, in that order
   // Shading from a visibility buffer (RendererSettings::shading): the pass's programs and targets; Auto picks it
   // on GPUs with few graphics units.
-  bool fewGraphicsUnits = render::fewGraphicsUnits(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  bool fewGraphicsUnits = gl::fewGraphicsUnits(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
   Program visibility = program("visibility.vert", "visibility.frag");
-  std::map<uint32_t, Program> pomComputeVariants;
+  Uniform<glm::mat4> visibilityMvp{visibility, "uModelViewProjection"};
+  Uniform<GLuint> visibilityItem{visibility, "uItem"};
+  std::map<uint32_t, PomProgram> pomComputeVariants;
   Texture2D visibilityIds{1, 1, GL_RG32UI};
   Framebuffer visibilityFbo;
   GlName<detail::deleteTexture> sceneColorView;  // sceneColor's storage as RGBA8 (images cannot store sRGB)
-  const Program& pomCompute(const PomFeatures& f) {
+  const PomProgram& pomCompute(const PomFeatures& f) {
     auto found = pomComputeVariants.find(f.key());
     if (found != pomComputeVariants.end()) return found->second;
     const std::string source = withDefines(renderShader("pom.frag"), f.defines() + "#define COMPUTE_SHADING 1\n") +
                                "#line 1 1\n" + std::string(renderShader("pom_shade.comp"));
-    return pomComputeVariants.emplace(f.key(), Program({{GL_COMPUTE_SHADER, "pom.frag + pom_shade.comp", source}}))
+    return pomComputeVariants
+        .try_emplace(f.key(), std::vector<Program::Stage>{{GL_COMPUTE_SHADER, "pom.frag + pom_shade.comp", source}})
         .first->second;
   }
   // The vertex and index buffers of a GpuMesh's vertex array (17 floats a vertex, 32-bit indices); vertices 0
@@ -229,8 +302,8 @@ struct Renderer::Impl {
   }
   std::vector<MeshBuffers> itemBuffers;  // this frame's, by item (compute shading)
   // The main pass's programs, one per combination of features, made on first use (a handful per scene).
-  std::map<uint32_t, Program> pomVariants;
-  const Program& pom(const PomFeatures& f) {
+  std::map<uint32_t, PomProgram> pomVariants;
+  const PomProgram& pom(const PomFeatures& f) {
     auto found = pomVariants.find(f.key());
     if (found != pomVariants.end()) return found->second;
     const std::string fragment = withDefines(renderShader("pom.frag"), f.defines());
@@ -243,14 +316,20 @@ struct Renderer::Impl {
     else
       stages = {{GL_VERTEX_SHADER, "pom.vert", std::string(renderShader("pom.vert"))},
                 {GL_FRAGMENT_SHADER, "pom.frag", fragment}};
-    return pomVariants.emplace(f.key(), Program(stages)).first->second;
+    return pomVariants.try_emplace(f.key(), stages).first->second;
   }
   Program shadow = program("shadow.vert", "shadow.frag");
+  Uniform<glm::mat4> shadowMvp{shadow, "uLightModelViewProjection"};
   Program addressView = program("fullscreen.vert", "address_view.frag");
   Program sky = program("sky.vert", "sky.frag");
+  SkyUniforms skyUniforms{sky};
   Program prefilter = program("sky.vert", "prefilter.frag");
+  Uniform<glm::mat3> prefilterBasis{prefilter, "uBasis"};
+  Uniform<float> prefilterRoughness{prefilter, "uRoughness"};
+  Uniform<int> prefilterMode{prefilter, "uMode"}, prefilterSamples{prefilter, "uSamples"};
   Program brdfLut = program("fullscreen.vert", "brdf_lut.frag");
   Program fxaa = program("fullscreen.vert", "fxaa.frag");
+  Uniform<glm::vec2> fxaaTexel{fxaa, "uTexel"};
   GlName<detail::deleteTexture> env{makeCube(kEnvSize, kEnvLevels, GL_RGBA16F)};
   GlName<detail::deleteTexture> prefiltered{makeCube(kPrefilterSize, kPrefilterLevels, GL_RGBA16F)};
   GlName<detail::deleteTexture> irradiance{makeCube(kIrradianceSize, 1, GL_RGBA16F)};
@@ -309,35 +388,33 @@ struct Renderer::Impl {
     glEnable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
   }
   // The item's look (render/look.h): its materials' uniforms and its two texture arrays (units 8, 9).
-  void bindLook(const Program& p, const RenderItem& it) {
+  void bindLook(const PomProgram& p, const RenderItem& it) {
     const GpuLook* look = it.look;
     if (!look || look->materialCount() == 0) return;
     const int n = look->materialCount();
-    glUniform3i(p.uniform("uLookOwn"), it.ownColor, it.ownMetallic, it.ownRoughness);
-    glUniform4fv(p.uniform("uLookBase"), n, glm::value_ptr(look->baseColor[0]));
-    glUniform4fv(p.uniform("uLookParams"), n, glm::value_ptr(look->params[0]));
-    glUniform4fv(p.uniform("uLookEmissive"), n, glm::value_ptr(look->emissive[0]));
-    glUniform4iv(p.uniform("uLookLayers"), n, glm::value_ptr(look->layers[0]));
-    glBindTextureUnit(8, look->srgbArray() ? look->srgbArray() : flatArray.id());
-    glBindTextureUnit(9, look->linearArray() ? look->linearArray() : flatArray.id());
+    p.lookOwn.set(glm::ivec3(it.ownColor, it.ownMetallic, it.ownRoughness));
+    p.lookBase.set(look->baseColor.data(), n);
+    p.lookParams.set(look->params.data(), n);
+    p.lookEmissive.set(look->emissive.data(), n);
+    p.lookLayers.set(look->layers.data(), n);
+    gl::bindTexture(pom::kLookSrgb, look->srgbArray() ? look->srgbArray() : flatArray.id());
+    gl::bindTexture(pom::kLookLinear, look->linearArray() ? look->linearArray() : flatArray.id());
   }
-  // Renders into each face of `cube` at `level` with the bound program (uniform uBasis per face).
-  void bakeFaces(const Program& p, GLuint cube, int size, int level) {
+  // Renders into each face of `cube` at `level` with the bound program (its uniform uBasis, `basis`, per face).
+  void bakeFaces(const Uniform<glm::mat3>& basisUniform, GLuint cube, int size, int level) {
     glBindFramebuffer(GL_FRAMEBUFFER, bakeFbo.id());
     glViewport(0, 0, size >> level, size >> level);
     for (int face = 0; face < 6; ++face) {
       glNamedFramebufferTextureLayer(bakeFbo.id(), GL_COLOR_ATTACHMENT0, cube, level, face);
-      const glm::mat3 basis = faceBasis(face);
-      glUniformMatrix3fv(p.uniform("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
+      basisUniform.set(faceBasis(face));
       glDrawArrays(GL_TRIANGLES, 0, 3);
     }
   }
-  void setSkyUniforms(const Program& p, const RendererSettings& s) {
-    const glm::vec3 toSun = -glm::normalize(s.sunDirection);
-    glUniform3fv(p.uniform("uToSun"), 1, glm::value_ptr(toSun));
-    glUniform3fv(p.uniform("uSunColor"), 1, glm::value_ptr(s.sunColor));
-    glUniform3fv(p.uniform("uSkyColor"), 1, glm::value_ptr(s.skyColor));
-    glUniform3fv(p.uniform("uGroundColor"), 1, glm::value_ptr(s.groundColor));
+  void setSkyUniforms(const RendererSettings& s) {
+    skyUniforms.toSun.set(-glm::normalize(s.sunDirection));
+    skyUniforms.sunColor.set(s.sunColor);
+    skyUniforms.skyColor.set(s.skyColor);
+    skyUniforms.groundColor.set(s.groundColor);
   }
   // The split-sum table once; the sky's cube maps again when the sun or sky changes.
   void prepareLight(const RendererSettings& s) {
@@ -356,22 +433,22 @@ struct Renderer::Impl {
     if (!skyDone || !std::equal(key, key + 4, skyKey)) {
       std::copy(key, key + 4, skyKey);
       sky.use();
-      setSkyUniforms(sky, s);
-      glUniform1i(sky.uniform("uBackground"), 0);
-      bakeFaces(sky, env.id(), kEnvSize, 0);
+      setSkyUniforms(s);
+      skyUniforms.background.set(0);
+      bakeFaces(skyUniforms.basis, env.id(), kEnvSize, 0);
       glGenerateTextureMipmap(env.id());
       prefilter.use();
-      glBindTextureUnit(0, env.id());
-      glUniform1i(prefilter.uniform("uMode"), 0);
+      gl::bindTexture(kSource, env.id());
+      prefilterMode.set(0);
       for (int level = 0; level < kPrefilterLevels; ++level) {
         const float roughness = static_cast<float>(level) / (kPrefilterLevels - 1);
-        glUniform1f(prefilter.uniform("uRoughness"), roughness);
-        glUniform1i(prefilter.uniform("uSamples"), level == 0 ? 1 : 48);
-        bakeFaces(prefilter, prefiltered.id(), kPrefilterSize, level);
+        prefilterRoughness.set(roughness);
+        prefilterSamples.set(level == 0 ? 1 : 48);
+        bakeFaces(prefilterBasis, prefiltered.id(), kPrefilterSize, level);
       }
-      glUniform1i(prefilter.uniform("uMode"), 1);
-      glUniform1i(prefilter.uniform("uSamples"), 128);
-      bakeFaces(prefilter, irradiance.id(), kIrradianceSize, 0);
+      prefilterMode.set(1);
+      prefilterSamples.set(128);
+      bakeFaces(prefilterBasis, irradiance.id(), kIrradianceSize, 0);
       skyDone = true;
     }
     glEnable(GL_DEPTH_TEST);
@@ -408,8 +485,8 @@ struct Renderer::Impl {
     glDisable(GL_DEPTH_TEST);
     glEnable(GL_FRAMEBUFFER_SRGB);
     fxaa.use();
-    glUniform2f(fxaa.uniform("uTexel"), 1.0f / static_cast<float>(w), 1.0f / static_cast<float>(h));
-    glBindTextureUnit(0, sceneColor.id());
+    fxaaTexel.set(glm::vec2(1.0f / static_cast<float>(w), 1.0f / static_cast<float>(h)));
+    gl::bindTexture(kSource, sceneColor.id());
     glBindVertexArray(emptyVao.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glEnable(GL_DEPTH_TEST);
@@ -501,7 +578,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
         const RenderItem& it = items[i];
         ++stats_.shadowCasters;
         const glm::mat4 mvp = lightVP * it.model;
-        glUniformMatrix4fv(m.shadow.uniform("uLightModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
+        m.shadowMvp.set(mvp);
         glBindVertexArray(casterVao(it, s));
         glDrawElements(GL_TRIANGLES, casterIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
       }
@@ -539,7 +616,7 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   if (s.debug == DebugView::Address) {
     m.addressView.use();
-    glBindTextureUnit(0, s.addressMap ? s.addressMap : m.flatHeight.id());
+    gl::bindTexture(kSource, s.addressMap ? s.addressMap : m.flatHeight.id());
     glDisable(GL_DEPTH_TEST);
     glBindVertexArray(m.emptyVao.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -559,32 +636,30 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   frame.ibl = s.ibl;
   // The frame's uniforms, given to each program the first time this frame that it draws.
   std::vector<GLuint> prepared;
-  auto prepare = [&](const Program& p) {
-    if (std::find(prepared.begin(), prepared.end(), p.id()) != prepared.end()) return;
-    prepared.push_back(p.id());
-    auto u = [&](const char* n) { return p.uniform(n); };
-    glUniformMatrix4fv(u("uViewProjection"), 1, GL_FALSE, glm::value_ptr(vp));
-    glUniformMatrix4fv(u("uLightViewProjection"), 1, GL_FALSE, glm::value_ptr(lightVP));
-    glUniform3fv(u("uEye"), 1, glm::value_ptr(view.eye));
-    const glm::vec3 toSun = -sunDir;
-    glUniform3fv(u("uToSun"), 1, glm::value_ptr(toSun));
-    glUniform3fv(u("uSunColor"), 1, glm::value_ptr(s.sunColor));
-    glUniform3fv(u("uSkyColor"), 1, glm::value_ptr(s.skyColor));
-    glUniform3fv(u("uGroundColor"), 1, glm::value_ptr(s.groundColor));
-    glUniform1f(u("uExposure"), s.exposure);
-    glUniform1f(u("uPrefilteredMaxLod"), static_cast<float>(kPrefilterLevels - 1));
-    glUniform1i(u("uMinSteps"), s.minSteps);
-    glUniform1i(u("uMaxSteps"), s.maxSteps);
-    glUniform2f(u("uLodFade"), s.lodFadeStart, s.lodFadeEnd);
+  auto prepare = [&](const PomProgram& p) {
+    if (std::find(prepared.begin(), prepared.end(), p.program.id()) != prepared.end()) return;
+    prepared.push_back(p.program.id());
+    p.viewProjection.set(vp);
+    p.lightViewProjection.set(lightVP);
+    p.eye.set(view.eye);
+    p.toSun.set(-sunDir);
+    p.sunColor.set(s.sunColor);
+    p.skyColor.set(s.skyColor);
+    p.groundColor.set(s.groundColor);
+    p.exposure.set(s.exposure);
+    p.prefilteredMaxLod.set(static_cast<float>(kPrefilterLevels - 1));
+    p.minSteps.set(s.minSteps);
+    p.maxSteps.set(s.maxSteps);
+    p.lodFade.set(glm::vec2(s.lodFadeStart, s.lodFadeEnd));
     // The displaced path's tessellation.
-    glUniform2f(u("uViewport"), static_cast<float>(width_), static_cast<float>(height_));
-    glUniform1f(u("uSegmentPixels"), std::max(s.displaceSegmentPixels, 0.5f));
-    glUniform1f(u("uMaxLevel"), 32.0f);  // llvmpipe drew torn, flickering faces at 64
+    p.viewport.set(glm::vec2(static_cast<float>(width_), static_cast<float>(height_)));
+    p.segmentPixels.set(std::max(s.displaceSegmentPixels, 0.5f));
+    p.maxLevel.set(32.0f);  // llvmpipe drew torn, flickering faces at 64
   };
-  glBindTextureUnit(2, m.shadowMap.id());
-  glBindTextureUnit(3, m.prefiltered.id());
-  glBindTextureUnit(4, m.irradiance.id());
-  glBindTextureUnit(5, m.lut.id());
+  gl::bindTexture(pom::kShadowMap, m.shadowMap.id());
+  gl::bindTexture(pom::kPrefiltered, m.prefiltered.id());
+  gl::bindTexture(pom::kIrradiance, m.irradiance.id());
+  gl::bindTexture(pom::kBrdfLut, m.lut.id());
   if (s.debug == DebugView::Wireframe) glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
   glVertexAttrib3f(3, 1.0f, 1.0f, 1.0f);  // the colour of vertex arrays without one: white
   GLuint current = 0;
@@ -616,23 +691,20 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     visible.push_back(index);
   }
   // The item's own uniforms and maps, in either path's program.
-  auto bindItem = [&](const Program& p, const RenderItem& it) {
-    auto u = [&](const char* n) { return p.uniform(n); };
-    const glm::mat3 nrm = glm::transpose(glm::inverse(glm::mat3(it.model)));
-    glUniformMatrix4fv(u("uModel"), 1, GL_FALSE, glm::value_ptr(it.model));
-    glUniformMatrix3fv(u("uNormalMatrix"), 1, GL_FALSE, glm::value_ptr(nrm));
-    glUniform1f(u("uBumpDepth"), it.bumpDepth);
-    glUniform3fv(u("uColor"), 1, glm::value_ptr(it.color));
-    glUniform1f(u("uMetallic"), it.metallic);
-    glUniform1f(u("uRoughness"), it.roughness);
-    const glm::mat4 toModel = glm::inverse(it.model);
-    glUniformMatrix4fv(u("uWorldToModel"), 1, GL_FALSE, glm::value_ptr(toModel));
-    glUniform1f(u("uTextureScale"), it.textureScale);
+  auto bindItem = [&](const PomProgram& p, const RenderItem& it) {
+    p.model.set(it.model);
+    p.normalMatrix.set(glm::transpose(glm::inverse(glm::mat3(it.model))));
+    p.bumpDepth.set(it.bumpDepth);
+    p.color.set(it.color);
+    p.metallic.set(it.metallic);
+    p.roughness.set(it.roughness);
+    p.worldToModel.set(glm::inverse(it.model));
+    p.textureScale.set(it.textureScale);
     m.bindLook(p, it);
-    glBindTextureUnit(0, it.height ? it.height : m.flatHeight.id());
-    glBindTextureUnit(1, it.normal ? it.normal : m.flatNormal.id());
-    glBindTextureUnit(6, it.height && it.heightBound ? it.heightBound : m.noBound.id());
-    glUniform1i(u("uBoundTile"), it.height && it.heightBound ? it.boundTile : 1 << 20);
+    gl::bindTexture(pom::kHeight, it.height ? it.height : m.flatHeight.id());
+    gl::bindTexture(pom::kNormalMap, it.normal ? it.normal : m.flatNormal.id());
+    gl::bindTexture(pom::kHeightBound, it.height && it.heightBound ? it.heightBound : m.noBound.id());
+    p.boundTile.set(it.height && it.heightBound ? it.boundTile : 1 << 20);
   };
   auto itemFeatures = [&](const RenderItem& it, bool displaced) {
     PomFeatures f = frame;
@@ -654,34 +726,34 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
     for (size_t index : visible) {
       const RenderItem& it = items[index];
       const glm::mat4 mvp = vp * it.model;
-      glUniformMatrix4fv(m.visibility.uniform("uModelViewProjection"), 1, GL_FALSE, glm::value_ptr(mvp));
-      glUniform1ui(m.visibility.uniform("uItem"), static_cast<GLuint>(index));
+      m.visibilityMvp.set(mvp);
+      m.visibilityItem.set(static_cast<GLuint>(index));
       glBindVertexArray(itemVao(it, s));  // the simplified mesh where the settings ask for it
       glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
     }
     mark("visibility");  // (a profile's "items" is then the shading alone)
     // Each item's pixels shaded over its rectangle on screen.
     const glm::mat4 inverseVp = glm::inverse(vp);
-    glBindTextureUnit(10, m.visibilityIds.id());
-    glBindImageTexture(0, m.sceneColorView.id(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RGBA8);
+    gl::bindTexture(pom::kVisibilityIds, m.visibilityIds.id());
+    gl::bindImage(pom::kShaded, m.sceneColorView.id(), GL_WRITE_ONLY, GL_RGBA8);
     for (size_t index : visible) {
       const RenderItem& it = items[index];
-      const Program& p = m.pomCompute(itemFeatures(it, false));
-      if (p.id() != current) {
-        p.use();
-        current = p.id();
+      const PomProgram& p = m.pomCompute(itemFeatures(it, false));
+      if (p.program.id() != current) {
+        p.program.use();
+        current = p.program.id();
         prepare(p);
-        glUniformMatrix4fv(p.uniform("uInvViewProjection"), 1, GL_FALSE, glm::value_ptr(inverseVp));
-        glUniform2i(p.uniform("uFrameSize"), width_, height_);
+        p.invViewProjection.set(inverseVp);
+        p.frameSize.set(glm::ivec2(width_, height_));
       }
       bindItem(p, it);
       const glm::ivec4 rect = screenRect(vp * it.model, it.boundsMin, it.boundsMax, width_, height_);
       if (rect.z <= 0 || rect.w <= 0) continue;
-      glUniform1ui(p.uniform("uItem"), static_cast<GLuint>(index));
-      glUniform4iv(p.uniform("uRect"), 1, glm::value_ptr(rect));
+      p.item.set(static_cast<GLuint>(index));
+      p.rect.set(rect);
       const Impl::MeshBuffers& b = buffers[index];
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, b.vertices);
-      glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, b.indices);
+      gl::bindStorage(pom::kVertices, b.vertices);
+      gl::bindStorage(pom::kIndices, b.indices);
       glDispatchCompute(static_cast<GLuint>((rect.z + 7) / 8), static_cast<GLuint>((rect.w + 7) / 8), 1);
     }
     glMemoryBarrier(GL_FRAMEBUFFER_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
@@ -690,10 +762,10 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   for (size_t i = 0; !compute && i < visible.size(); ++i) {
     const RenderItem& it = items[visible[i]];
     const bool displaced = (s.displace || view.displace) && it.height && s.debug != DebugView::Wireframe;
-    const Program& p = m.pom(itemFeatures(it, displaced));
-    if (p.id() != current) {
-      p.use();
-      current = p.id();
+    const PomProgram& p = m.pom(itemFeatures(it, displaced));
+    if (p.program.id() != current) {
+      p.program.use();
+      current = p.program.id();
       prepare(p);
     }
     bindItem(p, it);
@@ -711,15 +783,15 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   if (s.debug == DebugView::Shaded) {
     // The sky behind everything: only the pixels still at the far plane run it.
     m.sky.use();
-    m.setSkyUniforms(m.sky, s);
+    m.setSkyUniforms(s);
     const glm::vec3 fwd = glm::normalize(view.target - view.eye);
     const glm::vec3 right = glm::normalize(glm::cross(fwd, view.up));
     const glm::vec3 up = glm::cross(right, fwd);
     const float tanY = std::tan(glm::radians(view.fovDegrees) * 0.5f);
     const glm::mat3 basis(right * tanY * aspect, up * tanY, fwd);
-    glUniformMatrix3fv(m.sky.uniform("uBasis"), 1, GL_FALSE, glm::value_ptr(basis));
-    glUniform1i(m.sky.uniform("uBackground"), 1);
-    glUniform1f(m.sky.uniform("uExposure"), s.exposure);
+    m.skyUniforms.basis.set(basis);
+    m.skyUniforms.background.set(1);
+    m.skyUniforms.exposure.set(s.exposure);
     glDepthFunc(GL_LEQUAL);
     glDepthMask(GL_FALSE);
     glBindVertexArray(m.emptyVao.id());
@@ -737,11 +809,11 @@ void Renderer::drawTo(GLuint finalTarget, const std::vector<RenderItem>& items, 
   glDisable(GL_FRAMEBUFFER_SRGB);
   // The shadow map compares depths: a later program's plain sampler on its unit would meet it (NVIDIA flags the
   // state as undefined behaviour even where the sampler reads nothing), so it is not left bound.
-  glBindTextureUnit(2, 0);
+  gl::bindTexture(pom::kShadowMap, 0);
 }
 
-Image Renderer::readPixels() const { return readFramebuffer(impl_->fbo.id(), width_, height_, 3); }
+Image Renderer::readPixels() const { return gl::readFramebuffer(impl_->fbo.id(), width_, height_, 3); }
 
-void Renderer::savePng(const std::string& path) const { writePng(path, readPixels(), 8); }
+void Renderer::savePng(const std::string& path) const { gl::writePng(path, readPixels(), 8); }
 
 }  // namespace crumple::render

@@ -24,10 +24,11 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
-#include "render/gl_objects.h"
-#include "render/image.h"
+#include "gl/objects.h"
+#include "gl/image.h"
 
 namespace crumple::render {
 
@@ -144,7 +145,7 @@ class Renderer {
   // Called at the end of each part of a frame ("light", "shadow map", "visibility clear" and "visibility" where
   // shaded in compute, "items", "sky", "antialias"), once its commands are issued (crumple-bench --render-profile puts GPU timestamps there); none by default.
   void setPassMarker(std::function<void(const char*)> mark) { mark_ = std::move(mark); }
-  Image readPixels() const;
+  gl::Image readPixels() const;
   void savePng(const std::string& path) const;
   GLuint framebuffer() const;
 
@@ -156,5 +157,8 @@ class Renderer {
   RendererStats stats_;
   std::function<void(const char*)> mark_;
 };
+
+// Source of a shader embedded from render/shaders at build time.
+std::string_view renderShader(std::string_view fileName);
 
 }  // namespace crumple::render

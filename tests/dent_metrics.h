@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "render/image.h"
+#include "gl/image.h"
 
 namespace crumple::test {
 
@@ -23,7 +23,7 @@ struct DentContinuity {
 // `before` and `after` are height maps of one surface; a texel is dented where
 // it dropped by more than `eps`. `onSurface` (res * res, may be empty: all)
 // marks the texels that belong to a chart of the atlas.
-inline DentContinuity dentContinuity(const render::Image& before, const render::Image& after,
+inline DentContinuity dentContinuity(const gl::Image& before, const gl::Image& after,
                                      const std::vector<uint8_t>& onSurface = {}, float eps = 1e-5f) {
   const int w = after.width, h = after.height;
   auto inside = [&](int x, int y) {

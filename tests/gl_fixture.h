@@ -1,10 +1,10 @@
 // One headless GL context per test process (llvmpipe on machines with no GPU).
 #pragma once
-#include "render/gl_context.h"
+#include "gl/context.h"
 
 namespace crumple::test {
-inline render::GlContext& glContext() {
-  static std::unique_ptr<render::GlContext> ctx = render::createHeadlessContext();
+inline gl::GlContext& glContext() {
+  static std::unique_ptr<gl::GlContext> ctx = gl::createHeadlessContext();
   ctx->makeCurrent();
   return *ctx;
 }

@@ -11,6 +11,7 @@
 #include <set>
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "deform/bindings.h"
 #include "deform/cpu_reference.h"
 #include "deform/deformer.h"
 #include "engine/primitives.h"
@@ -67,7 +68,7 @@ struct SphereIntoPlate {
   glm::dmat4 plateModel{1};
   glm::dmat4 ballModel = glm::translate(glm::dmat4(1), glm::dvec3(0, 0.1 + R, 0));
 
-  render::Image run(Deformer& d, double depth) {
+  gl::Image run(Deformer& d, double depth) {
     auto maps = d.createMaps(kRes, nullptr, static_cast<float>(k), static_cast<float>(plateGpu->metresPerUv / kRes));
     Surface plate(plateGpu, kRes, static_cast<float>(k), static_cast<float>(kc), maps);
     const int h = d.deform(pressBall(&plate, depth));
@@ -106,7 +107,7 @@ TEST_CASE("a sphere pressed into a plate leaves a spherical cap of the predicted
   SphereIntoPlate s;
   Deformer d({512, Path::Gather});
   const double depth = 0.02;
-  const render::Image h = s.run(d, depth);
+  const gl::Image h = s.run(d, depth);
   const auto pos = texelPositions(s.plateMesh, s.plateModel, SphereIntoPlate::kRes, {0, 1, 0});
   double maxDent = 0, dentRadius = 0, worstProfile = 0;
   const double texel = s.plateGpu->metresPerUv / SphereIntoPlate::kRes;
@@ -138,8 +139,8 @@ TEST_CASE("the paper's scatter on the GPU and read back to the CPU give the same
   test::glContext();
   SphereIntoPlate s;
   Deformer gpu({256, Path::Scatter}), readback({256, Path::Readback});
-  const render::Image a = s.run(gpu, 0.015);
-  const render::Image b = s.run(readback, 0.015);
+  const gl::Image a = s.run(gpu, 0.015);
+  const gl::Image b = s.run(readback, 0.015);
   double diff = 0;
   int changed = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -155,15 +156,15 @@ TEST_CASE("the default (gather) path agrees with the per-texel CPU oracle, at an
   SphereIntoPlate s;
   ReferenceBody x{&s.plateMesh, s.plateModel, nullptr, SphereIntoPlate::k, SphereIntoPlate::kc};
   ReferenceBody o{&s.ballMesh, s.ballModel, nullptr, 0.1, 0.02};
-  render::Image flat(SphereIntoPlate::kRes, SphereIntoPlate::kRes, 1, 0.5f);
+  gl::Image flat(SphereIntoPlate::kRes, SphereIntoPlate::kRes, 1, 0.5f);
   x.height = &flat;
-  const render::Image oracle = referenceDeform(x, o, {0, 0.1, 0}, {0, 1, 0}, 0, 0.015);
+  const gl::Image oracle = referenceDeform(x, o, {0, 0.1, 0}, {0, 1, 0}, 0, 0.015);
   int oracleChanged = 0;
   for (float v : oracle.pixels) oracleChanged += v < 0.5f;
   REQUIRE(oracleChanged > 300);
   for (int address : {32, 128, 512}) {
     Deformer gather({address, Path::Gather});
-    const render::Image a = s.run(gather, 0.015);
+    const gl::Image a = s.run(gather, 0.015);
     double worst = 0;
     int changed = 0, missed = 0;
     for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -194,10 +195,10 @@ TEST_CASE("the gather's address pass rasterised in compute gives the fragment st
     cs.addressRaster = AddressRaster::Compute;
     Deformer hardware(hw), compute(cs);
     REQUIRE(compute.addressRaster() == AddressRaster::Compute);
-    const render::Image a = s.run(hardware, 0.015);
-    const render::Texture2D& ha = hardware.lastAddressMap();
-    const render::Image b = s.run(compute, 0.015);
-    const render::Texture2D& ca = compute.lastAddressMap();
+    const gl::Image a = s.run(hardware, 0.015);
+    const gl::Texture2D& ha = hardware.lastAddressMap();
+    const gl::Image b = s.run(compute, 0.015);
+    const gl::Texture2D& ca = compute.lastAddressMap();
     std::vector<float> am(static_cast<size_t>(address) * address * 2), cm(am.size());
     glGetTextureImage(ha.id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(am.size() * sizeof(float)), am.data());
     glGetTextureImage(ca.id(), 0, GL_RG, GL_FLOAT, static_cast<GLsizei>(cm.size() * sizeof(float)), cm.data());
@@ -269,7 +270,7 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
   test::glContext();
   SphereIntoPlate s;
   for (TangentMode tangent : {TangentMode::None, TangentMode::Divide}) {
-    render::Image maps[2][2];  // [compute][side]
+    gl::Image maps[2][2];  // [compute][side]
     for (int compute = 0; compute < 2; ++compute) {
       DeformOptions o{256, Path::Gather};
       o.addressRaster = compute ? AddressRaster::Compute : AddressRaster::Fragment;
@@ -290,7 +291,7 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
       maps[compute][1] = ball.downloadHeight();
     }
     for (int side = 0; side < 2; ++side) {
-      const render::Image &a = maps[0][side], &b = maps[1][side];
+      const gl::Image &a = maps[0][side], &b = maps[1][side];
       int changedA = 0, changedB = 0, apart = 0;
       double diff = 0, deepest = 0;  // height units (x k = 0.1 m)
       for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -318,7 +319,7 @@ TEST_CASE("X's texels gathered in compute give the fragment stage's dents on bot
 }
 
 TEST_CASE("the compute gather leaves no texture of another type on its sampler array's unused units") {
-  // A cube map left on unit 15 by an earlier program (the renderer's sky light) would sit in the gather's
+  // A cube map left on the array's last unit by an earlier program (the renderer's sky light) would sit in the gather's
   // sampler2D array: undefined behaviour, which NVIDIA's driver reports.
   test::glContext();
   SphereIntoPlate s;
@@ -328,10 +329,11 @@ TEST_CASE("the compute gather leaves no texture of another type on its sampler a
   GLuint cube = 0;
   glCreateTextures(GL_TEXTURE_CUBE_MAP, 1, &cube);
   glTextureStorage2D(cube, 1, GL_RGBA8, 4, 4);
-  glBindTextureUnit(15, cube);
+  const gl::TextureUnit last = bindings::gather::kHeights + 13;  // texel_gather.comp's uHeights[14]: the last
+  gl::bindTexture(last, cube);
   s.run(d, 0.01);
   REQUIRE(s.lastStats.texelsChanged > 0);
-  glActiveTexture(GL_TEXTURE15);
+  glActiveTexture(GL_TEXTURE0 + last.index);
   GLint bound = 0;
   glGetIntegerv(GL_TEXTURE_BINDING_CUBE_MAP, &bound);
   glActiveTexture(GL_TEXTURE0);
@@ -404,7 +406,7 @@ TEST_CASE("large triangles (the plate's faces under a dented ball): the compute 
   hw.addressRaster = AddressRaster::Fragment;
   cs.addressRaster = AddressRaster::Compute;
   Deformer fragment(hw), compute(cs), used(cs);
-  const render::Image a = run(fragment, 0.01), b = run(compute, 0.01);
+  const gl::Image a = run(fragment, 0.01), b = run(compute, 0.01);
   const auto [tilesRun, tiles] = compute.lastRasterTiles();
   int changedA = 0, changedB = 0;
   double diff = 0;
@@ -479,7 +481,7 @@ TEST_CASE("a batch of events runs in waves of different surfaces and gives the o
   for (int i = 0; i < kPlates; ++i)
     for (const auto* pair : {&a.plates, &a.balls}) {
       const auto* other = pair == &a.plates ? &b.plates : &b.balls;
-      const render::Image x = (*pair)[size_t(i)]->downloadHeight(), y = (*other)[size_t(i)]->downloadHeight();
+      const gl::Image x = (*pair)[size_t(i)]->downloadHeight(), y = (*other)[size_t(i)]->downloadHeight();
       REQUIRE(x.pixels.size() == y.pixels.size());
       CHECK(std::memcmp(x.pixels.data(), y.pixels.data(), x.pixels.size() * sizeof(float)) == 0);
       for (float v : x.pixels) dented += v < 0.5f;
@@ -523,7 +525,7 @@ TEST_CASE("a wave of more sides than one raster dispatch takes, on meshes of thr
       for (int y = 0; y < 128; ++y)
         for (int x = 0; x < 128; ++x)
           bumps[size_t(y) * 128 + x] = 0.5f + 0.3f * float(std::sin(0.4 * x + i) * std::cos(0.3 * y));
-      render::Image img(128, 128, 1);
+      gl::Image img(128, 128, 1);
       img.pixels = bumps;
       b.balls.push_back(std::make_unique<Surface>(mesh, 128, 0.1f, 0.02f,
                                                   d.createMaps(128, &img, 0.1f, float(mesh->metresPerUv / 128))));
@@ -548,8 +550,8 @@ TEST_CASE("a wave of more sides than one raster dispatch takes, on meshes of thr
   CHECK(batch.wavesRun() == 1);
   int dentedPlates = 0, dentedBalls = 0, differ = 0;
   for (int i = 0; i < kEvents; ++i) {
-    const render::Image pa = a.plates[size_t(i)]->downloadHeight(), pb = b.plates[size_t(i)]->downloadHeight();
-    const render::Image ba = a.balls[size_t(i)]->downloadHeight(), bb = b.balls[size_t(i)]->downloadHeight();
+    const gl::Image pa = a.plates[size_t(i)]->downloadHeight(), pb = b.plates[size_t(i)]->downloadHeight();
+    const gl::Image ba = a.balls[size_t(i)]->downloadHeight(), bb = b.balls[size_t(i)]->downloadHeight();
     differ += std::memcmp(pa.pixels.data(), pb.pixels.data(), pa.pixels.size() * sizeof(float)) != 0;
     differ += std::memcmp(ba.pixels.data(), bb.pixels.data(), ba.pixels.size() * sizeof(float)) != 0;
     int plateTexels = 0;
@@ -591,7 +593,7 @@ TEST_CASE("material asymmetry and the threshold: below Y nothing changes") {
   test::glContext();
   SphereIntoPlate s;
   Deformer d({256, Path::Gather});
-  const render::Image h = s.run(d, deformDepth(0.05, hard));
+  const gl::Image h = s.run(d, deformDepth(0.05, hard));
   for (float v : h.pixels) REQUIRE(v == 0.5f);
   CHECK(s.lastStats.texelsChanged == 0);
 }
@@ -601,7 +603,7 @@ TEST_CASE("address maps larger than 256 address texels exactly (the scatter)") {
   test::glContext();
   SphereIntoPlate s;
   Deformer d({1024, Path::Scatter});
-  const render::Image h = s.run(d, 0.02);
+  const gl::Image h = s.run(d, 0.02);
   // Count changed texels along a row through the dent: they must be contiguous.
   int best = 0;
   for (int y = 0; y < h.height; ++y) {
@@ -632,7 +634,7 @@ TEST_CASE("repeated hits saturate at 0 and clamp") {
   const DeformRequest rq = s.pressBall(&plate, 0.04);  // 0.4 of the map per hit: the third hit hits bottom
   SideStats last;
   for (int i = 0; i < 3; ++i) last = d.stats(d.deform(rq), 0);
-  const render::Image h = plate.downloadHeight();
+  const gl::Image h = plate.downloadHeight();
   float lowest = 1;
   for (float v : h.pixels) {
     lowest = std::min(lowest, v);
@@ -644,8 +646,8 @@ TEST_CASE("repeated hits saturate at 0 and clamp") {
 
 namespace {
 // A box B with a bump pattern on its map pressed face-first into a flat plate A.
-render::Image pressPatternedBox(Deformer& d, const render::Image* pattern, double depthA, double depthB,
-                                render::Image* boxAfter = nullptr) {
+gl::Image pressPatternedBox(Deformer& d, const gl::Image* pattern, double depthA, double depthB,
+                                gl::Image* boxAfter = nullptr) {
   const int res = 256;
   const TriangleMesh plateMesh = boxMesh({2, 0.2, 2}, res), boxMesh_ = boxMesh({0.6, 0.6, 0.6}, res);
   auto plateGpu = std::make_shared<GpuMesh>(plateMesh), boxGpu = std::make_shared<GpuMesh>(boxMesh_);
@@ -668,13 +670,13 @@ TEST_CASE("a bump pattern on the striking face is printed into the other body (f
   test::glContext();
   Deformer d({512, Path::Gather});
   // Raised stripes on the box's map (everywhere, so whichever face strikes carries them).
-  render::Image stripes(256, 256, 1, 0.5f);
+  gl::Image stripes(256, 256, 1, 0.5f);
   for (int y = 0; y < 256; ++y)
     for (int x = 0; x < 256; ++x) stripes.at(x, y) = ((x / 8) % 2) ? 0.95f : 0.5f;
-  const render::Image flatPrint = pressPatternedBox(d, nullptr, 0.002, 0);
-  const render::Image stripedPrint = pressPatternedBox(d, &stripes, 0.002, 0);
+  const gl::Image flatPrint = pressPatternedBox(d, nullptr, 0.002, 0);
+  const gl::Image stripedPrint = pressPatternedBox(d, &stripes, 0.002, 0);
   // With a flat striker the dent is uniform; with stripes it has two depth levels (stripes press deeper).
-  auto levels = [](const render::Image& h) {
+  auto levels = [](const gl::Image& h) {
     std::vector<float> dents;
     for (float v : h.pixels)
       if (v < 0.4999f) dents.push_back(0.5f - v);
@@ -761,13 +763,13 @@ TEST_CASE("a map's highest height bounds its bumps' reach: raised bumps dent a b
   test::glContext();
   SphereIntoPlate s;
   constexpr int kRes = 512;
-  render::Image raised(kRes, kRes, 1);
+  gl::Image raised(kRes, kRes, 1);
   std::fill(raised.pixels.begin(), raised.pixels.end(), 0.9f);
   for (AddressRaster raster : {AddressRaster::Fragment, AddressRaster::Compute}) {
     DeformOptions o{256, Path::Gather};
     o.addressRaster = raster;
     Deformer d(o);
-    auto dent = [&](const render::Image* initial, float& highest) {
+    auto dent = [&](const gl::Image* initial, float& highest) {
       Surface plate(s.plateGpu, kRes, 0.1f, 0.02f,
                     d.createMaps(kRes, initial, 0.1f, float(s.plateGpu->metresPerUv / kRes)));
       highest = plate.maps().highest;
@@ -829,7 +831,7 @@ TEST_CASE("crater rims: the volume pushed down rises in a ring around the dent, 
   for (Path path : {Path::Gather, Path::Scatter}) {
     const std::string name = pathName(path);
     CAPTURE(name);
-    const render::Image plain = run(path, false), gpu = run(path, true);
+    const gl::Image plain = run(path, false), gpu = run(path, true);
     double down = 0, up = 0, plainDown = 0;
     int raised = 0;
     for (size_t i = 0; i < gpu.pixels.size(); ++i) {
@@ -845,7 +847,7 @@ TEST_CASE("crater rims: the volume pushed down rises in a ring around the dent, 
     CHECK(raised > 20);
     CHECK(up == Approx(down).epsilon(0.01));  // volume conserved
   }
-  const render::Image scatter = run(Path::Scatter, true), readback = run(Path::Readback, true);
+  const gl::Image scatter = run(Path::Scatter, true), readback = run(Path::Readback, true);
   double diff = 0;
   for (size_t i = 0; i < scatter.pixels.size(); ++i)
     diff = std::max(diff, double(std::abs(scatter.pixels[i] - readback.pixels[i])));
@@ -854,7 +856,7 @@ TEST_CASE("crater rims: the volume pushed down rises in a ring around the dent, 
 
 namespace {
 // One deformation of a clay body X (map `res`) by a hard body O, at `address`.
-render::Image pressInto(Path path, int address, const TriangleMesh& xMesh, const glm::dmat4& xModel, int res,
+gl::Image pressInto(Path path, int address, const TriangleMesh& xMesh, const glm::dmat4& xModel, int res,
                         const TriangleMesh& oMesh, const glm::dmat4& oModel, glm::dvec3 point, glm::dvec3 normal,
                         double depth) {
   Deformer d({address, path});
@@ -884,7 +886,7 @@ TEST_CASE("a long scrape: a 4 m clay body (map 2048) along a steel wall leaves o
   // The body's far top edge (z = 0.5, y = 0.5 rotated) reaches z_max; the wall starts 1 cm inside it.
   const double zMax = 0.5 * std::cos(lean) + 0.5 * std::sin(lean);
   const glm::dmat4 wallModel = glm::translate(glm::dmat4(1), glm::dvec3(0, 0, zMax - 0.01 + 0.2));
-  const render::Image flat(res, res, 1, 0.5f);
+  const gl::Image flat(res, res, 1, 0.5f);
   const auto surface = onSurface(body, res);
   auto run = [&](Path path) {
     return pressInto(path, 256, body, bodyModel, res, wall, wallModel, {0, 0.3, zMax - 0.005}, {0, 0, 1}, 0.004);
@@ -908,7 +910,7 @@ TEST_CASE("an oblique hit: a steel ball on a 45-degree edge of a clay block, add
   const glm::dmat4 blockModel = glm::rotate(glm::dmat4(1), glm::radians(45.0), glm::dvec3(0, 0, 1));
   const double top = 0.25 * std::sqrt(2.0);
   const glm::dmat4 ballModel = glm::translate(glm::dmat4(1), glm::dvec3(0, top + 0.2, 0));
-  const render::Image flat(res, res, 1, 0.5f);
+  const gl::Image flat(res, res, 1, 0.5f);
   const auto surface = onSurface(block, res);
   auto run = [&](Path path, int address) {
     return pressInto(path, address, block, blockModel, res, ball, ballModel, {0, top, 0}, {0, 1, 0}, 0.03);
@@ -924,7 +926,7 @@ TEST_CASE("an oblique hit: a steel ball on a 45-degree edge of a clay block, add
     CHECK(gather.holeFraction() < 0.01);
   }
   // The same dent at either address map: only its shape's accuracy may differ.
-  const render::Image coarse = run(Path::Gather, 128), fine = run(Path::Gather, 512);
+  const gl::Image coarse = run(Path::Gather, 128), fine = run(Path::Gather, 512);
   int differ = 0, dented = 0;
   double worst = 0;
   for (size_t i = 0; i < fine.pixels.size(); ++i) {

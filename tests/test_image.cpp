@@ -4,9 +4,9 @@
 
 #include <filesystem>
 
-#include "render/image.h"
+#include "gl/image.h"
 
-using namespace crumple::render;
+using namespace crumple::gl;
 
 TEST_CASE("16-bit grey PNG round-trips to within one level") {
   Image img(37, 11, 1);

@@ -15,7 +15,7 @@ using namespace crumple;
 namespace {
 
 struct Dent {
-  render::Image map;
+  gl::Image map;
   double volume = 0;  // sum of (0.5 - h) over dented texels, map units
   int raised = 0;     // texels above 0.5
 };

@@ -6,11 +6,16 @@
 #include <filesystem>
 
 #include "gl_fixture.h"
-#include "render/capture.h"
-#include "render/gl_objects.h"
-#include "render/gpu_timer.h"
+#include "gl/capture.h"
+#include "gl/objects.h"
+#include "gl/gpu_timer.h"
+#include "gl/program.h"
+#include "gl/state.h"
+#include "gl/bindings.h"
+#include "render/renderer.h"
 
 using namespace crumple;
+using namespace crumple::gl;
 using namespace crumple::render;
 
 TEST_CASE("headless context is OpenGL 4.5 core") {
@@ -118,10 +123,117 @@ void main() { imageStore(img, ivec2(0, 0), uvec4(uA + uB[0] + uB[2])); }
 )";
   Program prog({{GL_COMPUTE_SHADER, "uniforms.comp", src}});
   for (const char* name : {"uA", "uB", "uB[0]", "uB[2]", "uNone", "uA"})
-    CHECK(prog.uniform(name) == glGetUniformLocation(prog.id(), name));
-  CHECK(prog.uniform("uA") >= 0);
-  CHECK(prog.uniform("uNone") == -1);
-  CHECK(prog.uniform("uB[2]") != prog.uniform("uB[0]"));
+    CHECK(prog.location(name) == glGetUniformLocation(prog.id(), name));
+  CHECK(prog.location("uA") >= 0);
+  CHECK(prog.location("uNone") == -1);
+  CHECK(prog.location("uB[2]") != prog.location("uB[0]"));
+}
+
+TEST_CASE("typed uniform handles set each type of a program's uniforms, the program current or not") {
+  test::glContext();
+  const char* src = R"(#version 450 core
+layout(local_size_x = 1) in;
+layout(std430, binding = 3) writeonly buffer Out { float uOut[]; };
+uniform float uF;
+uniform int uI;
+uniform uint uU;
+uniform vec2 uV2;
+uniform vec3 uV3;
+uniform vec4 uV4;
+uniform ivec2 uI2;
+uniform ivec3 uI3;
+uniform ivec4 uI4;
+uniform uvec4 uU4;
+uniform mat3 uM3;
+uniform mat4 uM4;
+uniform vec4 uArr[3];
+void main() {
+  float v[] = float[](uF, float(uI), float(uU), uV2.y, uV3.z, uV4.w, float(uI2.y), float(uI3.z), float(uI4.w),
+                      float(uU4.x), uM3[2][1], uM4[3][2], uArr[0].x, uArr[2].w);
+  for (int k = 0; k < v.length(); ++k) uOut[k] = v[k];
+}
+)";
+  Program prog({{GL_COMPUTE_SHADER, "typed.comp", src}});
+  Uniform<float> f(prog, "uF");
+  Uniform<int> i(prog, "uI");
+  Uniform<GLuint> u(prog, "uU");
+  Uniform<glm::vec2> v2(prog, "uV2");
+  Uniform<glm::vec3> v3(prog, "uV3");
+  Uniform<glm::vec4> v4(prog, "uV4");
+  Uniform<glm::ivec2> i2(prog, "uI2");
+  Uniform<glm::ivec3> i3(prog, "uI3");
+  Uniform<glm::ivec4> i4(prog, "uI4");
+  Uniform<glm::uvec4> u4(prog, "uU4");
+  Uniform<glm::mat3> m3(prog, "uM3");
+  Uniform<glm::mat4> m4(prog, "uM4");
+  Uniform<glm::vec4> arr(prog, "uArr");
+  Uniform<float> none(prog, "uNone");
+  CHECK(none.location() == -1);
+  none.set(1.0f);  // does nothing
+  glUseProgram(0);  // handles set their own program's uniforms
+  f.set(1.5f);
+  i.set(-2);
+  u.set(3u);
+  v2.set({0, 4});
+  v3.set({0, 0, 5});
+  v4.set({0, 0, 0, 6});
+  i2.set({0, 7});
+  i3.set({0, 0, 8});
+  i4.set({0, 0, 0, 9});
+  u4.set({10, 0, 0, 0});
+  glm::mat3 a(0.0f);
+  a[2][1] = 11;
+  m3.set(a);
+  glm::mat4 b(0.0f);
+  b[3][2] = 12;
+  m4.set(b);
+  const glm::vec4 elements[3] = {{13, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 14}};
+  arr.set(elements, 3);
+  Buffer out(14 * sizeof(float), nullptr);
+  bindStorage(StorageBinding{3}, out.id());
+  prog.use();
+  glDispatchCompute(1, 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  float got[14] = {};
+  glGetNamedBufferSubData(out.id(), 0, sizeof got, got);
+  for (int k = 0; k < 14; ++k) CHECK(got[k] == (k == 0 ? 1.5f : k == 1 ? -2.0f : static_cast<float>(k + 1)));
+}
+
+TEST_CASE("a state guard puts back the viewport, framebuffers, program and depth and cull state") {
+  test::glContext();
+  Framebuffer fbo;
+  Texture2D color(4, 4, GL_RGBA8);
+  fbo.attachColor(color);
+  Program prog({{GL_COMPUTE_SHADER, "empty.comp", "#version 450 core\nlayout(local_size_x = 1) in;\nvoid main() {}\n"}});
+  glViewport(1, 2, 3, 4);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glEnable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glDepthFunc(GL_LEQUAL);
+  {
+    StateGuard guard;
+    glViewport(0, 0, 4, 4);
+    fbo.bind();
+    prog.use();
+    glDisable(GL_DEPTH_TEST);
+    glEnable(GL_CULL_FACE);
+    glDepthFunc(GL_GREATER);
+  }
+  GLint viewport[4], framebuffer = -1, program = -1, depthFunc = 0;
+  glGetIntegerv(GL_VIEWPORT, viewport);
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &framebuffer);
+  glGetIntegerv(GL_CURRENT_PROGRAM, &program);
+  glGetIntegerv(GL_DEPTH_FUNC, &depthFunc);
+  CHECK(viewport[0] == 1);
+  CHECK(viewport[1] == 2);
+  CHECK(viewport[2] == 3);
+  CHECK(viewport[3] == 4);
+  CHECK(framebuffer == 0);
+  CHECK(program == 0);
+  CHECK(depthFunc == GL_LEQUAL);
+  CHECK(glIsEnabled(GL_DEPTH_TEST));
+  CHECK(!glIsEnabled(GL_CULL_FACE));
 }
 
 TEST_CASE("a GPU timer measures every kept stretch without waiting in the loop, more stretches than slots too") {

@@ -22,6 +22,7 @@
 #include "render/renderer.h"
 
 using namespace crumple;
+using namespace crumple::gl;
 using namespace crumple::render;
 namespace fs = std::filesystem;
 

@@ -15,6 +15,7 @@
 #include "render/renderer.h"
 
 using namespace crumple;
+using namespace crumple::gl;
 using namespace crumple::render;
 
 namespace {

@@ -6,6 +6,7 @@
 
 #include "render/auto_quality.h"
 
+using namespace crumple::gl;
 using namespace crumple::render;
 
 namespace {

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "render/image.h"
+#include "gl/image.h"
 
 namespace fs = std::filesystem;
 
@@ -33,7 +33,7 @@ TEST_CASE("sandbox: --frames 150 --autopilot --screenshot ends with a picture an
   CAPTURE(ls.str());
   REQUIRE(WIFEXITED(rc));
   REQUIRE(WEXITSTATUS(rc) == 0);
-  const crumple::render::Image img = crumple::render::readPng(shot.string(), 3);
+  const crumple::gl::Image img = crumple::gl::readPng(shot.string(), 3);
   CHECK(img.width == 480);
   CHECK(img.height == 270);
   // Not blank: many distinct grey levels and real contrast.
@@ -46,7 +46,7 @@ TEST_CASE("sandbox: --frames 150 --autopilot --screenshot ends with a picture an
   // The car and one of the rail's segments are dented.
   auto lowest = [](const fs::path& map) {
     float low = 1;
-    for (float v : crumple::render::readPng(map.string()).pixels) low = std::min(low, v);
+    for (float v : crumple::gl::readPng(map.string()).pixels) low = std::min(low, v);
     return low;
   };
   CHECK(lowest(out / "heightmaps" / "car.png") < 0.49f);
@@ -78,7 +78,7 @@ TEST_CASE(
   REQUIRE(run("--frames 5 --width 320 --height 180 --render-scale 0.5 --screenshot " + shot.string(), log) == 0);
   CAPTURE(log);
   CHECK(log.find("view scale 0.50") != std::string::npos);
-  const crumple::render::Image img = crumple::render::readPng(shot.string(), 3);
+  const crumple::gl::Image img = crumple::gl::readPng(shot.string(), 3);
   CHECK(img.width == 320);  // the window's size: the view was scaled up to it
   CHECK(img.height == 180);
   for (const char* bad : {"0.1", "2", "fast", "0.5x"}) {
@@ -114,7 +114,7 @@ TEST_CASE("sandbox: the scenes with joints load and run (ragdoll, wrecking ball,
     ss << sf.rdbuf();
     CHECK(ss.str().find("\"joints\"") != std::string::npos);
     CHECK(ss.str().find("\"broken\": false") != std::string::npos);
-    CHECK(crumple::render::readPng(shot.string(), 3).width == 320);
+    CHECK(crumple::gl::readPng(shot.string(), 3).width == 320);
   }
   fs::remove_all(dir);
 }

@@ -21,7 +21,7 @@
 
 #include "core/version.h"
 #include "dent_metrics.h"
-#include "render/image.h"
+#include "gl/image.h"
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -113,11 +113,11 @@ TEST_CASE("the default scene writes every output of the contract and dents the p
   }
   CHECK(lines == summary["collisions"].get<int>());
   CHECK(dented >= 1);
-  const crumple::render::Image plate = crumple::render::readPng((out / "heightmaps" / "plate.png").string());
+  const crumple::gl::Image plate = crumple::gl::readPng((out / "heightmaps" / "plate.png").string());
   float lowest = 1;
   for (float v : plate.pixels) lowest = std::min(lowest, v);
   CHECK(lowest < 0.45f);  // dented below flat (0.5)
-  CHECK(crumple::render::isPng16((out / "heightmaps" / "plate.png").string()));
+  CHECK(crumple::gl::isPng16((out / "heightmaps" / "plate.png").string()));
   CHECK(fs::exists(out / "normalmaps" / "ball.png"));
 }
 
@@ -183,8 +183,8 @@ TEST_CASE("the address pass rasterised by compute shaders gives the fragment sta
   REQUIRE(runSim("--out " + c2.string() + " --quiet --steps 120 --set 'deformation.address_raster=\"compute\"'") == 0);
   CHECK(slurp(c1 / "heightmaps" / "plate.png") == slurp(c2 / "heightmaps" / "plate.png"));
   CHECK(slurp(c1 / "events.jsonl") == slurp(c2 / "events.jsonl"));
-  const crumple::render::Image a = crumple::render::readPng((f / "heightmaps" / "plate.png").string());
-  const crumple::render::Image b = crumple::render::readPng((c1 / "heightmaps" / "plate.png").string());
+  const crumple::gl::Image a = crumple::gl::readPng((f / "heightmaps" / "plate.png").string());
+  const crumple::gl::Image b = crumple::gl::readPng((c1 / "heightmaps" / "plate.png").string());
   REQUIRE(a.pixels.size() == b.pixels.size());
   int dented = 0, apart = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {
@@ -213,7 +213,7 @@ TEST_CASE("a user's OBJ model without texture coordinates dropped into a scene i
   REQUIRE(runSim(scene.string() + " --out " + out.string(), &log) == 0);
   CAPTURE(log);
   CHECK(log.find("automatic one-to-one atlas") != std::string::npos);
-  const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / "ground.png").string());
+  const crumple::gl::Image h = crumple::gl::readPng((out / "heightmaps" / "ground.png").string());
   int dented = 0;
   for (float v : h.pixels) dented += v < 0.49f;
   CHECK(dented > 10);
@@ -262,17 +262,17 @@ TEST_CASE(
   double kCar = spec["deformation"]["bump_depth"].get<double>(), kRail = kCar;
   for (const auto& b : spec["bodies"])
     if (b["name"] == "car") kCar = b["bump_map"]["bump_depth"].get<double>();
-  auto deepest = [](const crumple::render::Image& h) {
+  auto deepest = [](const crumple::gl::Image& h) {
     float lowest = 1;
     for (float v : h.pixels) lowest = std::min(lowest, v);
     return 0.5 - lowest;
   };
-  const crumple::render::Image car = crumple::render::readPng((out / "heightmaps" / "car.png").string());
+  const crumple::gl::Image car = crumple::gl::readPng((out / "heightmaps" / "car.png").string());
   double railDent = 0;
   for (const auto& f : fs::directory_iterator(out / "heightmaps"))
     if (f.path().filename().string().rfind("rail_", 0) == 0)
-      railDent = std::max(railDent, deepest(crumple::render::readPng(f.path().string())) * kRail);
-  const crumple::render::Image flat(car.width, car.height, 1, 0.5f);
+      railDent = std::max(railDent, deepest(crumple::gl::readPng(f.path().string())) * kRail);
+  const crumple::gl::Image flat(car.width, car.height, 1, 0.5f);
   const auto c = crumple::test::dentContinuity(flat, car);
   MESSAGE("car dent " << deepest(car) * kCar << " m over " << c.dented << " texels, continuity " << c.continuity
                       << ", holes " << c.holeFraction() << "; rail dent " << railDent << " m");
@@ -302,7 +302,7 @@ TEST_CASE(
   for (const json& b : s["bodies"]) bodies[b["name"]] = b;
   CHECK(bodies["rail_left_09"]["position"][2].get<double>() < -5.2);                       // pushed outwards
   CHECK(bodies["rail_left_10"]["position"][2].get<double>() == doctest::Approx(-5.0));   // a static neighbour
-  double segmentDent = deepest(crumple::render::readPng((out / "heightmaps" / "rail_left_09.png").string())) * kRail;
+  double segmentDent = deepest(crumple::gl::readPng((out / "heightmaps" / "rail_left_09.png").string())) * kRail;
   CHECK(segmentDent >= 0.01);
 }
 
@@ -403,7 +403,7 @@ TEST_CASE(
   MESSAGE("brick-wall: " << thrown << " blocks thrown, " << endsStanding << " of " << ends << " end blocks standing");
   CHECK(thrown >= 15);
   CHECK(endsStanding * 4 >= ends * 3);
-  const crumple::render::Image h = crumple::render::readPng((after / "heightmaps" / "car.png").string());
+  const crumple::gl::Image h = crumple::gl::readPng((after / "heightmaps" / "car.png").string());
   float lowest = 1;
   for (float v : h.pixels) lowest = std::min(lowest, v);
   CHECK(lowest < 0.49f);  // the car is dented
@@ -417,7 +417,7 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   const json s = json::parse(slurp(out / "summary.json"));
   CHECK(s["contact_deformations"].get<int>() >= 5);
   // The track: dented texels spread along the slide much farther than across it.
-  const crumple::render::Image g = crumple::render::readPng((out / "heightmaps" / "ground.png").string());
+  const crumple::gl::Image g = crumple::gl::readPng((out / "heightmaps" / "ground.png").string());
   int x0 = g.width, x1 = -1, y0 = g.height, y1 = -1;
   for (int y = 0; y < g.height; ++y)
     for (int x = 0; x < g.width; ++x)
@@ -463,7 +463,7 @@ TEST_CASE("tank-tracks: resting contact leaves a track in the ground (figure 8) 
   MESSAGE("tank ended at x = " << tankX << ": " << texelsPerMetre << " texels per metre, pitch " << 0.3 * texelsPerMetre
                                << " texels");
   CHECK(std::abs(median - 0.3 * texelsPerMetre) < 0.15 * 0.3 * texelsPerMetre);
-  const crumple::render::Image b = crumple::render::readPng((out / "heightmaps" / "bunker.png").string());
+  const crumple::gl::Image b = crumple::gl::readPng((out / "heightmaps" / "bunker.png").string());
   float lowest = 1;
   for (float v : b.pixels) lowest = std::min(lowest, v);
   CHECK(lowest < 0.49f);
@@ -473,7 +473,7 @@ TEST_CASE("cow-drop: the cow lands on its four hooves and leaves four prints in 
   const fs::path out = kTmp / "cow";
   fs::remove_all(out);
   REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/cow-drop.json --out " + out.string() + " --duration 1 --quiet") == 0);
-  const crumple::render::Image g = crumple::render::readPng((out / "heightmaps" / "ground.png").string());
+  const crumple::gl::Image g = crumple::gl::readPng((out / "heightmaps" / "ground.png").string());
   // Connected dents (8-neighbours) of at least a few texels.
   std::vector<int> label(g.pixels.size(), -1);
   std::vector<glm::dvec2> centres;
@@ -561,7 +561,7 @@ TEST_CASE("crate-drop: the shipped glTF crate keeps its textures in the render a
     for (const auto& e : fs::directory_iterator(out / "frames")) frames.push_back(e.path());
     std::sort(frames.begin(), frames.end());
     REQUIRE(!frames.empty());
-    const crumple::render::Image img = crumple::render::readPng(frames.back().string(), 3);
+    const crumple::gl::Image img = crumple::gl::readPng(frames.back().string(), 3);
     REQUIRE(img.width == W);
     Counts c;
     for (int y = 0; y < H; ++y)
@@ -583,7 +583,7 @@ TEST_CASE("crate-drop: the shipped glTF crate keeps its textures in the render a
   CHECK(plain.plank < plain.inside / 50);
   CHECK(plain.brace < plain.inside / 200);
   // The landing wrote the crate's height map, dented.
-  const crumple::render::Image h = crumple::render::readPng((out / "heightmaps" / "crate.png").string());
+  const crumple::gl::Image h = crumple::gl::readPng((out / "heightmaps" / "crate.png").string());
   int dented = 0;
   for (float v : h.pixels) dented += v < 0.45f;
   MESSAGE(dented << " crate height-map texels dented");
@@ -655,7 +655,7 @@ TEST_CASE("a user's glTF model (binary buffer, node transform, no uvs) works end
       // The node transform put the cube's mesh 0.3 m above its file origin: resting, the origin sits 0 m above the floor.
       CHECK(b["center_of_mass"][1].get<double>() == doctest::Approx(0.3).epsilon(0.05));
     }
-  const crumple::render::Image floor = crumple::render::readPng((out / "heightmaps" / "floor.png").string());
+  const crumple::gl::Image floor = crumple::gl::readPng((out / "heightmaps" / "floor.png").string());
   int dented = 0;
   for (float v : floor.pixels) dented += v < 0.49f;
   CHECK(dented > 50);
@@ -952,7 +952,7 @@ TEST_CASE(
   double kCar = spec["deformation"]["bump_depth"].get<double>();
   for (const auto& b : spec["bodies"])
     if (b["name"] == "car") kCar = b["bump_map"]["bump_depth"].get<double>();
-  const crumple::render::Image car = crumple::render::readPng((out / "heightmaps" / "car.png").string());
+  const crumple::gl::Image car = crumple::gl::readPng((out / "heightmaps" / "car.png").string());
   float lowest = 1;
   for (float v : car.pixels) lowest = std::min(lowest, v);
   MESSAGE("car dent " << (0.5 - lowest) * kCar << " m");
@@ -1122,7 +1122,7 @@ TEST_CASE("--export gltf writes every body at its final pose with its atlas, nor
     REQUIRE(mat.normalTexture.index >= 0);
     const tinygltf::Image& image =
         model.images[static_cast<size_t>(model.textures[static_cast<size_t>(mat.normalTexture.index)].source)];
-    const crumple::render::Image written = crumple::render::readPng((out / "normalmaps" / (node.name + ".png")).string(), 3);
+    const crumple::gl::Image written = crumple::gl::readPng((out / "normalmaps" / (node.name + ".png")).string(), 3);
     CHECK(image.width == written.width);
     CHECK(image.height == written.height);
     REQUIRE(image.image.size() == static_cast<size_t>(image.width) * image.height * image.component);

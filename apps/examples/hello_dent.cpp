@@ -7,7 +7,7 @@
 
 #include "engine/scene.h"
 #include "engine/simulation.h"
-#include "render/gl_context.h"
+#include "gl/context.h"
 
 // A scene in crumple's scene format (the same JSON that crumple-sim reads from a file).
 const char* kScene = R"({
@@ -30,7 +30,7 @@ const char* kScene = R"({
 int main() {
   try {
     const crumple::Scene scene = crumple::parseScene(kScene, "hello-dent", ".");
-    const auto gl = crumple::render::createHeadlessContext();  // current from here on
+    const auto gl = crumple::gl::createHeadlessContext();  // current from here on
     std::printf("GL: %s\n", gl->description().c_str());
 
     crumple::Simulation sim(scene, /*gl=*/true);
@@ -40,7 +40,7 @@ int main() {
     // Height maps hold 0.5 where the surface is flat and 0 at the deepest dent the bump depth k allows.
     for (const crumple::BodyRuntime& body : sim.bodies()) {
       if (body.name != "plate") continue;
-      const crumple::render::Image height = body.surface->downloadHeight();
+      const crumple::gl::Image height = body.surface->downloadHeight();
       const float lowest = *std::min_element(height.pixels.begin(), height.pixels.end());
       const long dented = std::count_if(height.pixels.begin(), height.pixels.end(), [](float v) { return v < 0.499f; });
       const double depth = (0.5 - lowest) * body.surface->bumpDepth();

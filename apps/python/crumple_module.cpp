@@ -25,7 +25,7 @@
 #include "engine/overrides.h"
 #include "engine/scene_view.h"
 #include "engine/simulation.h"
-#include "render/gl_context.h"
+#include "gl/context.h"
 #include "render/renderer.h"
 
 // After epoxy's GL header (through the engine's): EGL for releasing a context.
@@ -118,11 +118,11 @@ class PySimulation {
     // A context always when one can be made (render() needs it); without one, a scene without bump maps
     // still runs (physics only) and render() says why it cannot draw.
     try {
-      render::HeadlessOptions options;
+      gl::HeadlessOptions options;
       options.debug = false;
       options.device = gpu;
-      gl_ = render::createHeadlessContext(options);
-    } catch (const render::ContextError& e) {
+      gl_ = gl::createHeadlessContext(options);
+    } catch (const gl::ContextError& e) {
       if (bumpMaps || gpu >= 0) throw std::runtime_error(e.what());
       glError_ = e.what();
     }
@@ -196,7 +196,7 @@ class PySimulation {
   py::array_t<float> heightMap(const std::string& name) {
     const BodyRuntime& b = mapped(name);
     Use use(*this);
-    const render::Image h = b.surface->downloadHeight();
+    const gl::Image h = b.surface->downloadHeight();
     py::array_t<float> out({h.height, h.width});
     std::copy(h.pixels.begin(), h.pixels.begin() + static_cast<long>(h.width) * h.height, out.mutable_data());
     return out;
@@ -242,7 +242,7 @@ class PySimulation {
     else if (renderer_->width() != width || renderer_->height() != height)
       renderer_->resize(width, height);
     drawFrame(*sim_, *renderer_, cameraView(*cam, sim_.get()));
-    const render::Image img = renderer_->readPixels();
+    const gl::Image img = renderer_->readPixels();
     py::array_t<uint8_t> out({height, width, 3});
     uint8_t* p = out.mutable_data();
     for (size_t i = 0; i < img.pixels.size(); ++i)
@@ -270,7 +270,7 @@ class PySimulation {
   }
 
   Scene scene_;
-  std::unique_ptr<render::GlContext> gl_;
+  std::unique_ptr<gl::GlContext> gl_;
   std::string glError_;
   std::unique_ptr<Simulation> sim_;
   std::unique_ptr<render::Renderer> renderer_;

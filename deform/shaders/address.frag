@@ -9,7 +9,7 @@
 // out: outAddress (RG32F), outDepth (R32F copy of the written depth), outNormal (world normal)
 in vec2 vUV;
 in vec3 vNormal;
-layout(binding = 0) uniform sampler2D uHeight;
+layout(binding = 0) uniform sampler2D uHeight;  // bindings::address::kHeights
 uniform float uBumpToDepth;
 uniform float uSign;
 layout(location = 0) out vec2 outAddress;

@@ -17,16 +17,16 @@
 // triangle not kept). Step 2 evaluates each edge from its endpoints in a fixed order, so that two triangles
 // sharing an edge get values that are each other's negation bit for bit: no cracks between them on any GPU.
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex
-layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };
-layout(std430, binding = 2) writeonly buffer Setup { vec4 uSetup[]; };
+layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex; bindings::address::kVertices
+layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };  // bindings::address::kIndices
+layout(std430, binding = 2) writeonly buffer Setup { vec4 uSetup[]; };  // bindings::address::kSetup
 // TileCount, T + 6 uints a slot: per tile (T of them) the entries, then [T] the large triangles', [T + 1] the
 // active tiles', [T + 2] and [T + 3] the reach's tiles (x0 | y0 << 16, x1 | y1 << 16) where there are large ones,
 // [T + 4] unused, [T + 5] whether a large triangle makes every tile of the reach active.
-layout(std430, binding = 3) buffer TileCount { uint uTileCount[]; };
-layout(std430, binding = 4) writeonly buffer TileList { uint uTileList[]; };
-layout(std430, binding = 5) writeonly buffer Large { uint uLarge[]; };
-layout(std430, binding = 6) writeonly buffer Active { uint uActive[]; };  // the tiles step 2 runs
+layout(std430, binding = 3) buffer TileCount { uint uTileCount[]; };  // bindings::address::kTileCount
+layout(std430, binding = 4) writeonly buffer TileList { uint uTileList[]; };  // bindings::address::kTileList
+layout(std430, binding = 5) writeonly buffer Large { uint uLarge[]; };  // bindings::address::kLarge
+layout(std430, binding = 6) writeonly buffer Active { uint uActive[]; };  // the tiles step 2 runs; bindings::address::kActive
 struct Entry {
   mat4 mvp;           // the other body's model-view-projection
   int slot, triangles;
@@ -36,12 +36,12 @@ struct Entry {
   float bumpToDepth;  // (step 2)
   int sampler, mode;  // (step 2)
 };
-layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };  // bindings::address::kEntries
 // Step 2's indirect dispatches, one a group of entries: x = the most active tiles of its sides (at most 65535),
 // y = 1, z = its entries (set beforehand).
-layout(std430, binding = 8) buffer Args { uint uArgs[]; };
+layout(std430, binding = 8) buffer Args { uint uArgs[]; };  // bindings::address::kArgs
 // Per slot, the pixels (x0, y0, x1, y1) X's texels may read (texel_gather.comp's cull): no tile outside is listed.
-layout(std430, binding = 9) readonly buffer Reach { ivec4 uReach[]; };
+layout(std430, binding = 9) readonly buffer Reach { ivec4 uReach[]; };  // bindings::address::kReach
 uniform int uSize;       // the address map (pixels)
 uniform int uCapacity;   // entries a tile
 uniform int uFirst;      // workgroup z's entry: uFirst + z

@@ -15,11 +15,11 @@
 // drawn first, the lower index). Written: the address (its texture coordinate; -1 where none) and its depth
 // (1 where none), the targets the hardware pass would have left.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 2) readonly buffer Setup { vec4 uSetup[]; };
-layout(std430, binding = 3) readonly buffer TileCount { uint uTileCount[]; };
-layout(std430, binding = 4) readonly buffer TileList { uint uTileList[]; };
-layout(std430, binding = 5) readonly buffer Large { uint uLarge[]; };
-layout(std430, binding = 6) readonly buffer Active { uint uActive[]; };
+layout(std430, binding = 2) readonly buffer Setup { vec4 uSetup[]; };  // bindings::address::kSetup
+layout(std430, binding = 3) readonly buffer TileCount { uint uTileCount[]; };  // bindings::address::kTileCount
+layout(std430, binding = 4) readonly buffer TileList { uint uTileList[]; };  // bindings::address::kTileList
+layout(std430, binding = 5) readonly buffer Large { uint uLarge[]; };  // bindings::address::kLarge
+layout(std430, binding = 6) readonly buffer Active { uint uActive[]; };  // bindings::address::kActive
 struct Entry {                // address_bin.comp's
   mat4 mvp;
   int slot, triangles;
@@ -30,12 +30,12 @@ struct Entry {                // address_bin.comp's
   int sampler;                // its height map in uHeights
   int mode;                   // the clear: 0 nothing, 1 the tiles its last raster listed, 2 every tile
 };
-layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };  // bindings::address::kEntries
 // Per slot, the pixels (x0, y0, x1, y1) X's texels may read (texel_gather.comp's cull): tiles outside get "none".
-layout(std430, binding = 9) readonly buffer Reach { ivec4 uReach[]; };
-layout(binding = 0) uniform sampler2D uHeights[16];  // indexed by the workgroup's entry: dynamically uniform
-layout(rg32f, binding = 0) writeonly uniform image2DArray uAddress;
-layout(r32f, binding = 1) writeonly uniform image2DArray uDepth;
+layout(std430, binding = 9) readonly buffer Reach { ivec4 uReach[]; };  // bindings::address::kReach
+layout(binding = 0) uniform sampler2D uHeights[16];  // indexed by the workgroup's entry: dynamically uniform; bindings::address::kHeights
+layout(rg32f, binding = 0) writeonly uniform image2DArray uAddress;  // bindings::address::kAddress
+layout(r32f, binding = 1) writeonly uniform image2DArray uDepth;  // bindings::address::kDepth
 uniform int uSize;
 uniform int uCapacity;
 uniform int uMode;           // 0: raster the active tiles; 1: clear

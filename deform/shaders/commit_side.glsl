@@ -12,7 +12,7 @@ struct CommitEntry {
   float slopeScale;  // k / (2 * texel size in metres)
   int group;         // its dispatch (uArgs[9 group ..])
 };
-layout(std430, binding = 6) readonly buffer CommitEntries { CommitEntry uEntry[]; };
+layout(std430, binding = 6) readonly buffer CommitEntries { CommitEntry uEntry[]; };  // bindings::commit::kEntries
 uniform int uFirst;
 // Where level k of a bound pyramid lies in its texture (SurfaceMaps::boundOrigin; S: level 0's side).
 ivec2 boundOrigin(int S, int k) { return k == 0 ? ivec2(0) : ivec2(S, S - 2 * (S >> k)); }

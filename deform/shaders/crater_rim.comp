@@ -9,11 +9,11 @@
 //   uMode 2: raise each ring texel by V * w / sum(w)
 // in/out: uScratch (float bits), uHeight (old map); uSums[uSide * 2 + 0..1] fixed point 2^-20; W: uRimRing[uSide]
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase
-layout(binding = 1) uniform sampler2D uHeight;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
-layout(std430, binding = 4) buffer Sums { uint uSums[]; };
-layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };  // rim_dispatch.comp's
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase; bindings::kScratch
+layout(binding = 1) uniform sampler2D uHeight;  // bindings::rim::kHeight
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
+layout(std430, binding = 4) buffer Sums { uint uSums[]; };  // bindings::rim::kSums
+layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };  // rim_dispatch.comp's; bindings::rim::kRim
 uniform int uSide;
 uniform int uMode;
 uniform int uResolution;

@@ -6,10 +6,10 @@
 //   stats: texels changed, max dent (float bits, m), texels saturated at 0
 #include "commit_side.glsl"
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
-layout(std430, binding = 1) buffer Stats { uint uStats[]; };
-layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from scratchBase
-layout(r32f, binding = 0) uniform image2D uHeights[8];
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
+layout(std430, binding = 1) buffer Stats { uint uStats[]; };  // bindings::commit::kStats
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from scratchBase; bindings::kScratch
+layout(r32f, binding = 0) uniform image2D uHeights[8];  // bindings::commit::kMaps
 float loadHeight(int k, ivec2 p) {
   float v = 0.0;
 #define LOAD(i) v = imageLoad(uHeights[i], p).r

@@ -7,15 +7,15 @@
 // in:  address/depth/normal maps of both passes, X's height map
 // out: uScratch (float bits, +infinity where untouched), uRegion[uSide] grows to the touched texels
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(binding = 0) uniform sampler2D uAddressX;
-layout(binding = 1) uniform sampler2D uDepthX;
-layout(binding = 2) uniform sampler2D uAddressOther;
-layout(binding = 3) uniform sampler2D uDepthOther;
-layout(binding = 4) uniform sampler2D uNormalX;
-layout(binding = 5) uniform sampler2D uHeightX;
-layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase
+layout(binding = 0) uniform sampler2D uAddressX;  // bindings::update::kAddressX
+layout(binding = 1) uniform sampler2D uDepthX;  // bindings::update::kDepthX
+layout(binding = 2) uniform sampler2D uAddressOther;  // bindings::update::kAddressOther
+layout(binding = 3) uniform sampler2D uDepthOther;  // bindings::update::kDepthOther
+layout(binding = 4) uniform sampler2D uNormalX;  // bindings::update::kNormalX
+layout(binding = 5) uniform sampler2D uHeightX;  // bindings::update::kHeightX
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase; bindings::kScratch
 uniform uint uScratchBase;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
 uniform int uSide;
 uniform ivec2 uSize;
 uniform int uResolution;

@@ -11,9 +11,9 @@
 // the levels above: one invocation a texel, 8 x 8 a workgroup.
 #include "commit_side.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(binding = 0) uniform sampler2D uHeightMaps[8];
-layout(r32f, binding = 0) uniform image2D uBounds[8];
-layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };
+layout(binding = 0) uniform sampler2D uHeightMaps[8];  // bindings::commit::kHeights
+layout(r32f, binding = 0) uniform image2D uBounds[8];  // bindings::commit::kMaps
+layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };  // bindings::commit::kNormalRegion
 uniform int uFull;
 uniform ivec4 uFullRegion;
 uniform int uFullResolution;

@@ -7,8 +7,8 @@
 // in:  level 0, the region in height texels uNormalRegion[slot]; out: levels 1 ..
 #include "commit_side.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 0) coherent uniform image2D uBounds[8];
-layout(std430, binding = 3) readonly buffer NormalRegion { ivec4 uNormalRegion[]; };
+layout(r32f, binding = 0) coherent uniform image2D uBounds[8];  // bindings::commit::kMaps
+layout(std430, binding = 3) readonly buffer NormalRegion { ivec4 uNormalRegion[]; };  // bindings::commit::kNormalRegion
 uniform int uTile;
 int gK;
 float load(ivec2 p) {

@@ -6,9 +6,9 @@
 // in:  uHeightMaps[z]; out: uNormals[z] (rgba8)
 #include "commit_side.glsl"
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(binding = 0) uniform sampler2D uHeightMaps[8];
-layout(rgba8, binding = 0) uniform writeonly image2D uNormals[8];
-layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };
+layout(binding = 0) uniform sampler2D uHeightMaps[8];  // bindings::commit::kHeights
+layout(rgba8, binding = 0) uniform writeonly image2D uNormals[8];  // bindings::commit::kMaps
+layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };  // bindings::commit::kNormalRegion
 uniform int uFull;
 uniform ivec4 uFullRegion;
 uniform int uFullResolution;

@@ -6,10 +6,10 @@
 // in:  uRegion[slot], the entries; out: uArgs[9 group .. + 8] (x, y grown; z set beforehand), uNormalRegion[slot]
 #include "commit_side.glsl"
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
-layout(std430, binding = 2) buffer Args { uint uArgs[]; };
-layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };
-layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };  // rim_dispatch.comp's
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
+layout(std430, binding = 2) buffer Args { uint uArgs[]; };  // bindings::commit::kArgs
+layout(std430, binding = 3) buffer NormalRegion { ivec4 uNormalRegion[]; };  // bindings::commit::kNormalRegion
+layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };  // rim_dispatch.comp's; bindings::commit::kRim
 uniform int uCount;  // entries
 uniform int uTile;   // height texels a side of a bound tile (SurfaceMaps::kBoundTile)
 void main() {

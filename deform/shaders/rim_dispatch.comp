@@ -4,8 +4,8 @@
 // region grown by W, at most the map), on the GPU: the deformation never waits to read the region back.
 // in:  uRegion[uSide]; out: uRimIndirect[uSide * 3 .. + 2], uRimRing[uSide] (0: nothing dented)
 layout(local_size_x = 1) in;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
-layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
+layout(std430, binding = 5) buffer Rim { uint uRimIndirect[6]; int uRimRing[2]; };  // bindings::rim::kRim
 uniform int uSide;
 uniform int uResolution;
 void main() {

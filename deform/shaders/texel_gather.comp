@@ -19,13 +19,13 @@
 //      pass (layer `slot` of uAddressOther, uDepthOther)
 // out: uScratch (float bits, minimum), uRegion[slot] grows to the touched texels
 layout(local_size_x = 16, local_size_y = 16) in;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
-layout(std430, binding = 1) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex
-layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };
-layout(std430, binding = 3) readonly buffer Indices { uint uIndex[]; };
-layout(std430, binding = 4) readonly buffer TileStart { uint uTileStart[]; };
-layout(std430, binding = 5) readonly buffer TileTriangles { uint uTileTriangle[]; };
-layout(std430, binding = 6) readonly buffer TileBox { vec4 uTileBox[]; };
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
+layout(std430, binding = 1) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex; bindings::gather::kVertices
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // bindings::kScratch
+layout(std430, binding = 3) readonly buffer Indices { uint uIndex[]; };  // bindings::gather::kIndices
+layout(std430, binding = 4) readonly buffer TileStart { uint uTileStart[]; };  // bindings::gather::kTileStart
+layout(std430, binding = 5) readonly buffer TileTriangles { uint uTileTriangle[]; };  // bindings::gather::kTileTriangles
+layout(std430, binding = 6) readonly buffer TileBox { vec4 uTileBox[]; };  // bindings::gather::kTileBoxes
 struct Entry {
   mat4 mvp;                // X's shape frame to the address camera's clip space (orthographic: w = 1)
   vec4 normalToWorld[3];   // columns
@@ -39,17 +39,17 @@ struct Entry {
   float bumpReach;         // how far X's bumps raise a point towards the camera at most (window depth)
   float pad1, pad2;
 };
-layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };
+layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };  // bindings::gather::kEntries
 // The kept tiles, (side << 20) | tile each; their head: [0] their count, [1 .. 3] mode 1's indirect dispatch
 // (x: min(count, 65535)).
-layout(std430, binding = 8) buffer Kept { uint uKept[]; };
-layout(std430, binding = 10) buffer KeptHead { uint uHead[4]; };
+layout(std430, binding = 8) buffer Kept { uint uKept[]; };  // bindings::gather::kKept
+layout(std430, binding = 10) buffer KeptHead { uint uHead[4]; };  // bindings::gather::kKeptHead
 // Per slot, the address-map pixels (x0, y0, x1, y1) the kept tiles' texels may read (mode 0 grows it): the
 // compute raster writes only there.
-layout(std430, binding = 9) buffer Reach { ivec4 uReach[]; };
-layout(binding = 0) uniform sampler2DArray uAddressOther;
-layout(binding = 1) uniform sampler2DArray uDepthOther;
-layout(binding = 2) uniform sampler2D uHeights[14];  // X's height map: the entry's `sampler`
+layout(std430, binding = 9) buffer Reach { ivec4 uReach[]; };  // bindings::gather::kReach
+layout(binding = 0) uniform sampler2DArray uAddressOther;  // bindings::gather::kAddressOthers
+layout(binding = 1) uniform sampler2DArray uDepthOther;  // bindings::gather::kDepthOthers
+layout(binding = 2) uniform sampler2D uHeights[14];  // X's height map: the entry's `sampler`; bindings::gather::kHeights
 uniform int uSize;    // address map (pixels)
 uniform int uFirst;
 uniform int uMode;    // 0: cull the tiles, 1: gather the kept ones

@@ -13,12 +13,12 @@
 in vec3 gClip;
 in vec3 gNormal;
 flat in vec4 gBox;
-layout(binding = 2) uniform sampler2D uAddressOther;
-layout(binding = 3) uniform sampler2D uDepthOther;
-layout(binding = 5) uniform sampler2D uHeightX;
-layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase
+layout(binding = 2) uniform sampler2D uAddressOther;  // bindings::update::kAddressOther
+layout(binding = 3) uniform sampler2D uDepthOther;  // bindings::update::kDepthOther
+layout(binding = 5) uniform sampler2D uHeightX;  // bindings::update::kHeightX
+layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // new heights, row by row from uScratchBase; bindings::kScratch
 uniform uint uScratchBase;
-layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };
+layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
 uniform int uSide;
 uniform int uSize;             // address map (pixels)
 uniform int uResolution;       // X's map (texels)

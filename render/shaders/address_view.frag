@@ -1,7 +1,7 @@
 #version 450 core
 // address_view.frag: shows an address map (uv in RG, -1 where nothing was drawn).
 in vec2 vUV;
-layout(binding = 0) uniform sampler2D uAddress;
+layout(binding = 0) uniform sampler2D uAddress;  // renderer.cpp kSource
 out vec4 fragColor;
 void main() {
   vec2 a = texture(uAddress, vUV).rg;

@@ -15,7 +15,7 @@
 // in:  vUV; uScene (the frame, sRGB texture read as linear, bilinear, clamped); uTexel (1 / size)
 // out: fragColor (linear; the sRGB target encodes it)
 in vec2 vUV;
-layout(binding = 0) uniform sampler2D uScene;
+layout(binding = 0) uniform sampler2D uScene;  // renderer.cpp kSource
 uniform vec2 uTexel;
 out vec4 fragColor;
 

@@ -60,17 +60,17 @@ out vec4 fragColor;
 uniform bvec3 uLookOwn;  // the look's base colour, metallic, roughness apply (the scene did not set them)
 uniform vec4 uLookBase[16], uLookParams[16], uLookEmissive[16];
 uniform ivec4 uLookLayers[16];  // base colour (sRGB array), metallic-roughness, normal, occlusion (linear array)
-layout(binding = 8) uniform sampler2DArray uLookSrgb;
-layout(binding = 9) uniform sampler2DArray uLookLinear;
-layout(binding = 0) uniform sampler2D uHeight;
-layout(binding = 1) uniform sampler2D uNormalMap;
-layout(binding = 2) uniform sampler2DShadow uShadowMap;
-layout(binding = 3) uniform samplerCube uPrefiltered;
-layout(binding = 4) uniform samplerCube uIrradiance;
-layout(binding = 5) uniform sampler2D uBrdfLut;
+layout(binding = 8) uniform sampler2DArray uLookSrgb;  // renderer.cpp pom::kLookSrgb
+layout(binding = 9) uniform sampler2DArray uLookLinear;  // renderer.cpp pom::kLookLinear
+layout(binding = 0) uniform sampler2D uHeight;  // renderer.cpp pom::kHeight
+layout(binding = 1) uniform sampler2D uNormalMap;  // renderer.cpp pom::kNormalMap
+layout(binding = 2) uniform sampler2DShadow uShadowMap;  // renderer.cpp pom::kShadowMap
+layout(binding = 3) uniform samplerCube uPrefiltered;  // renderer.cpp pom::kPrefiltered
+layout(binding = 4) uniform samplerCube uIrradiance;  // renderer.cpp pom::kIrradiance
+layout(binding = 5) uniform sampler2D uBrdfLut;  // renderer.cpp pom::kBrdfLut
 // The height's bound pyramid: level 0 one texel per uBoundTile x uBoundTile height texels holding the largest
 // |h - 0.5| there, each level the largest of 2 x 2 below.
-layout(binding = 6) uniform sampler2D uHeightBound;
+layout(binding = 6) uniform sampler2D uHeightBound;  // renderer.cpp pom::kHeightBound
 uniform int uBoundTile;
 uniform float uPrefilteredMaxLod;  // its last level: roughness 1
 uniform float uMetallic, uRoughness;

@@ -10,7 +10,7 @@ in vec3 teColor[];
 in vec2 teMaterialUV[];
 in float teMaterial[];
 in vec3 teSmoothNormal[];
-layout(binding = 0) uniform sampler2D uHeight;
+layout(binding = 0) uniform sampler2D uHeight;  // renderer.cpp pom::kHeight
 uniform float uBumpDepth;
 uniform mat4 uModel;
 uniform mat3 uNormalMatrix;

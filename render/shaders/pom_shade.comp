@@ -7,10 +7,10 @@
 // perspective-correct: the pixel's ray meets the triangle's plane; the rays of the next pixel along x and along
 // y give the derivatives. The colour goes to uOut, sRGB-encoded as the fragment stage's sRGB target would.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(binding = 10) uniform usampler2D uIds;  // item, triangle; item 0xffffffff: none
-layout(rgba8, binding = 0) writeonly uniform image2D uOut;
-layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };
-layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };
+layout(binding = 10) uniform usampler2D uIds;  // item, triangle; item 0xffffffff: none; renderer.cpp pom::kVisibilityIds
+layout(rgba8, binding = 0) writeonly uniform image2D uOut;  // renderer.cpp pom::kShaded
+layout(std430, binding = 0) readonly buffer Vertices { float uVertex[]; };  // renderer.cpp pom::kVertices
+layout(std430, binding = 1) readonly buffer Indices { uint uIndex[]; };  // renderer.cpp pom::kIndices
 uniform uint uItem;
 uniform ivec4 uRect;
 uniform ivec2 uFrameSize;

@@ -7,7 +7,7 @@
 // in:  vNdc; uBasis maps (ndc.x, ndc.y, 1) to the texel's direction
 // out: fragColor (linear radiance)
 in vec2 vNdc;
-layout(binding = 0) uniform samplerCube uEnv;
+layout(binding = 0) uniform samplerCube uEnv;  // renderer.cpp kSource
 uniform mat3 uBasis;
 uniform float uRoughness;
 uniform int uMode;

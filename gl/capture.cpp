@@ -1,8 +1,8 @@
-#include "render/capture.h"
+#include "gl/capture.h"
 
 #include <vector>
 
-namespace crumple::render {
+namespace crumple::gl {
 
 Image readFramebuffer(GLuint framebuffer, int width, int height, int channels) {
   std::vector<unsigned char> rgba(static_cast<size_t>(width) * height * 4);
@@ -25,4 +25,4 @@ void captureToPng(GLuint framebuffer, int width, int height, const std::string& 
   writePng(path, readFramebuffer(framebuffer, width, height, 3), 8);
 }
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

@@ -1,6 +1,6 @@
-#include "render/gpu_timer.h"
+#include "gl/gpu_timer.h"
 
-namespace crumple::render {
+namespace crumple::gl {
 
 GpuTimer::GpuTimer(size_t slots) : slots_(slots > 0 ? slots : 1) {
   for (Slot& s : slots_) glCreateQueries(GL_TIMESTAMP, 2, s.query);
@@ -54,4 +54,4 @@ double GpuTimer::finish() {
   return ms_;
 }
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

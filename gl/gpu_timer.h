@@ -8,7 +8,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace crumple::render {
+namespace crumple::gl {
 
 class GpuTimer {
  public:
@@ -40,4 +40,4 @@ class GpuTimer {
   size_t measured_ = 0;
 };
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

@@ -3,14 +3,11 @@
 #pragma once
 #include <epoxy/gl.h>
 
-#include <functional>
-#include <string>
-#include <string_view>
-#include <unordered_map>
+#include <cstddef>
 #include <utility>
 #include <vector>
 
-namespace crumple::render {
+namespace crumple::gl {
 
 template <void (*Deleter)(GLuint)>
 class GlName {
@@ -126,32 +123,4 @@ class VertexArray : public GlName<detail::deleteVertexArray> {
   VertexArray();
 };
 
-// A linked program from embedded GLSL sources. Compile and link logs become
-// exceptions that name the shader files.
-class Program : public GlName<detail::deleteProgram> {
- public:
-  Program() = default;
-  struct Stage {
-    GLenum type;
-    std::string name;    // for messages
-    std::string source;  // full source including #version
-  };
-  explicit Program(const std::vector<Stage>& stages);
-  void use() const;
-  // glGetUniformLocation's answer, asked once per name (a program's locations are fixed once it is linked:
-  // a frame sets some two thousand uniforms, and the driver's lookup by name is a string hash each time).
-  GLint uniform(const char* name) const;
-
- private:
-  struct NameHash {
-    using is_transparent = void;
-    size_t operator()(std::string_view s) const { return std::hash<std::string_view>{}(s); }
-  };
-  std::string label_;
-  mutable std::unordered_map<std::string, GLint, NameHash, std::equal_to<>> locations_;
-};
-
-// Source of a shader embedded from render/shaders at build time.
-std::string_view renderShader(std::string_view fileName);
-
-}  // namespace crumple::render
+}  // namespace crumple::gl

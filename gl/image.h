@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-namespace crumple::render {
+namespace crumple::gl {
 
 struct ImageError : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -36,4 +36,4 @@ Image readPng(const std::string& path, int wantChannels = 0);
 // True when the file is a 16-bit PNG.
 bool isPng16(const std::string& path);
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

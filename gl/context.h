@@ -8,7 +8,7 @@
 
 struct GLFWwindow;
 
-namespace crumple::render {
+namespace crumple::gl {
 
 struct ContextError : std::runtime_error {
   using std::runtime_error::runtime_error;
@@ -73,4 +73,4 @@ std::string currentRendererString();
 // GA100 (A100, A800, A30) and GB100 (B100, B200). The address raster's and the renderer's Auto choose by it.
 bool fewGraphicsUnits(const char* renderer);
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

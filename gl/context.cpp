@@ -1,4 +1,4 @@
-#include "render/gl_context.h"
+#include "gl/context.h"
 
 #include <epoxy/gl.h>
 // epoxy's GL declarations first; GLFW must not pull in GL/gl.h.
@@ -18,14 +18,14 @@
 
 #include "core/log.h"
 
-namespace crumple::render {
+namespace crumple::gl {
 
 namespace {
 
 void GLAPIENTRY debugCallback(GLenum source, GLenum type, GLuint id, GLenum severity, GLsizei, const GLchar* message,
                               const void*) {
   // The shader compiler's remarks (Mesa's "used uninitialized" for globals set in main) are not errors: a
-  // program that fails to compile or link throws with its log (render::Program).
+  // program that fails to compile or link throws with its log (gl::Program).
   if (severity == GL_DEBUG_SEVERITY_NOTIFICATION ||
       (source == GL_DEBUG_SOURCE_SHADER_COMPILER && type != GL_DEBUG_TYPE_ERROR)) {
     logDebug("GL: ", message);
@@ -323,4 +323,4 @@ void WindowContext::framebufferSize(int& width, int& height) const { width = hei
 
 #endif
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

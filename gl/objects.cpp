@@ -1,13 +1,11 @@
-#include "render/gl_objects.h"
+#include "gl/objects.h"
 
+#include <algorithm>
+#include <cstdio>
 #include <stdexcept>
+#include <string>
 
-namespace crumple::render {
-
-namespace shaders {
-std::string_view shaderSource(std::string_view name);
-}
-std::string_view renderShader(std::string_view fileName) { return shaders::shaderSource(fileName); }
+namespace crumple::gl {
 
 static GLuint makeBuffer() {
   GLuint id = 0;
@@ -133,50 +131,4 @@ static GLuint makeVertexArray() {
 }
 VertexArray::VertexArray() : GlName(makeVertexArray()) {}
 
-Program::Program(const std::vector<Stage>& stages) : GlName(glCreateProgram()) {
-  std::vector<GLuint> shaders;
-  for (const auto& s : stages) {
-    label_ += (label_.empty() ? "" : "+") + s.name;
-    GLuint sh = glCreateShader(s.type);
-    const char* src = s.source.c_str();
-    glShaderSource(sh, 1, &src, nullptr);
-    glCompileShader(sh);
-    GLint ok = 0;
-    glGetShaderiv(sh, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      GLint len = 0;
-      glGetShaderiv(sh, GL_INFO_LOG_LENGTH, &len);
-      std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
-      glGetShaderInfoLog(sh, len, nullptr, log.data());
-      glDeleteShader(sh);
-      for (GLuint o : shaders) glDeleteShader(o);
-      throw std::runtime_error("shader " + s.name + " failed to compile:\n" + log);
-    }
-    glAttachShader(id(), sh);
-    shaders.push_back(sh);
-  }
-  glLinkProgram(id());
-  for (GLuint sh : shaders) {
-    glDetachShader(id(), sh);
-    glDeleteShader(sh);
-  }
-  GLint ok = 0;
-  glGetProgramiv(id(), GL_LINK_STATUS, &ok);
-  if (!ok) {
-    GLint len = 0;
-    glGetProgramiv(id(), GL_INFO_LOG_LENGTH, &len);
-    std::string log(static_cast<size_t>(std::max(len, 1)), '\0');
-    glGetProgramInfoLog(id(), len, nullptr, log.data());
-    throw std::runtime_error("program " + label_ + " failed to link:\n" + log);
-  }
-}
-
-void Program::use() const { glUseProgram(id()); }
-GLint Program::uniform(const char* name) const {
-  const std::string_view key(name);
-  auto found = locations_.find(key);
-  if (found == locations_.end()) found = locations_.emplace(std::string(key), glGetUniformLocation(id(), name)).first;
-  return found->second;
-}
-
-}  // namespace crumple::render
+}  // namespace crumple::gl

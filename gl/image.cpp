@@ -1,4 +1,4 @@
-#include "render/image.h"
+#include "gl/image.h"
 
 #include <zlib.h>
 
@@ -12,7 +12,7 @@
 #define STBI_ONLY_PNG
 #include <stb/stb_image.h>
 
-namespace crumple::render {
+namespace crumple::gl {
 
 namespace {
 void put32(std::vector<uint8_t>& out, uint32_t v) {
@@ -119,4 +119,4 @@ Image readPng(const std::string& path, int wantChannels) {
   return img;
 }
 
-}  // namespace crumple::render
+}  // namespace crumple::gl

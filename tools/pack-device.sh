@@ -4,8 +4,8 @@
 # project's Debian packages (for example Ubuntu with NVIDIA's EGL driver). Copy the
 # repository with .devlib/ there; then, from the repository root:
 #   . .devlib/env.sh && .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile
-# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT, else out/device). A script of your own
-# should live in .devlib/ too, when only the repository and .devlib/ are copied.
+# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT, else out/device).
+# A script of your own should live in .devlib/ too, when only the repository and .devlib/ are copied.
 # Tests that run crumple-sim find it at build/apps/crumple-sim: .devlib/env.sh puts it there.
 set -euo pipefail
 usage() {

@@ -879,7 +879,7 @@ int main(int argc, char** argv) {
             ->Iterations(quick ? 3 : 20)
             ->Unit(benchmark::kMillisecond);
     }
-    // Issue #14's batch: 100 events in one step at address map 1024, with each rasteriser.
+    // A busy step's batch: 100 events in one step at address map 1024, with each rasteriser.
     for (auto raster : {deform::AddressRaster::Compute, deform::AddressRaster::Fragment})
       benchmark::RegisterBenchmark(
           ("deform/gather_" + std::string(deform::addressRasterName(raster)) + "_100events").c_str(),

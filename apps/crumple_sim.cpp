@@ -1,5 +1,5 @@
-// crumple-sim: batch runs of scene files. Writes the outputs of the contract in
-// shared/design/scene-format.md. Exit status: 0 success, 2 bad input, 1 failure,
+// crumple-sim: batch runs of scene files. Writes the outputs docs/outputs.md
+// describes. Exit status: 0 success, 2 bad input, 1 failure,
 // 130 interrupted (SIGINT or SIGTERM: the partial output is removed, nothing is replaced).
 #include <spawn.h>
 #include <sys/wait.h>

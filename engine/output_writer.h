@@ -1,4 +1,4 @@
-// The outputs of a run (shared/design/scene-format.md, "Outputs"): summary.json,
+// The outputs of a run (docs/outputs.md): summary.json,
 // events.jsonl, heightmaps/ and normalmaps/, written atomically.
 #pragma once
 #include <map>

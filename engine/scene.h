@@ -1,4 +1,4 @@
-// A scene as read from a scene file (shared/design/scene-format.md), validated.
+// A scene as read from a scene file (docs/scene-format.md), validated.
 // Units: SI; angles in the file are degrees, here radians/quaternions.
 #pragma once
 #include <glm/glm.hpp>

@@ -306,7 +306,7 @@ deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, i
   return rq;
 }
 
-// The step of architecture.md: physics (1, 2), the deformation decision (3)
+// The step of docs/architecture.md ("One step of the engine"): physics (1, 2), the deformation decision (3)
 // and the deformations (4) of this step's collisions, then contact
 // deformation (figure 8) of resting contacts and vehicle prints.
 void Simulation::step() {

@@ -1,5 +1,5 @@
 // The world of crumple: bodies (physics) with their surfaces (deform), and the
-// step loop of architecture.md: physics -> deformation decision -> deform.
+// step loop of docs/architecture.md: physics -> deformation decision -> deform.
 #pragma once
 #include <chrono>
 #include <functional>

@@ -5,18 +5,32 @@
 // of the substep under way (world inverse inertias, frozen flags, predicted
 // poses, the contact groups, the poses at the start of the position update).
 //
-// The stages, one file each, in the order World::substep runs them:
-//   broad_phase.cpp        findPairs, findCandidates
-//   islands.cpp            findIslands       (the units the passes run in parallel)
-//   collision_step.cpp     collide           (narrow_phase.cpp finds the contacts)
-//   contact_step.cpp       integrateVelocities
-//   joint_step.cpp         preStabilize      (joints: motors, limits, end-of-step targets)
-//   contact_step.cpp       contactStep
-//   shock_propagation.cpp  shockPropagation
-//   joint_step.cpp         preStabilize again (what the contacts moved)
-//   position_step.cpp      endOfStepDepths, integratePositions, projectPositions
-//   joint_step.cpp         postStabilize
-//   sleep.cpp              updateSleep
+// The stages, one file each, in the order World::step and World::substep
+// (world.cpp) run them (docs/architecture.md has the same table):
+//   World::step, once a step:
+//     broad_phase.cpp        stepTravel        (substeps: only pairs that can meet count)
+//   World::substep, every substep:
+//     world.cpp              the world inverse inertias
+//     broad_phase.cpp        findPairs
+//     islands.cpp            findIslands       (the units the passes run in parallel)
+//     broad_phase.cpp        findCandidates
+//     joint_step.cpp         findAnchored      (bodies welded to the world or to static bodies)
+//     without joints: World::collideAndContact (world.cpp), island by island:
+//       collision_step.cpp   CollisionRun      (narrow_phase.cpp, polytope.cpp find the contacts)
+//       contact_step.cpp     integrateVelocity of the island's bodies, then ContactRun;
+//     then the bodies in no island (integrateVelocity) and ContactRun::finish (resting_solve.cpp)
+//     with joints: each stage over every island before the next,
+//       collision_step.cpp   collide
+//       contact_step.cpp     integrateVelocities
+//       joint_step.cpp       preStabilize      (joints: motors, limits, end-of-step targets)
+//       contact_step.cpp     contactStep       (ends with resting_solve.cpp's restingSolve)
+//     shock_propagation.cpp  shockPropagation
+//     joint_step.cpp         preStabilize again (what the contacts moved)
+//     position_step.cpp      endOfStepDepths, integratePositions, projectPositions
+//     joint_step.cpp         postStabilize
+//     sleep.cpp              updateSleep
+//   World::step, after the substeps: when any body's state left finite numbers, the whole
+//     step is undone (world.cpp, checkFinite) and its StepStatus names the body.
 // Each file opens with what its stage guarantees.
 #pragma once
 #include <glm/glm.hpp>

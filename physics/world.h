@@ -1,5 +1,5 @@
 // The simulator: Guendelman, Bridson & Fedkiw 2003, stage by stage (see
-// shared/design/guendelman.md). One call to step(h):
+// docs/architecture.md, "One step of the physics"). One call to step(h):
 //
 //   1. collide:    up to `collisionPasses` passes on predicted positions with
 //                  restitution min(eps_A, eps_B); one CollisionEvent per colliding pair

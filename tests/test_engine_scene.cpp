@@ -737,7 +737,7 @@ TEST_CASE("glTF transforms and offsets tinygltf lets through are refused with th
 }
 
 TEST_CASE("a mesh body's broken file is a SceneError naming the scene, the key path and the mesh file") {
-  // What crumple-sim prints before it exits with 2, for each case of issue #16's mesh files.
+  // What crumple-sim prints before it exits with 2, for each kind of hostile mesh file the fuzz corpus keeps.
   const std::vector<std::pair<fs::path, std::string>> cases = {
       {tempFile("oor-body.off", binaryOff(4, kTetFaces.substr(0, 60) + le32(1000000))), "out of range"},
       {tempFile("lying-body.off", binaryOff(2000000000, kTetFaces)), "2000000000 faces"},
@@ -775,7 +775,7 @@ TEST_CASE("every file of the fuzzers' corpora loads or is refused, at once (the 
       CAPTURE(err);
       CHECK(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < 5);
       const std::string name = e.path().filename().string();
-      // The valid seeds load (a fuzzer starts from them); issue #16's broken files are refused.
+      // The valid seeds load (a fuzzer starts from them); the kept hostile files are refused.
       if (name.rfind("tet", 0) == 0 || name == "car.obj" || name == "wbeam.obj" || name == "pyramid.off")
         CHECK(err.empty());
       if ((name.rfind("issue16-", 0) == 0 && name != "issue16-duplicate-faces.obj") || name.rfind("fuzz-", 0) == 0)

@@ -176,7 +176,7 @@ TEST_CASE("a running-bond wall with a door under a lintel stands and falls aslee
   // Six courses of 0.6 x 0.3 x 0.3 m blocks over 7.2 m; a 1.2 m opening through the first three courses (half
   // blocks at its jambs), spanned by a 1.8 m lintel bearing 0.3 m on each side, and the courses above it.
   // With sleeping (the default) the wall settles its 0.5 mm course gaps and sleeps at 0.5 s. (Without sleeping
-  // the blocks over the lintel creep, about a millimetre a second: issue #14's notes.)
+  // the blocks over the lintel creep, about a millimetre a second.)
   World w;
   addGround(w, 0.7, 0.1);
   const double L = 0.6, H = 0.3, T = 0.3, u = L / 2;  // u: half a block, the unit of the joints below

@@ -16,7 +16,7 @@ Inputs that reach new code go to build-fuzz/corpus/<target>/ (not the repository
 undefined behaviour, an input over 10 s or over 2 GB of memory is written to build-fuzz/findings/<target>/ and
 makes the exit status 1 (replay one: build-fuzz/tests/fuzz/fuzz_<target> FILE; once fixed, keep it as
 tests/fuzz/corpus/<target>/fuzz-<what>.<ext>, a regression case). Logs: build-fuzz/logs/.
-A long run: tools/fuzz.sh --seconds 3600 --parallel 2 (README, "Fuzzing").
+A long run: tools/fuzz.sh --seconds 3600 --parallel 2 (docs/testing.md, "Fuzzing").
 USAGE
 }
 seconds=15

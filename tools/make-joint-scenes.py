@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the scenes that show joints (issue 13), into scenes/:
+"""Writes the scenes that show joints, into scenes/:
 
   wrecking-ball.json  a 3-tonne steel ball on a 6 m cable (a distance joint, a rope)
                       swings into a clay wall and dents it, swing after swing

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# Renders the pictures of the README (docs/images/) from the shipped scenes.
+# Renders the pictures of the README and docs/ (docs/images/) from the shipped scenes.
 set -euo pipefail
 usage() {
   cat <<'USAGE'
 Usage: tools/make-readme-images.sh
-Re-renders the README's pictures (docs/images/*.png) from the shipped scenes with crumple-sim.
+Re-renders the pictures of the README and docs/ (docs/images/*.png) from the shipped scenes with crumple-sim.
 USAGE
 }
 . "$(dirname "$0")/args.sh"

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Packs the built programs and test binaries with the shared libraries they need
 # (not glibc's) into .devlib/, for a machine that has a GPU but none of the
-# project's Debian packages (the tool library's `device` machines: Ubuntu with
-# NVIDIA's EGL driver). There, from the repository root:
+# project's Debian packages (for example Ubuntu with NVIDIA's EGL driver). Copy the
+# repository with .devlib/ there; then, from the repository root:
 #   . .devlib/env.sh && .devlib/bin/crumple-bench --filter 'deform|render' --deform-profile
-# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT). A command of your own must
-# read its script from the carried .devlib (the device machine gets the repository and carried paths only).
+# or the prepared check: bash .devlib/check.sh [tests] [gpu] [cpu] (outputs in $OUT, else out/device).
+# A script of your own should live in .devlib/ too, when only the repository and .devlib/ are copied.
 # Tests that run crumple-sim find it at build/apps/crumple-sim: .devlib/env.sh puts it there.
 set -euo pipefail
 usage() {

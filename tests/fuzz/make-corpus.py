@@ -3,8 +3,8 @@
 dictionaries, tests/fuzz/<target>.dict (the words of each format; the scene's keys from engine/scene_loader.cpp).
 
 Seeds: the shipped scenes (scenes/*.json) and the small shipped assets (scenes/assets/*.obj under 64 KB), small
-valid files of each format (a tetrahedron in every variant the readers accept), and every reproducer of issue #16
-kept as a regression case (named issue16-*; tools/fuzz.sh replays each file once before fuzzing). Deterministic:
+valid files of each format (a tetrahedron in every variant the readers accept), and every hostile input the loaders
+once mishandled, kept as a regression case (named issue16-*; tools/fuzz.sh replays each file once before fuzzing). Deterministic:
 rerunning it rewrites the same bytes and leaves other files there alone: the inputs a fuzzer found (named fuzz-*,
 copied from build-fuzz/findings/), kept as regression cases. Usage: tests/fuzz/make-corpus.py
 """
@@ -52,7 +52,7 @@ def scenes():
         edit(s)
         write("scene", name, json.dumps(s))
 
-    # Issue #16, scene side: a 100000-deep array in a key that fails validation (the message dumped it).
+    # Regression cases, scene side: a 100000-deep array in a key that fails validation (the message dumped it).
     deep = json.dumps(base).replace('"gravity": [0, -9.81, 0]', '"gravity": ' + "[" * 100000 + "]" * 100000)
     write("scene", "issue16-deep-array.json", deep)
     # A 100000-character key path and a long value (messages are capped).
@@ -86,7 +86,8 @@ def obj():
     write("obj", "tet-relative.obj", v + "f -4 -2 -3\nf -4 -3 -1\nf -4 -1 -2\nf -3 -2 -1\n")
     write("obj", "quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\nf 1 2 3 4\nf 1 2 5\nf 2 3 5\n"
           "f 3 4 5\nf 4 1 5\n# comment\ng group\ns off\nusemtl m\nvn 0 0 1\n")
-    # Issue #16: duplicate faces (10^6 there; 2000 here), NUL bytes (2 GB there), a 1e38 coordinate.
+    # Regression cases: duplicate faces (10^6 in the original input; 2000 here), NUL bytes (2 GB in the original),
+    # a 1e38 coordinate.
     write("obj", "issue16-duplicate-faces.obj", v + f + "f 1 3 2\nf 3 2 1\n" * 1000)
     write("obj", "issue16-nul-bytes.obj", b"\0" * 4096)
     write("obj", "issue16-huge-coordinate.obj", v.replace("v 1 0 0", "v 1e38 0 0") + f)
@@ -112,8 +113,8 @@ def off():
     write("off", "tet-binary.off", binary(4, 4, TET, faces))
     write("off", "tet-binary-st.off", b"STOFF BINARY\n" + struct.pack("<3i", 4, 4, 0) +
           b"".join(struct.pack("<5f", *(p + p[:2])) for p in TET) + faces)
-    # Issue #16: a binary OFF with a face index out of range, with a lying face count, with a face of -3 vertices;
-    # an ASCII OFF with a coordinate of 1e38.
+    # Regression cases: a binary OFF with a face index out of range, with a lying face count, with a face of -3
+    # vertices; an ASCII OFF with a coordinate of 1e38.
     write("off", "issue16-binary-index-out-of-range.off", binary(4, 4, TET, faces[:-4] + struct.pack("<i", 1000000)))
     write("off", "issue16-binary-lying-face-count.off", binary(4, 2000000000, TET, faces))
     write("off", "issue16-binary-face-of-minus-3.off", binary(4, 4, TET, struct.pack("<i", -3) + faces[4:]))
@@ -135,7 +136,7 @@ def ply():
     write("ply", "tet-uv.ply", good.replace("property float z\n", "property float z\nproperty float u\n"
                                             "property float v\n").replace(v, "".join(
                                                 "%g %g %g %g %g\n" % (p + p[:2]) for p in TET)))
-    # Issue #16: corrupted 'element' keyword and 'end_header' (OpenMesh crashed or looped), no end_header.
+    # Regression cases: corrupted 'element' keyword and 'end_header' (OpenMesh crashed or looped), no end_header.
     write("ply", "issue16-corrupted-element.ply", good.replace("element face", "elemXnt face"))
     write("ply", "issue16-corrupted-end-header.ply", good.replace("end_header", "end_hXader"))
     write("ply", "issue16-no-end-header.ply", good.replace("end_header\n", ""))
@@ -195,7 +196,7 @@ def glb():
 
     edit("tet.glb")
     edit("tet-rotated.glb", {"rotation": [0, 0, 0.3826834, 0.9238795], "scale": [1, 2, 0.5]})
-    # Issue #16: GLB positions of 3e38, a zero node rotation, a 1e30 node scale, a negative byteOffset; a 2 GB
+    # Regression cases: GLB positions of 3e38, a zero node rotation, a 1e30 node scale, a negative byteOffset; a 2 GB
     # file of NUL bytes (4 KB here).
     edit("issue16-positions-3e38.glb", scale=3e38)
     edit("issue16-zero-rotation.glb", {"rotation": [0, 0, 0, 0]})

@@ -217,7 +217,7 @@ json bodiesArray(const Simulation& sim) {
     jb["linear_velocity"] = vec(rb.v);
     jb["angular_velocity"] = vec(rb.w);
     jb["center_of_mass"] = vec(rb.x);
-    jb["mass"] = rb.isStatic ? json(nullptr) : json(rb.mass);
+    if (!rb.isStatic) jb["mass"] = rb.mass;  // (a static body has none: no key)
     jb["static"] = rb.isStatic;
     if (rb.kinematic) jb["kinematic"] = true;
     jb["asleep"] = rb.asleep;
@@ -275,7 +275,7 @@ std::vector<std::string> eventLines(Simulation& sim) {
     for (int s = 0; s < 2; ++s) {
       const SideDecision& d = r.side[s];
       json side;
-      side["threshold"] = std::isfinite(d.threshold) ? json(d.threshold) : json(nullptr);  // null: infinite (eps = 1)
+      if (std::isfinite(d.threshold)) side["threshold"] = d.threshold;  // (none where eps = 1: never dents)
       side["percent_deform"] = d.percentDeform;
       side["deform_depth"] = d.deformDepth;
       side["deformed"] = d.deformed;

@@ -84,8 +84,8 @@ struct DeformationSettings {
   deform::DeformOptions options;   // address map, update path, tangent correction, crater rims
   bool lazyMaps = true;
   double contactInterval = 0.05;
-  bool normalMappedNormals =
-      false;  // contact normals from the normal maps (figure 10)  // s between contact deformations (bodies with contact_deformation)
+  bool normalMappedNormals = false;  // contact normals from the normal maps (figure 10)
+  bool feelDents = true;  // contacts on the dented surfaces (false: dents are visual only, as in the paper)
 };
 
 struct ShapeDesc {
@@ -144,6 +144,7 @@ struct BodyDesc {
   std::optional<double> mass;
   BumpMapDesc bumpMap;
   bool contactDeformation = false;
+  std::optional<bool> feelDents;  // this body's dents felt by contacts (unset: the deformation's default)
   VehicleDesc vehicle;
   bool kinematic = false;      // moved by its velocities or its path, never pushed
   std::vector<PathKey> path;   // kinematic: keyframes (empty: its velocities)

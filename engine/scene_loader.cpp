@@ -359,7 +359,7 @@ glm::dquat parseOrientation(const Node& n, const std::string& key) {
 BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir) {
   n.requireObject();
   n.checkKeys({"name", "shape", "material", "static", "position", "orientation", "velocity", "angular_velocity", "mass",
-               "bump_map", "vehicle", "contact_deformation", "kinematic", "path", "group"});
+               "bump_map", "vehicle", "contact_deformation", "feel_dents", "kinematic", "path", "group"});
   BodyDesc b;
   b.name = n.requiredString("name");
   if (const std::string why = fileNameProblem(b.name); !why.empty()) n.fail("name", why);
@@ -395,6 +395,7 @@ BodyDesc parseBody(const Node& n, const Scene& scene, const std::string& baseDir
     if (bm.has("bump_depth_collide")) b.bumpMap.bumpDepthCollide = bm.number("bump_depth_collide", 0.02, 0, 10);
   }
   b.contactDeformation = n.boolean("contact_deformation", false);
+  if (n.has("feel_dents")) b.feelDents = n.boolean("feel_dents", true);
   if (n.has("vehicle")) {
     b.vehicle = parseVehicle(n.child("vehicle"));
     if (b.isStatic) n.fail("vehicle", "a static body cannot be a vehicle");
@@ -571,7 +572,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     Node d = n.child("deformation");
     d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
                  "address_raster", "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval",
-                 "normal_mapped_normals"});
+                 "normal_mapped_normals", "feel_dents"});
     auto& ds = s.deformation;
     ds.enabled = d.boolean("enabled", ds.enabled);
     ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
@@ -599,6 +600,7 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);
     ds.contactInterval = d.number("contact_interval", ds.contactInterval, 0, 10);
     ds.normalMappedNormals = d.boolean("normal_mapped_normals", ds.normalMappedNormals);
+    ds.feelDents = d.boolean("feel_dents", ds.feelDents);
   }
   if (!n.has("bodies")) n.fail("bodies", "is required");
   const json& bodies = n.raw("bodies");

@@ -1,5 +1,7 @@
 #include "engine/simulation.h"
 
+#include <cstring>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -58,9 +60,153 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
   for (const auto& [ga, gb] : scene.noCollide) world_.setGroupsCollide(groups_.at(ga), groups_.at(gb), false);
   buildJoints();
   if (gl_ && scene.deformation.normalMappedNormals) setNormalMappedNormals(true);
+  dents_.resize(bodies_.size());
+  bool anyFelt = false;
+  for (size_t i = 0; i < bodies_.size(); ++i) {
+    dents_[i].feel = gl_ && bodies_[i].surface && !bodies_[i].mesh->uvs.empty() &&
+                     scene.bodies[i].feelDents.value_or(scene.deformation.feelDents);
+    anyFelt = anyFelt || dents_[i].feel;
+  }
+  if (anyFelt) {
+    std::vector<int> bodyOf(world_.size(), -1);
+    for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[static_cast<size_t>(bodies_[i].index)] = static_cast<int>(i);
+    world_.setSurfaceDepth([this, bodyOf](int index, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) {
+      return surfaceDepth(bodyOf[static_cast<size_t>(index)], p, n, bent);
+    });
+  }
 }
 
-Simulation::~Simulation() = default;
+Simulation::~Simulation() {
+  for (DentCopy& d : dents_)
+    if (d.fence) glDeleteSync(d.fence);
+}
+
+void Simulation::beforeDent(int i) {
+  DentCopy& d = dents_[static_cast<size_t>(i)];
+  if (!d.feel) return;
+  d.pending = true;
+  if (!d.start.empty()) return;
+  const deform::Surface& surface = *bodies_[static_cast<size_t>(i)].surface;
+  d.resolution = surface.resolution();
+  d.start = surface.downloadHeight().pixels;  // once, before its first dent
+  d.height = d.start;
+  d.bvh = std::make_unique<TriangleBvh>(*bodies_[static_cast<size_t>(i)].mesh);
+}
+
+void Simulation::readBackDents() {
+  for (size_t i = 0; i < dents_.size(); ++i) {
+    DentCopy& d = dents_[i];
+    if (!d.pending) continue;
+    d.pending = false;
+    const deform::Surface& surface = *bodies_[i].surface;
+    const size_t bytes = static_cast<size_t>(d.resolution) * static_cast<size_t>(d.resolution) * sizeof(float);
+    if (d.pixels.size() != bytes) d.pixels = gl::Buffer(bytes, nullptr, GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
+    if (d.fence) glDeleteSync(d.fence);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, d.pixels.id());
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    glGetTextureImage(surface.height().id(), 0, GL_RED, GL_FLOAT, static_cast<GLsizei>(bytes), nullptr);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    d.fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    d.k = surface.bumpDepth();
+  }
+}
+
+void Simulation::takeInDents() {
+  for (size_t i = 0; i < dents_.size(); ++i) {
+    DentCopy& d = dents_[i];
+    if (!d.fence) continue;
+    // Issued a step ago: on a GPU long done (the wait returns at once); the flush makes sure it was sent.
+    glClientWaitSync(d.fence, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ull);
+    glDeleteSync(d.fence);
+    d.fence = nullptr;
+    const size_t texels = d.height.size();
+    const void* map = glMapNamedBufferRange(d.pixels.id(), 0, static_cast<GLsizeiptr>(texels * sizeof(float)),
+                                           GL_MAP_READ_BIT);
+    if (!map) continue;
+    std::memcpy(d.height.data(), map, texels * sizeof(float));
+    glUnmapNamedBuffer(d.pixels.id());
+    // Where the map differs from its start, and the part of the surface over those texels.
+    const int r = d.resolution;
+    d.lo = glm::ivec2(r);
+    d.hi = glm::ivec2(-1);
+    float highest = 0.5f;
+    for (int y = 0; y < r; ++y)
+      for (int x = 0; x < r; ++x) {
+        const size_t t = static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x);
+        if (d.height[t] == d.start[t]) continue;
+        d.lo = glm::min(d.lo, glm::ivec2(x, y));
+        d.hi = glm::max(d.hi, glm::ivec2(x, y));
+        highest = std::max(highest, d.height[t]);
+      }
+    const TriangleMesh& mesh = *bodies_[i].mesh;
+    d.boxLo = glm::dvec3(1e300);
+    d.boxHi = glm::dvec3(-1e300);
+    if (d.hi.x >= d.lo.x) {
+      // (one texel around: the lookup interpolates between texel centres)
+      const glm::dvec2 uvLo = glm::dvec2(d.lo - 1) / double(r), uvHi = glm::dvec2(d.hi + 2) / double(r);
+      for (const glm::uvec3& t : mesh.triangles) {
+        const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
+        const glm::dvec2 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
+        if (thi.x < uvLo.x || thi.y < uvLo.y || tlo.x > uvHi.x || tlo.y > uvHi.y) continue;
+        for (int k = 0; k < 3; ++k) {
+          const glm::dvec3 p(mesh.positions[t[k]]);
+          d.boxLo = glm::min(d.boxLo, p);
+          d.boxHi = glm::max(d.boxHi, p);
+        }
+      }
+      d.boxLo -= d.k;
+      d.boxHi += d.k;
+    }
+    const bool dented = d.boxHi.x >= d.boxLo.x;
+    world_.setDented(bodies_[i].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
+                     {d.boxLo, d.boxHi});
+  }
+}
+
+double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {
+  bent = n;
+  if (i < 0) return 0;
+  const DentCopy& d = dents_[static_cast<size_t>(i)];
+  // Only points over dented texels look anything up.
+  if (!d.bvh || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
+      p.z > d.boxHi.z)
+    return 0;
+  const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
+  const TriangleBvh::Hit hit = d.bvh->closest(p);
+  if (hit.triangle < 0) return 0;
+  const glm::uvec3 t = mesh.triangles[static_cast<size_t>(hit.triangle)];
+  const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);
+  const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;
+  const int r = d.resolution;
+  // The height and its derivatives in uv, bilinear between texel centres.
+  const glm::dvec2 f = uv * double(r) - 0.5;
+  const glm::ivec2 base(static_cast<int>(std::floor(f.x)), static_cast<int>(std::floor(f.y)));
+  if (base.x + 1 < d.lo.x - 1 || base.y + 1 < d.lo.y - 1 || base.x > d.hi.x + 1 || base.y > d.hi.y + 1) return 0;
+  auto at = [&](int x, int y) {
+    x = std::clamp(x, 0, r - 1);
+    y = std::clamp(y, 0, r - 1);
+    return double(d.height[static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x)]);
+  };
+  const double fx = f.x - base.x, fy = f.y - base.y;
+  const double h00 = at(base.x, base.y), h10 = at(base.x + 1, base.y), h01 = at(base.x, base.y + 1),
+               h11 = at(base.x + 1, base.y + 1);
+  const double h = (h00 * (1 - fx) + h10 * fx) * (1 - fy) + (h01 * (1 - fx) + h11 * fx) * fy;
+  const double hu = ((h10 - h00) * (1 - fy) + (h11 - h01) * fy) * r;  // dh/du
+  const double hv = ((h01 - h00) * (1 - fx) + (h11 - h10) * fx) * r;  // dh/dv
+  // The dented surface P + n k (h - 0.5): its tangents dP/du + n k dh/du, dP/dv + n k dh/dv.
+  const glm::dvec3 e1 = glm::dvec3(mesh.positions[t.y] - mesh.positions[t.x]);
+  const glm::dvec3 e2 = glm::dvec3(mesh.positions[t.z] - mesh.positions[t.x]);
+  const glm::dvec2 d1 = uv1 - uv0, d2 = uv2 - uv0;
+  const double det = d1.x * d2.y - d1.y * d2.x;
+  if (std::abs(det) > 1e-20) {
+    const glm::dvec3 pu = (e1 * d2.y - e2 * d1.y) / det, pv = (e2 * d1.x - e1 * d2.x) / det;
+    glm::dvec3 m = glm::cross(pu + n * (d.k * hu), pv + n * (d.k * hv));
+    if (glm::dot(m, n) < 0) m = -m;
+    const double len = glm::length(m);
+    if (len > 1e-12) bent = m / len;
+  }
+  return d.k * (0.5 - h);
+}
 
 void Simulation::gpuTimes(bool wait) {
   if (deformTimer_) timings_.deformGpuMs = wait ? deformTimer_->finish() : deformTimer_->ms();
@@ -261,6 +407,7 @@ bool Simulation::pressGround(int groundBody, const deform::GpuMesh* mesh, const 
   if (!ground.contactDeformation || !ground.surface) return false;
   const double depth = decideSide(*ground.material, ground.material->thickness, push).deformDepth;
   if (!(depth > 0)) return false;
+  beforeDent(groundBody);
   const RigidBody& g = world_.body(ground.index);
   deform::DeformRequest rq;
   rq.a = {ground.surface.get(), ground.gpuMesh.get(), modelAt(groundBody, {g.x, g.q})};
@@ -312,6 +459,7 @@ deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, i
 void Simulation::step() {
   const double h = scene_.timestep;
   auto t0 = Clock::now();
+  takeInDents();
   stepPhysics(h);
   timings_.physicsMs += msSince(t0);
   ++steps_;
@@ -322,6 +470,7 @@ void Simulation::step() {
   if (deformTimer_) deformTimer_->begin();
   bool deformed = deformCollisions(bodyOf);
   deformed |= deformContacts(bodyOf, h);
+  if (deformed) readBackDents();
   // No glFinish: the GPU's time comes from timer queries read steps later (gpuTimes).
   if (deformTimer_) deformTimer_->end(deformed);
   timings_.deformMs += msSince(t0);
@@ -393,6 +542,8 @@ bool Simulation::deformCollisions(const std::vector<int>& bodyOf) {
       d.deformed = scene_.deformation.enabled && body.surface && d.deformDepth > 0;
     }
     if (deformer_ && (rec.side[0].deformed || rec.side[1].deformed)) {
+      for (int side = 0; side < 2; ++side)
+        if (rec.side[side].deformed) beforeDent(bi[side]);
       requests.push_back(eventRequest(e, bi[0], bi[1], rec.side[0].deformed ? rec.side[0].deformDepth : 0,
                                       rec.side[1].deformed ? rec.side[1].deformDepth : 0));
       recordOf.push_back(events_.size());
@@ -432,6 +583,8 @@ bool Simulation::deformContacts(const std::vector<int>& bodyOf, double h) {
       depth[s] = decideSide(*body.material, body.material->thickness, e.elasticImpulse).deformDepth;
     }
     if (!(depth[0] > 0) && !(depth[1] > 0)) continue;
+    for (int side = 0; side < 2; ++side)
+      if (depth[side] > 0) beforeDent(bi[side]);
     requests.push_back(eventRequest(e, bi[0], bi[1], depth[0], depth[1]));
     ++timings_.contactDeformations;
     deformed = true;

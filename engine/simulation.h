@@ -165,6 +165,27 @@ class Simulation {
     long version = -1;                   // deformation count when copied
   };
   std::map<int, NormalLookup> normalLookups_;  // by body index in bodies_
+  // The world feels its dents (World::setSurfaceDepth): per body of bodies_ whose dents are felt, a CPU copy of
+  // its height map. After a step's deformations each changed map is read back into a pixel buffer behind a fence
+  // (the GPU copies it while the CPU goes on); the next step takes it in before its physics.
+  struct DentCopy {
+    bool feel = false;                 // its dents are felt (feel_dents)
+    bool pending = false;              // a read-back is under way
+    std::unique_ptr<TriangleBvh> bvh;  // closest points on its mesh (shape frame)
+    std::vector<float> start;          // the map before its first dent
+    std::vector<float> height;         // the map as last read back
+    int resolution = 0;
+    glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
+    glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
+    double k = 0;                      // the bump depth (m)
+    gl::Buffer pixels;                 // the read-back's pixel buffer
+    GLsync fence = nullptr;
+  };
+  std::vector<DentCopy> dents_;
+  void beforeDent(int body);  // body (of bodies_) is about to be dented: its map's start kept, a read-back due
+  void readBackDents();       // after the step's deformations: the changed maps start coming back
+  void takeInDents();         // before the physics: the maps that came back, in the world
+  double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;
   std::unique_ptr<deform::Deformer> deformer_;
   std::unique_ptr<gl::GpuTimer> deformTimer_, renderTimer_;
   AssetCache assets_;

@@ -235,7 +235,7 @@ void findPairs(StepContext& ctx, double h) {
       if (b.movable()) {
         Aabb& box = boxes[i];
         box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i]));
-        const double margin = 0.005 + 2 * h * glm::length(b.v);
+        const double margin = 0.005 + 2 * h * glm::length(b.v) + ctx.rise(static_cast<int>(i));
         box.lo -= margin;
         box.hi += margin;
       }
@@ -453,6 +453,14 @@ void findCandidates(StepContext& ctx, double h) {
     const RigidBody& B = ctx.body(pair.b);
     // Two polytopes meet by their manifold (narrow_phase.cpp) unless the step sweeps or a normal modifier
     // bends their normals: no samples are looked at, no lists needed.
+    // Dents that can reach the other body within the lists' reach (a change remakes the lists).
+    const double reachDents = 2 * h * (glm::length(B.v - A.v) + glm::length(A.w) * A.shape->boundingRadius +
+                                       glm::length(B.w) * B.shape->boundingRadius + 2 * g * h) +
+                              0.005 + 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
+    const bool dentsA = ctx.dentsReach(pair.a, pair.b, reachDents), dentsB = ctx.dentsReach(pair.b, pair.a, reachDents);
+    if (dentsA != pair.dentsA || dentsB != pair.dentsB) pair.builtMargin = -1;
+    pair.dentsA = dentsA;
+    pair.dentsB = dentsB;
     const bool bumpA = ctx.bentNormals(pair.a), bumpB = ctx.bentNormals(pair.b);
     if (A.shape->polytope && B.shape->polytope && !ctx.substepsCapped && !bumpA && !bumpB) {
       pair.bInA.clear();
@@ -467,7 +475,8 @@ void findCandidates(StepContext& ctx, double h) {
     };
     const glm::dvec3 va = A.movable() ? A.v : glm::dvec3(0), vb = B.movable() ? B.v : glm::dvec3(0);
     // Twice the bound on the relative motion this step, plus a little.
-    const double margin = 2 * h * (glm::length(vb - va) + spin(A) + spin(B)) + 0.005;
+    const double margin = 2 * h * (glm::length(vb - va) + spin(A) + spin(B)) + 0.005 + (dentsA ? ctx.rise(pair.a) : 0.0) +
+                          (dentsB ? ctx.rise(pair.b) : 0.0);
     // The skin: a fifth of the smaller body's thinnest half thickness (a tenth rebuilt a tumbling heap's lists
     // nearly every substep; more made the narrow phase test too many samples).
     const double skin = 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
@@ -510,7 +519,7 @@ void findCandidates(StepContext& ctx, double h) {
       tree->query(centre, mt, half + 1e-9 * (1 + glm::length(centre) + glm::length(half)), test);
       std::sort(list.begin(), list.end());  // in sample order, as a whole scan finds them
     };
-    const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
+    const SampleSides sides = sampleSides(*A.shape, bumpA || dentsA, *B.shape, bumpB || dentsB);
     if (sides.bInA)
       collect(A, B, pair.bInA);
     else

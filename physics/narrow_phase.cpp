@@ -38,14 +38,23 @@ namespace {
 // With `segment` (other is a capsule, owner convex: detail::sampleSides), also the point of the capsule's core
 // segment deepest in the owner's field, where it is deeper than every sample: the samples stand a radius apart,
 // and a capsule across a box's edge sank between two of them.
+// Dents: `depth` (World::setSurfaceDepth) where the owner (`dentOwner`) or the other (`dentOther`) is dented, the
+// surfaces rising at most `rise` in all: a sample within that of the undented owner is measured against the
+// dented surfaces, the owner's at the surface point nearest to it, the other's at the sample's own surface point.
+struct Dents {
+  const World::SurfaceDepth* depth = nullptr;
+  bool owner = false, other = false;
+  double rise = 0;
+};
+
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
                     const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
                     const World::NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
-                    const Pose* startOther = nullptr, bool segment = false) {
+                    const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {}) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
   const double r = st.sampleRadius;
-  const glm::dvec3 lo = so.boundsMin - r, hi = so.boundsMax + r;
+  const glm::dvec3 lo = so.boundsMin - r - dents.rise, hi = so.boundsMax + r + dents.rise;
   const glm::dmat3 ro = glm::mat3_cast(po.orientation);
   const glm::dmat3 rot = glm::transpose(ro);
   const glm::dmat3 rt = glm::mat3_cast(pother.orientation);
@@ -88,6 +97,22 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
       sampleHint = -(otherToOwner * st.sampleNormals[index]);
     double phi = so.distance(local, &g, &sampleHint) - r;
+    double otherSinks = 0;  // how far the other's surface lies below its undented one at this sample
+    if ((dents.owner || dents.other) && phi < dents.rise) {
+      glm::dvec3 bent = g;
+      double sinks = 0;
+      if (dents.owner) sinks += (*dents.depth)(iOwner, local - (phi + r) * g, g, bent);
+      if (dents.other) {
+        const glm::dvec3 n = -(glm::transpose(otherToOwner) * g);  // the other's outward normal here
+        glm::dvec3 bentOther = n;
+        otherSinks = (*dents.depth)(iOther, s + r * n, n, bentOther);
+        sinks += otherSinks;
+        if (!dents.owner) bent = -(otherToOwner * bentOther);
+      }
+      phi += sinks;
+      const double len = glm::length(bent);
+      if (len > 1e-12) g = bent / len;
+    }
     if (phi >= 0 && swept) {
       // Did the sample pass through the owner during the substep?
       const glm::dvec3 local0 = otherToOwner0 * s + offset0, path = local - local0;
@@ -117,7 +142,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     c.a = iOwner;
     c.b = iOther;
     c.normal = ro * g;  // unit: every shape's distance gradient is normalised
-    c.point = pother.position + rt * (s - other.localCom) - r * c.normal;
+    c.point = pother.position + rt * (s - other.localCom) - r * c.normal + otherSinks * c.normal;
     c.phi = phi;
     out.push_back(c);
   }
@@ -222,6 +247,38 @@ void sortContacts(std::vector<Contact>& out) {
 }
 }  // namespace
 
+// A manifold's contacts between A (index ia) and B where either is dented (dentA, dentB): each point's depth
+// measured against the dented surfaces (the owner's at the point on its surface, the other's at the point on
+// its own); those the dents part are dropped. A manifold has its points at the polytopes' features, its normal
+// the face's: a face over a crater wider than it rests on its corners there, on the crater's slopes, and a
+// wall of dented blocks keeps its faces' normals (a texel's slope under a corner would push it sideways).
+void dentManifold(const World::SurfaceDepth& depth, int ia, const RigidBody& A, const Pose& pa, bool dentA,
+                  const RigidBody& B, const Pose& pb, bool dentB, std::vector<Contact>& out) {
+  size_t kept = 0;
+  for (Contact c : out) {
+    const bool ownerIsA = c.a == ia;
+    const RigidBody& O = ownerIsA ? A : B;
+    const RigidBody& T = ownerIsA ? B : A;
+    const Pose& po = ownerIsA ? pa : pb;
+    const Pose& pt = ownerIsA ? pb : pa;
+    const bool dentO = ownerIsA ? dentA : dentB, dentT = ownerIsA ? dentB : dentA;
+    glm::dvec3 bent;
+    double otherSinks = 0;
+    if (dentO) {
+      const glm::dmat3 ro = glm::mat3_cast(po.orientation);
+      c.phi += depth(c.a, toShape(po, O.localCom, c.point - c.phi * c.normal), glm::transpose(ro) * c.normal, bent);
+    }
+    if (dentT) {
+      const glm::dmat3 rt = glm::mat3_cast(pt.orientation);
+      otherSinks = depth(c.b, toShape(pt, T.localCom, c.point), -(glm::transpose(rt) * c.normal), bent);
+      c.phi += otherSinks;
+    }
+    c.point += otherSinks * c.normal;
+    if (c.phi < 0) out[kept++] = c;
+  }
+  out.resize(kept);
+}
+
 namespace detail {
 SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) {
   auto convex = [](const Shape& s) { return s.type != ShapeType::Mesh || s.polytope != nullptr; };
@@ -256,15 +313,20 @@ bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
                                           : 0.0;
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
   if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, pa, pair.b, B, pb, out)) {
+    if (pair.dentsA || pair.dentsB)
+      dentManifold(ctx.surfaceDepth, pair.a, A, pa, pair.dentsA, B, pb, pair.dentsB, out);
     sortContacts(out);
     return true;
   }
   // (findCandidates leaves the list of a side sampleSides skips empty)
-  const SampleSides sides = sampleSides(*A.shape, bumpA, *B.shape, bumpB);
-  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, bumpA ? &ctx.normalModifier : nullptr,
-                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB);
-  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, bumpB ? &ctx.normalModifier : nullptr,
-                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA);
+  const SampleSides sides = sampleSides(*A.shape, bumpA || pair.dentsA, *B.shape, bumpB || pair.dentsB);
+  const bool dentA = pair.dentsA, dentB = pair.dentsB;
+  const double rise = (dentA ? ctx.rise(pair.a) : 0.0) + (dentB ? ctx.rise(pair.b) : 0.0);
+  const Dents dentsA{&ctx.surfaceDepth, dentA, dentB, rise}, dentsB{&ctx.surfaceDepth, dentB, dentA, rise};
+  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
+                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB, dentsA);
+  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
+                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA, dentsB);
   sortContacts(out);
   return false;
 }
@@ -275,7 +337,8 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
   // (Capped substeps may sweep (pairContacts), bent normals are the samples' own: both look afresh.)
-  if (pair.hasKept && tolerance > 0 && !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b)) {
+  if (pair.hasKept && tolerance > 0 && !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b) &&
+      !pair.dentsA && !pair.dentsB) {
     if (!displacementExceeds(pair.keptA, pa, reachAboutCom(A), pair.keptB, pb, reachAboutCom(B),
                              [&](double m) { return m > tolerance; })) {
       const glm::dmat3 rotA = glm::mat3_cast(pa.orientation), rotB = glm::mat3_cast(pb.orientation);
@@ -325,13 +388,20 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   out.clear();
   const RigidBody& A = ctx_->body(ia);
   const RigidBody& B = ctx_->body(ib);
+  const bool dentA = ctx_->dentsReach(ia, ib, 0.005), dentB = ctx_->dentsReach(ib, ia, 0.005);
   if (manifoldContacts(ia, A, pa, ib, B, pb, out)) {
+    if (dentA || dentB) dentManifold(ctx_->surfaceDepth, ia, A, pa, dentA, B, pb, dentB, out);
     sortContacts(out);
     return;
   }
-  const detail::SampleSides sides = detail::sampleSides(*A.shape, ctx_->bentNormals(ia), *B.shape, ctx_->bentNormals(ib));
-  if (sides.bInA) contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB);
-  if (sides.aInB) contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out, nullptr, nullptr, nullptr, sides.segmentA);
+  const detail::SampleSides sides = detail::sampleSides(*A.shape, ctx_->bentNormals(ia) || dentA, *B.shape,
+                                                        ctx_->bentNormals(ib) || dentB);
+  const double rise = (dentA ? ctx_->rise(ia) : 0.0) + (dentB ? ctx_->rise(ib) : 0.0);
+  const Dents dentsA{&ctx_->surfaceDepth, dentA, dentB, rise}, dentsB{&ctx_->surfaceDepth, dentB, dentA, rise};
+  if (sides.bInA)
+    contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB, dentsA);
+  if (sides.aInB)
+    contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out, nullptr, nullptr, nullptr, sides.segmentA, dentsB);
   sortContacts(out);
 }
 

@@ -103,6 +103,8 @@ struct Pair {
   Pose keptA, keptB;
   bool hasKept = false;
   int looks = 0, keptLooks = 0;  // this substep's (StepStats)
+  // Whether a's (b's) dents reach b (a) this substep: set with the lists (findCandidates), used by the narrow phase.
+  bool dentsA = false, dentsB = false;
 };
 
 // A joint as the solver keeps it: its definition and what it keeps in the
@@ -236,6 +238,9 @@ struct StepContext {
   std::vector<RigidBody> bodies;
   std::vector<glm::dvec3> force, torque;          // per body, applied at the next step only
   std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
+  World::SurfaceDepth surfaceDepth;  // World::setSurfaceDepth
+  std::vector<double> dentRise;      // per body: World::setDented (empty: none set)
+  std::vector<Aabb> dentBox;         // per body: where its dents are (shape frame)
   World::NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
   // A dynamic body of a loadBearing shape was ever added (resting_solve.cpp has work only then).
@@ -395,6 +400,24 @@ struct StepContext {
   // Whether body i's normals are bent by the normal modifier (World::setBumpNormals and a modifier set).
   bool bentNormals(int i) const {
     return normalModifier && static_cast<size_t>(i) < bumpNormals.size() && bumpNormals[static_cast<size_t>(i)];
+  }
+  // Whether body i's contacts are measured on its dented surface (World::setDented and a depth set), and the
+  // most its surface rises above the undented one (0 when it is not dented).
+  bool dented(int i) const {
+    return surfaceDepth && static_cast<size_t>(i) < dentRise.size() && dentRise[static_cast<size_t>(i)] >= 0;
+  }
+  double rise(int i) const { return dented(i) ? dentRise[static_cast<size_t>(i)] : 0.0; }
+  // Whether body `owner`'s dents can reach body `other` (its bounds, grown by `margin`, meet the dented part of
+  // the owner's surface): pairs far from every dent keep the undented shapes' contacts, bit for bit.
+  bool dentsReach(int owner, int other, double margin) const {
+    if (!dented(owner)) return false;
+    const RigidBody& o = body(owner);
+    const RigidBody& t = body(other);
+    const Aabb& box = dentBox[static_cast<size_t>(owner)];
+    const glm::dvec3 c = glm::transpose(o.rotation()) * (t.x - o.x) + o.localCom;  // the other's centre, owner's frame
+    const double r = t.shape->boundingRadius + glm::length(t.localCom) + margin + rise(owner);
+    return c.x + r >= box.lo.x && c.y + r >= box.lo.y && c.z + r >= box.lo.z && c.x - r <= box.hi.x &&
+           c.y - r <= box.hi.y && c.z - r <= box.hi.z;
   }
 
   void wake(int i) {

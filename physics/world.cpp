@@ -101,6 +101,7 @@ BodyId World::add(const BodyDef& def) {
   c.force[slot] = c.torque[slot] = glm::dvec3(0);
   if (slot < c.reportContacts.size()) c.reportContacts[slot] = 0;
   if (slot < c.bumpNormals.size()) c.bumpNormals[slot] = 0;
+  if (slot < c.dentRise.size()) c.dentRise[slot] = -1;
   noteShape(c, def);
   // The kept pairs' candidate lists were built for the old body in this slot.
   c.pairs.clear();
@@ -220,6 +221,21 @@ void World::setReportContacts(int body, bool on) {
   ctx_->reportContacts.at(static_cast<size_t>(body)) = on;
 }
 
+void World::setSurfaceDepth(SurfaceDepth depth) { ctx_->surfaceDepth = std::move(depth); }
+void World::setDented(int i, double maxRise, const Aabb& region) {
+  liveBody(*ctx_, i);
+  if (std::isnan(maxRise)) throw std::invalid_argument("dent rise is not a number");
+  std::vector<double>& rise = ctx_->dentRise;
+  if (rise.size() < ctx_->bodies.size()) rise.resize(ctx_->bodies.size(), -1.0);
+  const bool was = rise[static_cast<size_t>(i)] >= 0;
+  rise[static_cast<size_t>(i)] = maxRise;
+  ctx_->dentBox.resize(ctx_->bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
+  ctx_->dentBox[static_cast<size_t>(i)] = region;
+  // Which of its pairs' sample sets are tested, and how far out, depend on it: their lists are made anew.
+  if (was != (maxRise >= 0) || maxRise > 0)
+    for (detail::Pair& pair : ctx_->pairs)
+      if (pair.a == i || pair.b == i) pair.builtMargin = -1;
+}
 void World::setBumpNormals(int body, bool on) {
   ctx_->bumpNormals.resize(ctx_->bodies.size(), 0);
   char& flag = ctx_->bumpNormals.at(static_cast<size_t>(body));
@@ -655,6 +671,8 @@ StepStatus World::step(double h) {
   for (detail::Joint& jt : c.joints) jt.stepImpulse = glm::dvec3(0);
   c.reportContacts.resize(c.bodies.size(), 0);
   if (!c.bumpNormals.empty()) c.bumpNormals.resize(c.bodies.size(), 0);
+  if (!c.dentRise.empty()) c.dentRise.resize(c.bodies.size(), -1.0);
+  if (!c.dentBox.empty()) c.dentBox.resize(c.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
   c.stats = {};
   c.frozen.assign(c.bodies.size(), 0);
   // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for

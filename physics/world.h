@@ -310,6 +310,19 @@ class World {
   using NormalModifier = std::function<glm::dvec3(int body, const glm::dvec3& point, const glm::dvec3& normal)>;
   void setNormalModifier(NormalModifier modifier);
   void setBumpNormals(int body, bool on);
+  // Dented surfaces (the world feels its dents): contacts on a body flagged with setDented are measured against
+  // its surface displaced along the normal, on either side of the pair. `depth(body, point, normal, bent)`
+  // answers how far the dented surface at a point of the undented one (shape frame, with its outward normal)
+  // lies below it (m; negative where it rises) and sets `bent` to the dented surface's outward normal there
+  // (shape frame). The step calls it from its threads at once: it must only read.
+  using SurfaceDepth = std::function<double(int body, const glm::dvec3& point, const glm::dvec3& normal,
+                                            glm::dvec3& bent)>;
+  void setSurfaceDepth(SurfaceDepth depth);
+  // maxRise >= 0: body i is dented within `region` (shape frame: the undented surface over its dented texels),
+  // its surface rising at most maxRise (m) above the undented one anywhere (a crater's rim; 0 where dents only
+  // lower it); < 0: not (the default). Pairs whose bounds do not meet the region keep the undented shapes'
+  // contacts, bit for bit.
+  void setDented(int body, double maxRise, const Aabb& region = {glm::dvec3(-1e300), glm::dvec3(1e300)});
   const StepStats& lastStats() const;
   void wake(int i);
   // A hash of every body's state, for determinism checks.

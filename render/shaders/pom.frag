@@ -45,6 +45,10 @@ in vec4 vShadow;
 in vec2 vMaterialUV;    // the mesh file's own uv
 flat in int vMaterial;  // its material in the look, -1 none
 out vec4 fragColor;
+// The depth of the surface the parallax march found (a body resting in a dent is drawn inside it), never nearer
+// than the mesh's own (a crater's rim stays at the mesh's depth): conservative depth keeps the early depth test.
+layout(depth_greater) out float gl_FragDepth;
+uniform mat4 uViewProjection;
 #define FRONT_FACING gl_FrontFacing
 #define DX_WORLD dFdx(vWorld)
 #define DY_WORLD dFdy(vWorld)
@@ -174,6 +178,9 @@ void main() {
 #endif
 #if DEBUG == 4
   fragColor = vec4(0.05, 0.9, 0.3, 1.0);
+#ifndef COMPUTE_SHADING
+  gl_FragDepth = gl_FragCoord.z;
+#endif
   return;
 #endif
   vec3 N = normalize(vNormal);
@@ -234,6 +241,14 @@ void main() {
     }
 #endif
     surfaceHeight = heightAt(uv, duv1, duv2);
+  }
+#endif
+#ifndef COMPUTE_SHADING
+  if (shift == vec3(0.0)) {
+    gl_FragDepth = gl_FragCoord.z;
+  } else {
+    vec4 clip = uViewProjection * vec4(vWorld + shift, 1.0);
+    gl_FragDepth = clamp(max(gl_FragCoord.z, (clip.z / clip.w) * 0.5 + 0.5), 0.0, 1.0);
   }
 #endif
 #if DEBUG == 1

@@ -1,0 +1,186 @@
+// The world feels its dents: contacts on a dented surface are measured against
+// it (engine/simulation.cpp reads each dented map back; physics/narrow_phase.cpp
+// displaces the surface by k (0.5 - h)), checked against the craters' geometry.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <string>
+
+#include "engine/simulation.h"
+#include "gl_fixture.h"
+
+using namespace crumple;
+
+namespace {
+
+// A steel ball of radius 0.25 m dropped at 8 m/s on a static clay plate (its top at y = 0) that keeps only the
+// first impact's dent (impulse_floor), and, parked away from it, a glass marble of radius 1.5 cm.
+std::string craterScene(bool feel, double ballX = 0) {
+  return R"({"format": "crumple-scene/1", "name": "crater", "gravity": [0, -9.81, 0], "timestep": 0.0041666667,
+    "duration": 10,
+    "materials": {
+      "clay": {"density": 1800, "restitution": 0.05, "friction": 0.8, "kappa": 0.00006, "thickness": 0.05},
+      "steel": {"density": 7800, "restitution": 0.05, "friction": 0.4, "kappa": 0.00006, "thickness": 0.01},
+      "glass": {"density": 2500, "restitution": 0.05, "friction": 0.6, "kappa": 0.00006, "thickness": 0.01}},
+    "deformation": {"bump_depth": 0.1, "bump_depth_collide": 0.02, "address_map": 512, "impulse_floor": 1000,
+                    "feel_dents": )" +
+         std::string(feel ? "true" : "false") + R"(},
+    "bodies": [
+      {"name": "plate", "shape": {"type": "box", "size": [2, 0.2, 2]}, "material": "clay", "static": true,
+       "position": [0, -0.1, 0], "bump_map": {"resolution": 512}},
+      {"name": "ball", "shape": {"type": "sphere", "radius": 0.25}, "material": "steel",
+       "position": [)" + std::to_string(ballX) + R"(, 0.6, 0], "velocity": [0, -8, 0]},
+      {"name": "marble", "shape": {"type": "sphere", "radius": 0.015}, "material": "glass",
+       "position": [0.8, 0.015, 0.8]},
+      {"name": "box", "shape": {"type": "box", "size": [0.24, 0.02, 0.04]}, "material": "clay",
+       "position": [0.7, 0.01, -0.6]}],
+    "cameras": [{"name": "low", "position": [0.9, 0.3, 0.9], "target": [0, 0, 0]}]})";
+}
+
+struct Crater {
+  double depth = 0;  // m below the plate's top at its deepest
+};
+
+Crater crater(const Simulation& sim) {
+  Crater c;
+  for (const BodyRuntime& b : sim.bodies())
+    if (b.name == "plate") {
+      const gl::Image map = b.surface->downloadHeight();
+      float lowest = 0.5f;
+      for (float v : map.pixels) lowest = std::min(lowest, v);
+      c.depth = b.surface->bumpDepth() * (0.5 - lowest);
+    }
+  return c;
+}
+
+const RigidBody& body(const Simulation& sim, const std::string& name) {
+  for (const BodyRuntime& b : sim.bodies())
+    if (b.name == name) return sim.world().body(b.index);
+  FAIL("no body " << name);
+  throw 0;
+}
+int index(const Simulation& sim, const std::string& name) {
+  for (const BodyRuntime& b : sim.bodies())
+    if (b.name == name) return b.index;
+  return -1;
+}
+
+void run(Simulation& sim, double seconds) {
+  const long steps = std::lround(seconds / sim.scene().timestep);
+  for (long i = 0; i < steps; ++i) sim.step();
+}
+
+}  // namespace
+
+TEST_CASE("a steel ball comes to rest in the crater it made, its centre the crater's depth below r") {
+  test::glContext();
+  Simulation sim(parseScene(craterScene(true), "crater.json", "."), true);
+  run(sim, 2.5);
+  const Crater c = crater(sim);
+  const RigidBody& ball = body(sim, "ball");
+  MESSAGE("crater " << c.depth * 1000 << " mm deep; the ball's centre at " << ball.x.y * 1000 << " mm (r - depth "
+                    << (0.25 - c.depth) * 1000 << " mm)");
+  CHECK(c.depth > 0.02);
+  CHECK(std::abs(ball.x.y - (0.25 - c.depth)) < 0.002);
+  CHECK(glm::length(ball.v) < 0.01);
+
+  // The paper's behaviour (dents visual only): the same crater, the ball on the undented plate.
+  Simulation paint(parseScene(craterScene(false), "crater.json", "."), true);
+  run(paint, 2.5);
+  CHECK(std::abs(crater(paint).depth - c.depth) < 1e-6);
+  CHECK(std::abs(body(paint, "ball").x.y - 0.25) < 0.002);
+}
+
+TEST_CASE("a marble dropped on a crater's slope rolls to its floor and rests there") {
+  test::glContext();
+  Simulation sim(parseScene(craterScene(true), "crater.json", "."), true);
+  run(sim, 1.0);
+  const Crater c = crater(sim);
+  // The ball set aside (on the undented plate); the marble set on the crater's slope, 6 cm from its centre.
+  World& w = sim.world();
+  const int ball = index(sim, "ball");
+  w.setPose(ball, {{-0.6, 0.25, -0.6}, glm::dquat(1, 0, 0, 0)});
+  w.setVelocity(ball, glm::dvec3(0));
+  w.setAngularVelocity(ball, glm::dvec3(0));
+  const int marble = index(sim, "marble");
+  w.setPose(marble, {{0.06, 0.02, 0.0}, glm::dquat(1, 0, 0, 0)});
+  w.setVelocity(marble, glm::dvec3(0));
+  w.setAngularVelocity(marble, glm::dvec3(0));
+  w.wake(marble);
+  // It rolls to and fro across the floor, losing a little at each pass over the map's texels: 30 s.
+  run(sim, 30.0);
+  const RigidBody& m = body(sim, "marble");
+  const double off = std::hypot(m.x.x, m.x.z);
+  MESSAGE("crater " << c.depth * 1000 << " mm deep; the marble " << off * 1000 << " mm from its centre, at y "
+                    << m.x.y * 1000 << " mm (floor + r: " << (0.015 - c.depth) * 1000 << " mm)");
+  CHECK(off < 0.01);
+  CHECK(std::abs(m.x.y - (0.015 - c.depth)) < 0.002);
+}
+
+TEST_CASE("a plank set half over a crater tips into it") {
+  test::glContext();
+  double tilt[2] = {0, 0};
+  for (int feel = 0; feel < 2; ++feel) {
+    Simulation sim(parseScene(craterScene(feel == 1), "crater.json", "."), true);
+    run(sim, 1.0);
+    World& w = sim.world();
+    const int ball = index(sim, "ball"), box = index(sim, "box");
+    w.setPose(ball, {{-0.6, 0.25, -0.6}, glm::dquat(1, 0, 0, 0)});
+    w.setVelocity(ball, glm::dvec3(0));
+    w.setAngularVelocity(ball, glm::dvec3(0));
+    // A plank from the crater's centre out over its rim (11 cm from the centre) onto the undented plate, its
+    // centre of mass inside the rim.
+    w.setPose(box, {{-0.08, 0.011, 0}, glm::dquat(1, 0, 0, 0)});
+    w.wake(box);
+    run(sim, 2.0);
+    const glm::dvec3 up = w.body(box).rotation() * glm::dvec3(0, 1, 0);
+    tilt[feel] = std::acos(std::clamp(up.y, -1.0, 1.0)) * 180 / 3.141592653589793;
+  }
+  MESSAGE("tilt: " << tilt[0] << " degrees on the undented plate, " << tilt[1] << " degrees with the crater felt");
+  CHECK(tilt[0] < 0.1);
+  CHECK(tilt[1] > 3);
+}
+
+TEST_CASE("a second ball on the same spot meets the first one's floor and deepens it") {
+  test::glContext();
+  // Two runs: one ball; and one ball, then the same ball again from the same height onto its crater.
+  auto drop = [](Simulation& sim) {
+    const int ball = index(sim, "ball");
+    sim.world().setPose(ball, {{0, 0.6, 0}, glm::dquat(1, 0, 0, 0)});
+    sim.world().setVelocity(ball, {0, -8, 0});
+    sim.world().setAngularVelocity(ball, glm::dvec3(0));
+    sim.world().wake(ball);
+  };
+  Simulation sim(parseScene(craterScene(true), "crater.json", "."), true);
+  run(sim, 1.0);
+  const double first = crater(sim).depth;
+  const size_t before = sim.events().size();
+  drop(sim);
+  run(sim, 1.0);
+  REQUIRE(sim.events().size() > before);
+  const CollisionEvent& second = sim.events()[before].event;
+  const double second_depth = crater(sim).depth;
+  MESSAGE("first crater " << first * 1000 << " mm; the second impact's contact point at y " << second.point.y * 1000
+                          << " mm; the crater then " << second_depth * 1000 << " mm");
+  // The second impact's contact lies at the first crater's floor (within the penetration of that step), and its
+  // dent adds to the first.
+  CHECK(second.point.y < -first + 0.01);
+  CHECK(second.point.y > -first - 0.03);
+  CHECK(second_depth > first + 0.005);
+}
+
+TEST_CASE("with nothing dented, or dents far away, bodies move as they did before dents were felt") {
+  test::glContext();
+  // The ball dents the plate at x = -0.6; the marble rests at (0.8, 0.8), far from it: its state is the same bits
+  // with dents felt and without.
+  Simulation felt(parseScene(craterScene(true, -0.6), "crater.json", "."), true);
+  Simulation paint(parseScene(craterScene(false, -0.6), "crater.json", "."), true);
+  run(felt, 1.0);
+  run(paint, 1.0);
+  const RigidBody& a = body(felt, "marble");
+  const RigidBody& b = body(paint, "marble");
+  CHECK(crater(felt).depth > 0.02);
+  CHECK(a.x == b.x);
+  CHECK(a.v == b.v);
+  CHECK(a.q == b.q);
+}

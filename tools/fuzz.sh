@@ -13,7 +13,7 @@ regression cases), then fuzzes each target for N seconds from that corpus.
                  physics scenes checked against the step's invariants after every step, tests/physics_scenario.h)
   --no-build     use the targets already in build-fuzz/
 Inputs that reach new code go to build-fuzz/corpus/<target>/ (not the repository's corpus); a crash, a leak,
-undefined behaviour, an input over 10 s or over 2 GB of memory is written to build-fuzz/findings/<target>/ and
+undefined behaviour, an input over 10 s (a physics scene: 60 s) or over 2 GB of memory is written to build-fuzz/findings/<target>/ and
 makes the exit status 1 (replay one: build-fuzz/tests/fuzz/fuzz_<target> FILE; once fixed, keep it as
 tests/fuzz/corpus/<target>/fuzz-<what>.<ext>, a regression case). Logs: build-fuzz/logs/.
 A long run: tools/fuzz.sh --seconds 3600 --parallel 2 (docs/testing.md, "Fuzzing").
@@ -76,8 +76,12 @@ fi
 mkdir -p "$out/logs"
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
-# libFuzzer's limits: a run over 10 s is a hang, over 2 GB a blow-up.
-limits=(-timeout=10 -rss_limit_mb=2048)
+# libFuzzer's limits: a run over 10 s is a hang, over 2 GB a blow-up. A physics scene is 120 steps of up to 16
+# substeps each, its joints solved to their sweep limit in the worst case (about 1 s, 10 s under the sanitizers):
+# 60 s for it.
+limits_of() {
+  if [ "$1" = physics ]; then echo "-timeout=60 -rss_limit_mb=2048"; else echo "-timeout=10 -rss_limit_mb=2048"; fi
+}
 
 # 1. Regression: every file of the corpus once, whole (a fuzzing run would cut the long ones to -max_len).
 failed=0
@@ -85,6 +89,7 @@ for t in "${list[@]}"; do
   mapfile -t files < <(find "tests/fuzz/corpus/$t" -type f | sort)
   [ ${#files[@]} -gt 0 ] || continue
   start=$(date +%s%N)
+  read -r -a limits <<<"$(limits_of "$t")"
   if "$bin/fuzz_$t" "${limits[@]}" "${files[@]}" >"$out/logs/$t-replay.log" 2>&1; then
     ms=$((($(date +%s%N) - start) / 1000000))
     printf 'fuzz: %-5s replayed %3d corpus files in %d.%d s: ok\n' "$t" "${#files[@]}" $((ms / 1000)) \
@@ -102,6 +107,8 @@ fuzz_one() {
   mkdir -p "$out/corpus/$t" "$out/findings/$t"
   local dict=()
   [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
+  local limits
+  read -r -a limits <<<"$(limits_of "$t")"
   "$root/$bin/fuzz_$t" "${limits[@]}" -max_total_time="$seconds" -max_len=16384 "${dict[@]}" \
     -artifact_prefix="$out/findings/$t/" -print_final_stats=1 "$out/corpus/$t" "tests/fuzz/corpus/$t" \
     >"$out/logs/$t.log" 2>&1

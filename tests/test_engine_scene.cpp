@@ -778,7 +778,7 @@ TEST_CASE("every file of the fuzzers' corpora loads or is refused, at once (the 
       // The valid seeds load (a fuzzer starts from them); the kept hostile files are refused.
       if (name.rfind("tet", 0) == 0 || name == "car.obj" || name == "wbeam.obj" || name == "pyramid.off")
         CHECK(err.empty());
-      if ((name.rfind("issue16-", 0) == 0 && name != "issue16-duplicate-faces.obj") || name.rfind("fuzz-", 0) == 0)
+      if ((name.rfind("hostile-", 0) == 0 && name != "hostile-duplicate-faces.obj") || name.rfind("fuzz-", 0) == 0)
         CHECK(!err.empty());
       ++(err.empty() ? loaded : refused);
     }

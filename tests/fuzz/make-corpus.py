@@ -4,7 +4,7 @@ dictionaries, tests/fuzz/<target>.dict (the words of each format; the scene's ke
 
 Seeds: the shipped scenes (scenes/*.json) and the small shipped assets (scenes/assets/*.obj under 64 KB), small
 valid files of each format (a tetrahedron in every variant the readers accept), and every hostile input the loaders
-once mishandled, kept as a regression case (named issue16-*; tools/fuzz.sh replays each file once before fuzzing). Deterministic:
+once mishandled, kept as a regression case (named hostile-*; tools/fuzz.sh replays each file once before fuzzing). Deterministic:
 rerunning it rewrites the same bytes and leaves other files there alone: the inputs a fuzzer found (named fuzz-*,
 copied from build-fuzz/findings/), kept as regression cases. Usage: tests/fuzz/make-corpus.py
 """
@@ -54,21 +54,21 @@ def scenes():
 
     # Regression cases, scene side: a 100000-deep array in a key that fails validation (the message dumped it).
     deep = json.dumps(base).replace('"gravity": [0, -9.81, 0]', '"gravity": ' + "[" * 100000 + "]" * 100000)
-    write("scene", "issue16-deep-array.json", deep)
+    write("scene", "hostile-deep-array.json", deep)
     # A 100000-character key path and a long value (messages are capped).
-    variant("issue16-long-key.json", lambda s: s["bodies"][1].update({"x" * 100000: 1}))
-    variant("issue16-long-name.json", lambda s: s["bodies"][1].update({"name": "n" * 100000}))
+    variant("hostile-long-key.json", lambda s: s["bodies"][1].update({"x" * 100000: 1}))
+    variant("hostile-long-name.json", lambda s: s["bodies"][1].update({"name": "n" * 100000}))
     # The physics cases parse fine; kept so the loader's side of them stays covered.
-    variant("issue16-thin-capsule.json", lambda s: s["bodies"][1].update(
+    variant("hostile-thin-capsule.json", lambda s: s["bodies"][1].update(
         {"shape": {"type": "capsule", "radius": 1e-4, "height": 1e4}}))
-    variant("issue16-coincident-spheres.json", lambda s: s["bodies"].extend(
+    variant("hostile-coincident-spheres.json", lambda s: s["bodies"].extend(
         [{"name": "s%d" % i, "shape": {"type": "sphere", "radius": 0.1}, "material": "steel",
           "position": [0, 1, 0]} for i in range(50)]))
-    variant("issue16-thin-plate.json", lambda s: s["bodies"][0].update(
+    variant("hostile-thin-plate.json", lambda s: s["bodies"][0].update(
         {"shape": {"type": "box", "size": [2, 0.0001, 2]}}))
-    variant("issue16-10km-box.json", lambda s: s["bodies"][1].update(
+    variant("hostile-10km-box.json", lambda s: s["bodies"][1].update(
         {"shape": {"type": "box", "size": [1e4, 1e4, 1e4]}}))
-    variant("issue16-mesh-folder-image.json", lambda s: s["bodies"][0].update(
+    variant("hostile-mesh-folder-image.json", lambda s: s["bodies"][0].update(
         {"bump_map": {"image": "assets"}}))
     variant("mesh-body.json", lambda s: s["bodies"][1].update(
         {"shape": {"type": "mesh", "file": "assets/car.obj", "scale": [0.5, 0.5, 0.5]}}))
@@ -88,9 +88,9 @@ def obj():
           "f 3 4 5\nf 4 1 5\n# comment\ng group\ns off\nusemtl m\nvn 0 0 1\n")
     # Regression cases: duplicate faces (10^6 in the original input; 2000 here), NUL bytes (2 GB in the original),
     # a 1e38 coordinate.
-    write("obj", "issue16-duplicate-faces.obj", v + f + "f 1 3 2\nf 3 2 1\n" * 1000)
-    write("obj", "issue16-nul-bytes.obj", b"\0" * 4096)
-    write("obj", "issue16-huge-coordinate.obj", v.replace("v 1 0 0", "v 1e38 0 0") + f)
+    write("obj", "hostile-duplicate-faces.obj", v + f + "f 1 3 2\nf 3 2 1\n" * 1000)
+    write("obj", "hostile-nul-bytes.obj", b"\0" * 4096)
+    write("obj", "hostile-huge-coordinate.obj", v.replace("v 1 0 0", "v 1e38 0 0") + f)
     write("obj", "index-out-of-range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n")
 
 
@@ -115,10 +115,10 @@ def off():
           b"".join(struct.pack("<5f", *(p + p[:2])) for p in TET) + faces)
     # Regression cases: a binary OFF with a face index out of range, with a lying face count, with a face of -3
     # vertices; an ASCII OFF with a coordinate of 1e38.
-    write("off", "issue16-binary-index-out-of-range.off", binary(4, 4, TET, faces[:-4] + struct.pack("<i", 1000000)))
-    write("off", "issue16-binary-lying-face-count.off", binary(4, 2000000000, TET, faces))
-    write("off", "issue16-binary-face-of-minus-3.off", binary(4, 4, TET, struct.pack("<i", -3) + faces[4:]))
-    write("off", "issue16-coordinate-1e38.off", "OFF\n4 4 0\n" + v.replace("1 0 0", "1e38 0 0") + f)
+    write("off", "hostile-binary-index-out-of-range.off", binary(4, 4, TET, faces[:-4] + struct.pack("<i", 1000000)))
+    write("off", "hostile-binary-lying-face-count.off", binary(4, 2000000000, TET, faces))
+    write("off", "hostile-binary-face-of-minus-3.off", binary(4, 4, TET, struct.pack("<i", -3) + faces[4:]))
+    write("off", "hostile-coordinate-1e38.off", "OFF\n4 4 0\n" + v.replace("1 0 0", "1e38 0 0") + f)
     write("off", "huge-count.off", "OFF\n999999999 1 0\n")
 
 
@@ -137,10 +137,10 @@ def ply():
                                             "property float v\n").replace(v, "".join(
                                                 "%g %g %g %g %g\n" % (p + p[:2]) for p in TET)))
     # Regression cases: corrupted 'element' keyword and 'end_header' (OpenMesh crashed or looped), no end_header.
-    write("ply", "issue16-corrupted-element.ply", good.replace("element face", "elemXnt face"))
-    write("ply", "issue16-corrupted-end-header.ply", good.replace("end_header", "end_hXader"))
-    write("ply", "issue16-no-end-header.ply", good.replace("end_header\n", ""))
-    write("ply", "issue16-corrupted-element-line.ply", good.replace("element vertex 4", "element vertex"))
+    write("ply", "hostile-corrupted-element.ply", good.replace("element face", "elemXnt face"))
+    write("ply", "hostile-corrupted-end-header.ply", good.replace("end_header", "end_hXader"))
+    write("ply", "hostile-no-end-header.ply", good.replace("end_header\n", ""))
+    write("ply", "hostile-corrupted-element-line.ply", good.replace("element vertex 4", "element vertex"))
     write("ply", "index-out-of-range.ply", good.replace("3 1 2 3", "3 1 2 99"))
 
 
@@ -184,7 +184,7 @@ def gltf():
     missing = json.loads(json.dumps(doc))
     missing["buffers"][0]["uri"] = "missing.bin"
     write("gltf", "missing-buffer.gltf", json.dumps(missing))
-    write("gltf", "issue16-nul-bytes.gltf", b"\0" * 4096)
+    write("gltf", "hostile-nul-bytes.gltf", b"\0" * 4096)
 
 
 def glb():
@@ -198,11 +198,11 @@ def glb():
     edit("tet-rotated.glb", {"rotation": [0, 0, 0.3826834, 0.9238795], "scale": [1, 2, 0.5]})
     # Regression cases: GLB positions of 3e38, a zero node rotation, a 1e30 node scale, a negative byteOffset; a 2 GB
     # file of NUL bytes (4 KB here).
-    edit("issue16-positions-3e38.glb", scale=3e38)
-    edit("issue16-zero-rotation.glb", {"rotation": [0, 0, 0, 0]})
-    edit("issue16-scale-1e30.glb", {"scale": [1e30, 1, 1]})
-    edit("issue16-negative-byte-offset.glb", view={"byteOffset": -4})
-    write("glb", "issue16-nul-bytes.glb", b"\0" * 4096)
+    edit("hostile-positions-3e38.glb", scale=3e38)
+    edit("hostile-zero-rotation.glb", {"rotation": [0, 0, 0, 0]})
+    edit("hostile-scale-1e30.glb", {"scale": [1e30, 1, 1]})
+    edit("hostile-negative-byte-offset.glb", view={"byteOffset": -4})
+    write("glb", "hostile-nul-bytes.glb", b"\0" * 4096)
 
 
 def dictionary(target, words):

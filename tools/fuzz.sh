@@ -11,6 +11,8 @@ regression cases), then fuzzes each target for N seconds from that corpus.
   --parallel N   targets fuzzed at once (default 1)
   --targets LIST comma-separated, from scene,obj,off,ply,gltf,glb,physics (default all; physics: random
                  physics scenes checked against the step's invariants after every step, tests/physics_scenario.h)
+  --seed N       libFuzzer's random seed (default: a new one each run); CI fuzzes with --seed 1, so that a
+                 run of the same commit tries the same inputs in the same order
   --no-build     use the targets already in build-fuzz/
 Inputs that reach new code go to build-fuzz/corpus/<target>/ (not the repository's corpus); a crash, a leak,
 undefined behaviour, an input over 10 s (a physics scene: 60 s) or over 2 GB of memory is written to build-fuzz/findings/<target>/ and
@@ -23,10 +25,11 @@ seconds=15
 parallel=1
 targets="scene,obj,off,ply,gltf,glb,physics"
 build=1
+seed=
 while [ $# -gt 0 ]; do
   case "$1" in
     -h | --help) usage; exit 0 ;;
-    --seconds | --parallel | --targets)
+    --seconds | --parallel | --targets | --seed)
       if [ $# -lt 2 ]; then
         echo "$(basename "$0"): $1 needs a value" >&2
         exit 2
@@ -35,6 +38,7 @@ while [ $# -gt 0 ]; do
         --seconds) seconds="$2" ;;
         --parallel) parallel="$2" ;;
         --targets) targets="$2" ;;
+        --seed) seed="$2" ;;
       esac
       shift 2
       ;;
@@ -48,6 +52,10 @@ while [ $# -gt 0 ]; do
 done
 if ! [[ "$seconds" =~ ^[1-9][0-9]*$ && "$parallel" =~ ^[1-9][0-9]*$ ]]; then
   echo "$(basename "$0"): --seconds and --parallel take whole numbers of at least 1" >&2
+  exit 2
+fi
+if [ -n "$seed" ] && ! [[ "$seed" =~ ^[1-9][0-9]{0,8}$ ]]; then
+  echo "$(basename "$0"): --seed takes a whole number from 1 to 999999999" >&2
   exit 2
 fi
 IFS=, read -r -a list <<<"$targets"
@@ -109,6 +117,7 @@ fuzz_one() {
   [ -f "tests/fuzz/$t.dict" ] && dict=(-dict="tests/fuzz/$t.dict")
   local limits
   read -r -a limits <<<"$(limits_of "$t")"
+  if [ -n "$seed" ]; then limits+=(-seed="$seed"); fi
   "$root/$bin/fuzz_$t" "${limits[@]}" -max_total_time="$seconds" -max_len=16384 "${dict[@]}" \
     -artifact_prefix="$out/findings/$t/" -print_final_stats=1 "$out/corpus/$t" "tests/fuzz/corpus/$t" \
     >"$out/logs/$t.log" 2>&1

@@ -327,6 +327,7 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
   json tj;
   tj["physics_ms"] = t.physicsMs;
   tj["physics_ms_per_step"] = t.steps ? t.physicsMs / static_cast<double>(t.steps) : 0.0;
+  tj["dent_read_ms"] = t.dentReadMs;
   tj["deform_ms"] = t.deformMs;
   tj["deform_ms_per_deformation"] = t.deformations ? t.deformMs / static_cast<double>(t.deformations) : 0.0;
   tj["render_ms"] = t.renderMs;

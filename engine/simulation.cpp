@@ -460,6 +460,8 @@ void Simulation::step() {
   const double h = scene_.timestep;
   auto t0 = Clock::now();
   takeInDents();
+  timings_.dentReadMs += msSince(t0);
+  t0 = Clock::now();
   stepPhysics(h);
   timings_.physicsMs += msSince(t0);
   ++steps_;

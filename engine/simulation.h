@@ -63,6 +63,7 @@ struct JointBreakRecord {
 // read when they come back: gpuTimes() brings them up to date).
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
+  double dentReadMs = 0;  // taking the dented maps read back into the physics (the fence's wait included)
   double deformGpuMs = 0, renderGpuMs = 0;
   long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;
 };

@@ -976,6 +976,16 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h) {
   return energy;
 }
 
+// The kinetic energy of the dynamic bodies the joints of s join.
+double joinedEnergy(const StepContext& ctx, const JointSystem& s) {
+  double energy = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i >= 0 && ctx.body(i).dynamic()) energy += ctx.body(i).kineticEnergy();
+  }
+  return energy;
+}
+
 // Takes away the relative velocities the joints of s forbid. The velocity rows are linear: one direct solve
 // removes them; more passes only where limit or range rows may join or leave. Removing forbidden velocity never
 // adds energy beyond what the joints' kinematic ends drive (every joined body brought to the fastest speed a
@@ -1016,11 +1026,7 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
     solvePass(ctx, s, h, false);
     return s.conditional || !s.loops.empty();
   });
-  double after = 0;
-  for (size_t k = 1; k < s.sides.size(); ++k) {
-    const int i = s.sides[k].index;
-    if (i >= 0 && ctx.body(i).dynamic()) after += ctx.body(i).kineticEnergy();
-  }
+  const double after = joinedEnergy(ctx, s);
   if (after <= before + 0.5 * mass * drive * drive + 1e-9 * before) return;
   restoreCall(ctx, s, saved, books);
   ++ctx.stats.jointFallbacks;
@@ -1103,11 +1109,7 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     // Sweeps that handed the joined bodies more energy than that (joints that contradict each other, a loop solved
     // joint by joint past its fixed point, a lever the direct solve cannot condition) are undone: the joints then
     // only take away the relative velocities they forbid, as post-stabilisation does, which never adds energy.
-    double after = 0;
-    for (size_t k = 1; k < s.sides.size(); ++k) {
-      const int i = s.sides[k].index;
-      if (i >= 0 && ctx.body(i).dynamic()) after += ctx.body(i).kineticEnergy();
-    }
+    const double after = joinedEnergy(ctx, s);
     if (!(after <= before + budget + 1e-9 * before)) {
       restoreCall(ctx, s, saved, books);
       ++ctx.stats.jointFallbacks;

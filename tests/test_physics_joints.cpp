@@ -233,6 +233,55 @@ TEST_CASE("joints: slider limits hold and the slider does not turn") {
   CHECK(maxTurn < 0.001);
 }
 
+TEST_CASE("joints: a bead slides out along a turning rod: the rod slows as I(r) grows, momentum and energy kept") {
+  // Zero gravity: a 10 kg rod 2 m long turns freely on a hinge about y at its centre; a 1 kg bead on an unlimited
+  // slider along the rod starts 0.2 m out and is flung outwards. Nothing acts about the hinge's axis, so
+  // L = (I_rod + I_bead + m r^2) w stays put: the rod's turn rate at each bead distance follows, and the kinetic
+  // energy stays too (the slider does no work).
+  PhysicsTestContext t;
+  t.settings().gravity = glm::dvec3(0);
+  const glm::dvec3 centre(0, 1, 0);
+  const double w0 = 3;
+  BodyDef rd;
+  rd.shape = makeBox({2.0, 0.1, 0.1});
+  rd.origin = centre;
+  rd.mass = 10;
+  rd.angularVelocity = {0, w0, 0};
+  const int rod = t.add(rd);
+  BodyDef bd;
+  bd.shape = makeBox({0.1, 0.1, 0.1});
+  bd.origin = centre + glm::dvec3(0.2, 0, 0);
+  bd.mass = 1;
+  bd.angularVelocity = {0, w0, 0};
+  bd.linearVelocity = glm::cross(bd.angularVelocity, bd.origin - centre);
+  const int bead = t.add(bd);
+  t.world().addJoint(jointBetween(JointType::Hinge, -1, rod, centre, {0, 1, 0}));
+  t.world().addJoint(jointBetween(JointType::Slider, rod, bead, bd.origin, {1, 0, 0}));
+  const double iRod = 10 * (4 + 0.01) / 12, iBead = 1 * 0.02 / 12;
+  auto momentum = [&] {
+    const RigidBody& b = t.body(bead);
+    return t.body(rod).angularMomentum().y + b.angularMomentum().y + b.mass * glm::cross(b.x - centre, b.v).y;
+  };
+  const double l0 = momentum(), e0 = kineticEnergy(t.world());
+  double worstL = 0, worstRate = 0, gain = 0, r = 0;
+  for (int s = 0; s < 240; ++s) {
+    t.world().step(t.stepSize());
+    r = glm::length(t.body(bead).x - centre);
+    const double expected = l0 / (iRod + iBead + r * r);  // the turn rate conservation gives at r
+    worstRate = std::max(worstRate, std::abs(t.body(rod).w.y - expected) / expected);
+    worstL = std::max(worstL, std::abs(momentum() - l0) / l0);
+    gain = std::max(gain, kineticEnergy(t.world()) - e0);
+  }
+  const double e1 = kineticEnergy(t.world());
+  MESSAGE("bead at " << r << " m, rod at " << t.body(rod).w.y << " rad/s; |dL|/L " << worstL << ", rate error "
+                     << worstRate << ", energy " << e0 << " -> " << e1 << " J");
+  CHECK(r > 1.2);                      // flung out: the rod has slowed to about half its rate
+  CHECK(worstRate < 0.01);
+  CHECK(worstL < 0.005);
+  CHECK(gain <= 1e-9 * e0);
+  CHECK(e1 > 0.98 * e0);
+}
+
 TEST_CASE("joints: a distance joint with min 0 is a rope: slack when pushed in, taut at its length") {
   PhysicsTestContext t;
   const int ball = t.addSphere(0.1, {0.5, 3, 0}, 0.5, 0.5);

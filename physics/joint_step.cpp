@@ -994,10 +994,38 @@ double joinedEnergy(const StepContext& ctx, const JointSystem& s) {
   return energy;
 }
 
+// How far from a kinematic end the joints can hold a point of a joined body: every active joint's levers and
+// range laid end to end (an unlimited slider: its gap now), and the widest joined body. From the joints, not from
+// where the bodies are: a body that contradicting joints tore away must not raise the ceiling below by being far.
+double jointReach(const StepContext& ctx, const JointSystem& s) {
+  double reach = 0, widest = 0;
+  auto add = [&](int j) {
+    const Joint& jt = ctx.joints[static_cast<size_t>(j)];
+    const JointDef& d = jt.def;
+    if (d.a >= 0) reach += glm::length(jt.rA);
+    reach += glm::length(jt.rB);
+    if (d.type == JointType::Distance) reach += std::max(jt.length, std::isfinite(jt.maxLength) ? jt.maxLength : 0.0);
+    if (d.type == JointType::Slider) {
+      if (d.limited) reach += std::max(std::abs(d.lower), std::abs(d.upper));
+      else {
+        const auto at = [&](int i, const glm::dvec3& r) { return i < 0 ? r : ctx.body(i).x + ctx.body(i).q * r; };
+        reach += glm::length(at(d.b, jt.rB) - at(d.a, jt.rA));
+      }
+    }
+  };
+  for (int j : s.joints) add(j);
+  for (int j : s.loops) add(j);
+  for (size_t k = 1; k < s.sides.size(); ++k)
+    if (s.sides[k].index >= 0 && ctx.body(s.sides[k].index).dynamic())
+      widest = std::max(widest, ctx.body(s.sides[k].index).shape->boundingRadius);
+  return reach + 2 * widest;
+}
+
 // Takes away the relative velocities the joints of s forbid. The velocity rows are linear: one direct solve
 // removes them; more passes only where limit or range rows may join or leave. Removing forbidden velocity never
-// adds energy beyond what the joints' kinematic ends drive (every joined body brought to the fastest speed a
-// kinematic end's points have); a direct solve that does (a system the factorisation cannot condition: a light
+// raises the joined bodies' energy above what they had or, where kinematic ends drive them, above every joined
+// body moving at the fastest speed a kinematic end's points have (a ceiling, not an allowance per call: calls
+// that each add a little would add up without end); a direct solve that does (a system the factorisation cannot condition: a light
 // body carrying a heavy one on a long lever through two joints) is undone, and the joints are taken one at a
 // time instead (Gauss-Seidel: each joint's own small solve between its two bodies), which converges slower but
 // never gains.
@@ -1005,16 +1033,12 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
   std::vector<BodyState>& saved = ctx.jointVelocitySaved;
   saved.clear();
   double before = 0, mass = 0, drive = 0;
+  const double reach = jointReach(ctx, s);
   for (size_t k = 1; k < s.sides.size(); ++k) {
     const int i = s.sides[k].index;
     if (i < 0 || !ctx.body(i).movable()) continue;
     const RigidBody& b = ctx.body(i);
     if (!b.dynamic()) {
-      double reach = 0;
-      for (size_t o = 1; o < s.sides.size(); ++o)
-        if (s.sides[o].index >= 0)
-          reach = std::max(reach, glm::length(ctx.body(s.sides[o].index).x - b.x) +
-                                      ctx.body(s.sides[o].index).shape->boundingRadius);
       drive = std::max(drive, glm::length(b.v) + glm::length(b.w) * reach);
       continue;
     }
@@ -1034,8 +1058,8 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
     solvePass(ctx, s, h, false);
     return s.conditional || !s.loops.empty();
   });
-  const double after = joinedEnergy(ctx, s);
-  if (after <= before + 0.5 * mass * drive * drive + 1e-9 * before) return;
+  const double ceiling = std::max(before, 0.5 * mass * drive * drive) + 1e-9 * before;
+  if (joinedEnergy(ctx, s) <= ceiling) return;
   restoreCall(ctx, s, saved, books);
   ++ctx.stats.jointFallbacks;
   passes([&] {
@@ -1045,6 +1069,12 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
     solveLoops(ctx, s, h, false);
     return true;
   });
+  // Each joint's own solve is a projection in the bodies' mass metric, which never gains when every end can move;
+  // a kinematic end moves the target, and joints that contradict one it drives (a body it whirls, pinned to the
+  // world) can pump without end. Such a call is undone: the joints yield for this substep (the projection still
+  // pulls their anchors together, at most at the correction speed).
+  if (joinedEnergy(ctx, s) <= ceiling) return;
+  restoreCall(ctx, s, saved, books);
 }
 
 void wakeJoined(StepContext& ctx) {

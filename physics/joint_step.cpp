@@ -575,14 +575,6 @@ JointSystem& buildSystem(StepContext& ctx) {
   s.loops.clear();
   s.loopEnds.clear();
   s.onBody.assign(1, {});
-  // Components of the dynamic bodies joined to each other (union-find over
-  // the slots; slot 0, all that cannot move, joins nothing).
-  std::vector<int> root(1, 0);
-  auto find = [&](int k) {
-    while (root[static_cast<size_t>(k)] != k)
-      k = root[static_cast<size_t>(k)] = root[static_cast<size_t>(root[static_cast<size_t>(k)])];
-    return k;
-  };
   auto slotOf = [&](int body) {
     if (body < 0) return 0;
     int& k = s.slot[static_cast<size_t>(body)];
@@ -590,7 +582,6 @@ JointSystem& buildSystem(StepContext& ctx) {
       k = static_cast<int>(s.sides.size());
       s.sides.push_back(sideAt(ctx, body));
       s.onBody.emplace_back();
-      root.push_back(s.sides.back().invMass > 0 ? k : 0);
     }
     return k;
   };
@@ -602,21 +593,43 @@ JointSystem& buildSystem(StepContext& ctx) {
     const int sa = slotOf(jt.def.a), sb = slotOf(jt.def.b);
     active.push_back(static_cast<int>(i));
     ends.emplace_back(sa, sb);
-    const int ra = find(sa), rb = find(sb);
-    if (ra != 0 && rb != 0 && ra != rb) root[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
   }
-  // A component is a tree (what cannot move counting as one more body) when it
-  // has no more joints than bodies; the others hold loops.
-  std::vector<int> bodies(s.sides.size(), 0), joints(s.sides.size(), 0);
-  for (size_t k = 1; k < s.sides.size(); ++k)
-    if (root[k] != 0) ++bodies[static_cast<size_t>(find(static_cast<int>(k)))];
-  auto componentOf = [&](const std::pair<int, int>& e) { return find(root[static_cast<size_t>(e.first)] != 0 ? e.first : e.second); };
-  for (const auto& e : ends) ++joints[static_cast<size_t>(componentOf(e))];
+  // A spanning forest over the bodies (what cannot move counting as one): the joints taken strongest first (most
+  // rows: a weld, then a hinge or a slider, a ball, a rod), then by id; one whose ends the forest already connects
+  // closes a loop. The forest is solved directly; the loops one by one around it. (With every joint of a component
+  // that holds a loop solved one by one, a heavy body welded on a long lever to a body held by a ring of joints
+  // kept only part of gravity's pull out of its velocity each substep.)
+  auto rowCount = [&](int i) {
+    switch (ctx.joints[static_cast<size_t>(i)].def.type) {
+      case JointType::Fixed: return 6;
+      case JointType::Hinge:
+      case JointType::Slider: return 5;
+      case JointType::Ball: return 3;
+      default: return 1;
+    }
+  };
+  std::vector<size_t> strongest(active.size());
+  for (size_t k = 0; k < strongest.size(); ++k) strongest[k] = k;
+  std::stable_sort(strongest.begin(), strongest.end(),
+                   [&](size_t p, size_t q) { return rowCount(active[p]) > rowCount(active[q]); });
+  std::vector<int> forest(s.sides.size());
+  for (size_t k = 0; k < forest.size(); ++k) forest[k] = s.sides[k].invMass > 0 ? static_cast<int>(k) : 0;
+  auto findForest = [&](int k) {
+    while (forest[static_cast<size_t>(k)] != k)
+      k = forest[static_cast<size_t>(k)] = forest[static_cast<size_t>(forest[static_cast<size_t>(k)])];
+    return k;
+  };
+  std::vector<char> closesLoop(active.size(), 0);
+  for (size_t k : strongest) {
+    const int fa = findForest(ends[k].first), fb = findForest(ends[k].second);
+    if (fa == fb) closesLoop[k] = 1;
+    else forest[static_cast<size_t>(std::max(fa, fb))] = std::min(fa, fb);
+  }
   for (size_t k = 0; k < active.size(); ++k) {
     const int i = active[k];
     const Joint& jt = ctx.joints[static_cast<size_t>(i)];
-    const int sa = ends[k].first, sb = ends[k].second, c = componentOf(ends[k]);
-    if (joints[static_cast<size_t>(c)] > bodies[static_cast<size_t>(c)]) {
+    const int sa = ends[k].first, sb = ends[k].second;
+    if (closesLoop[k]) {
       s.loops.push_back(i);
       s.loopEnds.emplace_back(sa, sb);
       continue;

@@ -22,27 +22,13 @@
 
 namespace crumple::detail {
 
-namespace {
-int root(std::vector<int>& parent, int i) {
-  while (parent[static_cast<size_t>(i)] != i) {
-    parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
-    i = parent[static_cast<size_t>(i)];
-  }
-  return i;
-}
-}  // namespace
-
 void findIslands(StepContext& ctx) {
   const size_t n = ctx.bodies.size(), np = ctx.pairs.size();
-  std::vector<int>& parent = ctx.islandParent;
-  parent.resize(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  DisjointSets& sets = ctx.islandSets;
+  sets.reset(n);
   auto movable = [&](int i) { return ctx.body(i).movable(); };
   for (const Pair& p : ctx.pairs)
-    if (movable(p.a) && movable(p.b)) {
-      const int ra = root(parent, p.a), rb = root(parent, p.b);
-      if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
-    }
+    if (movable(p.a) && movable(p.b)) sets.unite(p.a, p.b);
   // Island numbers by first pair; each pair's island.
   std::vector<int>& id = ctx.islandOfBody;
   id.assign(n, -1);
@@ -51,7 +37,7 @@ void findIslands(StepContext& ctx) {
   int islands = 0;
   for (size_t pi = 0; pi < np; ++pi) {
     const Pair& p = ctx.pairs[pi];
-    const int r = root(parent, movable(p.a) ? p.a : p.b);
+    const int r = sets.find(movable(p.a) ? p.a : p.b);
     int& k = id[static_cast<size_t>(r)];
     if (k < 0) k = islands++;
     pairIsland[pi] = k;

@@ -612,19 +612,12 @@ JointSystem& buildSystem(StepContext& ctx) {
   for (size_t k = 0; k < strongest.size(); ++k) strongest[k] = k;
   std::stable_sort(strongest.begin(), strongest.end(),
                    [&](size_t p, size_t q) { return rowCount(active[p]) > rowCount(active[q]); });
-  std::vector<int> forest(s.sides.size());
-  for (size_t k = 0; k < forest.size(); ++k) forest[k] = s.sides[k].invMass > 0 ? static_cast<int>(k) : 0;
-  auto findForest = [&](int k) {
-    while (forest[static_cast<size_t>(k)] != k)
-      k = forest[static_cast<size_t>(k)] = forest[static_cast<size_t>(forest[static_cast<size_t>(k)])];
-    return k;
-  };
+  DisjointSets forest;
+  forest.reset(s.sides.size());
+  for (size_t k = 1; k < s.sides.size(); ++k)
+    if (!(s.sides[k].invMass > 0)) forest.unite(static_cast<int>(k), 0);  // what cannot move is one
   std::vector<char> closesLoop(active.size(), 0);
-  for (size_t k : strongest) {
-    const int fa = findForest(ends[k].first), fb = findForest(ends[k].second);
-    if (fa == fb) closesLoop[k] = 1;
-    else forest[static_cast<size_t>(std::max(fa, fb))] = std::min(fa, fb);
-  }
+  for (size_t k : strongest) closesLoop[k] = !forest.unite(ends[k].first, ends[k].second);
   for (size_t k = 0; k < active.size(); ++k) {
     const int i = active[k];
     const Joint& jt = ctx.joints[static_cast<size_t>(i)];

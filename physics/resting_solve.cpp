@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "physics/disjoint_sets.h"
 #include "physics/step_context.h"
 
 namespace crumple::detail {
@@ -49,14 +50,6 @@ struct IslandGroup {
   double mu = 0, twistRadius = 0;
 };
 
-int find(std::vector<int>& parent, int i) {
-  while (parent[static_cast<size_t>(i)] != i) {
-    parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
-    i = parent[static_cast<size_t>(i)];
-  }
-  return i;
-}
-
 }  // namespace
 
 bool loadBearing(const Shape& shape) {
@@ -79,8 +72,8 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
   }
   const size_t nb = ctx.bodies.size();
   // Islands of dynamic bodies through the pairs that have groups.
-  std::vector<int> parent(nb);
-  for (size_t i = 0; i < nb; ++i) parent[i] = static_cast<int>(i);
+  DisjointSets sets;
+  sets.reset(nb);
   std::vector<char> joined(nb, 0);
   for (const Joint& j : ctx.joints) {
     if (j.removed || j.broken) continue;
@@ -93,7 +86,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     if (ctx.groups[pi].empty()) continue;
     anyGroup = true;
     const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
-    if (dyn(a) && dyn(b)) parent[static_cast<size_t>(find(parent, a))] = find(parent, b);
+    if (dyn(a) && dyn(b)) sets.unite(a, b);
   }
   if (!anyGroup) {
     ctx.restingWarm.clear();
@@ -104,7 +97,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
   std::vector<char> skip(nb, 0);
   auto rootOf = [&](size_t pi) {
     const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
-    return find(parent, dyn(a) ? a : b);
+    return sets.find(dyn(a) ? a : b);
   };
   for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
     if (ctx.groups[pi].empty()) continue;

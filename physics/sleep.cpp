@@ -58,17 +58,10 @@ void updateSleep(StepContext& ctx, double h) {
     if (any) ready[static_cast<size_t>(worker)] = 1;
   });
   if (!settings.sleeping || std::find(ready.begin(), ready.end(), 1) == ready.end()) return;
-  std::vector<int> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](int x) {
-    while (parent[static_cast<size_t>(x)] != x)
-      x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
-    return x;
-  };
-  auto unite = [&](int a, int b) {
-    const int ra = find(a), rb = find(b);
-    if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
-  };
+  DisjointSets sets;
+  sets.reset(n);
+  auto find = [&](int x) { return sets.find(x); };
+  auto unite = [&](int a, int b) { sets.unite(a, b); };
   auto fixedBody = [&](int i) { return bodies[static_cast<size_t>(i)].isStatic || bodies[static_cast<size_t>(i)].kinematic; };
   for (const Pair& p : ctx.pairs) {
     if (fixedBody(p.a) || fixedBody(p.b)) continue;

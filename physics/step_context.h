@@ -48,6 +48,7 @@
 #include "physics/impulse.h"
 #include "physics/joint.h"
 #include "physics/thread_pool.h"
+#include "physics/disjoint_sets.h"
 #include "physics/world.h"
 
 namespace crumple::detail {
@@ -279,7 +280,8 @@ struct StepContext {
   // The substep's islands (islands.cpp): island k's pairs are
   // islandPairs[islandStart[k], islandStart[k + 1]), in pair order.
   std::vector<uint32_t> islandStart, islandPairs;
-  std::vector<int> islandParent, islandOfBody, islandOfPair;  // scratch of findIslands
+  DisjointSets islandSets;                      // scratch of findIslands
+  std::vector<int> islandOfBody, islandOfPair;  // scratch of findIslands
   size_t islandCount() const { return islandStart.empty() ? 0 : islandStart.size() - 1; }
   int workers() const { return pool ? pool->size() : 1; }
   // fn(item, worker) for every item in [0, count), on the pool when there is one.

@@ -90,7 +90,6 @@ void Simulation::beforeDent(int i) {
   d.resolution = surface.resolution();
   d.start = surface.downloadHeight().pixels;  // once, before its first dent
   d.height = d.start;
-  d.bvh = std::make_unique<TriangleBvh>(*bodies_[static_cast<size_t>(i)].mesh);
 }
 
 void Simulation::readBackDents() {
@@ -125,8 +124,12 @@ void Simulation::takeInDents() {
     if (!map) continue;
     std::memcpy(d.height.data(), map, texels * sizeof(float));
     glUnmapNamedBuffer(d.pixels.id());
-    // Where the map differs from its start, and the part of the surface over those texels.
+    // Where the map differs from its start: the rectangle around it, and which tiles of kDentTile x kDentTile
+    // texels hold a change (an atlas spreads one dent over charts far apart in uv: the rectangle can cover the
+    // whole map while the tiles cover the dent).
     const int r = d.resolution;
+    const int tiles = (r + kDentTile - 1) / kDentTile;
+    std::vector<char> changed(static_cast<size_t>(tiles) * static_cast<size_t>(tiles), 0);
     d.lo = glm::ivec2(r);
     d.hi = glm::ivec2(-1);
     float highest = 0.5f;
@@ -137,26 +140,42 @@ void Simulation::takeInDents() {
         d.lo = glm::min(d.lo, glm::ivec2(x, y));
         d.hi = glm::max(d.hi, glm::ivec2(x, y));
         highest = std::max(highest, d.height[t]);
+        changed[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(tiles) + static_cast<size_t>(x / kDentTile)] = 1;
       }
     const TriangleMesh& mesh = *bodies_[i].mesh;
     d.boxLo = glm::dvec3(1e300);
     d.boxHi = glm::dvec3(-1e300);
+    // The triangles over changed tiles (one texel around: the lookup interpolates between texel centres), in a
+    // mesh and a BVH of their own: the lookups search these, not the whole mesh (a car's 60 000 triangles cost a
+    // microsecond a lookup), and the box around them is where lookups happen at all.
+    TriangleMesh over;
+    d.triangleOf.clear();
     if (d.hi.x >= d.lo.x) {
-      // (one texel around: the lookup interpolates between texel centres)
-      const glm::dvec2 uvLo = glm::dvec2(d.lo - 1) / double(r), uvHi = glm::dvec2(d.hi + 2) / double(r);
-      for (const glm::uvec3& t : mesh.triangles) {
+      for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
+        const glm::uvec3& t = mesh.triangles[ti];
         const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
-        const glm::dvec2 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
-        if (thi.x < uvLo.x || thi.y < uvLo.y || tlo.x > uvHi.x || tlo.y > uvHi.y) continue;
+        const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
+        const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
+        if (thi.x < d.lo.x || thi.y < d.lo.y || tlo.x > d.hi.x || tlo.y > d.hi.y) continue;
+        bool over_ = false;
+        for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile && !over_; ++ty)
+          for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile && !over_; ++tx)
+            over_ = changed[static_cast<size_t>(ty) * static_cast<size_t>(tiles) + static_cast<size_t>(tx)] != 0;
+        if (!over_) continue;
+        const unsigned first = static_cast<unsigned>(over.positions.size());
         for (int k = 0; k < 3; ++k) {
           const glm::dvec3 p(mesh.positions[t[k]]);
           d.boxLo = glm::min(d.boxLo, p);
           d.boxHi = glm::max(d.boxHi, p);
+          over.positions.push_back(mesh.positions[t[k]]);
         }
+        over.triangles.emplace_back(first, first + 1, first + 2);
+        d.triangleOf.push_back(static_cast<int>(ti));
       }
       d.boxLo -= d.k;
       d.boxHi += d.k;
     }
+    d.bvh = over.triangles.empty() ? nullptr : std::make_unique<TriangleBvh>(over);
     const bool dented = d.boxHi.x >= d.boxLo.x;
     world_.setDented(bodies_[i].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
                      {d.boxLo, d.boxHi});
@@ -172,9 +191,13 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
       p.z > d.boxHi.z)
     return 0;
   const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
+  // The nearest triangle over the changed tiles. A point further from them than kOnSurface (more than the
+  // collision shape's own error off the surface there) lies over the rest of the surface, where the map is as it
+  // started: it feels nothing, as points outside the box do. (Those triangles reach past the change by the rest
+  // of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
   const TriangleBvh::Hit hit = d.bvh->closest(p);
-  if (hit.triangle < 0) return 0;
-  const glm::uvec3 t = mesh.triangles[static_cast<size_t>(hit.triangle)];
+  if (hit.triangle < 0 || !(hit.distance2 <= kOnSurface * kOnSurface)) return 0;
+  const glm::uvec3 t = mesh.triangles[static_cast<size_t>(d.triangleOf[static_cast<size_t>(hit.triangle)])];
   const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);
   const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;
   const int r = d.resolution;

@@ -169,10 +169,13 @@ class Simulation {
   // The world feels its dents (World::setSurfaceDepth): per body of bodies_ whose dents are felt, a CPU copy of
   // its height map. After a step's deformations each changed map is read back into a pixel buffer behind a fence
   // (the GPU copies it while the CPU goes on); the next step takes it in before its physics.
+  static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
+  static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
   struct DentCopy {
     bool feel = false;                 // its dents are felt (feel_dents)
     bool pending = false;              // a read-back is under way
-    std::unique_ptr<TriangleBvh> bvh;  // closest points on its mesh (shape frame)
+    std::unique_ptr<TriangleBvh> bvh;   // closest points on its triangles over the changed tiles (shape frame)
+    std::vector<int> triangleOf;        // per triangle of bvh: the mesh's
     std::vector<float> start;          // the map before its first dent
     std::vector<float> height;         // the map as last read back
     int resolution = 0;

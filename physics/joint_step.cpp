@@ -22,8 +22,9 @@
 //   joints' rows are solved for the impulses that make them hold at the end of
 //   the substep, at the poses the position update will reach with the
 //   velocities (x + h v, q integrated from omega). Each pass is a Newton step
-//   on the linearisation of all joints at once: the joints that form a forest
-//   over the bodies (what cannot move counting as one) are solved together by
+//   on the linearisation of all joints at once: the joints that form a spanning
+//   forest over the bodies (what cannot move counting as one; taken strongest
+//   first: welds, hinges and sliders, balls, rods) are solved together by
 //   a sparse L D L^T factorisation over the joint graph (linear in the joints
 //   for chains and trees); each joint that closes a loop (a second joint
 //   between the same bodies, a ring, a second anchor to the world) is then

@@ -25,7 +25,8 @@
 // - On a body flagged with setBumpNormals (and with a normal modifier set), the
 //   normal is the modifier's, normalised.
 // - World::raycast returns the nearest surface along the ray within the
-//   distance, to the sphere tracer's tolerance (1e-4 m).
+//   distance, to the sphere tracer's tolerance (1e-4 m); on a dented body
+//   (World::setDented), the dented surface and its normal.
 #include <algorithm>
 #include <cmath>
 
@@ -422,17 +423,24 @@ bool World::raycast(const glm::dvec3& origin, const glm::dvec3& dir, double maxD
       continue;
     const glm::dmat3 rt = glm::transpose(b.rotation());
     const glm::dvec3 o = rt * (origin - b.x) + b.localCom, d = rt * dir;
+    // A dented body's surface lies surfaceDepth below the undented one near it (no further than its rise above):
+    // there the trace measures the dented surface, so a wheel's ray reaches a rut's floor.
+    const bool dented = ctx_->dented(static_cast<int>(i));
+    const double rise = ctx_->rise(static_cast<int>(i));
     double t = 0;
     for (int it = 0; it < 128 && t <= hit.distance; ++it) {
-      const double phi = b.shape->distance(o + d * t);
+      const glm::dvec3 p = o + d * t;
+      glm::dvec3 g(0);
+      double phi = b.shape->distance(p, dented ? &g : nullptr);
+      glm::dvec3 normal = g;
+      if (dented && phi < rise + 1e-4) phi += ctx_->surfaceDepth(static_cast<int>(i), p - phi * g, g, normal);
       if (phi < 1e-4) {
         if (t < hit.distance || !found) {
-          glm::dvec3 g;
-          b.shape->distance(o + d * t, &g);
+          if (!dented) b.shape->distance(p, &normal);
           hit.body = static_cast<int>(i);
           hit.distance = t;
           hit.point = origin + dir * t;
-          hit.normal = glm::normalize(b.rotation() * g);
+          hit.normal = glm::normalize(b.rotation() * normal);
           found = true;
         }
         break;

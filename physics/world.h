@@ -334,7 +334,8 @@ class World {
   void addTorque(int i, const glm::dvec3& torque);
 
   // First surface along a ray (unit direction) within maxDistance, skipping body
-  // `ignore`; sphere tracing through the bodies' distance fields.
+  // `ignore`; sphere tracing through the bodies' distance fields. On a dented body
+  // (setDented), the dented surface and its normal (a vehicle's wheel drops into a rut).
   bool raycast(const glm::dvec3& origin, const glm::dvec3& direction, double maxDistance, int ignore,
                RayHit& hit) const;
 

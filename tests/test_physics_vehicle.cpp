@@ -2,6 +2,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <memory>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 
@@ -116,4 +117,79 @@ TEST_CASE("a car set on its wheels settles without a kick, at any mass and dampi
   }
   // The stiffest springs the format accepts on a 1 kg car.
   CHECK(settleCar(1, 1e9, 4000, 3).fastest < 50);
+}
+
+namespace {
+// A rut 3 cm deep and 0.4 m wide along x at z = +0.8 in the ground's top face (shape frame: the 1 m thick
+// ground's top is y = 0.5), its floor flat, its walls sloped over 5 cm; nothing rises.
+double rutDepth(const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) {
+  bent = n;
+  if (n.y < 0.9) return 0;
+  const double off = std::abs(p.z - 0.8);
+  if (off >= 0.25) return 0;
+  if (off <= 0.2) return 0.03;
+  bent = glm::normalize(glm::dvec3(0, 0.05, (p.z > 0.8 ? -1 : 1) * 0.03));  // the wall's slope
+  return 0.03 * (0.25 - off) / 0.05;
+}
+}  // namespace
+
+TEST_CASE("a ray and a vehicle's wheels feel a rut in a dented ground; undented, nothing changes bit for bit") {
+  auto world = [](bool dented) {
+    auto w = std::make_unique<World>();
+    BodyDef ground;
+    ground.shape = makeBox({400, 1, 400});
+    ground.origin = {0, -0.5, 0};
+    ground.isStatic = true;
+    ground.friction = 1.0;
+    const int g = w->addBody(ground);
+    w->setSurfaceDepth([g](int body, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) {
+      return body == g ? rutDepth(p, n, bent) : (bent = n, 0.0);
+    });
+    if (dented) w->setDented(g, 0.0, {glm::dvec3(-200, 0.4, 0.5), glm::dvec3(200, 0.6, 1.1)});
+    return w;
+  };
+  // Rays straight down from 1 m: onto the rut's floor, its wall, and beside it.
+  for (bool dented : {false, true}) {
+    auto w = world(dented);
+    RayHit floor, wall, beside;
+    REQUIRE(w->raycast({3, 1, 0.8}, {0, -1, 0}, 5, -1, floor));
+    REQUIRE(w->raycast({3, 1, 1.025}, {0, -1, 0}, 5, -1, wall));
+    REQUIRE(w->raycast({3, 1, 0}, {0, -1, 0}, 5, -1, beside));
+    CHECK(beside.distance == Approx(1.0).epsilon(1e-4));
+    CHECK(beside.normal.y == Approx(1.0));
+    if (dented) {
+      CHECK(floor.distance == Approx(1.03).epsilon(2e-4));
+      CHECK(wall.distance == Approx(1.015).epsilon(2e-4));
+      CHECK(wall.normal.z < -0.4);  // the wall faces back into the rut
+    } else {
+      CHECK(floor.distance == Approx(1.0).epsilon(1e-4));
+    }
+  }
+  // A car with its left wheels (z = +0.8) in the rut settles 3 cm lower on that side: it rolls towards it.
+  auto settle = [&](bool dented) {
+    auto w = world(dented);
+    BodyDef car;
+    car.shape = makeBox({4.0, 0.8, 1.8});
+    car.origin = {0, 0.9, 0};
+    car.mass = 1200;
+    const int i = w->addBody(car);
+    VehicleParams p;
+    p.wheels = {{1.3, -0.4, 0.8}, {1.3, -0.4, -0.8}, {-1.3, -0.4, 0.8}, {-1.3, -0.4, -0.8}};
+    p.wheelRadius = 0.33;
+    p.suspensionRest = 0.3;
+    Vehicle v(i, p);
+    for (int s = 0; s < 480; ++s) {
+      v.apply(*w, {}, 1.0 / 240);
+      w->step(1.0 / 240);
+    }
+    return std::make_pair(w->body(i).x, w->body(i).rotation() * glm::dvec3(0, 0, 1));
+  };
+  const auto [flatX, flatSide] = settle(false);
+  const auto [rutX, rutSide] = settle(true);
+  MESSAGE("car centre " << flatX.y << " m on flat ground, " << rutX.y << " m with its left wheels in the rut; side "
+                        << "axis y " << flatSide.y << " -> " << rutSide.y);
+  CHECK(std::abs(flatSide.y) < 1e-4);
+  // Left side 3 cm lower across the 1.6 m track: the side axis (+z, towards the left) tips down by ~0.03 / 1.6.
+  CHECK(rutSide.y == Approx(-0.03 / 1.6).epsilon(0.15));
+  CHECK(rutX.y < flatX.y - 0.01);
 }

@@ -47,7 +47,8 @@ foreach(entry ${CRUMPLE_LIBRARIES})
   string(REPLACE ":" ";" parts "${entry}")
   list(GET parts 0 folder)
   file(GLOB headers RELATIVE "${PROJECT_SOURCE_DIR}" CONFIGURE_DEPENDS "${PROJECT_SOURCE_DIR}/${folder}/*.h")
-  list(REMOVE_ITEM headers physics/step_context.h deform/passes.h deform/bindings.h)
+  list(REMOVE_ITEM headers physics/step_context.h physics/joint_solver.h physics/disjoint_sets.h deform/passes.h
+       deform/bindings.h)
   install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/${folder})
 endforeach()
 # Generated headers.

@@ -128,7 +128,7 @@ struct Joint {
   double motorImpulse = 0;        // this substep's motor impulse (clamped to maxForce h)
 };
 
-// The joint solver's view of the joint graph (joint_step.cpp): which joints
+// The joint solver's view of the joint graph (joint_solve.cpp): which joints
 // are active, the bodies they join and the elimination order, kept from one
 // call to the next while the joints and their bodies' states stay the same.
 // A copy is empty (it is rebuilt on use: results never depend on it).

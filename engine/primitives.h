@@ -11,9 +11,7 @@ namespace crumple {
 TriangleMesh boxMesh(const glm::dvec3& size, int resolution);
 TriangleMesh sphereMesh(double radius, int resolution, int segments = 16);  // cube-sphere, 6 charts
 TriangleMesh cylinderMesh(double radius, double height, int resolution, int segments = 48);
-// A torus around y (ring radius R, tube radius r), outward winding, with the
-// periodic (u, v) parameterisation as uvs: one-to-one, but split at the seams.
-TriangleMesh torusMesh(float R, float r, int nu, int nv);
+// torusMesh: physics/mesh.h.
 TriangleMesh capsuleMesh(double radius, double height, int resolution, int segments = 48, int rings = 12);
 
 }  // namespace crumple

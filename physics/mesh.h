@@ -38,4 +38,9 @@ struct MassProperties {
 };
 MassProperties polyhedralMassProperties(const TriangleMesh& mesh);
 
+// A torus around y (ring radius R, tube radius r), outward winding, with the
+// periodic (u, v) parameterisation as uvs: one-to-one, but split at the seams.
+// (The other primitives' meshes come with charts for their maps: engine/primitives.h.)
+TriangleMesh torusMesh(float R, float r, int nu, int nv);
+
 }  // namespace crumple

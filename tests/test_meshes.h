@@ -1,6 +1,6 @@
 // Meshes made in code for tests.
 #pragma once
-#include "engine/primitives.h"
+#include "physics/mesh.h"
 
 #include <cmath>
 

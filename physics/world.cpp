@@ -74,48 +74,48 @@ RigidBody makeBody(const BodyDef& def) {
 namespace {
 // What the step keeps of every body ever added: the thinnest half thickness (substeps), any block or plate
 // that impulses move (a static or kinematic body never becomes dynamic; grounds are often plates).
-void noteShape(detail::StepContext& c, const BodyDef& def) {
-  c.minHalfThickness = std::min(c.minHalfThickness, def.shape->halfThickness());
-  c.anyLoadBearing = c.anyLoadBearing || (!def.isStatic && !def.kinematic && detail::loadBearing(*def.shape));
+void noteShape(detail::StepContext& ctx, const BodyDef& def) {
+  ctx.minHalfThickness = std::min(ctx.minHalfThickness, def.shape->halfThickness());
+  ctx.anyLoadBearing = ctx.anyLoadBearing || (!def.isStatic && !def.kinematic && detail::loadBearing(*def.shape));
 }
 }  // namespace
 
 int World::addBody(const BodyDef& def) {
   RigidBody b = makeBody(def);
-  detail::StepContext& c = *ctx_;
-  c.bodies.push_back(b);
-  c.force.emplace_back(0);
-  c.torque.emplace_back(0);
-  noteShape(c, def);
-  return static_cast<int>(c.bodies.size() - 1);
+  detail::StepContext& ctx = *ctx_;
+  ctx.bodies.push_back(b);
+  ctx.force.emplace_back(0);
+  ctx.torque.emplace_back(0);
+  noteShape(ctx, def);
+  return static_cast<int>(ctx.bodies.size() - 1);
 }
 
 BodyId World::add(const BodyDef& def) {
-  detail::StepContext& c = *ctx_;
+  detail::StepContext& ctx = *ctx_;
   size_t slot = 0;
-  while (slot < c.bodies.size() && !c.bodies[slot].removed) ++slot;
-  if (slot == c.bodies.size()) return bodyId(addBody(def));
+  while (slot < ctx.bodies.size() && !ctx.bodies[slot].removed) ++slot;
+  if (slot == ctx.bodies.size()) return bodyId(addBody(def));
   RigidBody b = makeBody(def);
-  b.generation = c.bodies[slot].generation + 1;
-  c.bodies[slot] = b;
-  c.force[slot] = c.torque[slot] = glm::dvec3(0);
-  if (slot < c.reportContacts.size()) c.reportContacts[slot] = 0;
-  if (slot < c.bumpNormals.size()) c.bumpNormals[slot] = 0;
-  if (slot < c.dentRise.size()) c.dentRise[slot] = -1;
-  noteShape(c, def);
+  b.generation = ctx.bodies[slot].generation + 1;
+  ctx.bodies[slot] = b;
+  ctx.force[slot] = ctx.torque[slot] = glm::dvec3(0);
+  if (slot < ctx.reportContacts.size()) ctx.reportContacts[slot] = 0;
+  if (slot < ctx.bumpNormals.size()) ctx.bumpNormals[slot] = 0;
+  if (slot < ctx.dentRise.size()) ctx.dentRise[slot] = -1;
+  noteShape(ctx, def);
   // The kept pairs' candidate lists were built for the old body in this slot.
-  c.pairs.clear();
-  c.previousPairs.clear();
+  ctx.pairs.clear();
+  ctx.previousPairs.clear();
   return {static_cast<int32_t>(slot), b.generation};
 }
 
 void World::remove(BodyId id) { removeBody(index(id)); }
 
 bool World::valid(BodyId id) const {
-  const detail::StepContext& c = *ctx_;
-  return id.index >= 0 && static_cast<size_t>(id.index) < c.bodies.size() &&
-         c.bodies[static_cast<size_t>(id.index)].generation == id.generation &&
-         !c.bodies[static_cast<size_t>(id.index)].removed;
+  const detail::StepContext& ctx = *ctx_;
+  return id.index >= 0 && static_cast<size_t>(id.index) < ctx.bodies.size() &&
+         ctx.bodies[static_cast<size_t>(id.index)].generation == id.generation &&
+         !ctx.bodies[static_cast<size_t>(id.index)].removed;
 }
 
 int World::index(BodyId id) const {
@@ -136,25 +136,25 @@ BodyId World::bodyId(int i) const {
 }
 
 JointId World::add(const JointDef& def) {
-  detail::StepContext& c = *ctx_;
+  detail::StepContext& ctx = *ctx_;
   size_t slot = 0;
-  while (slot < c.joints.size() && !c.joints[slot].removed) ++slot;
+  while (slot < ctx.joints.size() && !ctx.joints[slot].removed) ++slot;
   const int appended = addJoint(def);  // checks and builds it at the end
-  if (slot == c.joints.size() - 1) return {appended, c.joints.back().generation};
-  detail::Joint jt = c.joints.back();
-  c.joints.pop_back();
-  jt.generation = c.joints[slot].generation + 1;
-  c.joints[slot] = jt;
+  if (slot == ctx.joints.size() - 1) return {appended, ctx.joints.back().generation};
+  detail::Joint jt = ctx.joints.back();
+  ctx.joints.pop_back();
+  jt.generation = ctx.joints[slot].generation + 1;
+  ctx.joints[slot] = jt;
   return {static_cast<int32_t>(slot), jt.generation};
 }
 
 void World::remove(JointId id) { removeJoint(index(id)); }
 
 bool World::valid(JointId id) const {
-  const detail::StepContext& c = *ctx_;
-  return id.index >= 0 && static_cast<size_t>(id.index) < c.joints.size() &&
-         c.joints[static_cast<size_t>(id.index)].generation == id.generation &&
-         !c.joints[static_cast<size_t>(id.index)].removed;
+  const detail::StepContext& ctx = *ctx_;
+  return id.index >= 0 && static_cast<size_t>(id.index) < ctx.joints.size() &&
+         ctx.joints[static_cast<size_t>(id.index)].generation == id.generation &&
+         !ctx.joints[static_cast<size_t>(id.index)].removed;
 }
 
 int World::index(JointId id) const {
@@ -176,8 +176,8 @@ const StepStats& World::lastStats() const { return ctx_->stats; }
 void World::setNormalModifier(NormalModifier modifier) { ctx_->normalModifier = std::move(modifier); }
 
 namespace {
-RigidBody& liveBody(detail::StepContext& c, int i) {
-  RigidBody& b = c.bodies.at(static_cast<size_t>(i));
+RigidBody& liveBody(detail::StepContext& ctx, int i) {
+  RigidBody& b = ctx.bodies.at(static_cast<size_t>(i));
   if (b.removed) throw std::invalid_argument("body " + std::to_string(i) + " was removed");
   return b;
 }
@@ -249,16 +249,16 @@ void World::setBumpNormals(int body, bool on) {
 void World::wake(int i) { ctx_->wake(i); }
 
 void World::removeBody(int i) {
-  detail::StepContext& c = *ctx_;
-  RigidBody& b = liveBody(c, i);
+  detail::StepContext& ctx = *ctx_;
+  RigidBody& b = liveBody(ctx, i);
   b.removed = true;
   b.isStatic = true;  // nothing moves it, it moves nothing
   b.kinematic = false;
   b.invMass = 0;
   b.invInertiaBody = glm::dmat3(0);
   b.v = b.w = glm::dvec3(0);
-  for (size_t j = 0; j < c.joints.size(); ++j)
-    if (!c.joints[j].removed && (c.joints[j].def.a == i || c.joints[j].def.b == i)) removeJoint(static_cast<int>(j));
+  for (size_t j = 0; j < ctx.joints.size(); ++j)
+    if (!ctx.joints[j].removed && (ctx.joints[j].def.a == i || ctx.joints[j].def.b == i)) removeJoint(static_cast<int>(j));
 }
 
 // ---- joints -----------------------------------------------------------------
@@ -280,14 +280,14 @@ const char* jointTypeName(JointType t) {
 }
 
 int World::addJoint(const JointDef& in) {
-  detail::StepContext& c = *ctx_;
+  detail::StepContext& ctx = *ctx_;
   JointDef d = in;
-  const int n = static_cast<int>(c.bodies.size());
+  const int n = static_cast<int>(ctx.bodies.size());
   auto bad = [](const std::string& why) { throw std::invalid_argument("joint: " + why); };
   if (d.b < 0 || d.b >= n) bad("body b " + std::to_string(d.b) + " does not exist");
   if (d.a < -1 || d.a >= n) bad("body a " + std::to_string(d.a) + " does not exist (-1 is the world)");
   if (d.a == d.b) bad("a body cannot be joined to itself");
-  if ((d.a >= 0 && c.body(d.a).removed) || c.body(d.b).removed) bad("a joined body was removed");
+  if ((d.a >= 0 && ctx.body(d.a).removed) || ctx.body(d.b).removed) bad("a joined body was removed");
   if (!finite(d.anchor) || !finite(d.anchorA) || !finite(d.anchorB) || !finite(d.axis)) bad("a point or axis is not finite");
   if (d.type == JointType::Hinge || d.type == JointType::Slider) {
     if (!(glm::length(d.axis) > 1e-9)) bad("the axis is zero");
@@ -298,8 +298,8 @@ int World::addJoint(const JointDef& in) {
   if (d.motor.enabled && (!(d.motor.maxForce >= 0) || !std::isfinite(d.motor.maxForce) || !std::isfinite(d.motor.speed)))
     bad("motor: max force must be >= 0 and the speed finite");
   detail::Joint jt;
-  const Pose pa = d.a < 0 ? Pose{} : Pose{c.body(d.a).x, c.body(d.a).q};
-  const Pose pb{c.body(d.b).x, c.body(d.b).q};
+  const Pose pa = d.a < 0 ? Pose{} : Pose{ctx.body(d.a).x, ctx.body(d.a).q};
+  const Pose pb{ctx.body(d.b).x, ctx.body(d.b).q};
   // World points and directions into each body's frame (about its centre of mass).
   auto local = [](const Pose& p, int idx, const glm::dvec3& world) {
     return idx < 0 ? world : glm::transpose(glm::mat3_cast(p.orientation)) * (world - p.position);
@@ -336,16 +336,16 @@ int World::addJoint(const JointDef& in) {
   jt.refB = localDir(pb, d.b, ref);
   jt.rel0 = glm::conjugate(pa.orientation) * pb.orientation;
   jt.def = d;
-  c.joints.push_back(jt);
-  c.jointExcludedDirty = true;
-  if (d.a >= 0) c.wake(d.a);
-  c.wake(d.b);
-  return static_cast<int>(c.joints.size() - 1);
+  ctx.joints.push_back(jt);
+  ctx.jointExcludedDirty = true;
+  if (d.a >= 0) ctx.wake(d.a);
+  ctx.wake(d.b);
+  return static_cast<int>(ctx.joints.size() - 1);
 }
 
 namespace {
-detail::Joint& jointAt(detail::StepContext& c, int j) {
-  detail::Joint& jt = c.joints.at(static_cast<size_t>(j));
+detail::Joint& jointAt(detail::StepContext& ctx, int j) {
+  detail::Joint& jt = ctx.joints.at(static_cast<size_t>(j));
   if (jt.removed) throw std::invalid_argument("joint " + std::to_string(j) + " was removed");
   return jt;
 }
@@ -367,9 +367,9 @@ JointState World::jointState(int j) const {
   s.broken = jt.broken;
   s.impulse = glm::length(jt.stepImpulse);
   s.angle = jt.angle;
-  const detail::StepContext& c = *ctx_;
-  const Pose pa = jt.def.a < 0 ? Pose{} : Pose{c.body(jt.def.a).x, c.body(jt.def.a).q};
-  const Pose pb{c.body(jt.def.b).x, c.body(jt.def.b).q};
+  const detail::StepContext& ctx = *ctx_;
+  const Pose pa = jt.def.a < 0 ? Pose{} : Pose{ctx.body(jt.def.a).x, ctx.body(jt.def.a).q};
+  const Pose pb{ctx.body(jt.def.b).x, ctx.body(jt.def.b).q};
   const glm::dvec3 wa = jt.def.a < 0 ? jt.rA : pa.position + glm::mat3_cast(pa.orientation) * jt.rA;
   const glm::dvec3 wb = pb.position + glm::mat3_cast(pb.orientation) * jt.rB;
   if (jt.def.type == JointType::Slider) {
@@ -500,32 +500,32 @@ bool finiteState(const RigidBody& b) {
 }
 
 // After the substeps: every body's state finite, or the step undone (StepStatus).
-StepStatus checkFinite(detail::StepContext& c, const std::vector<detail::BodyState>& before, double timeBefore) {
-  std::vector<int> first(static_cast<size_t>(c.workers()), -1);  // per worker: its lowest non-finite body
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+StepStatus checkFinite(detail::StepContext& ctx, const std::vector<detail::BodyState>& before, double timeBefore) {
+  std::vector<int> first(static_cast<size_t>(ctx.workers()), -1);  // per worker: its lowest non-finite body
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
     int& f = first[static_cast<size_t>(worker)];
     for (size_t i = begin; i < end; ++i)
-      if (!finiteState(c.bodies[i]) && (f < 0 || static_cast<int>(i) < f)) f = static_cast<int>(i);
+      if (!finiteState(ctx.bodies[i]) && (f < 0 || static_cast<int>(i) < f)) f = static_cast<int>(i);
   });
   int bad = -1;
   for (int f : first)
     if (f >= 0 && (bad < 0 || f < bad)) bad = f;
   StepStatus status;
   if (bad < 0) return status;
-  for (size_t i = 0; i < c.bodies.size(); ++i) {
-    RigidBody& b = c.bodies[i];
+  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+    RigidBody& b = ctx.bodies[i];
     b.x = before[i].x;
     b.q = before[i].q;
     b.v = before[i].v;
     b.w = before[i].w;
   }
   // What the step found and kept is dropped with it: pairs, manifolds, events, reports, breaks.
-  c.pairs.clear();
-  c.previousPairs.clear();
-  c.events.clear();
-  c.contactReports.clear();
-  c.jointBreaks.clear();
-  c.time = timeBefore;
+  ctx.pairs.clear();
+  ctx.previousPairs.clear();
+  ctx.events.clear();
+  ctx.contactReports.clear();
+  ctx.jointBreaks.clear();
+  ctx.time = timeBefore;
   const detail::BodyState& last = before[static_cast<size_t>(bad)];
   status.ok = false;
   status.body = bad;
@@ -537,30 +537,30 @@ StepStatus checkFinite(detail::StepContext& c, const std::vector<detail::BodySta
 }  // namespace
 
 void World::collideAndContact(double h) {
-  detail::StepContext& c = *ctx_;
+  detail::StepContext& ctx = *ctx_;
   const auto start = std::chrono::steady_clock::now();
-  detail::CollisionRun collision(c, h);
-  detail::ContactRun contact(c, h);
+  detail::CollisionRun collision(ctx, h);
+  detail::ContactRun contact(ctx, h);
   // A movable body is in one island at most (islands.cpp): its velocities are integrated there, once.
-  std::vector<char>& done = c.integrated;
-  done.assign(c.bodies.size(), 0);
+  std::vector<char>& done = ctx.integrated;
+  done.assign(ctx.bodies.size(), 0);
   // Per worker (a cache line each): seconds in the collision step and in all, for the stage profile.
   struct alignas(64) Seconds {
     double collide = 0, all = 0;
   };
-  std::vector<Seconds> seconds(static_cast<size_t>(c.workers()));
-  c.forEachIsland([&](size_t island, int worker) {
+  std::vector<Seconds> seconds(static_cast<size_t>(ctx.workers()));
+  ctx.forEachIsland([&](size_t island, int worker) {
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
     collision.island(island, worker);
     const auto t1 = Clock::now();
-    for (uint32_t k = c.islandStart[island]; k < c.islandStart[island + 1]; ++k) {
-      const detail::Pair& p = c.pairs[c.islandPairs[k]];
+    for (uint32_t k = ctx.islandStart[island]; k < ctx.islandStart[island + 1]; ++k) {
+      const detail::Pair& p = ctx.pairs[ctx.islandPairs[k]];
       for (int i : {p.a, p.b}) {
         const size_t b = static_cast<size_t>(i);
-        if (done[b] || !c.bodies[b].movable()) continue;
+        if (done[b] || !ctx.bodies[b].movable()) continue;
         done[b] = 1;
-        detail::integrateVelocity(c, b, h);
+        detail::integrateVelocity(ctx, b, h);
         contact.startBody(b);
       }
     }
@@ -570,10 +570,10 @@ void World::collideAndContact(double h) {
     t.all += std::chrono::duration<double>(Clock::now() - t0).count();
   });
   collision.finish();
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
     for (size_t b = begin; b < end; ++b) {
       if (done[b]) continue;
-      detail::integrateVelocity(c, b, h);
+      detail::integrateVelocity(ctx, b, h);
       contact.startBody(b);
     }
   });
@@ -586,77 +586,77 @@ void World::collideAndContact(double h) {
     islandTime += t.all;
   }
   const double share = islandTime > 0 ? collideTime / islandTime : 0.0;
-  c.stats.ms.collide += wall * share;
-  c.stats.ms.contact -= wall * share;  // the caller laps the whole as the contact step's
+  ctx.stats.ms.collide += wall * share;
+  ctx.stats.ms.contact -= wall * share;  // the caller laps the whole as the contact step's
 }
 
 void World::substep(double h) {
-  detail::StepContext& c = *ctx_;
-  StepProfile& ms = c.stats.ms;
+  detail::StepContext& ctx = *ctx_;
+  StepProfile& ms = ctx.stats.ms;
   StageClock clock;
   // World inverse inertias: orientations stay fixed until the position update.
-  c.invInertia.resize(c.bodies.size());
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) c.invInertia[i] = c.bodies[i].invInertiaWorld();
+  ctx.invInertia.resize(ctx.bodies.size());
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) ctx.invInertia[i] = ctx.bodies[i].invInertiaWorld();
   });
-  detail::findPairs(c, h);
-  c.stats.pairs += static_cast<int>(c.pairs.size());
-  for (detail::Pair& p : c.pairs) p.looks = p.keptLooks = 0;
-  detail::findIslands(c);
+  detail::findPairs(ctx, h);
+  ctx.stats.pairs += static_cast<int>(ctx.pairs.size());
+  for (detail::Pair& p : ctx.pairs) p.looks = p.keptLooks = 0;
+  detail::findIslands(ctx);
   clock.lap(ms.broadPhase);
-  detail::findCandidates(c, h);
+  detail::findCandidates(ctx, h);
   clock.lap(ms.candidates);
-  detail::findAnchored(c);
-  if (c.joints.empty()) {
+  detail::findAnchored(ctx);
+  if (ctx.joints.empty()) {
     // 1-3 island by island, each island's data still in the cache from one stage to the next: the same
     // impulses in the same order as the stages one after the other (no joints to stabilise between them).
     collideAndContact(h);
     clock.lap(ms.contact);
   } else {
     // 1. collision with restitution on predicted positions (emits events)
-    detail::collide(c, h);
+    detail::collide(ctx, h);
     clock.lap(ms.collide);
     // 2. velocities, 3. contact with the restitution ramp
-    detail::integrateVelocities(c, h);
+    detail::integrateVelocities(ctx, h);
     clock.lap(ms.contact);
-    detail::preStabilize(c, h, c.settings.jointIterations, true);
+    detail::preStabilize(ctx, h, ctx.settings.jointIterations, true);
     clock.lap(ms.joints);
-    detail::contactStep(c, h);
+    detail::contactStep(ctx, h);
     clock.lap(ms.contact);
   }
-  for (const detail::Pair& p : c.pairs) {
-    c.stats.looks += p.looks;
-    c.stats.keptLooks += p.keptLooks;
+  for (const detail::Pair& p : ctx.pairs) {
+    ctx.stats.looks += p.looks;
+    ctx.stats.keptLooks += p.keptLooks;
   }
   // 4. shock propagation
-  detail::shockPropagation(c);
+  detail::shockPropagation(ctx);
   clock.lap(ms.shockPropagation);
   // Joints again: the contacts and shock propagation moved the velocities.
-  detail::preStabilize(c, h, c.settings.jointIterations, false);
+  detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);
   clock.lap(ms.joints);
   // 5. positions, then the positional projection
-  c.stepStart.resize(c.bodies.size());
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) c.stepStart[i] = {c.bodies[i].x, c.bodies[i].q};
+  ctx.stepStart.resize(ctx.bodies.size());
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) ctx.stepStart[i] = {ctx.bodies[i].x, ctx.bodies[i].q};
   });
-  detail::endOfStepDepths(c, h);
-  detail::integratePositions(c, h);
-  detail::projectPositions(c, h);
+  detail::endOfStepDepths(ctx, h);
+  detail::integratePositions(ctx, h);
+  detail::projectPositions(ctx, h);
   clock.lap(ms.positions);
-  detail::postStabilize(c, h);
+  detail::postStabilize(ctx, h);
   clock.lap(ms.joints);
   // 6. sleeping
-  detail::updateSleep(c, h);
+  detail::updateSleep(ctx, h);
   clock.lap(ms.sleep);
-  c.time += h;
+  ctx.time += h;
 }
 
 StepStatus World::step(double h) {
   if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
   const auto start = std::chrono::steady_clock::now();
-  detail::StepContext& c = *ctx_;
+  detail::StepContext& ctx = *ctx_;
   // The pool: WorldSettings::threads in all (0: the hardware's), made again when the count changes.
-  int threads = c.settings.threads > 0 ? c.settings.threads : static_cast<int>(std::thread::hardware_concurrency());
+  int threads = ctx.settings.threads > 0 ? ctx.settings.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, 256);
   if (threads == 1) {
     pool_.reset();
@@ -664,59 +664,59 @@ StepStatus World::step(double h) {
     pool_.reset();
     pool_ = std::make_unique<detail::ThreadPool>(threads);
   }
-  c.pool = pool_.get();
-  c.events.clear();
-  c.contactReports.clear();
-  c.jointBreaks.clear();
-  for (detail::Joint& jt : c.joints) jt.stepImpulse = glm::dvec3(0);
-  c.reportContacts.resize(c.bodies.size(), 0);
-  if (!c.bumpNormals.empty()) c.bumpNormals.resize(c.bodies.size(), 0);
-  if (!c.dentRise.empty()) c.dentRise.resize(c.bodies.size(), -1.0);
-  if (!c.dentBox.empty()) c.dentBox.resize(c.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
-  c.stats = {};
-  c.frozen.assign(c.bodies.size(), 0);
+  ctx.pool = pool_.get();
+  ctx.events.clear();
+  ctx.contactReports.clear();
+  ctx.jointBreaks.clear();
+  for (detail::Joint& jt : ctx.joints) jt.stepImpulse = glm::dvec3(0);
+  ctx.reportContacts.resize(ctx.bodies.size(), 0);
+  if (!ctx.bumpNormals.empty()) ctx.bumpNormals.resize(ctx.bodies.size(), 0);
+  if (!ctx.dentRise.empty()) ctx.dentRise.resize(ctx.bodies.size(), -1.0);
+  if (!ctx.dentBox.empty()) ctx.dentBox.resize(ctx.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
+  ctx.stats = {};
+  ctx.frozen.assign(ctx.bodies.size(), 0);
   // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
   // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
   // the thinner one's half thickness (stepTravel).
-  std::vector<double> travel(static_cast<size_t>(c.workers()), 0.0);  // the largest per worker
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+  std::vector<double> travel(static_cast<size_t>(ctx.workers()), 0.0);  // the largest per worker
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
     double most = 0;
     for (size_t i = begin; i < end; ++i) {
-      const RigidBody& b = c.bodies[i];
+      const RigidBody& b = ctx.bodies[i];
       if (!b.movable()) continue;
       const double speed =
-          glm::length(b.v) + glm::length(c.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
+          glm::length(b.v) + glm::length(ctx.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
       most = std::max(most, speed * h);
     }
     travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);
   });
   const double maxTravel = *std::max_element(travel.begin(), travel.end());
-  double ratio = maxTravel / (c.settings.substepFraction * std::max(c.minHalfThickness, 1e-4));
-  if (ratio > 1) ratio = detail::stepTravel(c, h);
-  const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, c.settings.maxSubsteps));
-  c.substepsCapped = ratio > n;
+  double ratio = maxTravel / (ctx.settings.substepFraction * std::max(ctx.minHalfThickness, 1e-4));
+  if (ratio > 1) ratio = detail::stepTravel(ctx, h);
+  const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, ctx.settings.maxSubsteps));
+  ctx.substepsCapped = ratio > n;
   // Each body's state before the step: what a step that goes non-finite is undone to.
-  std::vector<detail::BodyState>& before = c.stepBefore;
-  before.resize(c.bodies.size());
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) before[i] = {c.bodies[i].x, c.bodies[i].q, c.bodies[i].v, c.bodies[i].w};
+  std::vector<detail::BodyState>& before = ctx.stepBefore;
+  before.resize(ctx.bodies.size());
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) before[i] = {ctx.bodies[i].x, ctx.bodies[i].q, ctx.bodies[i].v, ctx.bodies[i].w};
   });
-  const double timeBefore = c.time;
+  const double timeBefore = ctx.time;
   for (int s = 0; s < n; ++s) substep(h / n);
-  c.stats.substeps = n;
-  const StepStatus status = checkFinite(c, before, timeBefore);
-  std::vector<int> awake(static_cast<size_t>(c.workers()), 0);
-  c.parallelRange(c.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+  ctx.stats.substeps = n;
+  const StepStatus status = checkFinite(ctx, before, timeBefore);
+  std::vector<int> awake(static_cast<size_t>(ctx.workers()), 0);
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
     int count = 0;
     for (size_t i = begin; i < end; ++i) {
-      c.force[i] = glm::dvec3(0);
-      c.torque[i] = glm::dvec3(0);
-      count += c.bodies[i].movable();
+      ctx.force[i] = glm::dvec3(0);
+      ctx.torque[i] = glm::dvec3(0);
+      count += ctx.bodies[i].movable();
     }
     awake[static_cast<size_t>(worker)] += count;
   });
-  for (int a : awake) c.stats.awake += a;
-  c.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  for (int a : awake) ctx.stats.awake += a;
+  ctx.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return status;
 }
 

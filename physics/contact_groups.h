@@ -14,7 +14,7 @@
 
 #include "physics/body.h"
 #include "physics/impulse.h"
-#include "physics/world.h"
+#include "physics/types.h"
 
 namespace crumple::detail {
 

@@ -31,6 +31,7 @@
 #include <cmath>
 
 #include "physics/step_context.h"
+#include "physics/world.h"
 
 namespace crumple {
 
@@ -43,14 +44,14 @@ namespace {
 // surfaces rising at most `rise` in all: a sample within that of the undented owner is measured against the
 // dented surfaces, the owner's at the surface point nearest to it, the other's at the sample's own surface point.
 struct Dents {
-  const World::SurfaceDepth* depth = nullptr;
+  const SurfaceDepth* depth = nullptr;
   bool owner = false, other = false;
   double rise = 0;
 };
 
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
                     const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
-                    const World::NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
+                    const NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
                     const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {}) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
@@ -253,7 +254,7 @@ void sortContacts(std::vector<Contact>& out) {
 // its own); those the dents part are dropped. A manifold has its points at the polytopes' features, its normal
 // the face's: a face over a crater wider than it rests on its corners there, on the crater's slopes, and a
 // wall of dented blocks keeps its faces' normals (a texel's slope under a corner would push it sideways).
-void dentManifold(const World::SurfaceDepth& depth, int ia, const RigidBody& A, const Pose& pa, bool dentA,
+void dentManifold(const SurfaceDepth& depth, int ia, const RigidBody& A, const Pose& pa, bool dentA,
                   const RigidBody& B, const Pose& pb, bool dentB, std::vector<Contact>& out) {
   size_t kept = 0;
   for (Contact c : out) {

@@ -49,7 +49,7 @@
 #include "physics/joint.h"
 #include "physics/thread_pool.h"
 #include "physics/disjoint_sets.h"
-#include "physics/world.h"
+#include "physics/types.h"
 
 namespace crumple::detail {
 
@@ -239,10 +239,10 @@ struct StepContext {
   std::vector<RigidBody> bodies;
   std::vector<glm::dvec3> force, torque;          // per body, applied at the next step only
   std::vector<char> reportContacts, bumpNormals;  // per body flags (empty: none set)
-  World::SurfaceDepth surfaceDepth;  // World::setSurfaceDepth
+  SurfaceDepth surfaceDepth;  // World::setSurfaceDepth
   std::vector<double> dentRise;      // per body: World::setDented (empty: none set)
   std::vector<Aabb> dentBox;         // per body: where its dents are (shape frame)
-  World::NormalModifier normalModifier;
+  NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
   // A dynamic body of a loadBearing shape was ever added (resting_solve.cpp has work only then).
   bool anyLoadBearing = false;
@@ -253,7 +253,7 @@ struct StepContext {
   std::vector<uint64_t> jointExcluded;  // sorted pair keys of bodies joined without collideConnected
   bool jointExcludedDirty = false;
   JointSolverCache jointSolver;
-  World::CollisionFilter filter;
+  CollisionFilter filter;
   // What the last step produced (all its substeps).
   std::vector<CollisionEvent> events, contactReports;
   std::vector<JointBreak> jointBreaks;

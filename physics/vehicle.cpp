@@ -1,4 +1,4 @@
-#include "physics/vehicle.h"
+#include <crumple/physics/vehicle.h>
 
 #include <algorithm>
 #include <glm/gtc/matrix_transform.hpp>
@@ -68,12 +68,13 @@ void Vehicle::apply(World& world, const VehicleControls& c, double h) {
     // on another body than the last step's). It speeds the point's approach by load / share over the step. So at
     // rest, and under any steady load, k x = the load, as an explicit spring holds it; only changes are damped
     // implicitly.
-    // That load is trusted up to four times gravity's pull on the share (a steady push that big: another body
-    // on the car, hard cornering): when something else cancels this wheel's push (the chassis pressed into a
-    // body that the contact step holds), the load it carried over grew each step without bound and flung the
-    // car when the other let go.
-    const double carried = std::min(w.load / share, 4 * std::max(glm::length(world.settings().gravity), 9.81));
-    const double approach = rate + (sameGround ? h * carried : 0.0);
+    // That load is trusted up to four times the wheel's share of the car's weight (a steady push that big:
+    // another body on the car, hard cornering): when something else cancels this wheel's push (the chassis
+    // pressed into a body that the contact step holds), the load it carried over grew each step without bound
+    // and flung the car when the other let go.
+    const double weightShare = b.mass * std::max(glm::length(world.settings().gravity), 9.81) / std::max(grounded, 1);
+    const double carried = std::min(w.load, 4 * weightShare);
+    const double approach = rate + (sameGround ? h * carried / share : 0.0);
     w.spring = std::min(compression, w.spring + h * (std::max(rate, 0.0) + world.settings().maxCorrectionSpeed));
     w.load = std::max(0.0, (params_.stiffness * w.spring + stiff * approach) / (1 + h * stiff / share));
     glm::dvec3 force = up * w.load;

@@ -37,7 +37,7 @@
 #include <stdexcept>
 #include <tuple>
 
-#include "apps/bench_scenes.h"
+#include "bench_scenes.h"
 
 namespace crumple::bench {
 

@@ -7,7 +7,7 @@
 #include <memory>
 #include <vector>
 
-#include "engine/primitives.h"
+#include <crumple/engine/primitives.h>
 
 namespace crumple::bench {
 

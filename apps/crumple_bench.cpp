@@ -30,19 +30,19 @@
 #include <string>
 #include <tuple>
 
-#include "apps/bench_scenes.h"
-#include "core/version.h"
-#include "deform/deformer.h"
-#include "engine/primitives.h"
-#include "engine/scene_view.h"
-#include "engine/builtin_scenes.h"
-#include "engine/simulation.h"
-#include "physics/world.h"
-#include "gl/context.h"
-#include "gl/objects.h"
-#include "gl/gpu_timer.h"
-#include "gl/program.h"
-#include "render/renderer.h"
+#include "bench_scenes.h"
+#include <crumple/core/version.h>
+#include <crumple/deform/deformer.h>
+#include <crumple/engine/primitives.h>
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/builtin_scenes.h>
+#include <crumple/engine/simulation.h>
+#include <crumple/physics/world.h>
+#include <crumple/gl/context.h>
+#include <crumple/gl/objects.h>
+#include <crumple/gl/gpu_timer.h>
+#include <crumple/gl/program.h>
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 using namespace crumple::bench;

@@ -22,17 +22,17 @@
 #include <imgui_impl_glfw.h>
 #include <imgui_impl_opengl3.h>
 
-#include "engine/scene_view.h"
-#include "engine/builtin_scenes.h"
-#include "engine/output_writer.h"
-#include "engine/overrides.h"
-#include "engine/simulation.h"
-#include "core/log.h"
-#include "core/version.h"
-#include "render/auto_quality.h"
-#include "gl/capture.h"
-#include "gl/context.h"
-#include "render/renderer.h"
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/builtin_scenes.h>
+#include <crumple/engine/output_writer.h>
+#include <crumple/engine/overrides.h>
+#include <crumple/engine/simulation.h>
+#include <crumple/core/log.h>
+#include <crumple/core/version.h>
+#include <crumple/render/auto_quality.h>
+#include <crumple/gl/capture.h>
+#include <crumple/gl/context.h>
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 namespace fs = std::filesystem;

@@ -18,15 +18,15 @@
 #include <string>
 #include <vector>
 
-#include "engine/builtin_scenes.h"
-#include "engine/output_writer.h"
-#include "engine/overrides.h"
-#include "engine/simulation.h"
-#include "core/log.h"
-#include "core/version.h"
-#include "gl/context.h"
-#include "engine/scene_view.h"
-#include "render/renderer.h"
+#include <crumple/engine/builtin_scenes.h>
+#include <crumple/engine/output_writer.h>
+#include <crumple/engine/overrides.h>
+#include <crumple/engine/simulation.h>
+#include <crumple/core/log.h>
+#include <crumple/core/version.h>
+#include <crumple/gl/context.h>
+#include <crumple/engine/scene_view.h>
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 namespace fs = std::filesystem;

@@ -5,7 +5,7 @@
 #   # in a project: find_package(crumple 0.2 REQUIRED) ... target_link_libraries(app PRIVATE crumple::engine)
 #
 # Installed: lib/libcrumple_*.a (or .so with BUILD_SHARED_LIBS), the layers' headers under
-# include/crumple/<layer>/ (so `#include "physics/world.h"` works with -I<prefix>/include/crumple),
+# include/crumple/<layer>/ (`#include <crumple/physics/world.h>` with -I<prefix>/include),
 # lib/cmake/crumple/ and lib/pkgconfig/crumple.pc; with the apps, bin/crumple-sim and bin/crumple-sandbox
 # (apps/CMakeLists.txt).
 
@@ -36,10 +36,28 @@ endif()
 
 set(CRUMPLE_CMAKE_DIR "${CMAKE_INSTALL_LIBDIR}/cmake/crumple")
 
-install(TARGETS ${CRUMPLE_LIBRARY_TARGETS} EXPORT crumpleTargets
+# Two export sets, the package's components: `physics` (core, physics, the stress-strain model: GLM and the C++
+# library only) and `engine` (gl, render, deform, engine: OpenGL, EGL, epoxy, the mesh and scene libraries).
+set(CRUMPLE_PHYSICS_TARGETS crumple_core crumple_physics crumple_deform_model)
+set(CRUMPLE_ENGINE_TARGETS ${CRUMPLE_LIBRARY_TARGETS})
+list(REMOVE_ITEM CRUMPLE_ENGINE_TARGETS ${CRUMPLE_PHYSICS_TARGETS})
+install(TARGETS ${CRUMPLE_PHYSICS_TARGETS} EXPORT crumplePhysicsTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(TARGETS ${CRUMPLE_ENGINE_TARGETS} EXPORT crumpleEngineTargets
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# The installed libraries carry no debug info unless asked (a program linking crumple::physics stays small
+# whatever build type made them).
+option(CRUMPLE_INSTALL_DEBUG_INFO "Keep debug info in the installed libraries" OFF)
+if(NOT CRUMPLE_INSTALL_DEBUG_INFO AND CMAKE_STRIP)
+  foreach(target ${CRUMPLE_LIBRARY_TARGETS})
+    install(CODE "execute_process(COMMAND \"${CMAKE_STRIP}\" --strip-debug
+      \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR}/$<TARGET_FILE_NAME:${target}>\")")
+  endforeach()
+endif()
 
 # Headers, each layer's under include/crumple/<folder>/. Internal headers (shared only between a layer's
 # own sources) stay out.
@@ -52,9 +70,10 @@ foreach(entry ${CRUMPLE_LIBRARIES})
   install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/${folder})
 endforeach()
 # Generated headers.
-install(FILES "${PROJECT_BINARY_DIR}/generated/core/version.h" DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/core)
+install(FILES "${PROJECT_BINARY_DIR}/generated/crumple/core/version.h" DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/core)
 
-install(EXPORT crumpleTargets NAMESPACE crumple:: DESTINATION ${CRUMPLE_CMAKE_DIR})
+install(EXPORT crumplePhysicsTargets NAMESPACE crumple:: DESTINATION ${CRUMPLE_CMAKE_DIR})
+install(EXPORT crumpleEngineTargets NAMESPACE crumple:: DESTINATION ${CRUMPLE_CMAKE_DIR})
 configure_package_config_file(cmake/crumpleConfig.cmake.in "${PROJECT_BINARY_DIR}/crumpleConfig.cmake"
   INSTALL_DESTINATION ${CRUMPLE_CMAKE_DIR})
 # 0.x: a minor version may break the API, so only the same minor version is compatible.
@@ -63,7 +82,7 @@ write_basic_package_version_file("${PROJECT_BINARY_DIR}/crumpleConfigVersion.cma
 install(FILES "${PROJECT_BINARY_DIR}/crumpleConfig.cmake" "${PROJECT_BINARY_DIR}/crumpleConfigVersion.cmake"
   DESTINATION ${CRUMPLE_CMAKE_DIR})
 
-# pkg-config: one module, every layer (C++20: compile with -std=c++20 or later). Static libraries need their dependencies on the consumer's link
+# pkg-config: crumple, every layer, and crumple-physics, the physics component (C++20: compile with -std=c++20 or later). Static libraries need their dependencies on the consumer's link
 # line, so they are Requires there; shared ones keep them private.
 set(CRUMPLE_PC_REQUIRES "glm epoxy egl opengl zlib nlohmann_json tinygltf")
 if(CRUMPLE_WITH_GLFW)
@@ -86,5 +105,8 @@ endforeach()
 file(RELATIVE_PATH CRUMPLE_PC_TO_PREFIX "/prefix/${CMAKE_INSTALL_LIBDIR}/pkgconfig" "/prefix")
 string(REGEX REPLACE "/$" "" CRUMPLE_PC_TO_PREFIX "${CRUMPLE_PC_TO_PREFIX}")
 configure_file(cmake/crumple.pc.in "${PROJECT_BINARY_DIR}/crumple.pc" @ONLY)
-install(FILES "${PROJECT_BINARY_DIR}/crumple.pc" DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+# crumple-physics.pc: the physics component alone (no GL).
+configure_file(cmake/crumple-physics.pc.in "${PROJECT_BINARY_DIR}/crumple-physics.pc" @ONLY)
+install(FILES "${PROJECT_BINARY_DIR}/crumple.pc" "${PROJECT_BINARY_DIR}/crumple-physics.pc"
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 install(FILES LICENSE DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/crumple)

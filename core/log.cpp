@@ -1,4 +1,4 @@
-#include "core/log.h"
+#include <crumple/core/log.h>
 
 #include <cstdio>
 #include <mutex>

@@ -1,4 +1,4 @@
-#include "core/version.h"
+#include <crumple/core/version.h>
 
 namespace crumple {
 

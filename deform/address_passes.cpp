@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <climits>
 
-#include "deform/passes.h"
+#include <crumple/deform/passes.h>
 
 namespace crumple::deform {
 

@@ -3,7 +3,7 @@
 // on one side must be made on the other (the shaders name these constants in
 // comments beside their declarations).
 #pragma once
-#include "gl/bindings.h"
+#include <crumple/gl/bindings.h>
 
 namespace crumple::deform::bindings {
 

@@ -2,7 +2,7 @@
 // normal map regenerated there (also used for whole maps at creation).
 #include <algorithm>
 
-#include "deform/passes.h"
+#include <crumple/deform/passes.h>
 
 namespace crumple::deform {
 

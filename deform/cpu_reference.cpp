@@ -1,11 +1,11 @@
-#include "deform/cpu_reference.h"
+#include <crumple/deform/cpu_reference.h>
 
 #include <algorithm>
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <vector>
 
-#include "deform/deformer.h"
+#include <crumple/deform/deformer.h>
 
 namespace crumple::deform {
 

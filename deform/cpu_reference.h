@@ -8,8 +8,8 @@
 #pragma once
 #include <glm/glm.hpp>
 
-#include "physics/mesh.h"
-#include "gl/image.h"
+#include <crumple/physics/mesh.h>
+#include <crumple/gl/image.h>
 
 namespace crumple::deform {
 

@@ -1,8 +1,8 @@
-#include "deform/deformer.h"
+#include <crumple/deform/deformer.h>
 
-#include "deform/passes.h"
-#include "gl/context.h"
-#include "gl/state.h"
+#include <crumple/deform/passes.h>
+#include <crumple/gl/context.h>
+#include <crumple/gl/state.h>
 
 #include <algorithm>
 #include <cmath>

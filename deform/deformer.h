@@ -31,9 +31,9 @@
 #include <memory>
 #include <vector>
 
-#include "deform/options.h"
-#include "deform/surface.h"
-#include "gl/objects.h"
+#include <crumple/deform/options.h>
+#include <crumple/deform/surface.h>
+#include <crumple/gl/objects.h>
 
 namespace crumple::deform {
 

@@ -2,7 +2,7 @@
 // paper's scatter as a compute pass, and crater rims.
 #include <algorithm>
 
-#include "deform/passes.h"
+#include <crumple/deform/passes.h>
 
 namespace crumple::deform {
 

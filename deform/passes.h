@@ -26,10 +26,10 @@
 #include <string>
 #include <vector>
 
-#include "deform/bindings.h"
-#include "deform/deformer.h"
-#include "gl/objects.h"
-#include "gl/program.h"
+#include <crumple/deform/bindings.h>
+#include <crumple/deform/deformer.h>
+#include <crumple/gl/objects.h>
+#include <crumple/gl/program.h>
 
 namespace crumple::deform {
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "deform/passes.h"
+#include <crumple/deform/passes.h>
 
 namespace crumple::deform {
 

@@ -1,4 +1,4 @@
-#include "deform/surface.h"
+#include <crumple/deform/surface.h>
 
 #include <cmath>
 #include <map>

@@ -8,9 +8,9 @@
 #include <map>
 #include <memory>
 
-#include "physics/mesh.h"
-#include "gl/objects.h"
-#include "gl/image.h"
+#include <crumple/physics/mesh.h>
+#include <crumple/gl/objects.h>
+#include <crumple/gl/image.h>
 
 namespace crumple::deform {
 

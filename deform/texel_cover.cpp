@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "deform/passes.h"
+#include <crumple/deform/passes.h>
 
 namespace crumple::deform {
 

@@ -1,12 +1,12 @@
-#include "engine/assets.h"
+#include <crumple/engine/assets.h>
 
 #include <filesystem>
 #include <sstream>
 
-#include "engine/atlas.h"
-#include "engine/mesh_io.h"
-#include "engine/primitives.h"
-#include "core/log.h"
+#include <crumple/engine/atlas.h>
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/primitives.h>
+#include <crumple/core/log.h>
 
 namespace crumple {
 

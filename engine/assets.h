@@ -7,12 +7,12 @@
 #include <memory>
 #include <string>
 
-#include "deform/deformer.h"
-#include "deform/surface.h"
-#include "engine/scene.h"
-#include "physics/shape.h"
-#include "gl/image.h"
-#include "render/look.h"
+#include <crumple/deform/deformer.h>
+#include <crumple/deform/surface.h>
+#include <crumple/engine/scene.h>
+#include <crumple/physics/shape.h>
+#include <crumple/gl/image.h>
+#include <crumple/render/look.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "engine/atlas.h"
+#include <crumple/engine/atlas.h>
 
 #include <algorithm>
 #include <cmath>

@@ -9,7 +9,7 @@
 
 #include <vector>
 
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 namespace crumple {
 

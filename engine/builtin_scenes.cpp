@@ -1,4 +1,4 @@
-#include "engine/builtin_scenes.h"
+#include <crumple/engine/builtin_scenes.h>
 
 #include <unistd.h>
 

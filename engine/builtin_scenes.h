@@ -3,7 +3,7 @@
 #pragma once
 #include <string>
 
-#include "engine/scene.h"
+#include <crumple/engine/scene.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "engine/gltf_export.h"
+#include <crumple/engine/gltf_export.h>
 
 #include <algorithm>
 #include <cctype>
@@ -13,7 +13,7 @@
 #define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
 
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 namespace crumple {
 

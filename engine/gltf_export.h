@@ -2,7 +2,7 @@
 #pragma once
 #include <string>
 
-#include "engine/simulation.h"
+#include <crumple/engine/simulation.h>
 
 namespace crumple {
 

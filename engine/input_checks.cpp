@@ -9,8 +9,8 @@
 #include <cstring>
 #include <vector>
 
-#include "engine/input_file.h"
-#include "engine/scene.h"
+#include <crumple/engine/input_file.h>
+#include <crumple/engine/scene.h>
 
 namespace crumple {
 

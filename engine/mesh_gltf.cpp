@@ -24,10 +24,10 @@
 #include <stb/stb_image.h>
 #include <tiny_gltf.h>
 
-#include "core/log.h"
-#include "engine/mesh_io.h"
-#include "engine/mesh_io_detail.h"
-#include "render/look.h"
+#include <crumple/core/log.h>
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/mesh_io_detail.h>
+#include <crumple/render/look.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "engine/mesh_io.h"
+#include <crumple/engine/mesh_io.h>
 
 #include <algorithm>
 #include <array>
@@ -14,9 +14,9 @@
 #include <sstream>
 #include <unordered_set>
 
-#include "core/log.h"
-#include "engine/input_file.h"
-#include "engine/mesh_io_detail.h"
+#include <crumple/core/log.h>
+#include <crumple/engine/input_file.h>
+#include <crumple/engine/mesh_io_detail.h>
 
 namespace crumple {
 

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 namespace crumple {
 namespace render {

@@ -6,9 +6,9 @@
 #include <istream>
 #include <string>
 
-#include "engine/input_file.h"
-#include "engine/mesh_io.h"
-#include "engine/scene.h"
+#include <crumple/engine/input_file.h>
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/scene.h>
 
 namespace crumple::meshio {
 

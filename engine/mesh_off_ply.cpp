@@ -19,8 +19,8 @@
 
 #include <glm/glm.hpp>
 
-#include "engine/mesh_io.h"
-#include "engine/mesh_io_detail.h"
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/mesh_io_detail.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "engine/output_writer.h"
+#include <crumple/engine/output_writer.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,9 +12,9 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "core/log.h"
-#include "engine/gltf_export.h"
-#include "gl/image.h"
+#include <crumple/core/log.h>
+#include <crumple/engine/gltf_export.h>
+#include <crumple/gl/image.h>
 
 namespace crumple {
 

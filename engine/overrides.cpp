@@ -1,4 +1,4 @@
-#include "engine/overrides.h"
+#include <crumple/engine/overrides.h>
 
 #include <cctype>
 #include <cstring>

@@ -19,7 +19,7 @@
 #include <utility>
 #include <vector>
 
-#include "engine/scene.h"
+#include <crumple/engine/scene.h>
 
 namespace crumple {
 

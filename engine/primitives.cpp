@@ -1,9 +1,9 @@
-#include "engine/primitives.h"
+#include <crumple/engine/primitives.h>
 
 #include <cmath>
 #include <glm/gtc/constants.hpp>
 
-#include "engine/atlas.h"
+#include <crumple/engine/atlas.h>
 
 namespace crumple {
 

@@ -4,7 +4,7 @@
 #pragma once
 #include <glm/glm.hpp>
 
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 namespace crumple {
 

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "deform/options.h"
-#include "physics/joint.h"
-#include "physics/vehicle.h"
+#include <crumple/deform/options.h>
+#include <crumple/physics/joint.h>
+#include <crumple/physics/vehicle.h>
 
 namespace crumple {
 

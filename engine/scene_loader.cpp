@@ -6,10 +6,10 @@
 #include <set>
 #include <sstream>
 
-#include "engine/input_file.h"
-#include "engine/overrides.h"
-#include "engine/scene.h"
-#include "core/log.h"
+#include <crumple/engine/input_file.h>
+#include <crumple/engine/overrides.h>
+#include <crumple/engine/scene.h>
+#include <crumple/core/log.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "engine/scene_view.h"
+#include <crumple/engine/scene_view.h>
 
 #include <algorithm>
 #include <chrono>

@@ -3,8 +3,8 @@
 #pragma once
 #include <vector>
 
-#include "engine/simulation.h"
-#include "render/renderer.h"
+#include <crumple/engine/simulation.h>
+#include <crumple/render/renderer.h>
 
 namespace crumple {
 

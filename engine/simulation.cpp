@@ -1,4 +1,4 @@
-#include "engine/simulation.h"
+#include <crumple/engine/simulation.h>
 
 #include <cstring>
 
@@ -15,12 +15,12 @@
 #include <random>
 #include <sstream>
 
-#include "engine/atlas.h"
-#include "engine/mesh_io.h"
-#include "engine/primitives.h"
-#include "core/log.h"
-#include "deform/model/stress_strain.h"
-#include "gl/image.h"
+#include <crumple/engine/atlas.h>
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/primitives.h>
+#include <crumple/core/log.h>
+#include <crumple/deform/model/stress_strain.h>
+#include <crumple/gl/image.h>
 
 namespace crumple {
 

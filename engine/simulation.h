@@ -8,15 +8,15 @@
 #include <string>
 #include <vector>
 
-#include "deform/deformer.h"
-#include "deform/surface.h"
-#include "engine/assets.h"
-#include "engine/scene.h"
-#include "engine/vehicles.h"
-#include "physics/sdf_grid.h"
-#include "physics/vehicle.h"
-#include "physics/world.h"
-#include "gl/gpu_timer.h"
+#include <crumple/deform/deformer.h>
+#include <crumple/deform/surface.h>
+#include <crumple/engine/assets.h>
+#include <crumple/engine/scene.h>
+#include <crumple/engine/vehicles.h>
+#include <crumple/physics/sdf_grid.h>
+#include <crumple/physics/vehicle.h>
+#include <crumple/physics/world.h>
+#include <crumple/gl/gpu_timer.h>
 
 namespace crumple {
 

@@ -1,11 +1,11 @@
-#include "engine/vehicles.h"
+#include <crumple/engine/vehicles.h>
 
 #include <algorithm>
 #include <cmath>
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "engine/primitives.h"
+#include <crumple/engine/primitives.h>
 
 namespace crumple {
 

@@ -8,10 +8,10 @@
 #include <memory>
 #include <vector>
 
-#include "deform/surface.h"
-#include "engine/scene.h"
-#include "physics/vehicle.h"
-#include "physics/world.h"
+#include <crumple/deform/surface.h>
+#include <crumple/engine/scene.h>
+#include <crumple/physics/vehicle.h>
+#include <crumple/physics/world.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "gl/capture.h"
+#include <crumple/gl/capture.h>
 
 #include <vector>
 

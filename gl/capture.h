@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 namespace crumple::gl {
 

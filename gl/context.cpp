@@ -1,4 +1,4 @@
-#include "gl/context.h"
+#include <crumple/gl/context.h>
 
 #include <epoxy/gl.h>
 // epoxy's GL declarations first; GLFW must not pull in GL/gl.h.
@@ -16,7 +16,7 @@
 #include <regex>
 #include <vector>
 
-#include "core/log.h"
+#include <crumple/core/log.h>
 
 namespace crumple::gl {
 

@@ -1,4 +1,4 @@
-#include "gl/gpu_timer.h"
+#include <crumple/gl/gpu_timer.h>
 
 namespace crumple::gl {
 

@@ -1,4 +1,4 @@
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 #include <zlib.h>
 

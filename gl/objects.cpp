@@ -1,4 +1,4 @@
-#include "gl/objects.h"
+#include <crumple/gl/objects.h>
 
 #include <algorithm>
 #include <cstdio>

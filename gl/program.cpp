@@ -1,4 +1,4 @@
-#include "gl/program.h"
+#include <crumple/gl/program.h>
 
 #include <algorithm>
 #include <stdexcept>

@@ -12,7 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "gl/objects.h"
+#include <crumple/gl/objects.h>
 
 namespace crumple::gl {
 

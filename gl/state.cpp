@@ -1,4 +1,4 @@
-#include "gl/state.h"
+#include <crumple/gl/state.h>
 
 namespace crumple::gl {
 

@@ -11,8 +11,8 @@
 #include <memory>
 #include <string>
 
-#include "physics/rotation.h"
-#include "physics/shape.h"
+#include <crumple/physics/rotation.h>
+#include <crumple/physics/shape.h>
 
 namespace crumple {
 

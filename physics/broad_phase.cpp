@@ -30,8 +30,8 @@
 #include <algorithm>
 #include <numeric>
 
-#include "physics/sample_tree.h"
-#include "physics/step_context.h"
+#include <crumple/physics/sample_tree.h>
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

@@ -21,7 +21,7 @@
 //   version has not moved (the contact step's first pass reuses both).
 #include <algorithm>
 
-#include "physics/step_context.h"
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

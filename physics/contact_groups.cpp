@@ -1,4 +1,4 @@
-#include "physics/contact_groups.h"
+#include <crumple/physics/contact_groups.h>
 
 #include <algorithm>
 #include <cmath>

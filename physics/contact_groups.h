@@ -12,9 +12,9 @@
 
 #include <vector>
 
-#include "physics/body.h"
-#include "physics/impulse.h"
-#include "physics/types.h"
+#include <crumple/physics/body.h>
+#include <crumple/physics/impulse.h>
+#include <crumple/physics/types.h>
 
 namespace crumple::detail {
 

@@ -24,7 +24,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "physics/step_context.h"
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

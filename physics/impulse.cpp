@@ -1,4 +1,4 @@
-#include "physics/impulse.h"
+#include <crumple/physics/impulse.h>
 
 #include <algorithm>
 #include <cmath>

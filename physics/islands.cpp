@@ -18,7 +18,7 @@
 #include <algorithm>
 #include <numeric>
 
-#include "physics/step_context.h"
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "physics/joint_solver.h"
+#include <crumple/physics/joint_solver.h>
 
 namespace crumple::detail::joints {
 

@@ -7,8 +7,8 @@
 #include <type_traits>
 #include <utility>
 
-#include "physics/disjoint_sets.h"
-#include "physics/joint_solver.h"
+#include <crumple/physics/disjoint_sets.h>
+#include <crumple/physics/joint_solver.h>
 
 namespace crumple::detail {
 

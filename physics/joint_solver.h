@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "physics/step_context.h"
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

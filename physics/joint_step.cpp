@@ -58,7 +58,7 @@
 #include <utility>
 #include <vector>
 
-#include "physics/joint_solver.h"
+#include <crumple/physics/joint_solver.h>
 
 namespace crumple::detail {
 

@@ -1,4 +1,4 @@
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 #include <cmath>
 #include <glm/gtc/constants.hpp>

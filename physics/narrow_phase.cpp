@@ -30,8 +30,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "physics/step_context.h"
-#include "physics/world.h"
+#include <crumple/physics/step_context.h>
+#include <crumple/physics/world.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "physics/polytope.h"
+#include <crumple/physics/polytope.h>
 
 #include <algorithm>
 #include <cmath>

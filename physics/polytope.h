@@ -17,7 +17,7 @@
 #include <memory>
 #include <vector>
 
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 namespace crumple {
 

@@ -22,7 +22,7 @@
 // - On several threads and without joints to bring together, the projection
 //   runs by runs of whole islands (islands.cpp): each body gets the same
 //   corrections in the same order as over all pairs.
-#include "physics/step_context.h"
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

@@ -25,8 +25,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "physics/disjoint_sets.h"
-#include "physics/step_context.h"
+#include <crumple/physics/disjoint_sets.h>
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

@@ -1,4 +1,4 @@
-#include "physics/rotation.h"
+#include <crumple/physics/rotation.h>
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "physics/sdf_grid.h"
+#include <crumple/physics/sdf_grid.h>
 
 #include <algorithm>
 #include <cmath>

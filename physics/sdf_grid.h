@@ -6,7 +6,7 @@
 
 #include <vector>
 
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 namespace crumple {
 

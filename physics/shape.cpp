@@ -1,6 +1,6 @@
-#include "physics/shape.h"
+#include <crumple/physics/shape.h>
 
-#include "physics/sample_tree.h"
+#include <crumple/physics/sample_tree.h>
 
 #include <algorithm>
 #include <cmath>

@@ -9,9 +9,9 @@
 #include <memory>
 #include <vector>
 
-#include "physics/mesh.h"
-#include "physics/polytope.h"
-#include "physics/sdf_grid.h"
+#include <crumple/physics/mesh.h>
+#include <crumple/physics/polytope.h>
+#include <crumple/physics/sdf_grid.h>
 
 namespace crumple {
 

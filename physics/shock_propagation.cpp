@@ -27,7 +27,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "physics/step_context.h"
+#include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
 

@@ -43,13 +43,13 @@
 #include <utility>
 #include <vector>
 
-#include "physics/body.h"
-#include "physics/contact_groups.h"
-#include "physics/impulse.h"
-#include "physics/joint.h"
-#include "physics/thread_pool.h"
-#include "physics/disjoint_sets.h"
-#include "physics/types.h"
+#include <crumple/physics/body.h>
+#include <crumple/physics/contact_groups.h>
+#include <crumple/physics/impulse.h>
+#include <crumple/physics/joint.h>
+#include <crumple/physics/thread_pool.h>
+#include <crumple/physics/disjoint_sets.h>
+#include <crumple/physics/types.h>
 
 namespace crumple::detail {
 

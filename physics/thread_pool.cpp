@@ -1,4 +1,4 @@
-#include "physics/thread_pool.h"
+#include <crumple/physics/thread_pool.h>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <functional>
 
-#include "physics/body.h"
+#include <crumple/physics/body.h>
 
 namespace crumple {
 

@@ -11,7 +11,7 @@
 
 #include <vector>
 
-#include "physics/world.h"
+#include <crumple/physics/world.h>
 
 namespace crumple {
 

@@ -1,6 +1,6 @@
 // The World's API and the order of the stages (step, substep). The stages
 // themselves live one per file (physics/step_context.h lists them).
-#include "physics/world.h"
+#include <crumple/physics/world.h>
 
 #include <algorithm>
 #include <chrono>
@@ -9,8 +9,8 @@
 #include <stdexcept>
 #include <thread>
 
-#include "physics/step_context.h"
-#include "physics/thread_pool.h"
+#include <crumple/physics/step_context.h>
+#include <crumple/physics/thread_pool.h>
 
 namespace crumple {
 

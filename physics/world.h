@@ -40,10 +40,10 @@
 #include <memory>
 #include <vector>
 
-#include "physics/body.h"
-#include "physics/impulse.h"
-#include "physics/joint.h"
-#include "physics/types.h"
+#include <crumple/physics/body.h>
+#include <crumple/physics/impulse.h>
+#include <crumple/physics/joint.h>
+#include <crumple/physics/types.h>
 
 namespace crumple {
 

@@ -1,4 +1,4 @@
-#include "render/auto_quality.h"
+#include <crumple/render/auto_quality.h>
 
 #include <algorithm>
 #include <cmath>

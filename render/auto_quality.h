@@ -6,7 +6,7 @@
 // Each change waits kSettleFrames and is judged on frames measured after it.
 #pragma once
 
-#include "render/renderer.h"
+#include <crumple/render/renderer.h>
 
 namespace crumple::render {
 

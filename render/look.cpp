@@ -1,4 +1,4 @@
-#include "render/look.h"
+#include <crumple/render/look.h>
 
 #include <algorithm>
 #include <cmath>

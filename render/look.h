@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "gl/objects.h"
+#include <crumple/gl/objects.h>
 
 namespace crumple::render {
 

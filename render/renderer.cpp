@@ -1,4 +1,4 @@
-#include "render/renderer.h"
+#include <crumple/render/renderer.h>
 
 #include <algorithm>
 #include <cmath>
@@ -6,11 +6,11 @@
 #include <map>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "gl/bindings.h"
-#include "gl/capture.h"
-#include "gl/context.h"
-#include "gl/program.h"
-#include "render/look.h"
+#include <crumple/gl/bindings.h>
+#include <crumple/gl/capture.h>
+#include <crumple/gl/context.h>
+#include <crumple/gl/program.h>
+#include <crumple/render/look.h>
 
 namespace crumple::render {
 

@@ -27,8 +27,8 @@
 #include <string_view>
 #include <vector>
 
-#include "gl/objects.h"
-#include "gl/image.h"
+#include <crumple/gl/objects.h>
+#include <crumple/gl/image.h>
 
 namespace crumple::render {
 

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 namespace crumple::test {
 

@@ -1,6 +1,6 @@
 // One headless GL context per test process (llvmpipe on machines with no GPU).
 #pragma once
-#include "gl/context.h"
+#include <crumple/gl/context.h>
 
 namespace crumple::test {
 inline gl::GlContext& glContext() {

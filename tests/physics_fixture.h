@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <glm/glm.hpp>
 
-#include "physics/world.h"
+#include <crumple/physics/world.h>
 
 namespace crumple::test {
 

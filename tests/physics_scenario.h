@@ -37,8 +37,8 @@
 #include <string>
 #include <vector>
 
-#include "physics/vehicle.h"
-#include "physics/world.h"
+#include <crumple/physics/vehicle.h>
+#include <crumple/physics/world.h>
 
 namespace crumple::test {
 

@@ -11,13 +11,13 @@
 #include <set>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "deform/bindings.h"
-#include "deform/cpu_reference.h"
-#include "deform/deformer.h"
-#include "engine/primitives.h"
+#include <crumple/deform/bindings.h>
+#include <crumple/deform/cpu_reference.h>
+#include <crumple/deform/deformer.h>
+#include <crumple/engine/primitives.h>
 #include "dent_metrics.h"
 #include "gl_fixture.h"
-#include "deform/model/stress_strain.h"
+#include <crumple/deform/model/stress_strain.h>
 
 using namespace crumple;
 using namespace crumple::deform;

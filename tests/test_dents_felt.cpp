@@ -6,7 +6,7 @@
 #include <cmath>
 #include <string>
 
-#include "engine/simulation.h"
+#include <crumple/engine/simulation.h>
 #include "gl_fixture.h"
 
 using namespace crumple;

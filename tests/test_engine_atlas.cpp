@@ -4,8 +4,8 @@
 #include <cmath>
 #include <glm/gtc/constants.hpp>
 
-#include "engine/atlas.h"
-#include "engine/primitives.h"
+#include <crumple/engine/atlas.h>
+#include <crumple/engine/primitives.h>
 #include "test_meshes.h"
 
 using namespace crumple;

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "engine/scene_view.h"
-#include "engine/simulation.h"
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/simulation.h>
 
 using namespace crumple;
 

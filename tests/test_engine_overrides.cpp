@@ -5,8 +5,8 @@
 #include <chrono>
 #include <string>
 
-#include "engine/overrides.h"
-#include "engine/scene.h"
+#include <crumple/engine/overrides.h>
+#include <crumple/engine/scene.h>
 
 using namespace crumple;
 using json = nlohmann::json;

@@ -14,11 +14,11 @@
 #include <fstream>
 #include <thread>
 
-#include "engine/assets.h"
-#include "engine/atlas.h"
-#include "engine/mesh_io.h"
-#include "engine/scene.h"
-#include "engine/scene_view.h"
+#include <crumple/engine/assets.h>
+#include <crumple/engine/atlas.h>
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/scene.h>
+#include <crumple/engine/scene_view.h>
 
 using namespace crumple;
 namespace fs = std::filesystem;

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "engine/scene.h"
+#include <crumple/engine/scene.h>
 
 using namespace crumple;
 

@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 using namespace crumple::gl;
 

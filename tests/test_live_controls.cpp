@@ -6,8 +6,8 @@
 #include <filesystem>
 #include <functional>
 
-#include "engine/scene_view.h"
-#include "engine/simulation.h"
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/simulation.h>
 #include "gl_fixture.h"
 
 using namespace crumple;

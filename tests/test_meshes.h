@@ -1,6 +1,6 @@
 // Meshes made in code for tests.
 #pragma once
-#include "physics/mesh.h"
+#include <crumple/physics/mesh.h>
 
 #include <cmath>
 

@@ -8,8 +8,8 @@
 #include <type_traits>
 #include <utility>
 
-#include "physics/mesh.h"
-#include "physics/sdf_grid.h"
+#include <crumple/physics/mesh.h>
+#include <crumple/physics/sdf_grid.h>
 #include "physics_fixture.h"
 
 using namespace crumple;

@@ -8,7 +8,7 @@
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "physics/sample_tree.h"
+#include <crumple/physics/sample_tree.h>
 #include "physics_fixture.h"
 #include "test_meshes.h"
 

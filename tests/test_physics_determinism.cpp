@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "physics/thread_pool.h"
+#include <crumple/physics/thread_pool.h>
 #include "physics_fixture.h"
 #include "test_meshes.h"
 

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <initializer_list>
 
-#include "physics/impulse.h"
-#include "deform/model/stress_strain.h"
+#include <crumple/physics/impulse.h>
+#include <crumple/deform/model/stress_strain.h>
 
 using namespace crumple;
 using doctest::Approx;

@@ -11,7 +11,7 @@
 #include <limits>
 #include <vector>
 
-#include "physics/world.h"
+#include <crumple/physics/world.h>
 #include "physics_fixture.h"
 
 using namespace crumple;

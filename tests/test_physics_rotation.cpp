@@ -5,8 +5,8 @@
 #include <cmath>
 #include <vector>
 
-#include "physics/mesh.h"
-#include "physics/rotation.h"
+#include <crumple/physics/mesh.h>
+#include <crumple/physics/rotation.h>
 #include "physics_fixture.h"
 
 using namespace crumple;

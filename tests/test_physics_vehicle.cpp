@@ -6,7 +6,7 @@
 #include <glm/gtc/constants.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "physics/vehicle.h"
+#include <crumple/physics/vehicle.h>
 #include "physics_fixture.h"
 
 using namespace crumple;

@@ -6,9 +6,9 @@
 #include <filesystem>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "deform/surface.h"
+#include <crumple/deform/surface.h>
 #include "gl_fixture.h"
-#include "render/renderer.h"
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 using namespace crumple::gl;

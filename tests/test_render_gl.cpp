@@ -6,13 +6,13 @@
 #include <filesystem>
 
 #include "gl_fixture.h"
-#include "gl/capture.h"
-#include "gl/objects.h"
-#include "gl/gpu_timer.h"
-#include "gl/program.h"
-#include "gl/state.h"
-#include "gl/bindings.h"
-#include "render/renderer.h"
+#include <crumple/gl/capture.h>
+#include <crumple/gl/objects.h>
+#include <crumple/gl/gpu_timer.h>
+#include <crumple/gl/program.h>
+#include <crumple/gl/state.h>
+#include <crumple/gl/bindings.h>
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 using namespace crumple::gl;

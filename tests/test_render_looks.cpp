@@ -14,12 +14,12 @@
 #include <stb/stb_image.h>
 #include <tiny_gltf.h>
 
-#include "engine/mesh_io.h"
-#include "engine/scene_view.h"
-#include "engine/simulation.h"
+#include <crumple/engine/mesh_io.h>
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/simulation.h>
 #include "gl_fixture.h"
-#include "render/look.h"
-#include "render/renderer.h"
+#include <crumple/render/look.h>
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 using namespace crumple::gl;

@@ -7,12 +7,12 @@
 #include <filesystem>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "deform/deformer.h"
-#include "engine/primitives.h"
-#include "engine/scene_view.h"
-#include "engine/simulation.h"
+#include <crumple/deform/deformer.h>
+#include <crumple/engine/primitives.h>
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/simulation.h>
 #include "gl_fixture.h"
-#include "render/renderer.h"
+#include <crumple/render/renderer.h>
 
 using namespace crumple;
 using namespace crumple::gl;

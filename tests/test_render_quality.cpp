@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "render/auto_quality.h"
+#include <crumple/render/auto_quality.h>
 
 using namespace crumple::gl;
 using namespace crumple::render;

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 namespace fs = std::filesystem;
 

@@ -19,9 +19,9 @@
 #include <sstream>
 #include <thread>
 
-#include "core/version.h"
+#include <crumple/core/version.h>
 #include "dent_metrics.h"
-#include "gl/image.h"
+#include <crumple/gl/image.h>
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "physics/world.h"
+#include <crumple/physics/world.h>
 
 struct Drawn {  // what your renderer would get for each body: where to draw it
   glm::dvec3 position;

@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <exception>
 
-#include "engine/scene.h"
-#include "engine/simulation.h"
-#include "gl/context.h"
+#include <crumple/engine/scene.h>
+#include <crumple/engine/simulation.h>
+#include <crumple/gl/context.h>
 
 // A scene in crumple's scene format (the same JSON that crumple-sim reads from a file).
 const char* kScene = R"({

@@ -2,8 +2,8 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/version.h"
-#include "physics/world.h"
+#include <crumple/core/version.h>
+#include <crumple/physics/world.h>
 
 int main() {
   crumple::World world;  // gravity -9.81 m/s^2 along y

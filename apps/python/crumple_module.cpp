@@ -18,15 +18,15 @@
 #include <thread>
 #include <vector>
 
-#include "core/log.h"
-#include "core/version.h"
-#include "engine/builtin_scenes.h"
-#include "engine/output_writer.h"
-#include "engine/overrides.h"
-#include "engine/scene_view.h"
-#include "engine/simulation.h"
-#include "gl/context.h"
-#include "render/renderer.h"
+#include <crumple/core/log.h>
+#include <crumple/core/version.h>
+#include <crumple/engine/builtin_scenes.h>
+#include <crumple/engine/output_writer.h>
+#include <crumple/engine/overrides.h>
+#include <crumple/engine/scene_view.h>
+#include <crumple/engine/simulation.h>
+#include <crumple/gl/context.h>
+#include <crumple/render/renderer.h>
 
 // After epoxy's GL header (through the engine's): EGL for releasing a context.
 #include <EGL/egl.h>

@@ -1,4 +1,4 @@
-#include "deform/model/stress_strain.h"
+#include <crumple/deform/model/stress_strain.h>
 
 #include <algorithm>
 #include <cmath>

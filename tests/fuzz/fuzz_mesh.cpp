@@ -11,8 +11,8 @@
 #include <fstream>
 #include <string>
 
-#include "core/log.h"
-#include "engine/mesh_io.h"
+#include <crumple/core/log.h>
+#include <crumple/engine/mesh_io.h>
 
 namespace fs = std::filesystem;
 

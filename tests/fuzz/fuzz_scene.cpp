@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <string>
 
-#include "core/log.h"
-#include "engine/scene.h"
+#include <crumple/core/log.h>
+#include <crumple/engine/scene.h>
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   crumple::setLogLevel(crumple::LogLevel::Error);  // "unknown key, ignored" on every other input

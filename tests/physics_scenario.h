@@ -18,9 +18,10 @@
 // - no dynamic body moves faster than the scene can push it: four times the
 //   fastest speed present at the start (a point's |v| + |w| r, kinematic bodies'
 //   surfaces included) plus the correction speed, plus what gravity, the vehicle's
-//   engine and the motors can add since; a body joined to a kinematic body, at
-//   most twice its joints' reach per step (a mechanism driven through a
-//   singular pose: a rod on a tether dragged into the ground);
+//   engine and the motors can add since; a body joined to a kinematic body, or
+//   jointed in a scene with kinematic bodies, at most twice its joints' reach
+//   per step (a mechanism driven through a singular pose: a rod on a tether
+//   dragged into the ground, a roped body run through by a kinematic one);
 // - a scene with no source of energy (no kinematic body, vehicle or motor,
 //   nothing started overlapping or violated) gains no energy beyond the
 //   positional projection's slop;
@@ -348,6 +349,24 @@ inline void buildScenario(Scenario& sc, ScenarioInput& in) {
             sc.mechanismSpeed[static_cast<size_t>(i)] = std::max(sc.mechanismSpeed[static_cast<size_t>(i)],
                                                                  2 * (reach + 1) * kScenarioRate);
     }
+    // The same where a kinematic body pushes a jointed body by contact (a heavy cylinder on a short rope to the
+    // world, run through by a kinematic one): the push meets the joints' constraint at any angle, and near a
+    // right angle the body must slide along it ever faster; within one step, at most across its own joints' reach.
+    if (!sc.kinematic.empty())
+      for (int j = 0; j < static_cast<int>(w.jointCount()); ++j) {
+        const JointDef& d = w.jointDef(j);
+        double own = glm::length(d.anchorB - d.anchorA) + std::max(d.maxLength, 0.0) + std::abs(d.upper - d.lower);
+        for (int end : {d.a, d.b}) {
+          if (end < 0 || !w.body(end).dynamic()) continue;
+          own += glm::length(w.body(end).x - (d.type == JointType::Distance ? (end == d.a ? d.anchorA : d.anchorB) : d.anchor));
+        }
+        for (int end : {d.a, d.b}) {
+          if (end < 0 || !w.body(end).dynamic()) continue;
+          const double r = 2 * w.body(end).shape->boundingRadius;
+          sc.mechanismSpeed[static_cast<size_t>(end)] =
+              std::max(sc.mechanismSpeed[static_cast<size_t>(end)], 2 * (own + r + 1) * kScenarioRate);
+        }
+      }
   }
   for (size_t k = 0; k < sc.kinematic.size(); ++k) {
     const size_t i = static_cast<size_t>(sc.kinematic[k]);

@@ -37,6 +37,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include <Jolt/ConfigurationString.h>
+
 #include "bench_scenes.h"
 
 namespace crumple::bench {
@@ -228,6 +230,26 @@ std::unique_ptr<PeerWorld> makeJoltWorld(const SceneSpec& spec) {
   return std::make_unique<JoltWorld>(spec);
 }
 bool joltBuilt() { return true; }
+std::string joltConfiguration() { return JPH::GetConfigurationString(); }
+std::vector<std::string> joltWarnings() {
+  std::vector<std::string> w;
+#if defined(JPH_PROFILE_ENABLED)
+  w.push_back("Jolt was built with its profiler (JPH_PROFILE_ENABLED): its rows are slower than a Release build's");
+#endif
+#if defined(JPH_DEBUG_RENDERER)
+  w.push_back("Jolt was built with its debug renderer (JPH_DEBUG_RENDERER)");
+#endif
+#if defined(JPH_ENABLE_ASSERTS)
+  w.push_back("Jolt was built with asserts (JPH_ENABLE_ASSERTS)");
+#endif
+#if defined(JPH_FLOATING_POINT_EXCEPTIONS_ENABLED)
+  w.push_back("Jolt was built with floating-point exceptions on (JPH_FLOATING_POINT_EXCEPTIONS_ENABLED)");
+#endif
+#if defined(_DEBUG) || !defined(NDEBUG)
+  w.push_back("Jolt's headers were compiled without NDEBUG (a Debug configuration)");
+#endif
+  return w;
+}
 void joltLeaveClean() {
 #if defined(__AVX__)
   _mm256_zeroupper();  // (a Jolt built without AVX leaves nothing to clean)

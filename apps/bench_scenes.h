@@ -5,6 +5,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <crumple/engine/primitives.h>
@@ -45,6 +46,11 @@ class PeerWorld {
 // Jolt (when crumple-bench was built with CRUMPLE_JOLT_DIR), single-threaded; nullptr otherwise.
 std::unique_ptr<PeerWorld> makeJoltWorld(const SceneSpec& spec);
 bool joltBuilt();
+// How the linked Jolt was built: its own configuration string (JPH::GetConfigurationString: instruction sets,
+// precision, asserts, profiler, debug renderer) and a warning for each option that slows it (profiler, debug
+// renderer, asserts, floating-point exceptions); empty without Jolt.
+std::string joltConfiguration();
+std::vector<std::string> joltWarnings();
 // Leaves the vector registers' upper halves clean after Jolt's code (AVX2) has run: crumple and Bullet are
 // SSE2 code, and every SSE instruction after dirty upper halves pays a transition penalty (crumple's rows
 // after a Jolt row ran 1.3-1.5 times slower, its sleep stage 6 times). A no-op without Jolt.

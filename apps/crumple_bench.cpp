@@ -21,6 +21,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <thread>
+#include <fstream>
 #include <cstdint>
 #include <cstdio>
 #include <glm/gtc/constants.hpp>
@@ -51,6 +53,8 @@ using namespace crumple::bench;
 // Built without CRUMPLE_JOLT_DIR: no Jolt rows.
 std::unique_ptr<PeerWorld> crumple::bench::makeJoltWorld(const SceneSpec&) { return nullptr; }
 bool crumple::bench::joltBuilt() { return false; }
+std::string crumple::bench::joltConfiguration() { return ""; }
+std::vector<std::string> crumple::bench::joltWarnings() { return {}; }
 void crumple::bench::joltLeaveClean() {}
 #endif
 
@@ -921,6 +925,25 @@ int main(int argc, char** argv) {
     auto it = collector.counters.find(k);
     return it != collector.counters.end() && it->second.count("gpu_ms") ? it->second.at("gpu_ms") : NAN;
   };
+  // What the figures were measured on and against: the CPU, and each peer's build.
+  std::printf("\n== machine and peers ==\n");
+  {
+    std::ifstream cpu("/proc/cpuinfo");
+    std::string line, model = "unknown";
+    while (std::getline(cpu, line))
+      if (line.rfind("model name", 0) == 0) {
+        model = line.substr(line.find(':') + 2);
+        break;
+      }
+    std::printf("cpu: %s, %u hardware threads\n", model.c_str(), std::thread::hardware_concurrency());
+  }
+  std::printf("crumple %s: its physics library at -O3 (CMake build type %s)\n", crumple::versionString(),
+              CRUMPLE_BENCH_BUILD_TYPE);
+  std::printf("bullet: Debian's libbullet-dev, btSequentialImpulseConstraintSolver, one thread\n");
+  if (joltBuilt()) {
+    std::printf("jolt: %s, one thread\n", joltConfiguration().c_str());
+    for (const std::string& w : joltWarnings()) std::printf("WARNING: %s\n", w.c_str());
+  }
   std::printf("\n== ratios ==\n");
   for (const auto& c : cases) {
     const double a = ms("physics/crumple/" + c.name), b = ms("physics/bullet/" + c.name);

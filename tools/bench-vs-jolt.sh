@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# One command for the physics figures against Jolt (docs/performance.md): builds Jolt outside the repository,
+# builds crumple-bench against it and runs the physics rows.
+set -euo pipefail
+usage() {
+  cat <<'USAGE'
+Usage: tools/bench-vs-jolt.sh [--jolt DIR] [--repetitions N] [--quick]
+Builds Jolt Physics from the checkout DIR (default ../JoltPhysics, cloned from GitHub when absent) with
+tools/build-jolt.sh into ../jolt-install, configures crumple in build-bench-jolt/ (Release, with
+CRUMPLE_JOLT_DIR), builds crumple-bench and runs its physics rows on one thread:
+  crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions N   (default N: 2)
+It prints the machine, crumple's commit and each peer's configuration above the figures (Jolt's own configuration
+string, and a WARNING for a Jolt built with its profiler, debug renderer or asserts). --quick: the smoke run.
+Nothing is installed outside ../JoltPhysics, ../jolt-install and build-bench-jolt/.
+USAGE
+}
+jolt=
+repetitions=2
+quick=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    -h | --help) usage; exit 0 ;;
+    --jolt | --repetitions)
+      [ $# -ge 2 ] || { echo "$(basename "$0"): $1 needs a value" >&2; exit 2; }
+      if [ "$1" = --jolt ]; then jolt="$2"; else repetitions="$2"; fi
+      shift 2
+      ;;
+    --quick) quick=(--quick); shift ;;
+    *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
+  esac
+done
+[[ "$repetitions" =~ ^[1-9][0-9]?$ ]] || { echo "$(basename "$0"): --repetitions takes 1 to 99" >&2; exit 2; }
+cd "$(dirname "$0")/.."
+root=$(pwd)
+jolt=${jolt:-$(dirname "$root")/JoltPhysics}
+if [ ! -f "$jolt/Build/CMakeLists.txt" ]; then
+  echo "== cloning Jolt Physics into $jolt"
+  git clone --depth 1 https://github.com/jrouwe/JoltPhysics "$jolt"
+fi
+prefix=$(dirname "$root")/jolt-install
+echo "== building Jolt ($(git -C "$jolt" describe --tags --always 2>/dev/null || echo 'no git')) into $prefix"
+tools/build-jolt.sh "$jolt" "$prefix" >/dev/null
+echo "== building crumple-bench (commit $(git rev-parse --short HEAD)) against it"
+cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT_DIR="$prefix" -DCRUMPLE_BUILD_TESTS=OFF >/dev/null
+cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench >/dev/null
+echo "== crumple $(git rev-parse --short HEAD), Jolt $(git -C "$jolt" rev-parse --short HEAD 2>/dev/null || echo '?')"
+build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" "${quick[@]}"

@@ -596,6 +596,11 @@ def build_parser():
         description="Run the variants of a crumple sweep file as tasks of Dask distributed: each variant is a "
         "crumple-sim run into DIR/runs/<id>/, one row of DIR/results.csv (docs/sweeps.md).",
         epilog="Options after -- go to every crumple-sim run (e.g. -- --render --size 480x270).")
+    try:
+        from . import __version__ as version
+    except ImportError:  # the package's compiled module missing: the sweep itself needs only crumple-sim
+        version = "unknown"
+    p.add_argument("--version", action="version", version=f"crumple-sweep {version}")
     p.add_argument("sweep", help="the sweep file (JSON, format crumple-sweep/1)")
     p.add_argument("--out", "-o", required=True, help="output folder: runs/<id>/, logs/<id>.log, results.csv")
     p.add_argument("--scheduler", default="local",

@@ -160,6 +160,12 @@ class Sweep(unittest.TestCase):
         self.assertEqual(r.returncode, 2)
         self.assertIn("bodies[bal].velocity: no body is named 'bal'", r.stderr)
 
+    def test_version(self):
+        import crumple
+        r = subprocess.run([SWEEP, "--version"], capture_output=True, text=True, timeout=60)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertEqual(r.stdout.strip(), f"crumple-sweep {crumple.__version__}")
+
     def test_grid_dry_run(self):
         with open(self.sweep, "w") as f:
             json.dump({"scene": "drop.json", "vary": {"bodies[ball].velocity": [[0, -2, 0], [0, -4, 0]],

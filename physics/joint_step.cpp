@@ -203,13 +203,13 @@ double jointReach(const StepContext& ctx, const JointSystem& s) {
 void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
   std::vector<BodyState>& saved = ctx.jointVelocitySaved;
   saved.clear();
-  double before = 0, mass = 0, drive = 0;
-  const double reach = jointReach(ctx, s);
+  double before = 0, mass = 0, drive = 0, reach = -1;  // reach: only where a kinematic end drives
   for (size_t k = 1; k < s.sides.size(); ++k) {
     const int i = s.sides[k].index;
     if (i < 0 || !ctx.body(i).movable()) continue;
     const RigidBody& b = ctx.body(i);
     if (!b.dynamic()) {
+      if (reach < 0) reach = jointReach(ctx, s);
       drive = std::max(drive, glm::length(b.v) + glm::length(b.w) * reach);
       continue;
     }

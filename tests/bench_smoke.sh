@@ -11,6 +11,9 @@ expect() {  # count regex what
   n=$(echo "$out" | grep -cE "$2" || true)
   if [ "$n" -ne "$1" ]; then echo "bench_smoke: expected $1 $3 lines, found $n" >&2; exit 1; fi
 }
+expect 1 '^cpu: .+, [0-9]+ hardware threads$' "machine"
+expect 1 '^crumple [0-9]+\.[0-9]+\.[0-9]+: its physics library at -O3 \(CMake build type .*\)$' "crumple build"
+expect 1 '^bullet: ' "bullet build"
 expect 5 '^physics .* crumple/bullet +[0-9]+\.[0-9]+x$' "physics ratio"
 expect 5 '^ +at the end: crumple +[0-9]+ awake, top centre [0-9.]+ m; bullet +[0-9]+ awake, top centre [0-9.]+ m$' "end-state"
 expect 4 '^deform +address map +[0-9]+ +gather +[0-9.]+ ms +scatter +[0-9.]+ ms +readback +[0-9.]+ ms +gather/scatter +[0-9.]+x +readback/scatter +[0-9.]+x$' "deform ratio"

@@ -117,7 +117,12 @@ double hingeAngle(const Joint& jt, const Side& a, const Side& b, bool pred) {
 bool active(const StepContext& ctx, const Joint& jt) {
   if (jt.removed || jt.broken) return false;
   const bool ma = jt.def.a >= 0 && ctx.body(jt.def.a).dynamic(), mb = ctx.body(jt.def.b).dynamic();
-  return ma || mb;
+  if (!ma && !mb) return false;
+  // Between two bodies the welds hold to the world (findAnchored), or one and the world, only the welds act: any
+  // other joint there joins two parts of what cannot move, and one that starts violated could only fight them.
+  if (jt.def.type == JointType::Fixed || ctx.anchored.empty()) return true;
+  const auto held = [&](int i) { return i < 0 || !ctx.body(i).dynamic() || ctx.anchored[static_cast<size_t>(i)]; };
+  return !(held(jt.def.a) && held(jt.def.b));
 }
 
 // The rows of joint jt towards its end-of-substep target (pre = true) or its

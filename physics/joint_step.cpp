@@ -33,7 +33,11 @@
 //   solved alone (Gauss-Seidel). Passes go on until every joint's predicted
 //   violation is under jointTolerance or `sweeps` passes are done. Limits are
 //   one-sided rows at the bound, acting only where the predicted angle (hinge),
-//   offset (slider) or distance would leave the range.
+//   offset (slider) or distance would leave the range. A call that hands the
+//   joined bodies more kinetic energy than closing their violations takes
+//   (closingEnergy) and the motors' work is undone (removeForbiddenVelocity
+//   instead); where no kinematic end drives, closing is paid from the joints'
+//   credits (settleCredit), so the joints' net work is bounded for all time.
 // - postStabilize (after the positions): the relative velocity each joint
 //   forbids is removed (limits: only the part that leaves the range), one pass
 //   of the same solve (the rows are linear), up to `jointPostIterations` where
@@ -52,7 +56,9 @@
 //   for): the call is solved again from its start without it, and it enforces
 //   nothing from then on.
 // - A joint between two bodies that cannot move (static, kinematic, asleep) does
-//   nothing; a sleeping body joined to an awake one is woken first.
+//   nothing, nor does one (a weld excepted) between two bodies held to the world
+//   by welds (findAnchored), or one of them and the world; a sleeping body joined
+//   to an awake one is woken first.
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -128,11 +134,13 @@ bool yieldJoints(StepContext& ctx, const JointSystem& s, double h, const std::ve
 // reach = maxCorrectionSpeed x h of it) within the substep takes: per row, (violation / h)^2 / 2 against the row's
 // effective mass, twice over (the rows' coupling, and the turn a fast spin makes a holding joint's anchors drift
 // through within the substep). A joint that holds has no budget: whatever its pre-stabilisation adds beyond this
-// is the solver's, not the scene's.
-double closingEnergy(StepContext& ctx, JointSystem& s, double h) {
+// is the solver's, not the scene's. Per joint of s (its joints, then its loops) in `each`; returns the sum.
+double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<double>& each) {
   const double reach = ctx.settings.maxCorrectionSpeed * h;
-  double energy = 0;
+  each.clear();
+  double sum = 0;
   auto add = [&](const Joint& jt, Side a, Side b) {
+    double energy = 0;
     a.refresh(ctx, 0, true);  // predicted = now
     b.refresh(ctx, 0, true);
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
@@ -145,6 +153,8 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h) {
       const double speed = jr.err[k] / h;
       energy += speed * speed / inverse;  // 2 x (speed^2 / 2 / inverse)
     }
+    each.push_back(energy);
+    sum += energy;
   };
   for (size_t k = 0; k < s.joints.size(); ++k)
     add(ctx.joints[static_cast<size_t>(s.joints[k])], s.sides[static_cast<size_t>(s.ends[k].first)],
@@ -152,7 +162,46 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h) {
   for (size_t k = 0; k < s.loops.size(); ++k)
     add(ctx.joints[static_cast<size_t>(s.loops[k])], s.sides[static_cast<size_t>(s.loopEnds[k].first)],
         s.sides[static_cast<size_t>(s.loopEnds[k].second)]);
-  return energy;
+  return sum;
+}
+
+// The joints of s in closingEnergy's order.
+template <typename F>
+void forSystemJoints(StepContext& ctx, const JointSystem& s, F&& f) {
+  size_t k = 0;
+  for (int j : s.joints) f(ctx.joints[static_cast<size_t>(j)], k++);
+  for (int j : s.loops) f(ctx.joints[static_cast<size_t>(j)], k++);
+}
+
+// Settles a call's change of the joined bodies' kinetic energy with the joints' credits: a gain is taken from
+// them in proportion to what each holds, a loss given back to those below their cap in proportion to the
+// shortfall. So whatever the calls do, the energy the joints hand out, less what they take away, never exceeds
+// what closing their largest violation takes: a joint held open by something it cannot move (contradicting
+// joints, a static body, a contact that pushes back) spends its credit once and then only holds.
+void settleCredit(StepContext& ctx, const JointSystem& s, double gain) {
+  if (gain > 0) {
+    double held = 0;
+    forSystemJoints(ctx, s, [&](Joint& jt, size_t) { held += std::max(jt.credit, 0.0); });
+    if (!(held > 0)) return;
+    const double share = std::min(gain / held, 1.0);
+    forSystemJoints(ctx, s, [&](Joint& jt, size_t) { jt.credit = std::max(jt.credit, 0.0) * (1 - share); });
+  } else if (gain < 0) {
+    double shortfall = 0;
+    auto lacks = [](const Joint& jt) { return std::max(jt.closingCap - std::max(jt.credit, 0.0), 0.0); };
+    forSystemJoints(ctx, s, [&](Joint& jt, size_t) { shortfall += lacks(jt); });
+    if (!(shortfall > 0)) return;
+    const double share = std::min(-gain / shortfall, 1.0);
+    forSystemJoints(ctx, s, [&](Joint& jt, size_t) { jt.credit = std::max(jt.credit, 0.0) + lacks(jt) * share; });
+  }
+}
+
+// Whether a kinematic end of s moves (it drives the joined bodies: a source the credits do not cover).
+bool kinematicDrive(const StepContext& ctx, const JointSystem& s) {
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i >= 0 && ctx.body(i).movable() && !ctx.body(i).dynamic()) return true;
+  }
+  return false;
 }
 
 // The kinetic energy of the dynamic bodies the joints of s join.
@@ -230,7 +279,11 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
     return s.conditional || !s.loops.empty();
   });
   const double ceiling = std::max(before, 0.5 * mass * drive * drive) + 1e-9 * before;
-  if (joinedEnergy(ctx, s) <= ceiling) return;
+  double after = joinedEnergy(ctx, s);
+  if (after <= ceiling) {
+    if (reach < 0) settleCredit(ctx, s, after - before);
+    return;
+  }
   restoreCall(ctx, s, saved, books);
   ++ctx.stats.jointFallbacks;
   passes([&] {
@@ -244,7 +297,11 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
   // a kinematic end moves the target, and joints that contradict one it drives (a body it whirls, pinned to the
   // world) can pump without end. Such a call is undone: the joints yield for this substep (the projection still
   // pulls their anchors together, at most at the correction speed).
-  if (joinedEnergy(ctx, s) <= ceiling) return;
+  after = joinedEnergy(ctx, s);
+  if (after <= ceiling) {
+    if (reach < 0) settleCredit(ctx, s, after - before);
+    return;
+  }
   restoreCall(ctx, s, saved, books);
 }
 
@@ -297,11 +354,26 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
       moving += 0.5 * (b.mass + b.principal.moments.z) * c * c;  // every joined body at maxCorrectionSpeed
       fastest = std::max(fastest, glm::length(b.v) + glm::length(b.w) * (b.shape->boundingRadius + glm::length(b.localCom)));
     }
-    double budget = std::min(closingEnergy(ctx, s, h), moving);
+    // Where no kinematic end drives, closing is paid from the joints' credits (settleCredit), measured now for a
+    // joint met for the first time.
+    std::vector<double>& closing = ctx.jointClosing;
+    double budget = std::min(closingEnergy(ctx, s, h, closing), moving);
+    const bool driven = kinematicDrive(ctx, s);
+    if (!driven) {
+      double credit = 0;
+      forSystemJoints(ctx, s, [&](Joint& jt, size_t k) {
+        jt.closingCap = closing[k];
+        if (jt.credit < 0) jt.credit = closing[k];
+        credit += jt.credit;
+      });
+      budget = std::min(budget, credit);
+    }
+    double motors = 0;  // the motors' work: a source the credits do not pay for
     for (int j : s.joints) {
       const JointDef& d = ctx.joints[static_cast<size_t>(j)].def;
-      if (d.motor.enabled) budget += d.motor.maxForce * h * (std::abs(d.motor.speed) + fastest + c);
+      if (d.motor.enabled) motors += d.motor.maxForce * h * (std::abs(d.motor.speed) + fastest + c);
     }
+    budget += motors;
     std::vector<Joint>& books = ctx.jointBooks;
     saveBooks(ctx, s, books);
     for (int sweep = 0; sweep < sweeps; ++sweep) {
@@ -323,6 +395,8 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
       restoreCall(ctx, s, saved, books);
       ++ctx.stats.jointFallbacks;
       removeForbiddenVelocity(ctx, s, h);
+    } else if (!driven) {
+      settleCredit(ctx, s, after > before ? std::max(after - before - motors, 0.0) : after - before);
     }
     again = yieldJoints(ctx, s, h, saved, books);
   }

@@ -126,6 +126,10 @@ struct Joint {
   // took from A (levers included: each pass's own levers).
   glm::dvec3 callStart{0}, callLinear{0}, callTurnA{0}, callTurnB{0};
   double motorImpulse = 0;        // this substep's motor impulse (clamped to maxForce h)
+  // The kinetic energy pre-stabilisation may still hand the joined bodies to close this joint's violations (its
+  // share of a call's gain is taken from here, and the joint calls' losses give it back up to `closingCap`, what
+  // closing its last measured violation takes; -1: not yet measured). Only where no kinematic end drives.
+  double credit = -1, closingCap = 0;
 };
 
 // The joint solver's view of the joint graph (joint_solve.cpp): which joints
@@ -381,6 +385,7 @@ struct StepContext {
   std::vector<Joint> jointVelocityBooks;  // the joints' books at the same moment
   std::vector<std::pair<int, double>> jointBreaking;  // joints breaking in a call, with their demand
   std::vector<Joint> jointBooks;      // the joints before it
+  std::vector<double> jointClosing;   // per joint of the system a call solves: what closing it takes (energy)
   std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far
 

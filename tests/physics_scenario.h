@@ -431,11 +431,13 @@ inline std::string runScenario(const uint8_t* data, size_t size, int steps = 120
       w.wake(sc.vehicles[v].body());
       sc.vehicles[v].apply(w, {sc.throttle[v], 0.3, 0, false}, h);
     }
-    // Which bodies touch nothing this step: bounds grown by what each can travel in it, clear of all others.
+    // Which bodies touch nothing this step: bounds grown by what each can travel in it, clear of all others (a
+    // jointed body can be flung within the step: a spinning body it is hinged to whirls it at up to pushSpeed).
     for (size_t i = 0; i < n; ++i) {
       const RigidBody& b = w.body(static_cast<int>(i));
       Aabb a = scenarioBounds(b);
-      const double grow = (pointSpeed(b) + glm::length(w.settings().gravity) * h) * h * 2 + 0.01;
+      const double speed = sc.jointed[i] ? std::max({pointSpeed(b), sc.pushSpeed, sc.mechanismSpeed[i]}) : pointSpeed(b);
+      const double grow = (speed + glm::length(w.settings().gravity) * h) * h * 2 + 0.01;
       a.lo -= grow;
       a.hi += grow;
       bounds[i] = a;

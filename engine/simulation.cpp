@@ -195,8 +195,8 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
   // collision shape's own error off the surface there) lies over the rest of the surface, where the map is as it
   // started: it feels nothing, as points outside the box do. (Those triangles reach past the change by the rest
   // of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
-  const TriangleBvh::Hit hit = d.bvh->closest(p);
-  if (hit.triangle < 0 || !(hit.distance2 <= kOnSurface * kOnSurface)) return 0;
+  const TriangleBvh::Hit hit = d.bvh->closest(p, kOnSurface * kOnSurface);
+  if (hit.triangle < 0) return 0;
   const glm::uvec3 t = mesh.triangles[static_cast<size_t>(d.triangleOf[static_cast<size_t>(hit.triangle)])];
   const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);
   const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;

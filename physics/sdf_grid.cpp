@@ -97,9 +97,20 @@ int TriangleBvh::build(int first, int count) {
 }
 
 TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p) const {
+  return closest(p, std::numeric_limits<double>::max());
+}
+
+TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p, double within2) const {
   Hit best;
-  best.distance2 = std::numeric_limits<double>::max();
+  // (A triangle at exactly within2 counts: the bound is the next double up.)
+  best.distance2 = std::nextafter(within2, std::numeric_limits<double>::max());
   if (nodes_.empty()) return best;
+  auto consider = [&](int t) {
+    const glm::dvec3 bc = closestOnTriangle(p, a_[t], b_[t], c_[t]);
+    const glm::dvec3 q = bc.x * a_[t] + bc.y * b_[t] + bc.z * c_[t];
+    const double d2 = glm::dot(q - p, q - p);
+    if (d2 < best.distance2) best = {d2, q, t, bc};
+  };
   int stack[128];
   int top = 0;
   stack[top++] = 0;
@@ -107,15 +118,7 @@ TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p) const {
     const Node& node = nodes_[stack[--top]];
     if (boxDistance2(p, node.lo, node.hi) >= best.distance2) continue;
     if (node.left < 0) {
-      for (int i = node.first; i < node.first + node.count; ++i) {
-        const int t = order_[i];
-        const glm::dvec3 bc = closestOnTriangle(p, a_[t], b_[t], c_[t]);
-        const glm::dvec3 q = bc.x * a_[t] + bc.y * b_[t] + bc.z * c_[t];
-        const double d2 = glm::dot(q - p, q - p);
-        if (d2 < best.distance2) {
-          best = {d2, q, t, bc};
-        }
-      }
+      for (int i = node.first; i < node.first + node.count; ++i) consider(order_[i]);
       continue;
     }
     const double dl = boxDistance2(p, nodes_[node.left].lo, nodes_[node.left].hi);
@@ -129,6 +132,7 @@ TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p) const {
       stack[top++] = node.right;
     }
   }
+  if (best.triangle < 0) best.distance2 = std::numeric_limits<double>::max();
   return best;
 }
 

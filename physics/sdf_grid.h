@@ -21,6 +21,9 @@ class TriangleBvh {
     glm::dvec3 barycentric{0};
   };
   Hit closest(const glm::dvec3& p) const;
+  // The nearest triangle no further than sqrt(within2) (its distance2 <= within2; else triangle -1): nodes
+  // further than that are never opened, so a point off the surface costs a few box tests.
+  Hit closest(const glm::dvec3& p, double within2) const;
 
  private:
   struct Node {

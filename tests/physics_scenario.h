@@ -466,6 +466,22 @@ inline std::string runScenario(const uint8_t* data, size_t size, int steps = 120
       }
       free[i] = clear;
     }
+    // Which bodies a kinematic body may press against something else this step (the ground, another body): a
+    // push with no force limit against a rigid support levers the body about it, and its far end can move faster
+    // than the push by the ratio of the levers, without bound as the support nears the pushed point (a car pressed
+    // down at one end by a kinematic body, pivoting on the ground near it, flings its other end). Such a body
+    // becomes a pusher at whatever speed it leaves the step with.
+    auto overlap = [](const Aabb& p, const Aabb& q) {
+      return !(p.hi.x < q.lo.x || q.hi.x < p.lo.x || p.hi.y < q.lo.y || q.hi.y < p.lo.y || p.hi.z < q.lo.z ||
+               q.hi.z < p.lo.z);
+    };
+    std::vector<char> pressed(n, 0);
+    for (int k : sc.kinematic)
+      for (size_t i = 0; i < n; ++i) {
+        if (!w.body(static_cast<int>(i)).dynamic() || !overlap(bounds[i], bounds[static_cast<size_t>(k)])) continue;
+        for (size_t j = 0; j < n && !pressed[i]; ++j)
+          pressed[i] = j != i && j != static_cast<size_t>(k) && overlap(bounds[i], bounds[j]);
+      }
     std::vector<RigidBody> before(w.bodies().begin(), w.bodies().end());
     const StepStatus status = w.step(h);
     if (!status) return fail(s, "step refused: body " + std::to_string(status.body) + " went non-finite");
@@ -476,6 +492,8 @@ inline std::string runScenario(const uint8_t* data, size_t size, int steps = 120
         std::fprintf(log, "step %d body %zu speed %g x %g %g %g v %g %g %g w %g %g %g substeps %d\n", s, i,
                      pointSpeed(b), b.x.x, b.x.y, b.x.z, b.v.x, b.v.y, b.v.z, b.w.x, b.w.y, b.w.z, w.lastStats().substeps);
       }
+    for (size_t i = 0; i < n; ++i)
+      if (pressed[i]) sc.pushSpeed = std::max(sc.pushSpeed, pointSpeed(w.body(static_cast<int>(i))));
     const double bound = 4 * (sc.pushSpeed + w.settings().maxCorrectionSpeed) + sc.accelerationBound * t * 4 + 1;
     for (size_t i = 0; i < n; ++i) {
       const RigidBody& b = w.body(static_cast<int>(i));

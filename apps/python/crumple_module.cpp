@@ -26,6 +26,7 @@
 #include <crumple/engine/scene_view.h>
 #include <crumple/engine/simulation.h>
 #include <crumple/gl/context.h>
+#include <crumple/gl/image.h>
 #include <crumple/render/renderer.h>
 
 // After epoxy's GL header (through the engine's): EGL for releasing a context.
@@ -106,12 +107,15 @@ class Use {
 
 class PySimulation {
  public:
-  PySimulation(const std::optional<std::string>& path, const Overrides& overrides, int gpu, int threads) {
+  // `text`: the scene's JSON itself (Simulation.from_json / from_dict), named `origin` in errors; relative file
+  // names in it are found from the working folder.
+  PySimulation(const std::optional<std::string>& path, const Overrides& overrides, int gpu, int threads,
+               const std::optional<std::string>& text, const std::string& origin) {
     if (path) checkPath("Simulation", "path", *path);
     struct Release {
       ~Release() { releaseCurrentContext(); }
     } release;  // the context made here is current on this thread until the end
-    scene_ = loadWithOverrides(path, overrides);
+    scene_ = text ? parseScene(*text, origin, fs::current_path().string(), overrides) : loadWithOverrides(path, overrides);
     if (threads >= 0) scene_.threads = threads;
     bool bumpMaps = false;
     for (const auto& b : scene_.bodies) bumpMaps = bumpMaps || b.bumpMap.present;
@@ -145,6 +149,20 @@ class PySimulation {
   }
   PySimulation(const PySimulation&) = delete;
   PySimulation& operator=(const PySimulation&) = delete;
+
+  bool closed() const { return closed_; }
+  // Releases the simulation and its OpenGL context now (the object stays, every later call raises).
+  void close() {
+    if (closed_) return;
+    {
+      Use use(*this);
+      renderer_.reset();
+      sim_.reset();
+    }
+    gl_.reset();
+    releaseCurrentContext();
+    closed_ = true;
+  }
 
   void step(long n) {
     if (n < 0) throw py::value_error("step(n): n must be >= 0, got " + std::to_string(n));
@@ -222,11 +240,106 @@ class PySimulation {
     writer.commit();
   }
 
+  // ---- bodies by their place in the scene (crumple.Body) ----
+  std::vector<std::string> bodyNames() {
+    std::vector<std::string> names;
+    for (const BodyRuntime& b : sim_->bodies()) names.push_back(b.name);
+    return names;
+  }
+  int bodyIndex(const std::string& name) {
+    const auto& bodies = sim_->bodies();
+    std::string names;
+    for (size_t i = 0; i < bodies.size(); ++i) {
+      if (bodies[i].name == name) return static_cast<int>(i);
+      if (i < 20) names += (names.empty() ? "" : ", ") + bodies[i].name;
+    }
+    if (bodies.size() > 20) names += ", ... (" + std::to_string(bodies.size()) + " in all)";
+    throw py::value_error("no body is named '" + quoteText(name) + "' (bodies: " + names + ")");
+  }
+  // (position of the shape's origin, orientation w x y z, linear velocity, angular velocity, mass, static,
+  // kinematic, asleep): the fields of summary.json's bodies.
+  py::tuple bodyState(int k) {
+    Use use(*this);
+    const RigidBody& b = sim_->world().body(worldIndex(k));
+    const glm::dvec3 o = b.origin();
+    return py::make_tuple(py::make_tuple(o.x, o.y, o.z), py::make_tuple(b.q.w, b.q.x, b.q.y, b.q.z),
+                          py::make_tuple(b.v.x, b.v.y, b.v.z), py::make_tuple(b.w.x, b.w.y, b.w.z),
+                          b.isStatic ? 0.0 : b.mass, b.isStatic, b.kinematic, b.asleep);
+  }
+  // Sets one of position (of the shape's origin), orientation (w x y z, normalised), linear_velocity,
+  // angular_velocity (world, rad/s). The values are checked (finite, length) by the package.
+  void setBody(int k, const std::string& what, const std::vector<double>& v) {
+    Use use(*this);
+    World& w = sim_->world();
+    const int i = worldIndex(k);
+    const RigidBody& b = w.body(i);
+    if (b.isStatic && what != "orientation" && what != "position")
+      throw py::value_error(what + ": body '" + quoteText(sim_->bodies()[static_cast<size_t>(k)].name) +
+                            "' is static (it never moves)");
+    if (what == "position") {
+      const glm::dvec3 origin(v[0], v[1], v[2]);
+      w.setPose(i, {origin + b.rotation() * b.localCom, b.q});
+    } else if (what == "orientation") {
+      const glm::dquat q = glm::normalize(glm::dquat(v[0], v[1], v[2], v[3]));
+      const glm::dvec3 origin = b.origin();
+      w.setPose(i, {origin + glm::mat3_cast(q) * b.localCom, q});
+    } else if (what == "linear_velocity") {
+      w.setVelocity(i, {v[0], v[1], v[2]});
+    } else if (what == "angular_velocity") {
+      w.setAngularVelocity(i, {v[0], v[1], v[2]});
+    } else {
+      throw py::value_error("unknown body field '" + what + "'");
+    }
+  }
+  // A force (N) through the centre of mass or at a world point, for the next step only; or an impulse (N s) now.
+  void push(int k, const std::string& kind, const std::vector<double>& vector, const std::optional<std::vector<double>>& at) {
+    Use use(*this);
+    World& w = sim_->world();
+    const int i = worldIndex(k);
+    const RigidBody& b = w.body(i);
+    if (b.isStatic || b.kinematic)
+      throw py::value_error(kind + ": body '" + quoteText(sim_->bodies()[static_cast<size_t>(k)].name) + "' is " +
+                            (b.isStatic ? "static" : "kinematic") + ": only dynamic bodies are pushed");
+    const glm::dvec3 f(vector[0], vector[1], vector[2]);
+    const glm::dvec3 p = at ? glm::dvec3((*at)[0], (*at)[1], (*at)[2]) : b.x;
+    w.wake(i);
+    if (kind == "apply_force") {
+      w.addForceAtPoint(i, f, p);
+    } else {
+      const glm::dvec3 dw = b.invInertiaWorld() * glm::cross(p - b.x, f);
+      const glm::dvec3 v = b.v + f * b.invMass, av = b.w + dw;
+      w.setVelocity(i, v);
+      w.setAngularVelocity(i, av);
+    }
+  }
+  // Every body's pose, one row each in the scene's order: the shape origin's position and the orientation
+  // (w x y z).
+  py::array_t<double> poses() {
+    Use use(*this);
+    const auto& bodies = sim_->bodies();
+    py::array_t<double> out({static_cast<py::ssize_t>(bodies.size()), static_cast<py::ssize_t>(7)});
+    double* p = out.mutable_data();
+    for (const BodyRuntime& br : bodies) {
+      const RigidBody& b = sim_->world().body(br.index);
+      const glm::dvec3 o = b.origin();
+      for (double x : {o.x, o.y, o.z, b.q.w, b.q.x, b.q.y, b.q.z}) *p++ = x;
+    }
+    return out;
+  }
+
+  // A frame from a camera given by its place (position, target, up; fov in degrees, vertical).
+  py::array_t<uint8_t> renderView(const std::vector<double>& position, const std::vector<double>& target,
+                                  const std::vector<double>& up, double fov, int width, int height) {
+    CameraDesc cam;
+    cam.name = "view";
+    cam.position = {position[0], position[1], position[2]};
+    cam.target = {target[0], target[1], target[2]};
+    cam.up = {up[0], up[1], up[2]};
+    cam.fov = fov;
+    return draw(cam, width, height);
+  }
+
   py::array_t<uint8_t> render(const std::optional<std::string>& camera, int width, int height) {
-    if (!gl_) throw std::runtime_error("render: no OpenGL context (" + glError_ + ")");
-    if (width < 16 || height < 16 || width > 8192 || height > 8192)
-      throw py::value_error("render: width and height must be in [16, 8192], got " + std::to_string(width) + "x" +
-                            std::to_string(height));
     std::vector<CameraDesc> cams = scene_.cameras;
     if (cams.empty()) cams.push_back(defaultCamera_);
     const CameraDesc* cam = camera ? nullptr : &cams.front();
@@ -236,12 +349,22 @@ class PySimulation {
       names += (names.empty() ? "" : ", ") + c.name;
     }
     if (!cam) throw py::value_error("render: no camera is named '" + quoteText(*camera) + "' (cameras: " + names + ")");
+    return draw(*cam, width, height);
+  }
+
+ private:
+  friend class Use;
+  py::array_t<uint8_t> draw(const CameraDesc& cam, int width, int height) {
+    if (!gl_) throw std::runtime_error("render: no OpenGL context (" + glError_ + ")");
+    if (width < 16 || height < 16 || width > 8192 || height > 8192)
+      throw py::value_error("render: width and height must be in [16, 8192], got " + std::to_string(width) + "x" +
+                            std::to_string(height));
     Use use(*this);
     if (!renderer_)
       renderer_ = std::make_unique<render::Renderer>(width, height);
     else if (renderer_->width() != width || renderer_->height() != height)
       renderer_->resize(width, height);
-    drawFrame(*sim_, *renderer_, cameraView(*cam, sim_.get()));
+    drawFrame(*sim_, *renderer_, cameraView(cam, sim_.get()));
     const gl::Image img = renderer_->readPixels();
     py::array_t<uint8_t> out({height, width, 3});
     uint8_t* p = out.mutable_data();
@@ -249,9 +372,8 @@ class PySimulation {
       p[i] = static_cast<uint8_t>(std::lround(std::clamp(img.pixels[i], 0.0f, 1.0f) * 255.0f));
     return out;
   }
-
- private:
-  friend class Use;
+  // The world's index of the scene's k-th body (checked by the package: 0 <= k < the bodies).
+  int worldIndex(int k) const { return sim_->bodies().at(static_cast<size_t>(k)).index; }
   const BodyRuntime& mapped(const std::string& name) {
     std::string withMaps;
     const BodyRuntime* found = nullptr;
@@ -276,6 +398,7 @@ class PySimulation {
   std::unique_ptr<render::Renderer> renderer_;
   CameraDesc defaultCamera_;  // for scenes without cameras
   long totalSteps_ = 1;
+  bool closed_ = false;
   std::mutex mutex_;
   std::thread::id user_;  // the thread of the call that holds mutex_
 };
@@ -315,16 +438,22 @@ PySimulation& initialised(py::handle self) {
     throw py::type_error(
         "this crumple.Simulation was not initialised (made by __new__ without __init__): make one with "
         "crumple.Simulation(path)");
-  return *static_cast<PySimulation*>(v_h.value_ptr());
+  auto& sim = *static_cast<PySimulation*>(v_h.value_ptr());
+  return sim;
+}
+PySimulation& live(py::handle self) {
+  PySimulation& sim = initialised(self);
+  if (sim.closed()) throw std::runtime_error("this crumple.Simulation is closed");
+  return sim;
 }
 
 template <typename R, typename... A>
 auto checked(R (PySimulation::*method)(A...)) {
-  return [method](py::handle self, A... args) -> R { return (initialised(self).*method)(std::forward<A>(args)...); };
+  return [method](py::handle self, A... args) -> R { return (live(self).*method)(std::forward<A>(args)...); };
 }
 template <typename R, typename... A>
 auto checked(R (PySimulation::*method)(A...) const) {
-  return [method](py::handle self, A... args) -> R { return (initialised(self).*method)(std::forward<A>(args)...); };
+  return [method](py::handle self, A... args) -> R { return (live(self).*method)(std::forward<A>(args)...); };
 }
 
 }  // namespace
@@ -377,6 +506,24 @@ PYBIND11_MODULE(_crumple, m) {
         return sceneJson(loadWithOverrides(path, overrides)).dump();
       },
       py::arg("path"), py::arg("overrides"));
+  // crumple.write_png: a float32 array (rows, cols, channels) with values in [0, 1], written atomically.
+  m.def(
+      "_write_png",
+      [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> pixels, int bitDepth) {
+        checkPath("write_png", "path", path);
+        if (pixels.ndim() != 3 || pixels.shape(2) < 1 || pixels.shape(2) > 4)
+          throw py::value_error("write_png: expected (rows, cols, channels) with 1 to 4 channels");
+        gl::Image image(static_cast<int>(pixels.shape(1)), static_cast<int>(pixels.shape(0)),
+                        static_cast<int>(pixels.shape(2)));
+        std::copy(pixels.data(), pixels.data() + pixels.size(), image.pixels.begin());
+        try {
+          gl::writePng(path, image, bitDepth);
+        } catch (const gl::ImageError& e) {
+          PyErr_SetString(PyExc_OSError, escapeInvalidUtf8(e.what()).c_str());
+          throw py::error_already_set();
+        }
+      },
+      py::arg("path"), py::arg("pixels"), py::arg("bit_depth"));
   // For the test suite: throws the C++ exception `kind` names, as the engine would, to check what Python gets.
   m.def("_raise_for_test", [](const std::string& kind) {
     if (kind == "invalid_argument") throw std::invalid_argument("invalid_argument from C++");
@@ -388,19 +535,44 @@ PYBIND11_MODULE(_crumple, m) {
   });
 
   py::class_<PySimulation>(m, "_Simulation")
-      .def(py::init<const std::optional<std::string>&, const Overrides&, int, int>(), py::arg("path"),
-           py::arg("overrides"), py::arg("gpu"), py::arg("threads"))
-      .def("step", checked(&PySimulation::step), py::arg("n") = 1)
-      .def("run", checked(&PySimulation::run))
-      .def_property_readonly("time", checked(&PySimulation::time))
-      .def_property_readonly("steps", checked(&PySimulation::steps))
-      .def_property_readonly("total_steps", checked(&PySimulation::totalSteps))
+      .def(py::init<const std::optional<std::string>&, const Overrides&, int, int, const std::optional<std::string>&,
+                    const std::string&>(),
+           py::arg("path"), py::arg("overrides"), py::arg("gpu"), py::arg("threads"), py::arg("text") = py::none(),
+           py::arg("origin") = "")
+      .def("close", [](py::handle self) { initialised(self).close(); })
+      .def_property_readonly(
+          "closed", [](py::handle self) { return initialised(self).closed(); }, "Whether close() was called.")
+      .def_property_readonly("body_names", checked(&PySimulation::bodyNames),
+                             "The bodies' names in the scene's order (the rows of poses()).")
+      .def("_body_index", checked(&PySimulation::bodyIndex), py::arg("name"))
+      .def("_body_state", checked(&PySimulation::bodyState), py::arg("k"))
+      .def("_set_body", checked(&PySimulation::setBody), py::arg("k"), py::arg("what"), py::arg("values"))
+      .def("_push", checked(&PySimulation::push), py::arg("k"), py::arg("kind"), py::arg("vector"), py::arg("at"))
+      .def("poses", checked(&PySimulation::poses),
+           "Every body's pose now: numpy float64 (bodies, 7), a row per body in body_names' order: the shape "
+           "origin's position (m) and the orientation quaternion (w, x, y, z).")
+      .def("_render_view", checked(&PySimulation::renderView), py::arg("position"), py::arg("target"), py::arg("up"),
+           py::arg("fov"), py::arg("width"), py::arg("height"))
+      .def("step", checked(&PySimulation::step), py::arg("n") = 1, "Runs n steps.")
+      .def("run", checked(&PySimulation::run),
+           "Runs on to the scene's duration (round(duration / timestep) steps in all); returns the steps it ran.")
+      .def_property_readonly("time", checked(&PySimulation::time), "Seconds simulated (the sum of the steps).")
+      .def_property_readonly("steps", checked(&PySimulation::steps), "Steps run so far.")
+      .def_property_readonly("total_steps", checked(&PySimulation::totalSteps), "The steps run() runs to.")
       .def_property_readonly("_scene_json", [](py::handle s) { return sceneJson(initialised(s).scene()).dump(); })
-      .def_property_readonly("gl", checked(&PySimulation::glDescription))
-      .def("bodies", checked(&PySimulation::bodies))
-      .def("events", checked(&PySimulation::events))
-      .def("height_map", checked(&PySimulation::heightMap), py::arg("name"))
-      .def("normal_map", checked(&PySimulation::normalMap), py::arg("name"))
+      .def_property_readonly("gl", checked(&PySimulation::glDescription),
+                             "The OpenGL context in use (platform, renderer, version), or why there is none.")
+      .def("bodies", checked(&PySimulation::bodies),
+           "A list of dicts, one per body in the scene's order: summary.json's bodies (name, position (m), "
+           "orientation [w, x, y, z], linear_velocity (m/s), angular_velocity (rad/s), center_of_mass, mass (kg), "
+           "static, kinematic, asleep).")
+      .def("events", checked(&PySimulation::events),
+           "A list of dicts: the lines of events.jsonl so far (collisions and joint breaks, in the order of the run).")
+      .def("height_map", checked(&PySimulation::heightMap), py::arg("name"),
+           "The body's height map now: numpy float32 (rows, cols), 0.5 flat, 0 the deepest dent; the surface lies "
+           "(h - 0.5) x bump_depth metres above the undented shape.")
+      .def("normal_map", checked(&PySimulation::normalMap), py::arg("name"),
+           "The body's tangent-space normal map now: numpy float32 (rows, cols, 3), components in [-1, 1].")
       .def("write_outputs", checked(&PySimulation::writeOutputs), py::arg("dir"))
       .def("render", checked(&PySimulation::render), py::arg("camera") = py::none(), py::arg("width") = 960,
            py::arg("height") = 540);

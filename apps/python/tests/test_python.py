@@ -367,5 +367,189 @@ print("done")
             crumple.Simulation(3)
 
 
+class ScenesFromPython(unittest.TestCase):
+    def test_from_dict_and_from_json_run_as_the_file_does(self):
+        with open(DROP) as f:
+            scene = json.load(f)
+        files = crumple.Simulation(DROP)
+        dicts = crumple.Simulation.from_dict(scene)
+        texts = crumple.Simulation.from_json(json.dumps(scene).encode())
+        for s in (files, dicts, texts):
+            s.step(12)
+        self.assertEqual(dicts.bodies(), files.bodies())
+        self.assertEqual(texts.bodies(), files.bodies())
+        self.assertTrue(np.array_equal(dicts.height_map("plate"), files.height_map("plate")))
+        # Overrides apply as for a file; errors name the source and the key path.
+        quick = crumple.Simulation.from_dict(scene, {"duration": 0.05})
+        self.assertEqual(quick.total_steps, 12)
+        scene["bodies"][1]["material"] = "rubber"
+        with self.assertRaises(crumple.SceneError) as e:
+            crumple.Simulation.from_dict(scene)
+        self.assertEqual(e.exception.file, "<dict>")
+        self.assertEqual(e.exception.key_path, "bodies[1].material")
+        with self.assertRaises(crumple.SceneError) as e:
+            crumple.Simulation.from_json("{")
+        self.assertEqual(e.exception.file, "<json>")
+        with self.assertRaisesRegex(TypeError, "from_dict: scene must be a dict"):
+            crumple.Simulation.from_dict("drop.json")
+        with self.assertRaisesRegex(TypeError, "from_json: text must be a str or bytes"):
+            crumple.Simulation.from_json(3)
+
+    def test_a_closed_simulation_raises_and_with_closes(self):
+        with crumple.Simulation(DROP) as sim:
+            sim.step(2)
+            self.assertFalse(sim.closed)
+        self.assertTrue(sim.closed)
+        for call in (lambda: sim.step(1), lambda: sim.bodies(), lambda: sim.height_map("plate"), lambda: sim.time,
+                     lambda: sim.poses(), lambda: sim.body("ball")):
+            with self.assertRaisesRegex(RuntimeError, "closed"):
+                call()
+        sim.close()  # twice: nothing
+
+    def test_arguments_of_the_wrong_type_name_the_parameter(self):
+        sim = crumple.Simulation(DROP)
+        with self.assertRaisesRegex(TypeError, "step: n must be an int"):
+            sim.step("3")
+        with self.assertRaisesRegex(TypeError, "render: width must be an int"):
+            sim.render("main", 64.5, 64)
+        with self.assertRaisesRegex(TypeError, "body: name must be a str"):
+            sim.body(1)
+        ball = sim.body("ball")
+        with self.assertRaisesRegex(TypeError, "linear_velocity must be a sequence of 3 numbers"):
+            ball.linear_velocity = "fast"
+        with self.assertRaisesRegex(ValueError, "linear_velocity must hold 3 numbers, got 2"):
+            ball.linear_velocity = [1, 2]
+        with self.assertRaisesRegex(ValueError, "force must be finite"):
+            ball.apply_force([0, float("nan"), 0])
+        with self.assertRaisesRegex(ValueError, "no body is named 'rock' \\(bodies: plate, ball, pebble\\)"):
+            sim.body("rock")
+
+
+class Bodies(unittest.TestCase):
+    def setUp(self):
+        self.sim = crumple.Simulation(DROP)
+        self.dt = self.sim.timestep
+
+    def test_handles_read_what_bodies_reports(self):
+        self.sim.step(3)
+        self.assertEqual(self.sim.body_names, ["plate", "ball", "pebble"])
+        poses = self.sim.poses()
+        self.assertEqual(poses.shape, (3, 7))
+        self.assertEqual(poses.dtype, np.float64)
+        for row, b in zip(poses, self.sim.bodies()):
+            handle = self.sim.body(b["name"])
+            self.assertEqual(list(handle.position), b["position"])
+            self.assertEqual(list(handle.orientation), b["orientation"])
+            self.assertEqual(list(row), b["position"] + b["orientation"])
+            self.assertEqual(handle.static, b["static"])
+        pebble = self.sim.body("pebble")
+        self.assertEqual(list(pebble.linear_velocity), self.sim.bodies()[2]["linear_velocity"])
+        self.assertAlmostEqual(pebble.mass, 7800 * 4 / 3 * np.pi * 0.05 ** 3, delta=1e-6 * pebble.mass)
+
+    def test_setting_a_pose_and_velocities_moves_the_body(self):
+        pebble = self.sim.body("pebble")
+        pebble.position = [0.7, 2.0, -0.5]
+        pebble.linear_velocity = [1.0, 0.0, 0.0]
+        pebble.angular_velocity = np.array([0.0, 3.0, 0.0])
+        self.assertEqual(pebble.position, (0.7, 2.0, -0.5))
+        self.sim.step(1)
+        # Free flight: x moves by v dt, y falls by g dt^2 (semi-implicit Euler: the velocity first).
+        x, y, z = pebble.position
+        self.assertAlmostEqual(x, 0.7 + self.dt, places=12)
+        self.assertAlmostEqual(y, 2.0 - 9.81 * self.dt * self.dt, places=12)
+        self.assertAlmostEqual(pebble.angular_velocity[1], 3.0, places=12)
+        pebble.orientation = [2, 0, 0, 0]  # normalised
+        self.assertEqual(pebble.orientation, (1.0, 0.0, 0.0, 0.0))
+        with self.assertRaisesRegex(ValueError, "is static"):
+            self.sim.body("plate").linear_velocity = [0, 1, 0]
+
+    def test_an_impulse_changes_momentum_by_itself_and_a_force_acts_one_step(self):
+        pebble = self.sim.body("pebble")
+        m = pebble.mass
+        v0 = np.array(pebble.linear_velocity)
+        pebble.apply_impulse([m * 2.0, 0.0, 0.0])
+        self.assertTrue(np.allclose(np.array(pebble.linear_velocity) - v0, [2.0, 0, 0], atol=1e-12))
+        self.assertEqual(pebble.angular_velocity, (0.0, 0.0, 0.0))  # through the centre: no turn
+        # Off the centre: the same change of momentum, and a turn about r x J (a sphere: L = I w, I = 2/5 m r^2).
+        com = np.array(pebble.position)  # a sphere's origin is its centre of mass
+        pebble.apply_impulse([0.0, 0.0, m * 1.0], point=com + [0.05, 0.0, 0.0])
+        self.assertTrue(np.allclose(np.array(pebble.linear_velocity) - v0, [2.0, 0, 1.0], atol=1e-12))
+        inertia = 0.4 * m * 0.05 ** 2
+        expected_w = np.cross([0.05, 0, 0], [0, 0, m]) / inertia
+        self.assertTrue(np.allclose(pebble.angular_velocity, expected_w, rtol=1e-9, atol=1e-12))
+        # A force that holds the weight for one step: the velocity does not change in it, and falls again after.
+        v1 = np.array(pebble.linear_velocity)
+        pebble.apply_force([0.0, m * 9.81, 0.0])
+        self.sim.step(1)
+        self.assertTrue(np.allclose(pebble.linear_velocity, v1, atol=1e-9))
+        self.sim.step(1)
+        self.assertAlmostEqual(pebble.linear_velocity[1] - v1[1], -9.81 * self.dt, places=9)
+        with self.assertRaisesRegex(ValueError, "plate.*static"):
+            self.sim.body("plate").apply_impulse([0, 1, 0])
+
+    def test_render_from_a_camera_placed_by_hand(self):
+        named = self.sim.render("main", 96, 64)
+        same = self.sim.render(position=[1.6, 1.2, 1.6], target=[0, 0, 0], size=(96, 64))
+        self.assertEqual(same.shape, (64, 96, 3))
+        self.assertTrue(np.array_equal(named, same))  # the scene's camera "main" is placed there, fov 45
+        top = self.sim.render(position=[0, 4, 0.01], target=[0, 0, 0], fov=30, width=96, height=64)
+        self.assertFalse(np.array_equal(top, same))
+        self.assertGreater(top.std(), 1.0)  # a picture, not a flat colour
+        with self.assertRaisesRegex(ValueError, "position and target go together"):
+            self.sim.render(position=[1, 1, 1])
+        with self.assertRaisesRegex(ValueError, "either camera or position"):
+            self.sim.render("main", position=[1, 1, 1], target=[0, 0, 0])
+
+    def test_write_png(self):
+        self.sim.run()
+        with tempfile.TemporaryDirectory() as tmp:
+            def header(path):
+                with open(path, "rb") as f:
+                    data = f.read(33)
+                self.assertEqual(data[:8], b"\x89PNG\r\n\x1a\n")
+                width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+                return width, height, data[24], data[25]  # bit depth, colour type
+            frame = self.sim.render("main", 80, 48)
+            crumple.write_png(os.path.join(tmp, "frame.png"), frame)
+            self.assertEqual(header(os.path.join(tmp, "frame.png")), (80, 48, 8, 2))  # RGB
+            h = self.sim.height_map("plate")
+            crumple.write_png(pathlib.Path(tmp) / "h.png", h)
+            self.assertEqual(header(os.path.join(tmp, "h.png")), (128, 128, 16, 0))  # grey, 16 bit
+            # The height map the outputs write is the same file.
+            self.sim.write_outputs(os.path.join(tmp, "out"))
+            with open(os.path.join(tmp, "h.png"), "rb") as a, open(os.path.join(tmp, "out", "heightmaps", "plate.png"), "rb") as b:
+                self.assertEqual(a.read(), b.read())
+            with self.assertRaisesRegex(ValueError, "got shape"):
+                crumple.write_png(os.path.join(tmp, "bad.png"), np.zeros((4, 4, 5)))
+            with self.assertRaisesRegex(TypeError, "array must be a numpy array"):
+                crumple.write_png(os.path.join(tmp, "bad.png"), [[0.5]])
+            with self.assertRaises(OSError):
+                crumple.write_png(os.path.join(tmp, "no", "such", "folder", "x.png"), h)
+            self.assertFalse(os.path.exists(os.path.join(tmp, "bad.png")))
+
+
+class Documentation(unittest.TestCase):
+    def test_every_public_name_has_a_docstring_and_a_stub(self):
+        import ast
+        stub_path = os.path.join(os.path.dirname(crumple.__file__), "__init__.pyi")
+        with open(stub_path) as f:
+            stub = ast.parse(f.read())
+        stubbed = {node.name: node for node in stub.body if isinstance(node, (ast.ClassDef, ast.FunctionDef))}
+        for name in crumple.__all__:
+            if name == "__version__":
+                continue
+            self.assertIn(name, stubbed, f"{name} has no stub")
+            self.assertTrue((getattr(crumple, name).__doc__ or "").strip(), f"{name} has no docstring")
+        for cls in (crumple.Simulation, crumple.Body):
+            members = {n for n in dir(cls) if not n.startswith("_")}
+            in_stub = {n.name if isinstance(n, (ast.FunctionDef, ast.ClassDef)) else n.target.id
+                       for n in stubbed[cls.__name__].body if isinstance(n, (ast.FunctionDef, ast.AnnAssign))}
+            in_stub = {n for n in in_stub if not n.startswith("_")}
+            self.assertEqual(members - {"name"}, in_stub - {"name"}, cls.__name__)
+            for n in members - {"name"}:
+                self.assertTrue((getattr(cls, n).__doc__ or "").strip(), f"{cls.__name__}.{n} has no docstring")
+        self.assertIn("seconds", crumple.Simulation.step.__doc__ + crumple.Simulation.time.__doc__)
+
+
 if __name__ == "__main__":
     unittest.main()

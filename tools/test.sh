@@ -6,7 +6,8 @@ usage() {
   cat <<'USAGE'
 Usage: tools/test.sh [--sanitize]
 Installs the Debian packages (tools/setup-deps.sh), builds into build/ and runs every test suite with
-ctest under Xvfb, then builds and runs apps/examples against an install of it (tools/test-package.sh).
+ctest under Xvfb, then builds and runs apps/examples against an install of it (tools/test-package.sh) and runs
+the Python suites against a pip install in a fresh virtual environment (tools/test-pip.sh).
 With CI=true (.ci/run sets it) it also fuzzes the loaders and the physics for about two minutes (tools/fuzz.sh, build-fuzz/).
 --sanitize builds into build-asan/ with address and undefined-behaviour sanitizers (no package check).
 USAGE
@@ -33,6 +34,7 @@ xvfb-run -a -s "-screen 0 1280x720x24" ctest --output-on-failure -j"$(nproc)"
 if [ "$build" = build ]; then
   cd ..
   tools/test-package.sh "$build"
+  tools/test-pip.sh
   # In CI, a short fuzzing run of the scene loader, each mesh reader and the physics (clang's libFuzzer, build-fuzz/; about
   # two minutes of fuzzing, after its build).
   if [ "${CI:-}" = true ]; then

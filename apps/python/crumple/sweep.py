@@ -669,6 +669,13 @@ def _signal_name(signum):
 STOP_SIGNALS = [signal.SIGINT, signal.SIGTERM] + ([signal.SIGHUP] if hasattr(signal, "SIGHUP") else [])
 
 
+def console_main():
+    """crumple-sweep as pip installs it: crumple-sim from the package (crumple/bin/), else from PATH."""
+    packaged = os.path.join(os.path.dirname(os.path.abspath(__file__)), "bin", "crumple-sim")
+    sim = packaged if os.access(packaged, os.X_OK) else "crumple-sim"
+    return main(sys.argv[1:], default_sim=sim)
+
+
 def main(argv=None, default_sim="crumple-sim"):
     """crumple-sweep's command line; returns the exit status. In the main thread, SIGINT, SIGTERM and SIGHUP stop
     the sweep (128 + the signal's number)."""

@@ -551,5 +551,23 @@ class Documentation(unittest.TestCase):
         self.assertIn("seconds", crumple.Simulation.step.__doc__ + crumple.Simulation.time.__doc__)
 
 
+class DocumentedScript(unittest.TestCase):
+    def test_the_ball_driven_by_impulses_in_docs_python_md_runs(self):
+        docs = pathlib.Path(HERE).parents[2] / "docs" / "python.md"
+        text = docs.read_text(encoding="utf-8")
+        section = text.split("### A ball driven by impulses", 1)[1]
+        script = section.split("```python\n", 1)[1].split("```", 1)[0]
+        self.assertLess(len(script.splitlines()), 25)
+        with tempfile.TemporaryDirectory() as tmp:
+            r = subprocess.run([sys.executable, "-c", script], cwd=tmp, capture_output=True, text=True, timeout=300)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            # 2.4 m/s^2 through the centre of a ball that rolls: 5/7 of it, 1.7 m/s^2 over 1 s (rolling friction aside).
+            rolled, speed = (float(x) for x in __import__("re").findall(r"[-0-9.]+(?= m)", r.stdout)[:2])
+            self.assertAlmostEqual(speed, 2.4 * 5 / 7, delta=0.15)
+            self.assertAlmostEqual(rolled, 0.5 * 2.4 * 5 / 7, delta=0.15)
+            with open(os.path.join(tmp, "push.png"), "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+
+
 if __name__ == "__main__":
     unittest.main()

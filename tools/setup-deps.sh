@@ -21,7 +21,7 @@ PACKAGES=(
   libegl-mesa0 libgl1-mesa-dri mesa-utils
   doctest-dev libcli11-dev libimgui-dev
   libbullet-dev libbenchmark-dev
-  python3-dev pybind11-dev python3-numpy python3-distributed python3-venv python3-pip python3-setuptools python3-wheel
+  python3-dev pybind11-dev python3-numpy python3-distributed python3-venv python3-pip python3-setuptools python3-wheel python3-matplotlib
   xvfb xauth
   clang libclang-rt-dev llvm
 )

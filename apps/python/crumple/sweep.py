@@ -75,11 +75,12 @@ def value_text(value):
 
 
 def read_run(out_dir):
-    """collisions, deformations and {body: max_dent} of a complete crumple-sim output folder.
+    """collisions, deformations, {body: max_dent} and {body: saturated} of a complete crumple-sim output folder.
 
     max_dent.<body> is the largest `max_dent` (m) of the body's sides over the collision lines of events.jsonl
     (the deepest drop of one texel in one collision), for every body with a bump map (heightmaps/<body>.png);
-    0.0 for one that was never dented."""
+    0.0 for one that was never dented. saturated.<body>: whether some dent of it reached the map's floor (its
+    depth was cut off there: max_dent is then a lower bound)."""
     with open(os.path.join(out_dir, "summary.json")) as f:
         summary = json.load(f)
     bodies = []
@@ -88,6 +89,7 @@ def read_run(out_dir):
         names = {n[:-4] for n in os.listdir(maps) if n.endswith(".png")}
         bodies = [b["name"] for b in summary.get("bodies", []) if b["name"] in names]
     dents = {name: 0.0 for name in bodies}
+    saturated = {name: False for name in bodies}
     events = os.path.join(out_dir, "events.jsonl")
     if os.path.exists(events):
         with open(events) as f:
@@ -100,7 +102,10 @@ def read_run(out_dir):
                 for body, side in ((e["a"], e["a_side"]), (e["b"], e["b_side"])):
                     if body in dents and side.get("max_dent") is not None:
                         dents[body] = max(dents[body], float(side["max_dent"]))
-    return {"collisions": summary.get("collisions"), "deformations": summary.get("deformations"), "max_dent": dents}
+                    if body in saturated and side.get("saturated"):
+                        saturated[body] = True
+    return {"collisions": summary.get("collisions"), "deformations": summary.get("deformations"), "max_dent": dents,
+            "saturated": saturated}
 
 
 def is_complete(out_dir):
@@ -512,24 +517,49 @@ def _executable(sim):
     return shutil.which(sim) is not None
 
 
+def _vector_length(variants, key):
+    """n when every variant's value of key is a list of n numbers (2 <= n <= 4), else 0."""
+    lengths = set()
+    for v in variants:
+        value = v[key]
+        if not isinstance(value, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                  for x in value):
+            return 0
+        lengths.add(len(value))
+    return lengths.pop() if len(lengths) == 1 and 2 <= next(iter(lengths)) <= 4 else 0
+
+
+VECTOR_PARTS = {2: "xy", 3: "xyz", 4: "wxyz"}  # 4: a quaternion, as the scene writes orientations
+
+
 def write_csv(path, keys, bodies, ids, variants, rows):
-    """results.csv, whole, through a temporary file renamed over it."""
+    """results.csv, whole, through a temporary file renamed over it. A key whose values are all vectors of the
+    same length has a column per component (key.x, key.y, key.z; a quaternion key.w ... key.z)."""
+    split = {k: _vector_length(variants, k) for k in keys}
+    key_columns = []
+    for k in keys:
+        key_columns += [f"{k}.{c}" for c in VECTOR_PARTS[split[k]]] if split[k] else [k]
     tmp = path + ".tmp"
     with open(tmp, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["id", *keys, "exit", "status", "collisions", "deformations",
-                    *[f"max_dent.{b}" for b in bodies], "error"])
+        w.writerow(["id", *key_columns, "exit", "status", "collisions", "deformations",
+                    *[f"max_dent.{b}" for b in bodies], *[f"saturated.{b}" for b in bodies], "error"])
         for vid, variant in zip(ids, variants):
             row = rows.get(vid)
-            cells = [vid, *[value_text(variant[k]) for k in keys]]
+            cells = [vid]
+            for k in keys:
+                cells += [value_text(x) for x in variant[k]] if split[k] else [value_text(variant[k])]
             if row is None:
-                cells += ["", "not run"] + [""] * (2 + len(bodies)) + [""]
+                cells += ["", "not run"] + [""] * (2 + 2 * len(bodies)) + [""]
             else:
                 dents = row.get("max_dent") or {}
+                full = row.get("saturated") or {}
                 cells += [row["exit"], row.get("status", ""),
                           "" if row.get("collisions") is None else row["collisions"],
                           "" if row.get("deformations") is None else row["deformations"],
-                          *[repr(dents[b]) if b in dents else "" for b in bodies], row.get("error", "")]
+                          *[repr(dents[b]) if b in dents else "" for b in bodies],
+                          *[("true" if full[b] else "false") if b in full else "" for b in bodies],
+                          row.get("error", "")]
             w.writerow(cells)
     os.replace(tmp, path)
 
@@ -595,7 +625,8 @@ def build_parser():
         prog="crumple-sweep",
         description="Run the variants of a crumple sweep file as tasks of Dask distributed: each variant is a "
         "crumple-sim run into DIR/runs/<id>/, one row of DIR/results.csv (docs/sweeps.md).",
-        epilog="Options after -- go to every crumple-sim run (e.g. -- --render --size 480x270).")
+        epilog="Options after -- go to every crumple-sim run (e.g. -- --render --size 480x270). "
+        "crumple-sweep plot DIR --x COLUMN --y COLUMN draws results.csv's columns (crumple-sweep plot --help).")
     try:
         from . import __version__ as version
     except ImportError:  # the package's compiled module missing: the sweep itself needs only crumple-sim
@@ -702,8 +733,90 @@ def main(argv=None, default_sim="crumple-sim"):
             signal.signal(sig, handler)
 
 
+def plot(argv):
+    """crumple-sweep plot DIR --x COLUMN --y COLUMN [--out PNG]: a column of DIR/results.csv against another, one
+    point per complete variant, written as a PNG with matplotlib. Returns the exit status."""
+    p = Parser(prog="crumple-sweep plot",
+               description="Plot one column of a sweep's results.csv against another (a point per complete "
+               "variant; where y is max_dent.<body>, variants whose dent reached the map's floor are marked: "
+               "their depth is a lower bound). docs/sweeps.md.")
+    p.add_argument("dir", help="the sweep's output folder (crumple-sweep --out): its results.csv")
+    p.add_argument("--x", required=True, help="the x column, e.g. bodies[ball].velocity.y")
+    p.add_argument("--y", required=True, help="the y column, e.g. max_dent.plate")
+    p.add_argument("--out", "-o", help="the PNG to write (default: DIR/plot.png)")
+    args = p.parse_args(argv)
+    csv_path = os.path.join(args.dir, "results.csv")
+    try:
+        with open(csv_path, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as e:
+        print(f"crumple-sweep: error: {csv_path}: {e.strerror or e}", file=sys.stderr)
+        return 2
+    columns = list(rows[0].keys()) if rows else []
+    for which, name in (("--x", args.x), ("--y", args.y)):
+        if name not in columns:
+            print(f"crumple-sweep: error: {which} {name}: no such column in {csv_path} (columns: "
+                  f"{', '.join(columns)})", file=sys.stderr)
+            return 2
+    saturated = "saturated." + args.y[len("max_dent."):] if args.y.startswith("max_dent.") else None
+    points, failed = [], 0
+    for row in rows:
+        if row.get("exit") != "0":
+            failed += 1
+            continue
+        try:
+            x, y = float(row[args.x]), float(row[args.y])
+        except ValueError:
+            print(f"crumple-sweep: error: variant {row['id']}: {args.x} = {row[args.x]!r}, {args.y} = "
+                  f"{row[args.y]!r}: not numbers (a vector key has a column per component: {args.x}.x ...)",
+                  file=sys.stderr)
+            return 2
+        points.append((x, y, saturated is not None and row.get(saturated) == "true"))
+    if not points:
+        print(f"crumple-sweep: error: {csv_path}: no complete variant to plot", file=sys.stderr)
+        return 1
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as e:
+        print(f"crumple-sweep: error: plot needs matplotlib (python3-matplotlib): {e}", file=sys.stderr)
+        return 2
+    points.sort()
+    scale, unit = (1000.0, " (mm)") if args.y.startswith("max_dent.") else (1.0, "")
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=100)
+    ax.plot([x for x, _, _ in points], [y * scale for _, y, _ in points], "o-", color="#3566a8", label=args.y)
+    full = [(x, y * scale) for x, y, s in points if s]
+    if full:
+        ax.plot([x for x, _ in full], [y for _, y in full], "x", color="#c0392b", markersize=11, mew=2,
+                label="dent reached the map's floor (a lower bound)")
+    ax.set_xlabel(args.x)
+    ax.set_ylabel(args.y + unit)
+    title = os.path.basename(os.path.normpath(os.path.abspath(args.dir)))
+    ax.set_title(title + (f" ({failed} failed variant{'s' if failed != 1 else ''} left out)" if failed else ""))
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    out = args.out or os.path.join(args.dir, "plot.png")
+    tmp = out + ".tmp.png"
+    try:
+        fig.savefig(tmp)
+        os.replace(tmp, out)
+    except OSError as e:
+        print(f"crumple-sweep: error: {out}: {e.strerror or e}", file=sys.stderr)
+        return 2
+    finally:
+        plt.close(fig)
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    print(f"crumple-sweep: wrote {out}: {len(points)} variants")
+    return 0
+
+
 def _main(argv, default_sim, caught):
     argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["plot"]:
+        return plot(argv[1:])
     sim_args = []
     if "--" in argv:
         i = argv.index("--")
@@ -871,6 +984,12 @@ def _main(argv, default_sim, caught):
     return 1 if failed else 0
 
 
+def _clock(seconds):
+    """h:mm:ss or m:ss."""
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
 def _run(client, cluster, specs, todo, rows, caught, say, args, write):
     """Runs the variants todo on the cluster, rows as they come; on a signal, stops them and returns
     128 + its number (else None)."""
@@ -900,10 +1019,14 @@ def _run(client, cluster, specs, todo, rows, caught, say, args, write):
             fut = client.submit(run_variant, dict(specs[vid], stop=stop), key=f"crumple-variant-{vid}-{token}",
                                 pure=False)
             futures[fut] = vid
+        started = time.monotonic()
         for fut in as_completed(list(futures)):
             vid, r = record(fut)
             write()
-            say(f"[{len(done)}/{len(todo)}] {vid}: {r['status']}" + (f": {r['error']}" if r.get("error") else ""))
+            # The time left at the pace so far (the variants share the workers alike).
+            left = (time.monotonic() - started) / len(done) * (len(todo) - len(done))
+            eta = f" (about {_clock(left)} left)" if len(done) < len(todo) else ""
+            say(f"[{len(done)}/{len(todo)}] {vid}: {r['status']}" + (f": {r['error']}" if r.get("error") else "") + eta)
         return None
     except Interrupted as e:
         # Every running task sees the stop file within POLL s and stops its crumple-sim (SIGKILL after --grace);

@@ -113,10 +113,13 @@ class Sweep(unittest.TestCase):
         self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
         rows = read_csv(os.path.join(self.out, "results.csv"))
         self.assertEqual(list(rows[0].keys()),
-                         ["id", "bodies[ball].velocity", "deformation.path", "exit", "status", "collisions",
-                          "deformations", "max_dent.plate", "max_dent.ball", "error"])
+                         ["id", "bodies[ball].velocity.x", "bodies[ball].velocity.y", "bodies[ball].velocity.z",
+                          "deformation.path", "exit", "status", "collisions", "deformations", "max_dent.plate",
+                          "max_dent.ball", "saturated.plate", "saturated.ball", "error"])
         self.assertEqual([row["id"] for row in rows], ["000", "001", "002"])
-        self.assertEqual([row["bodies[ball].velocity"] for row in rows], ["[0,-2,0]", "[0,-5,0]", "[0,-9,0]"])
+        self.assertEqual([row["bodies[ball].velocity.y"] for row in rows], ["-2", "-5", "-9"])
+        self.assertEqual([row["bodies[ball].velocity.x"] for row in rows], ["0", "0", "0"])
+        self.assertEqual([row["saturated.plate"] for row in rows], ["false", "", "false"])
         self.assertEqual([row["deformation.path"] for row in rows], ["gather", "scatter", "gather"])
         self.assertEqual([row["exit"] for row in rows], ["0", "2", "0"])
         self.assertEqual([row["status"] for row in rows], ["ok", "exit 2", "ok"])
@@ -144,6 +147,23 @@ class Sweep(unittest.TestCase):
         self.assertEqual([row["exit"] for row in again], ["0", "0", "0"])
         self.assertEqual(again[0], rows[0])
         self.assertGreater(float(again[1]["max_dent.plate"]), float(again[0]["max_dent.plate"]))
+
+        # The dents against the speed, as a picture.
+        picture = os.path.join(self.tmp, "dents.png")
+        r = subprocess.run([SWEEP, "plot", self.out, "--x", "bodies[ball].velocity.y", "--y", "max_dent.plate",
+                            "--out", picture], capture_output=True, text=True, timeout=120)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertIn("3 variants", r.stdout)
+        with open(picture, "rb") as f:
+            self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+        if os.environ.get("CRUMPLE_KEEP_PLOT"):
+            shutil.copy(picture, os.environ["CRUMPLE_KEEP_PLOT"])
+        r = subprocess.run([SWEEP, "plot", self.out, "--x", "speed", "--y", "max_dent.plate"],
+                           capture_output=True, text=True, timeout=120)
+        self.assert_one_line_error(r, "--x speed: no such column", "bodies[ball].velocity.y")
+        r = subprocess.run([SWEEP, "plot", self.out, "--x", "deformation.path", "--y", "max_dent.plate"],
+                           capture_output=True, text=True, timeout=120)
+        self.assert_one_line_error(r, "not numbers")
 
     def test_a_variant_that_does_not_load_stops_the_sweep(self):
         with open(self.sweep, "w") as f:

@@ -70,8 +70,44 @@ int addAccessor(tinygltf::Model& m, int view, int componentType, int type, size_
 
 // The accessors of one render mesh (shared by every body that uses the same mesh).
 struct MeshAccessors {
-  int position = -1, normal = -1, uv = -1, color = -1, indices = -1;
+  int position = -1, normal = -1, tangent = -1, uv = -1, color = -1, indices = -1;
 };
+
+// Per vertex, glTF's TANGENT (xyz, w) from crumple's own tangent frame: the renderer shades with each triangle's
+// dP/du and dP/dv (from screen-space derivatives), so a vertex takes the sum of its triangles' dP/du made normal
+// to its normal, and w says on which side dP/dv lies. glTF's bitangent is cross(N, T) w and points up the image
+// (decreasing v), the exported normal map's green being crumple's inverted: w = -1 where that cross product
+// points along dP/dv.
+std::vector<glm::vec4> tangents(const TriangleMesh& mesh, const std::vector<glm::vec3>& normals) {
+  const size_t n = mesh.positions.size();
+  std::vector<glm::dvec3> du(n, glm::dvec3(0)), dv(n, glm::dvec3(0));
+  for (const glm::uvec3& t : mesh.triangles) {
+    const glm::dvec3 e1 = glm::dvec3(mesh.positions[t.y] - mesh.positions[t.x]);
+    const glm::dvec3 e2 = glm::dvec3(mesh.positions[t.z] - mesh.positions[t.x]);
+    const glm::dvec2 d1 = glm::dvec2(mesh.uvs[t.y] - mesh.uvs[t.x]), d2 = glm::dvec2(mesh.uvs[t.z] - mesh.uvs[t.x]);
+    const double det = d1.x * d2.y - d1.y * d2.x;
+    if (!(std::abs(det) > 1e-20)) continue;
+    // dP/du and dP/dv, each weighted by the triangle's uv area (|det| / 2): small slivers count little.
+    const glm::dvec3 pu = (e1 * d2.y - e2 * d1.y) * (det > 0 ? 1.0 : -1.0);
+    const glm::dvec3 pv = (e2 * d1.x - e1 * d2.x) * (det > 0 ? 1.0 : -1.0);
+    for (unsigned v : {t.x, t.y, t.z}) {
+      du[v] += pu;
+      dv[v] += pv;
+    }
+  }
+  std::vector<glm::vec4> out(n);
+  for (size_t i = 0; i < n; ++i) {
+    const glm::dvec3 nn(normals[i]);
+    glm::dvec3 t = du[i] - nn * glm::dot(nn, du[i]);
+    if (!(glm::length(t) > 1e-12)) {  // no uv gradient here: any direction normal to the normal
+      t = glm::cross(nn, std::abs(nn.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0));
+    }
+    t = glm::normalize(t);
+    const double w = glm::dot(glm::cross(nn, t), dv[i]) > 0 ? -1.0 : 1.0;
+    out[i] = glm::vec4(glm::vec3(t), static_cast<float>(w));
+  }
+  return out;
+}
 
 MeshAccessors addMesh(tinygltf::Model& m, const TriangleMesh& mesh) {
   MeshAccessors r;
@@ -151,7 +187,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
     if (b.mesh && !b.mesh->empty()) {
       auto it = meshes.find(b.mesh.get());
       if (it == meshes.end()) it = meshes.emplace(b.mesh.get(), addMesh(m, *b.mesh)).first;
-      const MeshAccessors& acc = it->second;
+      MeshAccessors& acc = it->second;
 
       tinygltf::Material mat;
       mat.name = b.name;
@@ -187,6 +223,15 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
         m.textures.push_back(tex);
         mat.normalTexture.index = static_cast<int>(m.textures.size() - 1);
         mat.normalTexture.texCoord = 0;
+        // Its tangent frame, once per mesh that carries a normal map (a viewer would make up its own otherwise).
+        const TriangleMesh& mesh = *b.mesh;
+        if (acc.tangent < 0 && mesh.normals.size() == mesh.positions.size()) {
+          std::vector<glm::vec3> normals(mesh.normals);
+          for (glm::vec3& nn : normals) nn = glm::length(nn) > 0 ? glm::normalize(nn) : glm::vec3(0, 1, 0);
+          const std::vector<glm::vec4> t = tangents(mesh, normals);
+          acc.tangent = addAccessor(m, addView(m, t.data(), t.size() * sizeof(glm::vec4), TINYGLTF_TARGET_ARRAY_BUFFER),
+                                    TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC4, t.size());
+        }
         extras["crumple_height_map"] = tinygltf::Value("heightmaps/" + file);
         // k in metres, from its float: rounded to 7 digits so that 0.1 reads 0.1.
         const double k = b.surface->bumpDepth();
@@ -202,6 +247,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
       prim.material = static_cast<int>(m.materials.size() - 1);
       prim.attributes["POSITION"] = acc.position;
       if (acc.normal >= 0) prim.attributes["NORMAL"] = acc.normal;
+      if (acc.tangent >= 0 && mat.normalTexture.index >= 0) prim.attributes["TANGENT"] = acc.tangent;
       if (acc.uv >= 0) prim.attributes["TEXCOORD_0"] = acc.uv;
       if (acc.color >= 0) prim.attributes["COLOR_0"] = acc.color;
       tinygltf::Mesh mesh;

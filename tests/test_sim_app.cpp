@@ -1135,6 +1135,48 @@ TEST_CASE("--export gltf writes every body at its final pose with its atlas, nor
         mismatches += e != (c == 1 ? 255 - w : w);
       }
     CHECK(mismatches == 0);
+    // TANGENT: crumple's own frame, so that a viewer bends the normals as crumple does. Per vertex, the tangent
+    // lies along its triangles' dP/du and glTF's bitangent, cross(N, T) w, against dP/dv (it points up the image,
+    // as the inverted green does).
+    REQUIRE(prim.attributes.count("TANGENT"));
+    REQUIRE(prim.attributes.count("NORMAL"));
+    auto floats = [&](const char* attribute) {
+      const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(prim.attributes.at(attribute))];
+      const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
+      return reinterpret_cast<const float*>(model.buffers[static_cast<size_t>(v.buffer)].data.data() + v.byteOffset +
+                                            a.byteOffset);
+    };
+    const tinygltf::Accessor& tangentAccessor = model.accessors[static_cast<size_t>(prim.attributes.at("TANGENT"))];
+    CHECK(tangentAccessor.type == TINYGLTF_TYPE_VEC4);
+    const float *tangent = floats("TANGENT"), *normal = floats("NORMAL"), *position = floats("POSITION");
+    const tinygltf::Accessor& indexAccessor = model.accessors[static_cast<size_t>(prim.indices)];
+    const tinygltf::BufferView& indexView = model.bufferViews[static_cast<size_t>(indexAccessor.bufferView)];
+    const uint32_t* index = reinterpret_cast<const uint32_t*>(
+        model.buffers[static_cast<size_t>(indexView.buffer)].data.data() + indexView.byteOffset + indexAccessor.byteOffset);
+    auto vec3 = [](const float* p, size_t i) { return glm::dvec3(p[i * 3], p[i * 3 + 1], p[i * 3 + 2]); };
+    size_t along = 0, against = 0, frames = 0;
+    for (size_t t = 0; t + 2 < indexAccessor.count; t += 3) {
+      const size_t i0 = index[t], i1 = index[t + 1], i2 = index[t + 2];
+      const glm::dvec3 e1 = vec3(position, i1) - vec3(position, i0), e2 = vec3(position, i2) - vec3(position, i0);
+      const glm::dvec2 d1(uvs[i1 * 2] - uvs[i0 * 2], uvs[i1 * 2 + 1] - uvs[i0 * 2 + 1]);
+      const glm::dvec2 d2(uvs[i2 * 2] - uvs[i0 * 2], uvs[i2 * 2 + 1] - uvs[i0 * 2 + 1]);
+      const double det = d1.x * d2.y - d1.y * d2.x;
+      if (std::abs(det) < 1e-12) continue;
+      const glm::dvec3 pu = glm::normalize((e1 * d2.y - e2 * d1.y) / det), pv = glm::normalize((e2 * d1.x - e1 * d2.x) / det);
+      for (size_t v : {i0, i1, i2}) {
+        const glm::dvec3 T(tangent[v * 4], tangent[v * 4 + 1], tangent[v * 4 + 2]);
+        const glm::dvec3 B = glm::cross(vec3(normal, v), T) * static_cast<double>(tangent[v * 4 + 3]);
+        CHECK(std::abs(glm::length(T) - 1) < 1e-4);
+        CHECK(std::abs(tangent[v * 4 + 3]) == 1.0f);
+        ++frames;
+        along += glm::dot(T, pu) > 0.5;
+        against += glm::dot(B, pv) < -0.5;
+      }
+    }
+    CHECK(frames > 0);
+    // (A vertex on a sharp edge inside a chart averages two faces: its frame is the average; nearly all agree.)
+    CHECK(along > frames * 0.95);
+    CHECK(against > frames * 0.95);
     // The height map: named in the extras, beside the .gltf, the same file as heightmaps/.
     REQUIRE(mat.extras.IsObject());
     REQUIRE(mat.extras.Has("crumple_height_map"));

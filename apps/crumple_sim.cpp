@@ -97,7 +97,7 @@ int main(int argc, char** argv) {
   long steps = -1;
   int gpu = -1, threads = -1;
   std::vector<std::string> sets;
-  bool renderFrames = false, quiet = false, verbose = false;
+  bool renderFrames = false, quiet = false, verbose = false, animate = false;
   bool displace = false;
   app.add_option("scene", scenePath,
                  "Scene file (JSON). Without one, the built-in default scene (sphere into plate) runs.");
@@ -141,9 +141,13 @@ int main(int argc, char** argv) {
                  "the same bits for every count")
       ->check(CLI::Range(0, 256));
   app.add_option("--trace", trace, "Write every body's state per step to this CSV file");
-  app.add_option("--export", exportFormat,
+  auto* exportOption = app.add_option("--export", exportFormat,
                  "gltf: also write export/scene.gltf (every body at its final pose, its atlas, normal and height maps)")
       ->check(CLI::IsMember({"gltf"}));
+  auto* animateOption = app.add_flag("--animate", animate,
+                                     "With --export gltf: animate the export with the bodies' motion, a key frame per "
+                                     "--fps frame, so a glTF viewer plays the run");
+  animateOption->needs(exportOption);
   app.add_option("--video", video,
                  "Encode one camera's frames into this video file (e.g. run.mp4) with ffmpeg; implies --render");
   app.add_option("--video-camera", videoCamera, "The camera for --video (default: the scene's first camera)");
@@ -206,7 +210,8 @@ int main(int argc, char** argv) {
                          "--video-camera: no camera named '" + quoteText(videoCamera) + "'");
     }
     OutputWriter writer(outDir);
-    writer.setExportGltf(exportFormat == "gltf");
+    GltfAnimation animation;
+    writer.setExportGltf(exportFormat == "gltf", animate ? &animation : nullptr);
 
     bool needGl = renderFrames;
     for (const auto& b : scene.bodies) needGl = needGl || b.bumpMap.present;
@@ -269,10 +274,12 @@ int main(int argc, char** argv) {
       ++sim.timings().frames;
     };
     if (renderer) renderFrame();
+    if (animate) animation.record(sim);
     for (long s = 1; s <= totalSteps; ++s) {
       if (gInterrupted) return interrupted(s - 1);
       sim.step();
       if (renderer && s % frameEvery == 0) renderFrame();
+      if (animate && (s % frameEvery == 0 || s == totalSteps)) animation.record(sim);
       if (traceFile.is_open()) {
         for (const auto& b : sim.bodies()) {
           const RigidBody& rb = sim.world().body(b.index);

@@ -156,7 +156,65 @@ void setPbr(tinygltf::Material& out, const M& mat) {
 
 }  // namespace
 
-void writeGltfExport(const Simulation& sim, const std::string& dir, const std::string& mapsRoot) {
+void GltfAnimation::record(const Simulation& sim) {
+  const auto& bodies = sim.bodies();
+  poses.resize(bodies.size());
+  times.push_back(sim.world().time());
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const RigidBody& rb = sim.world().body(bodies[i].index);
+    poses[i].push_back({rb.origin(), rb.q});
+  }
+}
+
+namespace {
+// The animation "run": per moving body a translation and a rotation channel over the recorded times.
+void addAnimation(tinygltf::Model& m, const Simulation& sim, const GltfAnimation& a) {
+  const size_t frames = a.times.size();
+  std::vector<float> times(frames);
+  for (size_t f = 0; f < frames; ++f) times[f] = static_cast<float>(a.times[f]);
+  const int input = addAccessor(m, addView(m, times.data(), frames * sizeof(float), 0), TINYGLTF_COMPONENT_TYPE_FLOAT,
+                                TINYGLTF_TYPE_SCALAR, frames);
+  m.accessors[static_cast<size_t>(input)].minValues = {times.front()};
+  m.accessors[static_cast<size_t>(input)].maxValues = {times.back()};
+  tinygltf::Animation anim;
+  anim.name = "run";
+  const auto& bodies = sim.bodies();
+  for (size_t i = 0; i < bodies.size() && i < a.poses.size(); ++i) {
+    if (sim.world().body(bodies[i].index).isStatic || a.poses[i].size() != frames) continue;
+    std::vector<glm::vec3> translation(frames);
+    std::vector<glm::vec4> rotation(frames);  // glTF: x, y, z, w
+    glm::dquat last = a.poses[i].front().orientation;
+    for (size_t f = 0; f < frames; ++f) {
+      translation[f] = glm::vec3(a.poses[i][f].position);
+      // The same hemisphere as the frame before: the viewer's slerp then turns the short way, as the body did.
+      glm::dquat q = a.poses[i][f].orientation;
+      if (glm::dot(q, last) < 0) q = -q;
+      last = q;
+      rotation[f] = glm::vec4(static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z),
+                              static_cast<float>(q.w));
+    }
+    const int node = static_cast<int>(i);  // the nodes are the bodies, in order
+    auto channel = [&](const void* data, size_t bytes, int type, const char* path) {
+      tinygltf::AnimationSampler sampler;
+      sampler.input = input;
+      sampler.output = addAccessor(m, addView(m, data, bytes, 0), TINYGLTF_COMPONENT_TYPE_FLOAT, type, frames);
+      sampler.interpolation = "LINEAR";
+      anim.samplers.push_back(sampler);
+      tinygltf::AnimationChannel c;
+      c.sampler = static_cast<int>(anim.samplers.size() - 1);
+      c.target_node = node;
+      c.target_path = path;
+      anim.channels.push_back(c);
+    };
+    channel(translation.data(), frames * sizeof(glm::vec3), TINYGLTF_TYPE_VEC3, "translation");
+    channel(rotation.data(), frames * sizeof(glm::vec4), TINYGLTF_TYPE_VEC4, "rotation");
+  }
+  if (!anim.channels.empty()) m.animations.push_back(anim);
+}
+}  // namespace
+
+void writeGltfExport(const Simulation& sim, const std::string& dir, const std::string& mapsRoot,
+                     const GltfAnimation* animation) {
   const fs::path root(dir), maps(mapsRoot);
   std::error_code ec;
   fs::create_directories(root, ec);
@@ -261,6 +319,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
   }
   m.scenes.push_back(scene);
   m.defaultScene = 0;
+  if (animation && animation->times.size() >= 2) addAnimation(m, sim, *animation);
   if (m.buffers[0].data.empty()) {  // no meshes at all: no buffer (glTF forbids empty ones)
     m.buffers.clear();
   }

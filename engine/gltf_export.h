@@ -1,6 +1,7 @@
 // crumple-sim --export gltf: the end state of a run as a glTF 2.0 scene (docs/outputs.md, "export/").
 #pragma once
 #include <string>
+#include <vector>
 
 #include <crumple/engine/simulation.h>
 
@@ -14,6 +15,17 @@ namespace crumple {
 // The maps are taken from `mapsRoot`/heightmaps/<body>.png and `mapsRoot`/normalmaps/<body>.png (as
 // OutputWriter writes them) and written to `dir`/heightmaps/ and `dir`/normalmaps/.
 // Throws std::runtime_error when a file cannot be written.
-void writeGltfExport(const Simulation& sim, const std::string& dir, const std::string& mapsRoot);
+// The bodies' motion for an animated export (crumple-sim --export gltf --animate): their poses at `times` (s),
+// one vector per body of bodies() per time, taken with record().
+struct GltfAnimation {
+  std::vector<double> times;
+  std::vector<std::vector<Pose>> poses;  // [body][frame]: the shape frame's origin and the orientation
+  void record(const Simulation& sim);    // the poses now, at the world's time
+};
+
+// With `animation` (two frames or more): one glTF animation, "run", moving every body that is not static through
+// its recorded poses (LINEAR translation and rotation channels at the recorded times), so a viewer plays the run.
+void writeGltfExport(const Simulation& sim, const std::string& dir, const std::string& mapsRoot,
+                     const GltfAnimation* animation = nullptr);
 
 }  // namespace crumple

@@ -382,7 +382,7 @@ void OutputWriter::write(Simulation& sim, const std::map<std::string, std::strin
         nm.pixels[i * 3 + static_cast<size_t>(c)] = rgba[i * 4 + static_cast<size_t>(c)] / 255.0f;
     gl::writePng(normalPath.string(), nm, 8);
   }
-  if (exportGltf_) writeGltfExport(sim, (root / "export").string(), root.string());
+  if (exportGltf_) writeGltfExport(sim, (root / "export").string(), root.string(), animation_);
   std::ofstream f(root / "summary.json");
   f << summaryJson(sim, extra) << "\n";
   if (!f) throw std::runtime_error("writing summary.json failed");

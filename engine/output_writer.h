@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <crumple/engine/gltf_export.h>
 #include <crumple/engine/simulation.h>
 
 namespace crumple {
@@ -42,8 +43,12 @@ class OutputWriter {
   // The staging folder (empty before begin()).
   const std::string& staging() const { return staging_; }
   void write(Simulation& sim, const std::map<std::string, std::string>& extraSummary = {});
-  // With it on, write() also writes export/scene.gltf (engine/gltf_export.h) into the folder.
-  void setExportGltf(bool on) { exportGltf_ = on; }
+  // With it on, write() also writes export/scene.gltf (engine/gltf_export.h) into the folder; with `animation`
+  // (kept by the caller until write()), animated with the bodies' recorded motion.
+  void setExportGltf(bool on, const GltfAnimation* animation = nullptr) {
+    exportGltf_ = on;
+    animation_ = animation;
+  }
   void commit();
   // Removes the staging folder now (e.g. on SIGINT/SIGTERM; the destructor does the same).
   void abandon();
@@ -54,6 +59,7 @@ class OutputWriter {
   std::string given_, dir_, staging_;
   bool begun_ = false, committed_ = false;
   bool exportGltf_ = false;
+  const GltfAnimation* animation_ = nullptr;
 };
 
 }  // namespace crumple

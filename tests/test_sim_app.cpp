@@ -16,6 +16,7 @@
 #include <glm/glm.hpp>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -1190,6 +1191,72 @@ TEST_CASE("--export gltf writes every body at its final pose with its atlas, nor
   // Another format is bad input.
   CHECK(runSim("--out " + (kTmp / "export_bad").string() + " --quiet --export obj") == 2);
   CHECK(!fs::exists(kTmp / "export_bad"));
+}
+
+TEST_CASE("--export gltf --animate plays the run: every moving body's poses at the frames' times") {
+  const fs::path out = kTmp / "export_animated";
+  fs::remove_all(out);
+  std::string log;
+  // 60 steps at 240 Hz, --fps 30: key frames at steps 0, 8, ..., 56 and the last step.
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/sphere-into-plate.json --out " + out.string() +
+                     " --quiet --steps 60 --export gltf --animate",
+                 &log) == 0);
+  CAPTURE(log);
+  const json summary = json::parse(slurp(out / "summary.json"));
+  const json scene = json::parse(slurp(fs::path(CRUMPLE_SCENES) / "sphere-into-plate.json"));
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  std::string err, warn;
+  REQUIRE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "export" / "scene.gltf").string()));
+  REQUIRE(model.animations.size() == 1);
+  const tinygltf::Animation& anim = model.animations[0];
+  CHECK(anim.name == "run");
+  auto floats = [&](int accessor) {
+    const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(accessor)];
+    const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
+    const float* p = reinterpret_cast<const float*>(model.buffers[0].data.data() + v.byteOffset + a.byteOffset);
+    const int width = a.type == TINYGLTF_TYPE_SCALAR ? 1 : a.type == TINYGLTF_TYPE_VEC3 ? 3 : 4;
+    return std::vector<float>(p, p + a.count * static_cast<size_t>(width));
+  };
+  // Only the bodies that move: the ball, not the static plate; a translation and a rotation channel.
+  std::set<std::string> animated;
+  for (const tinygltf::AnimationChannel& c : anim.channels) {
+    const std::string name = model.nodes[static_cast<size_t>(c.target_node)].name;
+    animated.insert(name + "." + c.target_path);
+    const tinygltf::AnimationSampler& sampler = anim.samplers[static_cast<size_t>(c.sampler)];
+    CHECK(sampler.interpolation == "LINEAR");
+    const std::vector<float> times = floats(sampler.input);
+    REQUIRE(times.size() == 9);
+    CHECK(times.front() == 0.0f);
+    CHECK(times[1] == doctest::Approx(8.0 / 240));
+    CHECK(times.back() == doctest::Approx(60.0 / 240));
+    const std::vector<float> values = floats(sampler.output);
+    const tinygltf::Node& node = model.nodes[static_cast<size_t>(c.target_node)];
+    const json* start = nullptr;
+    for (const json& b : scene["bodies"])
+      if (b["name"] == name) start = &b;
+    REQUIRE(start);
+    if (c.target_path == "translation") {
+      // From where the scene puts it to where the run left it (the node's own pose).
+      for (int k = 0; k < 3; ++k) {
+        CHECK(values[static_cast<size_t>(k)] == doctest::Approx((*start)["position"][k].get<double>()).epsilon(1e-6));
+        CHECK(values[values.size() - 3 + static_cast<size_t>(k)] == doctest::Approx(node.translation[static_cast<size_t>(k)]).epsilon(1e-6));
+      }
+    } else {
+      REQUIRE(c.target_path == "rotation");
+      for (int k = 0; k < 4; ++k)
+        CHECK(std::abs(values[values.size() - 4 + static_cast<size_t>(k)]) == doctest::Approx(std::abs(node.rotation[static_cast<size_t>(k)])).epsilon(1e-6));
+      for (size_t f = 4; f < values.size(); f += 4) {  // consecutive keys in one hemisphere: the short way round
+        double dot = 0;
+        for (size_t k = 0; k < 4; ++k) dot += double(values[f + k]) * values[f - 4 + k];
+        CHECK(dot > 0);
+      }
+    }
+  }
+  CHECK(animated == std::set<std::string>{"ball.translation", "ball.rotation"});
+  // --animate without --export is bad input.
+  CHECK(runSim("--out " + (kTmp / "animate_bad").string() + " --quiet --animate") == 2);
+  CHECK(!fs::exists(kTmp / "animate_bad"));
 }
 
 TEST_CASE("--video without ffmpeg on PATH is bad input with a clear message") {

@@ -782,7 +782,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "crumple-bench: crumple vs Bullet (and Jolt, if built with CRUMPLE_JOLT_DIR) (physics), gather vs scatter vs read-back (deformation), POM on/off (render); "
       "prints ms per step/deformation/frame and the ratios."};
-  bool quick = false, noGl = false, deformPhases = false, renderParts = false;
+  bool quick = false, noGl = false, deformPhases = false, renderParts = false, strictPeers = false;
   std::string filter;
   int threads = 1, repetitions = 1;
   std::vector<int> threadCounts = {1, 2, 4, 8, 16};
@@ -791,6 +791,9 @@ int main(int argc, char** argv) {
   app.add_flag("--no-gl", noGl, "Physics only");
   app.add_flag("--deform-profile", deformPhases, "Also print the wall time of each phase of a deformation, every path");
   app.add_option("--filter", filter, "Only benchmarks whose name matches this regular expression");
+  app.add_flag("--strict-peers", strictPeers,
+               "Refuse to run (exit 1) when a peer's build would slow its rows (a Jolt built with its profiler, debug "
+               "renderer, asserts or without NDEBUG): figures meant for publishing (tools/bench-vs-jolt.sh)");
   app.add_option("--repetitions", repetitions,
                  "Runs of each benchmark, interleaved at random with the others'; the ratios take each one's fastest "
                  "(a machine whose speed drifts then slows no engine more than another)")
@@ -807,6 +810,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);
     return rc == 0 ? 0 : 2;  // bad command-line input is bad input: exit 2
+  }
+  if (strictPeers && joltBuilt() && !joltWarnings().empty()) {
+    std::printf("jolt: %s\n", joltConfiguration().c_str());
+    for (const std::string& w : joltWarnings()) std::printf("WARNING: %s\n", w.c_str());
+    std::fprintf(stderr, "crumple-bench: error: --strict-peers: Jolt's build would slow its rows (WARNING above); "
+                         "build it as tools/build-jolt.sh does\n");
+    return 1;
   }
   gSteps = quick ? 24 : 240;
   if (quick) gWarmUp = 0;

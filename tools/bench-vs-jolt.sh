@@ -8,9 +8,10 @@ Usage: tools/bench-vs-jolt.sh [--jolt DIR] [--repetitions N] [--quick]
 Builds Jolt Physics from the checkout DIR (default ../JoltPhysics, cloned from GitHub when absent) with
 tools/build-jolt.sh into ../jolt-install, configures crumple in build-bench-jolt/ (Release, with
 CRUMPLE_JOLT_DIR), builds crumple-bench and runs its physics rows on one thread:
-  crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions N   (default N: 2)
+  crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions N --strict-peers   (default N: 2)
 It prints the machine, crumple's commit and each peer's configuration above the figures (Jolt's own configuration
-string, and a WARNING for a Jolt built with its profiler, debug renderer or asserts). --quick: the smoke run.
+string); a Jolt built with its profiler, debug renderer, asserts or without NDEBUG stops it with its WARNING
+(exit 1: such figures must not be published). --quick: the smoke run.
 Nothing is installed outside ../JoltPhysics, ../jolt-install and build-bench-jolt/.
 USAGE
 }
@@ -44,4 +45,4 @@ echo "== building crumple-bench (commit $(git rev-parse --short HEAD)) against i
 cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT_DIR="$prefix" -DCRUMPLE_BUILD_TESTS=OFF >/dev/null
 cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench >/dev/null
 echo "== crumple $(git rev-parse --short HEAD), Jolt $(git -C "$jolt" rev-parse --short HEAD 2>/dev/null || echo '?')"
-build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" "${quick[@]}"
+build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}"

@@ -82,17 +82,13 @@ std::vector<glm::vec4> tangents(const TriangleMesh& mesh, const std::vector<glm:
   const size_t n = mesh.positions.size();
   std::vector<glm::dvec3> du(n, glm::dvec3(0)), dv(n, glm::dvec3(0));
   for (const glm::uvec3& t : mesh.triangles) {
-    const glm::dvec3 e1 = glm::dvec3(mesh.positions[t.y] - mesh.positions[t.x]);
-    const glm::dvec3 e2 = glm::dvec3(mesh.positions[t.z] - mesh.positions[t.x]);
-    const glm::dvec2 d1 = glm::dvec2(mesh.uvs[t.y] - mesh.uvs[t.x]), d2 = glm::dvec2(mesh.uvs[t.z] - mesh.uvs[t.x]);
-    const double det = d1.x * d2.y - d1.y * d2.x;
-    if (!(std::abs(det) > 1e-20)) continue;
-    // dP/du and dP/dv, each weighted by the triangle's uv area (|det| / 2): small slivers count little.
-    const glm::dvec3 pu = (e1 * d2.y - e2 * d1.y) * (det > 0 ? 1.0 : -1.0);
-    const glm::dvec3 pv = (e2 * d1.x - e1 * d2.x) * (det > 0 ? 1.0 : -1.0);
+    UvFrame frame;
+    if (!uvFrame(mesh, t, frame)) continue;
+    // dP/du and dP/dv, each weighted by the triangle's uv area: small slivers count little.
+    const double area = std::abs(frame.det);
     for (unsigned v : {t.x, t.y, t.z}) {
-      du[v] += pu;
-      dv[v] += pv;
+      du[v] += frame.dPdu * area;
+      dv[v] += frame.dPdv * area;
     }
   }
   std::vector<glm::vec4> out(n);

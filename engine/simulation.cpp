@@ -217,13 +217,9 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
   const double hu = ((h10 - h00) * (1 - fy) + (h11 - h01) * fy) * r;  // dh/du
   const double hv = ((h01 - h00) * (1 - fx) + (h11 - h10) * fx) * r;  // dh/dv
   // The dented surface P + n k (h - 0.5): its tangents dP/du + n k dh/du, dP/dv + n k dh/dv.
-  const glm::dvec3 e1 = glm::dvec3(mesh.positions[t.y] - mesh.positions[t.x]);
-  const glm::dvec3 e2 = glm::dvec3(mesh.positions[t.z] - mesh.positions[t.x]);
-  const glm::dvec2 d1 = uv1 - uv0, d2 = uv2 - uv0;
-  const double det = d1.x * d2.y - d1.y * d2.x;
-  if (std::abs(det) > 1e-20) {
-    const glm::dvec3 pu = (e1 * d2.y - e2 * d1.y) / det, pv = (e2 * d1.x - e1 * d2.x) / det;
-    glm::dvec3 m = glm::cross(pu + n * (d.k * hu), pv + n * (d.k * hv));
+  UvFrame frame;
+  if (uvFrame(mesh, t, frame)) {
+    glm::dvec3 m = glm::cross(frame.dPdu + n * (d.k * hu), frame.dPdv + n * (d.k * hv));
     if (glm::dot(m, n) < 0) m = -m;
     const double len = glm::length(m);
     if (len > 1e-12) bent = m / len;
@@ -360,12 +356,9 @@ glm::dvec3 Simulation::bumpNormal(int i, const glm::dvec3& p, const glm::dvec3& 
   const glm::dvec2 uv0(b.mesh->uvs[t.x]), uv1(b.mesh->uvs[t.y]), uv2(b.mesh->uvs[t.z]);
   const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;
   // Tangent frame of the triangle: dP/du and dP/dv.
-  const glm::dvec3 e1 = glm::dvec3(b.mesh->positions[t.y] - b.mesh->positions[t.x]);
-  const glm::dvec3 e2 = glm::dvec3(b.mesh->positions[t.z] - b.mesh->positions[t.x]);
-  const glm::dvec2 d1 = uv1 - uv0, d2 = uv2 - uv0;
-  const double det = d1.x * d2.y - d1.y * d2.x;
-  if (std::abs(det) < 1e-20) return n;
-  glm::dvec3 T = (e1 * d2.y - e2 * d1.y) / det, B = (e2 * d1.x - e1 * d2.x) / det;
+  UvFrame frame;
+  if (!uvFrame(*b.mesh, t, frame)) return n;
+  glm::dvec3 T = frame.dPdu, B = frame.dPdv;
   T = glm::normalize(T - n * glm::dot(T, n));
   B = glm::normalize(B - n * glm::dot(B, n));
   const int r = b.surface->resolution();

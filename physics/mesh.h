@@ -4,6 +4,7 @@
 #pragma once
 #include <glm/glm.hpp>
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -28,6 +29,28 @@ struct TriangleMesh {
   glm::vec3 boundsMin() const;
   glm::vec3 boundsMax() const;
 };
+
+// A triangle's parameterisation, the tangent frame the renderer shades with: dP/du and dP/dv (the mesh's frame)
+// from its positions and texture coordinates, and `det`, twice its signed area in uv. False, with all zero, where
+// its uvs are degenerate.
+struct UvFrame {
+  glm::dvec3 dPdu{0}, dPdv{0};
+  double det = 0;
+};
+inline bool uvFrame(const TriangleMesh& mesh, const glm::uvec3& t, UvFrame& out) {
+  const glm::dvec3 e1 = glm::dvec3(mesh.positions[t.y] - mesh.positions[t.x]);
+  const glm::dvec3 e2 = glm::dvec3(mesh.positions[t.z] - mesh.positions[t.x]);
+  const glm::dvec2 uv0(mesh.uvs[t.x]), d1 = glm::dvec2(mesh.uvs[t.y]) - uv0, d2 = glm::dvec2(mesh.uvs[t.z]) - uv0;
+  const double det = d1.x * d2.y - d1.y * d2.x;
+  if (!(std::abs(det) > 1e-20)) {
+    out = {};
+    return false;
+  }
+  out.det = det;
+  out.dPdu = (e1 * d2.y - e2 * d1.y) / det;
+  out.dPdv = (e2 * d1.x - e1 * d2.x) / det;
+  return true;
+}
 
 // Mass properties of a closed mesh of unit density (Mirtich's / Eberly's
 // polyhedral integrals): volume, centre of mass and the inertia tensor about it.

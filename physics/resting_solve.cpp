@@ -50,6 +50,44 @@ struct IslandGroup {
   double mu = 0, twistRadius = 0;
 };
 
+uint64_t pairKey(const Pair& p) { return static_cast<uint64_t>(p.a) << 32 | static_cast<uint32_t>(p.b); }
+
+// One worker's solve of the islands it is handed (restingSolve shares them out): its scratch, and the warm-start
+// totals and solve count it leaves for the merge. An island writes only its own bodies and groups.
+struct alignas(64) IslandSolver {  // (a cache line of its own per worker)
+  StepContext* ctx = nullptr;
+  const std::vector<glm::dvec3>* v0 = nullptr;
+  const std::vector<glm::dvec3>* w0 = nullptr;
+  const std::vector<RestingWarm>* previous = nullptr;  // last substep's totals, by pair key
+  std::vector<IslandGroup> groups;
+  std::vector<Row> rows;
+  std::vector<double> lambda, diag;
+  std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>> kept;
+  std::vector<RestingWarm> warm;
+  int solves = 0;
+
+  // The first of last substep's groups of pair key pk.
+  std::vector<RestingWarm>::const_iterator firstWarm(uint64_t pk) const {
+    return std::lower_bound(previous->begin(), previous->end(), pk,
+                            [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
+  }
+  void solve(const size_t* pairs, size_t count);
+  bool needed(const size_t* pairs, size_t count) const;
+  void buildRows(const size_t* pairs, size_t count);
+  void startFromContactStep();
+  void warmStart();
+  bool sweep(double& largest);
+  void keepWarm();
+  void apply(const Row& row, double d) {
+    for (const Slot& s : row.s)
+      if (s.dof) {
+        RigidBody& b = ctx->body(s.body);
+        b.v += d * s.ml;
+        b.w += d * s.ma;
+      }
+  }
+};
+
 }  // namespace
 
 bool loadBearing(const Shape& shape) {
@@ -61,6 +99,280 @@ bool loadBearing(const Shape& shape) {
   if (e.x > e.y) std::swap(e.x, e.y);
   return e.x <= 0.25 * e.y;
 }
+
+namespace {
+
+// Solves one island (its pairs with groups, in pair order) when it needs it, as restingSolve says.
+void IslandSolver::solve(const size_t* pairs, size_t count) {
+  groups.clear();
+  rows.clear();
+  if (!needed(pairs, count)) return;
+  buildRows(pairs, count);
+  startFromContactStep();
+  warmStart();
+  double largest = 0;
+  bool converged = sweep(largest);
+  keepWarm();
+  // Out of sweeps: a solve whose last sweep still changed no row's velocity by more than ten times the
+  // tolerance is taken (a house of cards of three storeys, while its upper cards land, takes 1000-2000
+  // sweeps; the contact step's result instead let its lower frames slide apart). Stiff mass ratios (a heavy
+  // body on a light one) converge slowly and may be far from it: there the contact step's result stands.
+  if (!converged && largest < 10 * ctx->settings.restingSolveTolerance) converged = true;
+  if (!converged) {
+    for (auto it = kept.rbegin(); it != kept.rend(); ++it) {
+      ctx->body(it->first).v = it->second.first;
+      ctx->body(it->first).w = it->second.second;
+    }
+    return;
+  }
+  ++solves;
+  for (const IslandGroup& ig : groups) {
+    ContactGroup& g = ctx->groups[ig.pair][ig.index];
+    const double* lam = &lambda[static_cast<size_t>(ig.rowStart)];
+    g.totals.normal = lam[0];
+    g.totals.tangential = lam[1] * g.patchMatrix.patch.t1 + lam[2] * g.patchMatrix.patch.t2;
+  }
+}
+
+// Solved when the contact step left an approach at one of its groups, or when it was solved last substep, and
+// only islands with a convex mesh block (masonry: arches, walls of cut stone) or a plate (cards). Piles of cubes
+// and bricks keep the contact step's result: there the projected Gauss-Seidel sweeps did not converge within a
+// few hundred sweeps (many redundant face rows; the 1000-box pile went from 2 to 75 ms a step), and the contact
+// step with shock propagation holds them.
+bool IslandSolver::needed(const size_t* pairs, size_t count) const {
+  bool bearing = false;
+  for (size_t k = 0; k < count && !bearing; ++k) {
+    const Pair& pair = ctx->pairs[pairs[k]];
+    for (int i : {pair.a, pair.b}) bearing = bearing || (ctx->body(i).dynamic() && loadBearing(*ctx->body(i).shape));
+  }
+  if (!bearing) return false;
+  for (size_t k = 0; k < count; ++k) {
+    const size_t pi = pairs[k];
+    const uint64_t pk = pairKey(ctx->pairs[pi]);
+    const auto w = firstWarm(pk);
+    if (w != previous->end() && w->key == pk) return true;
+    for (const ContactGroup& g : ctx->groups[pi])
+      if (glm::dot(ctx->relativeVelocity(g.contact.a, g.contact.b, g.levers), g.contact.normal) <
+          -ctx->settings.restingSolveTrigger)
+        return true;
+  }
+  return false;
+}
+
+// Per group: a normal row, two friction rows, a torque row about each axis its patch can hold one about, and a
+// twist row when it holds either.
+void IslandSolver::buildRows(const size_t* pairs, size_t count) {
+  for (size_t k = 0; k < count; ++k) {
+    const size_t pi = pairs[k];
+    for (size_t gi = 0; gi < ctx->groups[pi].size(); ++gi) {
+      const ContactGroup& g = ctx->groups[pi][gi];
+      const PatchExtent& e = g.patchMatrix.patch;
+      IslandGroup ig{pi, gi};
+      // Torque about t2 moves the centre of pressure along t1 (and the reverse).
+      ig.torque2 = e.hi1 - e.lo1 > 1e-6;
+      ig.torque1 = e.hi2 - e.lo2 > 1e-6;
+      ig.mu = std::sqrt(ctx->body(g.contact.a).friction * ctx->body(g.contact.b).friction);
+      ig.twistRadius = e.twistRadius();
+      ig.twist = ig.torque1 || ig.torque2;
+      ig.rowStart = static_cast<int>(rows.size());
+      const Contact& c = g.contact;
+      const glm::dvec3 dirs[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
+      for (int kind = 0; kind < 6; ++kind) {
+        if ((kind == 3 && !ig.torque1) || (kind == 4 && !ig.torque2) || (kind == 5 && !ig.twist)) continue;
+        Row row;
+        row.group = groups.size();
+        row.kind = kind;
+        const glm::dvec3& d = dirs[kind];
+        for (int side = 0; side < 2; ++side) {
+          Slot& s = row.s[side];
+          s.body = side ? c.b : c.a;
+          const RigidBody& body = ctx->body(s.body);
+          s.dof = body.dynamic();
+          const double sign = side ? 1.0 : -1.0;
+          const glm::dvec3& r = side ? g.levers.rb : g.levers.ra;
+          if (kind < 3) {
+            s.jl = sign * d;
+            s.ja = sign * glm::cross(r, d);
+          } else {
+            s.ja = sign * d;
+          }
+          if (s.dof) {
+            s.ml = body.invMass * s.jl;
+            s.ma = ctx->invInertia[static_cast<size_t>(s.body)] * s.ja;
+          }
+        }
+        rows.push_back(row);
+      }
+      ig.rows = static_cast<int>(rows.size()) - ig.rowStart;
+      groups.push_back(ig);
+    }
+  }
+}
+
+// The totals at zero and the rows' diagonals; the island's bodies back at the velocities the contact step began
+// with (its own result kept, in case the solve does not converge).
+void IslandSolver::startFromContactStep() {
+  const size_t m = rows.size();
+  lambda.assign(m, 0.0);
+  diag.assign(m, 0.0);
+  for (size_t r = 0; r < m; ++r)
+    for (const Slot& s : rows[r].s)
+      if (s.dof) diag[r] += glm::dot(s.jl, s.ml) + glm::dot(s.ja, s.ma);
+  kept.clear();
+  for (const Row& row : rows)
+    for (const Slot& s : row.s)
+      if (s.dof) {
+        RigidBody& b = ctx->body(s.body);
+        kept.push_back({s.body, {b.v, b.w}});
+        b.v = (*v0)[static_cast<size_t>(s.body)];
+        b.w = (*w0)[static_cast<size_t>(s.body)];
+      }
+}
+
+// Warm start: the totals of the group of last substep whose normal agrees best (same pair), in this group's rows,
+// clamped to this group's limits.
+void IslandSolver::warmStart() {
+  for (const IslandGroup& ig : groups) {
+    const ContactGroup& g = ctx->groups[ig.pair][ig.index];
+    const PatchExtent& e = g.patchMatrix.patch;
+    const bool ab = g.contact.a == ctx->pairs[ig.pair].a;
+    const glm::dvec3 nAB = ab ? e.n : -e.n;
+    const uint64_t pk = pairKey(ctx->pairs[ig.pair]);
+    const RestingWarm* best = nullptr;
+    double bestDot = 0.95;
+    for (auto w = firstWarm(pk); w != previous->end() && w->key == pk; ++w) {
+      const double d = glm::dot(w->normal, nAB);
+      if (d > bestDot) {
+        bestDot = d;
+        best = &*w;
+      }
+    }
+    if (!best) continue;
+    const glm::dvec3 J = ab ? best->impulse : -best->impulse, T = ab ? best->torque : -best->torque;
+    const double jn = std::max(0.0, glm::dot(J, e.n));
+    for (int k = 0; k < ig.rows; ++k) {
+      const size_t r = static_cast<size_t>(ig.rowStart + k);
+      double value = 0, limit = 0;
+      switch (rows[r].kind) {
+        case 0:
+          value = jn;
+          limit = 1e300;
+          break;
+        case 1:
+          value = glm::dot(J, e.t1);
+          limit = ig.mu * jn / std::sqrt(2.0);
+          break;
+        case 2:
+          value = glm::dot(J, e.t2);
+          limit = ig.mu * jn / std::sqrt(2.0);
+          break;
+        case 3:
+          value = std::clamp(glm::dot(T, e.t1), e.lo2 * jn, e.hi2 * jn);
+          limit = 1e300;
+          break;
+        case 4:
+          value = std::clamp(glm::dot(T, e.t2), -e.hi1 * jn, -e.lo1 * jn);
+          limit = 1e300;
+          break;
+        default:
+          value = glm::dot(T, e.n);
+          limit = ig.mu * jn * ig.twistRadius;
+      }
+      value = std::clamp(value, -limit, limit);
+      lambda[r] = value;
+      apply(rows[r], value);
+    }
+  }
+}
+
+// Sequential impulses with accumulated, projected totals (projected Gauss-Seidel) over the island's rows, in
+// alternating sweeps until no row changes its velocity by more than the tolerance. Whether it converged; the last
+// sweep's largest change in `largest`.
+bool IslandSolver::sweep(double& largest) {
+  const size_t m = rows.size();
+  const double tolerance = ctx->settings.restingSolveTolerance;
+  const int iterations = std::max(1, ctx->settings.restingSolveIterations);
+  bool converged = false;
+  largest = 0;
+  for (int it = 0; it < iterations && !converged; ++it) {
+    largest = 0;
+    for (size_t k = 0; k < m; ++k) {
+      const size_t r = it % 2 ? m - 1 - k : k;
+      const Row& row = rows[r];
+      if (!(diag[r] > 0)) continue;
+      const IslandGroup& ig = groups[row.group];
+      const ContactGroup& g = ctx->groups[ig.pair][ig.index];
+      const PatchExtent& e = g.patchMatrix.patch;
+      double u = 0;
+      for (const Slot& s : row.s) {
+        const RigidBody& b = ctx->body(s.body);
+        u += glm::dot(s.jl, b.v) + glm::dot(s.ja, b.w);
+      }
+      const double jn = lambda[static_cast<size_t>(ig.rowStart)];
+      double lo = -1e300, hi = 1e300;
+      switch (row.kind) {
+        case 0:
+          lo = 0;
+          break;
+        case 1:
+        case 2:
+          hi = ig.mu * jn;
+          lo = -hi;
+          break;
+        case 3:  // the centre of pressure T1 / jn along t2
+          lo = e.lo2 * jn;
+          hi = e.hi2 * jn;
+          break;
+        case 4:  // -T2 / jn along t1
+          lo = -e.hi1 * jn;
+          hi = -e.lo1 * jn;
+          break;
+        default:  // twist
+          hi = ig.mu * jn * ig.twistRadius;
+          lo = -hi;
+      }
+      const double next = std::clamp(lambda[r] - u / diag[r], lo, hi);
+      const double d = next - lambda[r];
+      if (d != 0) {
+        apply(row, d);
+        lambda[r] = next;
+        largest = std::max(largest, std::abs(d) * diag[r]);
+      }
+      if (row.kind == 2) {
+        // Coulomb's cone is round: the two friction rows together within mu jn.
+        const size_t r1 = r - 1;
+        const double t = std::hypot(lambda[r1], lambda[r]), limit = ig.mu * jn;
+        if (t > limit) {
+          const double f = limit / t;
+          apply(rows[r1], lambda[r1] * f - lambda[r1]);
+          apply(row, lambda[r] * f - lambda[r]);
+          lambda[r1] *= f;
+          lambda[r] *= f;
+        }
+      }
+    }
+    converged = largest < tolerance;
+  }
+  return converged;
+}
+
+// Each group's totals (linear and angular, in pair order a-to-b) for the next substep's warm start.
+void IslandSolver::keepWarm() {
+  for (const IslandGroup& ig : groups) {
+    const ContactGroup& g = ctx->groups[ig.pair][ig.index];
+    const PatchExtent& e = g.patchMatrix.patch;
+    const bool ab = g.contact.a == ctx->pairs[ig.pair].a;
+    glm::dvec3 J(0), T(0);
+    for (int k = 0; k < ig.rows; ++k) {
+      const size_t r = static_cast<size_t>(ig.rowStart + k);
+      const glm::dvec3 axes[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
+      (rows[r].kind < 3 ? J : T) += lambda[r] * axes[rows[r].kind];
+    }
+    warm.push_back({pairKey(ctx->pairs[ig.pair]), ab ? e.n : -e.n, ab ? J : -J, ab ? T : -T});
+  }
+}
+
+}  // namespace
 
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0) {
   const int maxRows = ctx.settings.restingSolveRows;
@@ -125,281 +437,24 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
   std::vector<RestingWarm> previous;
   previous.swap(ctx.restingWarm);
   ctx.restingWarm.clear();
-  auto firstWarm = [&](uint64_t pk) {  // the first of last substep's groups of pair key pk
-    return std::lower_bound(previous.begin(), previous.end(), pk,
-                            [](const RestingWarm& x, uint64_t k2) { return x.key < k2; });
-  };
-  auto key = [&](size_t pi) {
-    return static_cast<uint64_t>(ctx.pairs[pi].a) << 32 | static_cast<uint32_t>(ctx.pairs[pi].b);
-  };
-  // Each island on its own (in parallel on the World's threads): an island writes only its own bodies and
-  // groups, and its warm-start totals into its worker's list; the lists are merged by key (a pair's groups
-  // all come from one island, in their order).
-  struct alignas(64) Work {  // (a cache line of its own per worker)
-    std::vector<IslandGroup> groups;
-    std::vector<Row> rows;
-    std::vector<double> lambda, diag;
-    std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>> kept;
-    std::vector<RestingWarm> warm;
-    int solves = 0;
-  };
-  std::vector<Work> work(static_cast<size_t>(ctx.workers()));
+  // Each island on its own (in parallel on the World's threads); the workers' warm-start lists are merged by key
+  // (a pair's groups all come from one island, in their order).
+  std::vector<IslandSolver> work(static_cast<size_t>(ctx.workers()));
+  for (IslandSolver& wk : work) {
+    wk.ctx = &ctx;
+    wk.v0 = &v0;
+    wk.w0 = &w0;
+    wk.previous = &previous;
+  }
   std::vector<size_t> roots;
   for (size_t root = 0; root < nb; ++root)
     if (rowCount[root] != 0 && !skip[root] && rowCount[root] <= maxRows) roots.push_back(root);
   ctx.parallel(roots.size(), [&](size_t item, int worker) {
     const size_t root = roots[item];
-    Work& wk = work[static_cast<size_t>(worker)];
-    std::vector<IslandGroup>& groups = wk.groups;
-    std::vector<Row>& rows = wk.rows;
-    groups.clear();
-    rows.clear();
-    // Solved when the contact step left an approach at one of its groups, or when it was solved last substep,
-    // and only islands with a convex mesh block (masonry: arches, walls of cut stone) or a plate (cards). Piles
-    // of cubes and bricks keep the contact step's result: there the projected Gauss-Seidel sweeps did not
-    // converge within a few hundred sweeps (many redundant face rows; the 1000-box pile went from 2 to 75 ms a
-    // step), and the contact step with shock propagation holds them.
-    bool needed = false, bearing = false;
-    for (int k = first[root]; k < first[root + 1] && !bearing; ++k) {
-      const Pair& pair = ctx.pairs[islandPairs[static_cast<size_t>(k)]];
-      for (int i : {pair.a, pair.b}) bearing = bearing || (ctx.body(i).dynamic() && loadBearing(*ctx.body(i).shape));
-    }
-    if (!bearing) return;
-    for (int k = first[root]; k < first[root + 1] && !needed; ++k) {
-      const size_t pi = islandPairs[static_cast<size_t>(k)];
-      const uint64_t pk = key(pi);
-      const auto w = firstWarm(pk);
-      if (w != previous.end() && w->key == pk) needed = true;
-      for (const ContactGroup& g : ctx.groups[pi])
-        if (glm::dot(ctx.relativeVelocity(g.contact.a, g.contact.b, g.levers), g.contact.normal) <
-            -ctx.settings.restingSolveTrigger)
-          needed = true;
-    }
-    if (!needed) return;
-    for (int k = first[root]; k < first[root + 1]; ++k) {
-      const size_t pi = islandPairs[static_cast<size_t>(k)];
-      for (size_t gi = 0; gi < ctx.groups[pi].size(); ++gi) {
-        const ContactGroup& g = ctx.groups[pi][gi];
-        const PatchExtent& e = g.patchMatrix.patch;
-        IslandGroup ig{pi, gi};
-        // Torque about t2 moves the centre of pressure along t1 (and the reverse).
-        ig.torque2 = e.hi1 - e.lo1 > 1e-6;
-        ig.torque1 = e.hi2 - e.lo2 > 1e-6;
-        ig.mu = std::sqrt(ctx.body(g.contact.a).friction * ctx.body(g.contact.b).friction);
-        ig.twistRadius = e.twistRadius();
-        ig.twist = ig.torque1 || ig.torque2;
-        ig.rowStart = static_cast<int>(rows.size());
-        const Contact& c = g.contact;
-        const glm::dvec3 dirs[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
-        for (int kind = 0; kind < 6; ++kind) {
-          if ((kind == 3 && !ig.torque1) || (kind == 4 && !ig.torque2) || (kind == 5 && !ig.twist)) continue;
-          Row row;
-          row.group = groups.size();
-          row.kind = kind;
-          const glm::dvec3& d = dirs[kind];
-          for (int side = 0; side < 2; ++side) {
-            Slot& s = row.s[side];
-            s.body = side ? c.b : c.a;
-            const RigidBody& body = ctx.body(s.body);
-            s.dof = body.dynamic();
-            const double sign = side ? 1.0 : -1.0;
-            const glm::dvec3& r = side ? g.levers.rb : g.levers.ra;
-            if (kind < 3) {
-              s.jl = sign * d;
-              s.ja = sign * glm::cross(r, d);
-            } else {
-              s.ja = sign * d;
-            }
-            if (s.dof) {
-              s.ml = body.invMass * s.jl;
-              s.ma = ctx.invInertia[static_cast<size_t>(s.body)] * s.ja;
-            }
-          }
-          rows.push_back(row);
-        }
-        ig.rows = static_cast<int>(rows.size()) - ig.rowStart;
-        groups.push_back(ig);
-      }
-    }
-    // Sequential impulses with accumulated, projected totals (projected Gauss-Seidel) over the island's rows,
-    // from the velocities the contact step began with, in alternating sweeps until no row changes its velocity
-    // by more than the tolerance.
-    const size_t m = rows.size();
-    std::vector<double>& lambda = wk.lambda;
-    std::vector<double>& diag = wk.diag;
-    lambda.assign(m, 0.0);
-    diag.assign(m, 0.0);
-    for (size_t r = 0; r < m; ++r)
-      for (const Slot& s : rows[r].s)
-        if (s.dof) diag[r] += glm::dot(s.jl, s.ml) + glm::dot(s.ja, s.ma);
-    // The contact step's velocities, kept in case the solve does not converge.
-    std::vector<std::pair<int, std::pair<glm::dvec3, glm::dvec3>>>& kept = wk.kept;
-    kept.clear();
-    for (const Row& row : rows)
-      for (const Slot& s : row.s)
-        if (s.dof) {
-          RigidBody& b = ctx.body(s.body);
-          kept.push_back({s.body, {b.v, b.w}});
-          b.v = v0[static_cast<size_t>(s.body)];
-          b.w = w0[static_cast<size_t>(s.body)];
-        }
-    auto apply = [&](const Row& row, double d) {
-      for (const Slot& s : row.s)
-        if (s.dof) {
-          RigidBody& b = ctx.body(s.body);
-          b.v += d * s.ml;
-          b.w += d * s.ma;
-        }
-    };
-    // Warm start: the totals of the group of last substep whose normal agrees best (same pair), in this
-    // group's rows, clamped to this group's limits.
-    for (const IslandGroup& ig : groups) {
-      const ContactGroup& g = ctx.groups[ig.pair][ig.index];
-      const PatchExtent& e = g.patchMatrix.patch;
-      const bool ab = g.contact.a == ctx.pairs[ig.pair].a;
-      const glm::dvec3 nAB = ab ? e.n : -e.n;
-      const uint64_t pk = key(ig.pair);
-      const RestingWarm* best = nullptr;
-      double bestDot = 0.95;
-      for (auto w = firstWarm(pk); w != previous.end() && w->key == pk; ++w) {
-        const double d = glm::dot(w->normal, nAB);
-        if (d > bestDot) {
-          bestDot = d;
-          best = &*w;
-        }
-      }
-      if (!best) continue;
-      const glm::dvec3 J = ab ? best->impulse : -best->impulse, T = ab ? best->torque : -best->torque;
-      const double jn = std::max(0.0, glm::dot(J, e.n));
-      for (int k = 0; k < ig.rows; ++k) {
-        const size_t r = static_cast<size_t>(ig.rowStart + k);
-        double value = 0, limit = 0;
-        switch (rows[r].kind) {
-          case 0:
-            value = jn;
-            limit = 1e300;
-            break;
-          case 1:
-            value = glm::dot(J, e.t1);
-            limit = ig.mu * jn / std::sqrt(2.0);
-            break;
-          case 2:
-            value = glm::dot(J, e.t2);
-            limit = ig.mu * jn / std::sqrt(2.0);
-            break;
-          case 3:
-            value = std::clamp(glm::dot(T, e.t1), e.lo2 * jn, e.hi2 * jn);
-            limit = 1e300;
-            break;
-          case 4:
-            value = std::clamp(glm::dot(T, e.t2), -e.hi1 * jn, -e.lo1 * jn);
-            limit = 1e300;
-            break;
-          default:
-            value = glm::dot(T, e.n);
-            limit = ig.mu * jn * ig.twistRadius;
-        }
-        value = std::clamp(value, -limit, limit);
-        lambda[r] = value;
-        apply(rows[r], value);
-      }
-    }
-    const double tolerance = ctx.settings.restingSolveTolerance;
-    const int iterations = std::max(1, ctx.settings.restingSolveIterations);
-    bool converged = false;
-    double largest = 0;
-    for (int it = 0; it < iterations && !converged; ++it) {
-      largest = 0;
-      for (size_t k = 0; k < m; ++k) {
-        const size_t r = it % 2 ? m - 1 - k : k;
-        const Row& row = rows[r];
-        if (!(diag[r] > 0)) continue;
-        const IslandGroup& ig = groups[row.group];
-        const ContactGroup& g = ctx.groups[ig.pair][ig.index];
-        const PatchExtent& e = g.patchMatrix.patch;
-        double u = 0;
-        for (const Slot& s : row.s) {
-          const RigidBody& b = ctx.body(s.body);
-          u += glm::dot(s.jl, b.v) + glm::dot(s.ja, b.w);
-        }
-        const double jn = lambda[static_cast<size_t>(ig.rowStart)];
-        double lo = -1e300, hi = 1e300;
-        switch (row.kind) {
-          case 0:
-            lo = 0;
-            break;
-          case 1:
-          case 2:
-            hi = ig.mu * jn;
-            lo = -hi;
-            break;
-          case 3:  // the centre of pressure T1 / jn along t2
-            lo = e.lo2 * jn;
-            hi = e.hi2 * jn;
-            break;
-          case 4:  // -T2 / jn along t1
-            lo = -e.hi1 * jn;
-            hi = -e.lo1 * jn;
-            break;
-          default:  // twist
-            hi = ig.mu * jn * ig.twistRadius;
-            lo = -hi;
-        }
-        const double next = std::clamp(lambda[r] - u / diag[r], lo, hi);
-        const double d = next - lambda[r];
-        if (d != 0) {
-          apply(row, d);
-          lambda[r] = next;
-          largest = std::max(largest, std::abs(d) * diag[r]);
-        }
-        if (row.kind == 2) {
-          // Coulomb's cone is round: the two friction rows together within mu jn.
-          const size_t r1 = r - 1;
-          const double t = std::hypot(lambda[r1], lambda[r]), limit = ig.mu * jn;
-          if (t > limit) {
-            const double f = limit / t;
-            apply(rows[r1], lambda[r1] * f - lambda[r1]);
-            apply(row, lambda[r] * f - lambda[r]);
-            lambda[r1] *= f;
-            lambda[r] *= f;
-          }
-        }
-      }
-      converged = largest < tolerance;
-    }
-    for (const IslandGroup& ig : groups) {
-      const ContactGroup& g = ctx.groups[ig.pair][ig.index];
-      const PatchExtent& e = g.patchMatrix.patch;
-      const bool ab = g.contact.a == ctx.pairs[ig.pair].a;
-      glm::dvec3 J(0), T(0);
-      for (int k = 0; k < ig.rows; ++k) {
-        const size_t r = static_cast<size_t>(ig.rowStart + k);
-        const glm::dvec3 axes[6] = {e.n, e.t1, e.t2, e.t1, e.t2, e.n};
-        (rows[r].kind < 3 ? J : T) += lambda[r] * axes[rows[r].kind];
-      }
-      wk.warm.push_back({key(ig.pair), ab ? e.n : -e.n, ab ? J : -J, ab ? T : -T});
-    }
-    // Out of sweeps: a solve whose last sweep still changed no row's velocity by more than ten times the
-    // tolerance is taken (a house of cards of three storeys, while its upper cards land, takes 1000-2000
-    // sweeps; the contact step's result instead let its lower frames slide apart). Stiff mass ratios (a heavy
-    // body on a light one) converge slowly and may be far from it: there the contact step's result stands.
-    if (!converged && largest < 10 * tolerance) converged = true;
-    if (!converged) {
-      for (auto it = kept.rbegin(); it != kept.rend(); ++it) {
-        ctx.body(it->first).v = it->second.first;
-        ctx.body(it->first).w = it->second.second;
-      }
-      return;
-    }
-    ++wk.solves;
-    for (const IslandGroup& ig : groups) {
-      ContactGroup& g = ctx.groups[ig.pair][ig.index];
-      const double* lam = &lambda[static_cast<size_t>(ig.rowStart)];
-      g.totals.normal = lam[0];
-      g.totals.tangential = lam[1] * g.patchMatrix.patch.t1 + lam[2] * g.patchMatrix.patch.t2;
-    }
+    work[static_cast<size_t>(worker)].solve(islandPairs.data() + first[root],
+                                            static_cast<size_t>(first[root + 1] - first[root]));
   });
-  for (Work& wk : work) {
+  for (IslandSolver& wk : work) {
     ctx.restingWarm.insert(ctx.restingWarm.end(), wk.warm.begin(), wk.warm.end());
     ctx.stats.restingSolves += wk.solves;
   }

@@ -115,7 +115,10 @@ void Simulation::takeInDents() {
     DentCopy& d = dents_[i];
     if (!d.fence) continue;
     // Issued a step ago: on a GPU long done (the wait returns at once); the flush makes sure it was sent.
+    const auto waitStart = Clock::now();
     glClientWaitSync(d.fence, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ull);
+    timings_.dentWaitMs += msSince(waitStart);
+    ++timings_.dentReads;
     glDeleteSync(d.fence);
     d.fence = nullptr;
     const size_t texels = d.height.size();

@@ -64,6 +64,8 @@ struct JointBreakRecord {
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
   double dentReadMs = 0;  // taking the dented maps read back into the physics (the fence's wait included)
+  double dentWaitMs = 0;  // of which blocked on the read-backs' fences (the GPU not done a step after the dent)
+  long dentReads = 0;     // maps taken in
   double deformGpuMs = 0, renderGpuMs = 0;
   long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;
 };

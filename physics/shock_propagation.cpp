@@ -15,6 +15,10 @@
 //   group's relative velocity by more than `shockTolerance` (at most `shockPasses`). A body resting on one patch of the
 //   frozen level below is held against tilting by that patch; on two, the
 //   patches hold only the tilt about the line through them.
+// - An island no kinematic body drives gains no kinetic energy here beyond
+//   resting contact's own scale (its bodies at g h): where the passes raised it
+//   more (a frozen light body shoving a heavy one), its bodies' velocities are
+//   put back as the contact step left them.
 // - Afterwards no body is frozen.
 // - The levels are found by runs of islands (in parallel; over all bodies at
 //   once when there are joints): the same levels, as a path from level 0 to a
@@ -56,6 +60,12 @@ struct alignas(64) IslandScratch {  // (a cache line of its own: see ContactScra
   std::vector<glm::dvec3> dj, dt;
   std::vector<uint32_t> adjStart, adj;  // islandLevels: the dynamic bodies' neighbours, compressed rows
   std::vector<int> queue;
+  // The energy guard: per levelled body its island in the run and its velocities before the passes; per island
+  // of the run, whether a kinematic body drives it and its kinetic energy before and after.
+  std::vector<int> bodyIsland;
+  std::vector<std::pair<glm::dvec3, glm::dvec3>> velocities;
+  std::vector<char> driven;
+  std::vector<double> energyBefore, energyAfter, slack;
 };
 
 // Working arrays kept from one substep to the next (no allocation per substep).
@@ -313,7 +323,7 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
 
 // Islands [k0, k1) (their pairs lie side by side in ctx.islandPairs), level by level: bodies of different
 // islands share nothing, so each body's impulses come in its own island's pair order as over all pairs.
-void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandScratch& w, Scratch& s,
+void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mark, IslandScratch& w, Scratch& s,
                   bool levelsHere) {
   std::vector<int>& share = s.share;
   std::vector<uint32_t>& stamp = s.stamp;
@@ -339,15 +349,21 @@ void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandS
     return level[static_cast<size_t>(b)] >= 1 && stamp[static_cast<size_t>(b)] != mark;
   };
   w.bodies.clear();
+  w.bodyIsland.clear();
+  w.driven.assign(k1 - k0, 0);
   for (const uint32_t* p = first; p != last; ++p) {
     if (ctx.groups[*p].empty() || pairLevel(*p) < 0) continue;
     ++w.levelStart[static_cast<size_t>(pairLevel(*p)) + 1];
-    for (int b : {ctx.pairs[*p].a, ctx.pairs[*p].b})
+    const size_t island = static_cast<size_t>(ctx.islandOfPair[*p]) - k0;
+    for (int b : {ctx.pairs[*p].a, ctx.pairs[*p].b}) {
+      if (ctx.body(b).kinematic && ctx.body(b).movable()) w.driven[island] = 1;
       if (levelled(b)) {
         stamp[static_cast<size_t>(b)] = mark;
         w.bodies.push_back(b);
+        w.bodyIsland.push_back(static_cast<int>(island));
         ++w.bodyStart[static_cast<size_t>(level[static_cast<size_t>(b)]) + 1];
       }
+    }
   }
   for (size_t l = 0; l < levels; ++l) {
     w.levelStart[l + 1] += w.levelStart[l];
@@ -362,6 +378,18 @@ void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandS
   byLevel.resize(w.bodies.size());
   fill.assign(w.bodyStart.begin(), w.bodyStart.end() - 1);
   for (int b : w.bodies) byLevel[fill[static_cast<size_t>(level[static_cast<size_t>(b)])]++] = b;
+  // The energy guard's "before", and its slack: resting contact's own scale, every body at the speed gravity adds
+  // in the substep (the Jacobi passes' means move resting stacks by that much either way).
+  const double restingSpeed = std::max(glm::length(ctx.settings.gravity), 1.0) * h;
+  w.velocities.resize(w.bodies.size());
+  w.energyBefore.assign(k1 - k0, 0.0);
+  w.slack.assign(k1 - k0, 0.0);
+  for (size_t k = 0; k < w.bodies.size(); ++k) {
+    const RigidBody& b = ctx.body(w.bodies[k]);
+    w.velocities[k] = {b.v, b.w};
+    w.energyBefore[static_cast<size_t>(w.bodyIsland[k])] += b.kineticEnergy();
+    w.slack[static_cast<size_t>(w.bodyIsland[k])] += 0.5 * b.mass * restingSpeed * restingSpeed;
+  }
   for (int l = 1; l <= top; ++l) {
     // Frozen: every level below this one (the one just below joins the frozen; level 0 always was).
     for (uint32_t k = w.bodyStart[static_cast<size_t>(l) - 1]; k < w.bodyStart[static_cast<size_t>(l)]; ++k)
@@ -375,11 +403,25 @@ void shockIslands(StepContext& ctx, size_t k0, size_t k1, uint32_t mark, IslandS
       for (int b : {x.c.a, x.c.b})
         if (level[static_cast<size_t>(b)] >= 1) share[static_cast<size_t>(b)] = 0;
   }
+  // A frozen body is moved as if nothing could stop it: a light body squeezed between the ground and a heavy one
+  // leaves the contact step fast, and frozen it shoves the heavy one as a kinematic body would (a 439 kg plate
+  // spinning onto a 64 g capsule gained 4 kJ a step). Without a kinematic body to drive it an island has no
+  // source of energy here: where the passes raised its bodies' kinetic energy, they are undone.
+  w.energyAfter.assign(k1 - k0, 0.0);
+  for (size_t k = 0; k < w.bodies.size(); ++k)
+    w.energyAfter[static_cast<size_t>(w.bodyIsland[k])] += ctx.body(w.bodies[k]).kineticEnergy();
+  for (size_t k = 0; k < w.bodies.size(); ++k) {
+    const size_t island = static_cast<size_t>(w.bodyIsland[k]);
+    if (w.driven[island] || !(w.energyAfter[island] > w.energyBefore[island] + w.slack[island])) continue;
+    RigidBody& b = ctx.body(w.bodies[k]);
+    b.v = w.velocities[k].first;
+    b.w = w.velocities[k].second;
+  }
 }
 
 }  // namespace
 
-void shockPropagation(StepContext& ctx) {
+void shockPropagation(StepContext& ctx, double h) {
   if (ctx.settings.shockPasses <= 0) return;
   const size_t n = ctx.bodies.size();
   Scratch& s = scratch();
@@ -409,7 +451,7 @@ void shockPropagation(StepContext& ctx) {
   // Runs of whole islands (a pile's columns are islands of a few pairs: one at a time, the per-level work
   // of each cost more than its impulses).
   ctx.forEachIslandRun(256, [&](size_t first, size_t last, size_t run, int worker) {
-    shockIslands(ctx, first, last, static_cast<uint32_t>(run) + 1, s.islands[static_cast<size_t>(worker)], s,
+    shockIslands(ctx, h, first, last, static_cast<uint32_t>(run) + 1, s.islands[static_cast<size_t>(worker)], s,
                  levelsHere);
   });
   ctx.parallelRange(n, ctx.grainFor(n, 1024), [&](size_t begin, size_t end, int) { std::fill(&ctx.frozen[begin], &ctx.frozen[end - 1] + 1, 0); });

@@ -633,7 +633,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
 // plate (a box whose thinnest side is at most a quarter of its middle one: a card, a slab, a plank).
 bool loadBearing(const Shape& shape);
 // shock_propagation.cpp
-void shockPropagation(StepContext& ctx);
+void shockPropagation(StepContext& ctx, double h);
 // joint_step.cpp
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);

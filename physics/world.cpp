@@ -629,7 +629,7 @@ void World::substep(double h) {
     ctx.stats.keptLooks += p.keptLooks;
   }
   // 4. shock propagation
-  detail::shockPropagation(ctx);
+  detail::shockPropagation(ctx, h);
   clock.lap(ms.shockPropagation);
   // Joints again: the contacts and shock propagation moved the velocities.
   detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);

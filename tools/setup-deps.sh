@@ -57,5 +57,7 @@ validator="$(dirname "$0")/../.cache/gltf-validator"
 if ! grep -qs "\"version\": \"$VALIDATOR_VERSION\"" "$validator/node_modules/gltf-validator/package.json"; then
   echo "setup-deps: installing gltf-validator $VALIDATOR_VERSION (npm) into .cache/gltf-validator"
   mkdir -p "$validator"
-  npm install --silent --no-audit --no-fund --prefix "$validator" "gltf-validator@$VALIDATOR_VERSION" >/dev/null
+  if ! npm install --silent --no-audit --no-fund --prefix "$validator" "gltf-validator@$VALIDATOR_VERSION" >/dev/null; then
+    echo "setup-deps: WARNING: npm could not install gltf-validator (no registry?): the test gltf_validator is skipped" >&2
+  fi
 fi

@@ -1061,6 +1061,15 @@ TEST_CASE("soak: 200 mixed bodies on deformable ground for 2000 steps: no NaN, n
 #define TINYGLTF_NO_STB_IMAGE_WRITE
 #include <tiny_gltf.h>
 
+// The data of accessor `accessor` of a glTF model read back (tightly packed, as crumple writes them).
+template <typename T>
+const T* accessorData(const tinygltf::Model& model, int accessor) {
+  const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(accessor)];
+  const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
+  return reinterpret_cast<const T*>(model.buffers[static_cast<size_t>(v.buffer)].data.data() + v.byteOffset +
+                                    a.byteOffset);
+}
+
 TEST_CASE("--export gltf writes every body at its final pose with its atlas, normal map and height map") {
   const fs::path out = kTmp / "export_gltf";
   fs::remove_all(out);
@@ -1110,9 +1119,7 @@ TEST_CASE("--export gltf writes every body at its final pose with its atlas, nor
     CHECK(uv.count == model.accessors[static_cast<size_t>(prim.attributes.at("POSITION"))].count);
     CHECK(uv.type == TINYGLTF_TYPE_VEC2);
     // Every texture coordinate inside [0, 1]^2 (crumple's atlas, as it is: v = 0 at the image's first row).
-    const tinygltf::BufferView& view = model.bufferViews[static_cast<size_t>(uv.bufferView)];
-    const float* uvs = reinterpret_cast<const float*>(model.buffers[static_cast<size_t>(view.buffer)].data.data() +
-                                                      view.byteOffset + uv.byteOffset);
+    const float* uvs = accessorData<float>(model, prim.attributes.at("TEXCOORD_0"));
     size_t outside = 0;
     for (size_t k = 0; k < uv.count * 2; ++k) outside += !(uvs[k] >= 0.0f && uvs[k] <= 1.0f);
     CHECK(outside == 0);
@@ -1141,19 +1148,12 @@ TEST_CASE("--export gltf writes every body at its final pose with its atlas, nor
     // as the inverted green does).
     REQUIRE(prim.attributes.count("TANGENT"));
     REQUIRE(prim.attributes.count("NORMAL"));
-    auto floats = [&](const char* attribute) {
-      const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(prim.attributes.at(attribute))];
-      const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
-      return reinterpret_cast<const float*>(model.buffers[static_cast<size_t>(v.buffer)].data.data() + v.byteOffset +
-                                            a.byteOffset);
-    };
+    auto floats = [&](const char* attribute) { return accessorData<float>(model, prim.attributes.at(attribute)); };
     const tinygltf::Accessor& tangentAccessor = model.accessors[static_cast<size_t>(prim.attributes.at("TANGENT"))];
     CHECK(tangentAccessor.type == TINYGLTF_TYPE_VEC4);
     const float *tangent = floats("TANGENT"), *normal = floats("NORMAL"), *position = floats("POSITION");
     const tinygltf::Accessor& indexAccessor = model.accessors[static_cast<size_t>(prim.indices)];
-    const tinygltf::BufferView& indexView = model.bufferViews[static_cast<size_t>(indexAccessor.bufferView)];
-    const uint32_t* index = reinterpret_cast<const uint32_t*>(
-        model.buffers[static_cast<size_t>(indexView.buffer)].data.data() + indexView.byteOffset + indexAccessor.byteOffset);
+    const uint32_t* index = accessorData<uint32_t>(model, prim.indices);
     auto vec3 = [](const float* p, size_t i) { return glm::dvec3(p[i * 3], p[i * 3 + 1], p[i * 3 + 2]); };
     size_t along = 0, against = 0, frames = 0;
     for (size_t t = 0; t + 2 < indexAccessor.count; t += 3) {
@@ -1213,8 +1213,7 @@ TEST_CASE("--export gltf --animate plays the run: every moving body's poses at t
   CHECK(anim.name == "run");
   auto floats = [&](int accessor) {
     const tinygltf::Accessor& a = model.accessors[static_cast<size_t>(accessor)];
-    const tinygltf::BufferView& v = model.bufferViews[static_cast<size_t>(a.bufferView)];
-    const float* p = reinterpret_cast<const float*>(model.buffers[0].data.data() + v.byteOffset + a.byteOffset);
+    const float* p = accessorData<float>(model, accessor);
     const int width = a.type == TINYGLTF_TYPE_SCALAR ? 1 : a.type == TINYGLTF_TYPE_VEC3 ? 3 : 4;
     return std::vector<float>(p, p + a.count * static_cast<size_t>(width));
   };

@@ -184,6 +184,7 @@ class Simulation {
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
     glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
     double k = 0;                      // the bump depth (m)
+    uint64_t taken = 0;                // which take-in this copy is (unique in the process: the lookups' caches)
     gl::Buffer pixels;                 // the read-back's pixel buffer
     GLsync fence = nullptr;
   };
@@ -192,6 +193,8 @@ class Simulation {
   void readBackDents();       // after the step's deformations: the changed maps start coming back
   void takeInDents();         // before the physics: the maps that came back, in the world
   double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;
+  double lookUpDepth(const DentCopy& d, int body, const glm::dvec3& point, const glm::dvec3& normal,
+                     glm::dvec3& bent) const;
   std::unique_ptr<deform::Deformer> deformer_;
   std::unique_ptr<gl::GpuTimer> deformTimer_, renderTimer_;
   AssetCache assets_;

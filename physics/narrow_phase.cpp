@@ -105,7 +105,11 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
       double sinks = 0;
       if (dents.owner) sinks += (*dents.depth)(iOwner, local - (phi + r) * g, g, bent);
       if (dents.other) {
-        const glm::dvec3 n = -(glm::transpose(otherToOwner) * g);  // the other's outward normal here
+        // The other's surface point here and its outward normal: a surface sample's own (a fixed point and normal
+        // of the other: the same question each time, which the answer's owner may keep), else the core sample
+        // pushed out against the owner's gradient.
+        const bool onSurface = r == 0 && normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5;
+        const glm::dvec3 n = onSurface ? st.sampleNormals[index] : -(glm::transpose(otherToOwner) * g);
         glm::dvec3 bentOther = n;
         otherSinks = (*dents.depth)(iOther, s + r * n, n, bentOther);
         sinks += otherSinks;

@@ -235,7 +235,7 @@ void ContactRun::island(size_t island, int worker) {
 }
 
 void ContactRun::finish() {
-  if (resting_) restingSolve(ctx_, v0_, w0_);
+  if (resting_) restingSolve(ctx_, v0_, w0_, h_);
   for (int c : ctx_.lookCount) ctx_.stats.contacts += c;  // each pair's last look
   if (reporting_) reportContacts(ctx_, pushed_);
 }

@@ -15,7 +15,9 @@
 //   changes by more than restingSolveTolerance. Its totals become the groups'
 //   totals. An island not converged within restingSolveIterations sweeps
 //   (its last sweep changed a row's velocity by more than 10 x the tolerance)
-//   keeps the contact step's velocities (stiff mass ratios converge slowly).
+//   keeps the contact step's velocities (stiff mass ratios converge slowly), as
+//   does one that ends with more kinetic energy than the island began with
+//   (beyond every body at g h; its totals are not kept for the warm start).
 // Why: the contact step's passes are a few sweeps, enough for a stack whose
 // load goes straight down, not for a ring: an arch carries each voussoir's
 // weight round to both springings, and with ten passes a residual approach
@@ -59,6 +61,7 @@ struct alignas(64) IslandSolver {  // (a cache line of its own per worker)
   const std::vector<glm::dvec3>* v0 = nullptr;
   const std::vector<glm::dvec3>* w0 = nullptr;
   const std::vector<RestingWarm>* previous = nullptr;  // last substep's totals, by pair key
+  double h = 0;                                        // the substep
   std::vector<IslandGroup> groups;
   std::vector<Row> rows;
   std::vector<double> lambda, diag;
@@ -78,6 +81,15 @@ struct alignas(64) IslandSolver {  // (a cache line of its own per worker)
   void warmStart();
   bool sweep(double& largest);
   void keepWarm();
+  // The kinetic energy of the island's dynamic bodies now (each once), and resting contact's scale of it (`slack`,
+  // set with the bodies: every body at g h).
+  std::vector<int> islandBodies;
+  double slack = 0;
+  double islandEnergy() const {
+    double e = 0;
+    for (int i : islandBodies) e += ctx->body(i).kineticEnergy();
+    return e;
+  }
   void apply(const Row& row, double d) {
     for (const Slot& s : row.s)
       if (s.dof) {
@@ -109,15 +121,22 @@ void IslandSolver::solve(const size_t* pairs, size_t count) {
   if (!needed(pairs, count)) return;
   buildRows(pairs, count);
   startFromContactStep();
+  const double before = islandEnergy();
   warmStart();
   double largest = 0;
   bool converged = sweep(largest);
-  keepWarm();
+  // Contact takes energy away: a solve that hands the island more than it began with (beyond resting contact's
+  // own scale, every body at g h) went wrong (a 0.14 kg plate against a 634 kg disc spinning at 77 rad/s: its
+  // totals grew a hundredfold a substep through the warm start, to 1e6 m/s), and the contact step's result
+  // stands, its totals forgotten.
+  const bool gained = islandEnergy() > before + slack;
+  if (!gained) keepWarm();
   // Out of sweeps: a solve whose last sweep still changed no row's velocity by more than ten times the
   // tolerance is taken (a house of cards of three storeys, while its upper cards land, takes 1000-2000
   // sweeps; the contact step's result instead let its lower frames slide apart). Stiff mass ratios (a heavy
   // body on a light one) converge slowly and may be far from it: there the contact step's result stands.
   if (!converged && largest < 10 * ctx->settings.restingSolveTolerance) converged = true;
+  if (gained) converged = false;
   if (!converged) {
     for (auto it = kept.rbegin(); it != kept.rend(); ++it) {
       ctx->body(it->first).v = it->second.first;
@@ -219,14 +238,21 @@ void IslandSolver::startFromContactStep() {
     for (const Slot& s : rows[r].s)
       if (s.dof) diag[r] += glm::dot(s.jl, s.ml) + glm::dot(s.ja, s.ma);
   kept.clear();
+  islandBodies.clear();
   for (const Row& row : rows)
     for (const Slot& s : row.s)
       if (s.dof) {
         RigidBody& b = ctx->body(s.body);
         kept.push_back({s.body, {b.v, b.w}});
+        islandBodies.push_back(s.body);
         b.v = (*v0)[static_cast<size_t>(s.body)];
         b.w = (*w0)[static_cast<size_t>(s.body)];
       }
+  std::sort(islandBodies.begin(), islandBodies.end());
+  islandBodies.erase(std::unique(islandBodies.begin(), islandBodies.end()), islandBodies.end());
+  const double restingSpeed = std::max(glm::length(ctx->settings.gravity), 1.0) * h;
+  slack = 0;
+  for (int i : islandBodies) slack += 0.5 * ctx->body(i).mass * restingSpeed * restingSpeed;
 }
 
 // Warm start: the totals of the group of last substep whose normal agrees best (same pair), in this group's rows,
@@ -374,7 +400,8 @@ void IslandSolver::keepWarm() {
 
 }  // namespace
 
-void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0) {
+void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0,
+                  double h) {
   const int maxRows = ctx.settings.restingSolveRows;
   if (maxRows <= 0) return;
   if (!ctx.anyLoadBearing) {
@@ -445,6 +472,7 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
     wk.v0 = &v0;
     wk.w0 = &w0;
     wk.previous = &previous;
+    wk.h = h;
   }
   std::vector<size_t> roots;
   for (size_t root = 0; root < nb; ++root)

@@ -628,7 +628,7 @@ class ContactRun {
   std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's)
 };
 // resting_solve.cpp (called by contactStep with the velocities it began with)
-void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0);
+void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0, double h);
 // Whether the resting solve takes the islands a body of this shape is in: a convex mesh block (masonry) or a
 // plate (a box whose thinnest side is at most a quarter of its middle one: a card, a slab, a plank).
 bool loadBearing(const Shape& shape);

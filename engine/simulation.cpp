@@ -181,9 +181,7 @@ void Simulation::takeInDents() {
       d.boxLo -= d.k;
       d.boxHi += d.k;
     }
-    d.bvh = over.triangles.empty() ? nullptr : std::make_unique<TriangleBvh>(over);
-    static std::atomic<uint64_t> maps{0};  // unique over every Simulation of the process: the caches' key
-    d.taken = ++maps;
+    d.near = over.triangles.empty() ? nullptr : std::make_unique<NearTriangles>(over, kNearCell, kOnSurface);
     const bool dented = d.boxHi.x >= d.boxLo.x;
     world_.setDented(bodies_[i].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
                      {d.boxLo, d.boxHi});
@@ -195,68 +193,20 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
   if (i < 0) return 0;
   const DentCopy& d = dents_[static_cast<size_t>(i)];
   // Only points over dented texels look anything up.
-  if (!d.bvh || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
+  if (!d.near || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
       p.z > d.boxHi.z)
     return 0;
-  // The same question again (a body's surface sample, asked at each look while the map stays: the narrow phase
-  // asks at the sample itself with its own normal): the answer kept, per thread (it is a function of the question
-  // and the map: runs stay the same bits at any thread count).
-  struct Answer {
-    double depth;
-    glm::dvec3 bent;
-  };
-  struct Key {
-    glm::dvec3 p, n;
-    bool operator==(const Key& o) const { return p == o.p && n == o.n; }
-  };
-  struct KeyHash {
-    size_t operator()(const Key& k) const {
-      uint64_t h = 1469598103934665603ull;
-      for (double x : {k.p.x, k.p.y, k.p.z, k.n.x, k.n.y, k.n.z}) {
-        uint64_t u;
-        std::memcpy(&u, &x, sizeof u);
-        h = (h ^ u) * 1099511628211ull;
-      }
-      return static_cast<size_t>(h ^ (h >> 29));
-    }
-  };
-  struct Kept {
-    const DentCopy* map = nullptr;
-    uint64_t taken = 0;
-    std::unordered_map<Key, Answer, KeyHash> answers;
-  };
-  thread_local std::array<Kept, 8> kept;
-  Kept* mine = nullptr;
-  for (Kept& k : kept)
-    if (k.map == &d) mine = &k;
-  if (!mine) {  // the slot of the map with the fewest answers
-    mine = &*std::min_element(kept.begin(), kept.end(),
-                              [](const Kept& a, const Kept& b) { return a.answers.size() < b.answers.size(); });
-    mine->map = &d;
-    mine->answers.clear();
-    mine->taken = d.taken;
-  }
-  if (mine->taken != d.taken || mine->answers.size() > 65536) {
-    mine->answers.clear();
-    mine->taken = d.taken;
-  }
-  const Key key{p, n};
-  if (const auto it = mine->answers.find(key); it != mine->answers.end()) {
-    bent = it->second.bent;
-    return it->second.depth;
-  }
-  const double depth = lookUpDepth(d, i, p, n, bent);
-  mine->answers.emplace(key, Answer{depth, bent});
-  return depth;
+  return lookUpDepth(d, i, p, n, bent);
 }
 
 double Simulation::lookUpDepth(const DentCopy& d, int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {
   const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
-  // The nearest triangle over the changed tiles. A point further from them than kOnSurface (more than the
+  // The nearest triangle over the changed tiles (exact; among equally near ones, as where a mesh holds a face twice, the
+  // lowest index). A point further from them than kOnSurface (more than the
   // collision shape's own error off the surface there) lies over the rest of the surface, where the map is as it
   // started: it feels nothing, as points outside the box do. (Those triangles reach past the change by the rest
   // of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
-  const TriangleBvh::Hit hit = d.bvh->closest(p, kOnSurface * kOnSurface);
+  const TriangleBvh::Hit hit = d.near->closest(p);
   if (hit.triangle < 0) return 0;
   const glm::uvec3 t = mesh.triangles[static_cast<size_t>(d.triangleOf[static_cast<size_t>(hit.triangle)])];
   const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);

@@ -173,10 +173,11 @@ class Simulation {
   // (the GPU copies it while the CPU goes on); the next step takes it in before its physics.
   static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
   static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
+  static constexpr double kNearCell = 0.01;    // m: the cells the nearest-triangle lists are kept for
   struct DentCopy {
     bool feel = false;                 // its dents are felt (feel_dents)
     bool pending = false;              // a read-back is under way
-    std::unique_ptr<TriangleBvh> bvh;   // closest points on its triangles over the changed tiles (shape frame)
+    std::unique_ptr<NearTriangles> near;  // its triangles over the changed tiles (shape frame): nearest ones
     std::vector<int> triangleOf;        // per triangle of bvh: the mesh's
     std::vector<float> start;          // the map before its first dent
     std::vector<float> height;         // the map as last read back
@@ -184,7 +185,6 @@ class Simulation {
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
     glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
     double k = 0;                      // the bump depth (m)
-    uint64_t taken = 0;                // which take-in this copy is (unique in the process: the lookups' caches)
     gl::Buffer pixels;                 // the read-back's pixel buffer
     GLsync fence = nullptr;
   };

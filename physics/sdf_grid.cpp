@@ -1,8 +1,10 @@
 #include <crumple/physics/sdf_grid.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <array>
 #include <map>
 #include <numeric>
 
@@ -131,6 +133,151 @@ TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p, double within2) const
       stack[top++] = node.left;
       stack[top++] = node.right;
     }
+  }
+  if (best.triangle < 0) best.distance2 = std::numeric_limits<double>::max();
+  return best;
+}
+
+void TriangleBvh::near(const glm::dvec3& p, double within2, std::vector<std::pair<double, int>>& out) const {
+  out.clear();
+  if (nodes_.empty()) return;
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  while (top) {
+    const Node& node = nodes_[stack[--top]];
+    if (boxDistance2(p, node.lo, node.hi) > within2) continue;
+    if (node.left >= 0) {
+      if (top + 2 > 128) continue;  // (as in closest)
+      stack[top++] = node.left;
+      stack[top++] = node.right;
+      continue;
+    }
+    for (int i = node.first; i < node.first + node.count; ++i) {
+      const int t = order_[i];
+      const glm::dvec3 bc = closestOnTriangle(p, a_[t], b_[t], c_[t]);
+      const glm::dvec3 q = bc.x * a_[t] + bc.y * b_[t] + bc.z * c_[t];
+      const double d2 = glm::dot(q - p, q - p);
+      if (d2 <= within2) out.emplace_back(d2, t);
+    }
+  }
+}
+
+NearTriangles::NearTriangles(const TriangleMesh& mesh, double cell, double reach)
+    : bvh_(mesh), cell_(cell), reach_(reach) {
+  static std::atomic<uint64_t> made{0};
+  id_ = ++made;
+  corners_.reserve(mesh.triangles.size());
+  for (const glm::uvec3& t : mesh.triangles)
+    corners_.push_back({mesh.positions[t.x], mesh.positions[t.y], mesh.positions[t.z]});
+}
+
+// Per thread, the cells' lists of the last few NearTriangles asked (a contact asks two bodies' in turn): an
+// open-addressed table of cells, each a range of `entries` (a triangle's corners beside its bound: one pass
+// over memory a query).
+struct NearTriangles::Kept {
+  struct Entry {
+    double bound;  // no point of the cell is nearer the triangle
+    uint32_t triangle;
+    glm::vec3 a, b, c;
+  };
+  uint64_t id = 0, used = 0;
+  std::vector<uint64_t> keys;  // 0: empty
+  std::vector<uint32_t> first, last;
+  size_t cells = 0;
+  std::vector<Entry> entries;
+  void clear() {
+    keys.assign(1024, 0);
+    first.assign(1024, 0);
+    last.assign(1024, 0);
+    cells = 0;
+    entries.clear();
+  }
+};
+
+NearTriangles::Kept& NearTriangles::kept() const {
+  thread_local std::array<Kept, 8> slots;
+  thread_local uint64_t clock = 0;
+  Kept* mine = nullptr;
+  for (Kept& k : slots)
+    if (k.id == id_) mine = &k;
+  if (!mine) {
+    mine = &*std::min_element(slots.begin(), slots.end(), [](const Kept& a, const Kept& b) { return a.used < b.used; });
+    mine->id = id_;
+    mine->clear();
+  }
+  mine->used = ++clock;
+  if (mine->entries.size() > (size_t(1) << 18)) mine->clear();  // (a bound on the memory a thread keeps)
+  return *mine;
+}
+
+std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64vec3& c) const {
+  const uint64_t key = 1 + ((static_cast<uint64_t>(c.x) & 0x1fffff) | (static_cast<uint64_t>(c.y) & 0x1fffff) << 21 |
+                            (static_cast<uint64_t>(c.z) & 0x1fffff) << 42);
+  auto slotOf = [&](uint64_t k) {
+    const size_t mask = kept.keys.size() - 1;
+    size_t s = (k * 0x9E3779B97F4A7C15ull >> 20) & mask;
+    while (kept.keys[s] != 0 && kept.keys[s] != k) s = (s + 1) & mask;
+    return s;
+  };
+  size_t s = slotOf(key);
+  if (kept.keys[s] == key) return {kept.first[s], kept.last[s]};
+  if (2 * (kept.cells + 1) > kept.keys.size()) {  // grow (at half full)
+    std::vector<uint64_t> keys(2 * kept.keys.size(), 0);
+    std::vector<uint32_t> first(keys.size()), last(keys.size());
+    std::swap(keys, kept.keys);
+    for (size_t i = 0; i < keys.size(); ++i)
+      if (keys[i]) {
+        const size_t t = slotOf(keys[i]);
+        kept.keys[t] = keys[i];
+        first[t] = kept.first[i];
+        last[t] = kept.last[i];
+      }
+    kept.first = std::move(first);
+    kept.last = std::move(last);
+    s = slotOf(key);
+  }
+  // Every point of the cell lies within half its diagonal of its centre: a triangle within reach of one lies
+  // within reach + that of the centre, and no nearer to any than (its distance from the centre) - that.
+  thread_local std::vector<std::pair<double, int>> found;
+  const double half = 0.5 * std::sqrt(3.0) * cell_ * (1 + 1e-9);
+  const glm::dvec3 centre = (glm::dvec3(c) + 0.5) * cell_;
+  const double within = reach_ + half;
+  bvh_.near(centre, within * within * (1 + 1e-9), found);
+  const uint32_t begin = static_cast<uint32_t>(kept.entries.size());
+  for (const auto& [d2, t] : found) {
+    const Corners& k = corners_[static_cast<size_t>(t)];
+    kept.entries.push_back({std::max(0.0, std::sqrt(d2) - half - 1e-12), static_cast<uint32_t>(t), k.a, k.b, k.c});
+  }
+  std::sort(kept.entries.begin() + begin, kept.entries.end(), [](const Kept::Entry& x, const Kept::Entry& y) {
+    return x.bound != y.bound ? x.bound < y.bound : x.triangle < y.triangle;
+  });
+  kept.keys[s] = key;
+  kept.first[s] = begin;
+  kept.last[s] = static_cast<uint32_t>(kept.entries.size());
+  ++kept.cells;
+  return {kept.first[s], kept.last[s]};
+}
+
+TriangleBvh::Hit NearTriangles::closest(const glm::dvec3& p) const {
+  TriangleBvh::Hit best;
+  const double reach2 = reach_ * reach_;
+  best.distance2 = std::nextafter(reach2, std::numeric_limits<double>::max());
+  const glm::dvec3 f = glm::floor(p / cell_);
+  const double limit = double(1 << 20);  // (21 bits an axis in the key)
+  if (!(std::abs(f.x) < limit && std::abs(f.y) < limit && std::abs(f.z) < limit))
+    return bvh_.closest(p, reach2);  // (far out: the tree, whose ties may differ)
+  Kept& kept = this->kept();
+  const auto [begin, end] = listed(kept, glm::i64vec3(f));
+  for (uint32_t i = begin; i < end; ++i) {
+    const Kept::Entry& e = kept.entries[i];
+    if (e.bound * e.bound > best.distance2) break;
+    const glm::dvec3 a(e.a), b(e.b), c(e.c);
+    const glm::dvec3 bc = closestOnTriangle(p, a, b, c);
+    const glm::dvec3 q = bc.x * a + bc.y * b + bc.z * c;
+    const double d2 = glm::dot(q - p, q - p);
+    if (d2 < best.distance2 || (d2 == best.distance2 && static_cast<int>(e.triangle) < best.triangle))
+      best = {d2, q, static_cast<int>(e.triangle), bc};
   }
   if (best.triangle < 0) best.distance2 = std::numeric_limits<double>::max();
   return best;

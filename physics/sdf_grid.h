@@ -4,6 +4,8 @@
 #pragma once
 #include <glm/glm.hpp>
 
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <crumple/physics/mesh.h>
@@ -24,6 +26,8 @@ class TriangleBvh {
   // The nearest triangle no further than sqrt(within2) (its distance2 <= within2; else triangle -1): nodes
   // further than that are never opened, so a point off the surface costs a few box tests.
   Hit closest(const glm::dvec3& p, double within2) const;
+  // Every triangle no further than sqrt(within2) from p, as (distance2, triangle), in no particular order.
+  void near(const glm::dvec3& p, double within2, std::vector<std::pair<double, int>>& out) const;
 
  private:
   struct Node {
@@ -36,6 +40,31 @@ class TriangleBvh {
   std::vector<int> order_;
   std::vector<glm::dvec3> a_, b_, c_;
   std::vector<glm::dvec3> centroid_;
+};
+
+// The nearest triangle within a reach, cell by cell: the first query in a cell (of `cell` metres) lists, through
+// the BVH, the triangles that pass within reach of the cell, nearest first; later queries there test those only,
+// until the next could not be nearer than the nearest found. Exact: TriangleBvh's distance, and among equally
+// near triangles the lowest index. The lists are kept per thread, each a function of its cell alone (the answers
+// are the same at any thread count); a query in a cell already listed costs a hash probe and a few triangles.
+class NearTriangles {
+ public:
+  NearTriangles(const TriangleMesh& mesh, double cell, double reach);
+  // The nearest triangle no further than reach (its distance2 <= reach^2), or triangle -1.
+  TriangleBvh::Hit closest(const glm::dvec3& p) const;
+  double reach() const { return reach_; }
+
+ private:
+  struct Kept;
+  Kept& kept() const;
+  std::pair<uint32_t, uint32_t> listed(Kept& kept, const glm::i64vec3& cell) const;  // its range of kept.entries
+  struct Corners {
+    glm::vec3 a, b, c;
+  };
+  TriangleBvh bvh_;
+  std::vector<Corners> corners_;
+  double cell_, reach_;
+  uint64_t id_;  // unique in the process: which lists a thread keeps are this one's
 };
 
 class SdfGrid {

@@ -214,16 +214,17 @@ void gridPairs(StepContext& ctx, BroadGrid& g, const std::vector<Aabb>& boxes, c
       if (!serialAccept || accept(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu))) keys.push_back(key);
 }
 
-void findPairs(StepContext& ctx, double h) {
+namespace {
+// Each body's bounds now and at its predicted pose (ctx.boxes, grown by a margin for what a substep can move);
+// the prediction is kept for the collision step's first look (predictedVersion 0). Active: what can make a
+// pair (a dynamic body, or a moving kinematic one that may wake a sleeper).
+void bodyBounds(StepContext& ctx, double h) {
   const std::vector<RigidBody>& bodies = ctx.bodies;
   const size_t n = bodies.size();
   std::vector<Aabb>& boxes = ctx.boxes;
-  // Each body's bounds now and at its predicted pose; the prediction is kept
-  // for the collision step's first look (predictedVersion 0).
   boxes.resize(n);
   ctx.predicted.resize(n);
   ctx.predictedVersion.assign(n, 0);
-  // Active: what can make a pair (a dynamic body, or a moving kinematic one that may wake a sleeper).
   std::vector<char>& active = ctx.grid.active;
   active.resize(n);
   ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
@@ -241,10 +242,61 @@ void findPairs(StepContext& ctx, double h) {
       }
     }
   });
-  // Every two boxes that overlap (closed intervals on all three axes), from a hashed grid (gridPairs), that
-  // the bodies' filters keep; on the World's threads unless a user's filter must be called from this one.
-  std::vector<uint64_t>& pairKeys = ctx.pairKeys;
-  refreshJointExclusions(ctx);
+}
+
+// Whether every body is still in its fat box (and no body became active outside it): the fat boxes' pairs
+// then still hold every pair. In ranges on the World's threads, each its own flag.
+bool fatBoxesHold(StepContext& ctx) {
+  const size_t n = ctx.bodies.size();
+  BroadGrid& grid = ctx.grid;
+  if (grid.fat.size() != n) return false;  // (none yet, or bodies added since)
+  const size_t kBodiesPerRange = ctx.grainFor(n, 2048);
+  std::vector<char>& inside = grid.rangeInside;
+  inside.assign((n + kBodiesPerRange - 1) / kBodiesPerRange, 1);
+  ctx.parallelRange(n, kBodiesPerRange, [&](size_t begin, size_t end, int) {
+    char ok = 1;
+    for (size_t i = begin; i < end && ok; ++i) {
+      const Aabb& b = ctx.boxes[i];
+      const Aabb& f = grid.fat[i];
+      ok = b.lo.x >= f.lo.x && b.lo.y >= f.lo.y && b.lo.z >= f.lo.z && b.hi.x <= f.hi.x && b.hi.y <= f.hi.y &&
+           b.hi.z <= f.hi.z && (!grid.active[i] || grid.fatActive[i]);
+    }
+    inside[begin / kBodiesPerRange] = ok;
+  });
+  return std::find(inside.begin(), inside.end(), 0) == inside.end();
+}
+
+// New fat boxes (the skin: a tenth of the body's smallest side, at most 5 cm, and four substeps' travel ahead)
+// and their pairs, from a hashed grid (gridPairs).
+void refreshFatPairs(StepContext& ctx, double h) {
+  const std::vector<RigidBody>& bodies = ctx.bodies;
+  const size_t n = bodies.size();
+  BroadGrid& grid = ctx.grid;
+  grid.fat.resize(n);
+  ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) {
+      const RigidBody& b = bodies[i];
+      Aabb f = ctx.boxes[i];
+      if (b.movable()) {
+        const glm::dvec3 e = b.shape->boundsMax - b.shape->boundsMin;
+        const double skin = std::min(0.1 * std::min({e.x, e.y, e.z}), 0.05);
+        const glm::dvec3 ahead = 4 * h * b.v;
+        f.lo += glm::min(ahead, glm::dvec3(0)) - skin;
+        f.hi += glm::max(ahead, glm::dvec3(0)) + skin;
+      }
+      grid.fat[i] = f;
+    }
+  });
+  grid.fatActive = grid.active;
+  gridPairs(ctx, grid, grid.fat, &grid.active, [](int, int) { return true; }, false, grid.fatKeys);
+}
+
+// The fat boxes' pairs whose bounds overlap and that the filters keep (ctx.pairKeys, in the same sorted order):
+// in ranges on the World's threads, each its own list, joined in order (one thread while a user's filter is
+// set: it is called as the user gave it).
+void keepOverlapping(StepContext& ctx) {
+  const std::vector<RigidBody>& bodies = ctx.bodies;
+  const std::vector<char>& active = ctx.grid.active;
   auto accept = [&](int i, int j) {
     const RigidBody& A = bodies[static_cast<size_t>(i)];
     const RigidBody& B = bodies[static_cast<size_t>(j)];
@@ -257,90 +309,52 @@ void findPairs(StepContext& ctx, double h) {
     }
     return mayCollide(ctx, i, j);
   };
-  // The fat boxes' pairs, kept while they still hold every pair: a resting pile builds no grid. The pairs are
-  // then those of the kept list whose bounds overlap, in the same (sorted) order: the same pairs either way.
-  BroadGrid& grid = ctx.grid;
-  bool reuse = grid.fat.size() == n;  // (none yet, or bodies added since: build it)
-  if (reuse) {
-    // Every body still in its fat box (in ranges on the World's threads, each its own flag).
-    const size_t kBodiesPerRange = ctx.grainFor(n, 2048);
-    std::vector<char>& inside = grid.rangeInside;
-    inside.assign((n + kBodiesPerRange - 1) / kBodiesPerRange, 1);
-    ctx.parallelRange(n, kBodiesPerRange, [&](size_t begin, size_t end, int) {
-      char ok = 1;
-      for (size_t i = begin; i < end && ok; ++i) {
-        const Aabb& b = boxes[i];
-        const Aabb& f = grid.fat[i];
-        ok = b.lo.x >= f.lo.x && b.lo.y >= f.lo.y && b.lo.z >= f.lo.z && b.hi.x <= f.hi.x && b.hi.y <= f.hi.y &&
-             b.hi.z <= f.hi.z && (!active[i] || grid.fatActive[i]);
-      }
-      inside[begin / kBodiesPerRange] = ok;
-    });
-    reuse = std::find(inside.begin(), inside.end(), 0) == inside.end();
-  }
-  if (!reuse) {
-    // The skin: a tenth of the body's smallest side (at most 5 cm), and four substeps' travel ahead.
-    grid.fat.resize(n);
-    ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
-      for (size_t i = begin; i < end; ++i) {
-        const RigidBody& b = bodies[i];
-        Aabb f = boxes[i];
-        if (b.movable()) {
-          const glm::dvec3 e = b.shape->boundsMax - b.shape->boundsMin;
-          const double skin = std::min(0.1 * std::min({e.x, e.y, e.z}), 0.05);
-          const glm::dvec3 ahead = 4 * h * b.v;
-          f.lo += glm::min(ahead, glm::dvec3(0)) - skin;
-          f.hi += glm::max(ahead, glm::dvec3(0)) + skin;
-        }
-        grid.fat[i] = f;
-      }
-    });
-    grid.fatActive = active;
-    gridPairs(ctx, grid, grid.fat, &active, [](int, int) { return true; }, false, grid.fatKeys);
-  }
-  // The kept pairs whose bounds overlap and that the filters keep: in ranges on the World's threads, each its
-  // own list, joined in order (one thread while a user's filter is set: it is called as the user gave it).
-  pairKeys.clear();
   auto keep = [&](uint64_t key) {
     const size_t i = key >> 32, j = key & 0xffffffffu;
-    return (active[i] || active[j]) && overlap(boxes[i], boxes[j]) && accept(static_cast<int>(i), static_cast<int>(j));
+    return (active[i] || active[j]) && overlap(ctx.boxes[i], ctx.boxes[j]) &&
+           accept(static_cast<int>(i), static_cast<int>(j));
   };
+  std::vector<uint64_t>& pairKeys = ctx.pairKeys;
+  pairKeys.clear();
+  BroadGrid& grid = ctx.grid;
   const std::vector<uint64_t>& fatKeys = grid.fatKeys;
   if (ctx.filter || ctx.workers() < 2) {
     for (uint64_t key : fatKeys)
       if (keep(key)) pairKeys.push_back(key);
-  } else {
-    const size_t kKeysPerRange = ctx.grainFor(fatKeys.size(), 4096);
-    grid.found.resize((fatKeys.size() + kKeysPerRange - 1) / kKeysPerRange);
-    ctx.parallelRange(fatKeys.size(), kKeysPerRange, [&](size_t begin, size_t end, int) {
-      std::vector<uint64_t>& kept = grid.found[begin / kKeysPerRange];
-      kept.clear();
-      for (size_t k = begin; k < end; ++k)
-        if (keep(fatKeys[k])) kept.push_back(fatKeys[k]);
-    });
-    for (const std::vector<uint64_t>& kept : grid.found) pairKeys.insert(pairKeys.end(), kept.begin(), kept.end());
+    return;
   }
-  // Sleepers in a pair wake (after every pair is known: the filter above saw the bodies as they were).
-  for (uint64_t key : pairKeys) {
-    const int i = static_cast<int>(key >> 32), j = static_cast<int>(key & 0xffffffffu);
-    if (bodies[static_cast<size_t>(i)].asleep) ctx.wake(i);
-    if (bodies[static_cast<size_t>(j)].asleep) ctx.wake(j);
-  }
-  // Too many pairs (thousands of bodies piled into one spot): keep maxPairs of
-  // them, those with a body that nothing pushes (the ground) first, then in key
-  // order; the rest pass through each other this substep (StepStats::droppedPairs).
+  const size_t kKeysPerRange = ctx.grainFor(fatKeys.size(), 4096);
+  grid.found.resize((fatKeys.size() + kKeysPerRange - 1) / kKeysPerRange);
+  ctx.parallelRange(fatKeys.size(), kKeysPerRange, [&](size_t begin, size_t end, int) {
+    std::vector<uint64_t>& kept = grid.found[begin / kKeysPerRange];
+    kept.clear();
+    for (size_t k = begin; k < end; ++k)
+      if (keep(fatKeys[k])) kept.push_back(fatKeys[k]);
+  });
+  for (const std::vector<uint64_t>& kept : grid.found) pairKeys.insert(pairKeys.end(), kept.begin(), kept.end());
+}
+
+// Too many pairs (thousands of bodies piled into one spot): keep maxPairs of them, those with a body that
+// nothing pushes (the ground) first, then in key order; the rest pass through each other this substep
+// (StepStats::droppedPairs).
+void capPairs(StepContext& ctx) {
+  std::vector<uint64_t>& pairKeys = ctx.pairKeys;
   const size_t maxPairs = static_cast<size_t>(std::max(0, ctx.settings.maxPairs));
-  if (pairKeys.size() > maxPairs) {
-    ctx.stats.droppedPairs += static_cast<int>(pairKeys.size() - maxPairs);
-    auto anchoredPair = [&](uint64_t key) {
-      return !bodies[static_cast<size_t>(key >> 32)].dynamic() || !bodies[static_cast<size_t>(key & 0xffffffffu)].dynamic();
-    };
-    std::stable_partition(pairKeys.begin(), pairKeys.end(), anchoredPair);
-    pairKeys.resize(maxPairs);
-    std::sort(pairKeys.begin(), pairKeys.end());
-  }
-  // Pairs that already existed keep their candidate lists (both sorted by a, b: a merge, in ranges on the
-  // World's threads, each range's start found by binary search).
+  if (pairKeys.size() <= maxPairs) return;
+  ctx.stats.droppedPairs += static_cast<int>(pairKeys.size() - maxPairs);
+  auto anchoredPair = [&](uint64_t key) {
+    return !ctx.bodies[static_cast<size_t>(key >> 32)].dynamic() ||
+           !ctx.bodies[static_cast<size_t>(key & 0xffffffffu)].dynamic();
+  };
+  std::stable_partition(pairKeys.begin(), pairKeys.end(), anchoredPair);
+  pairKeys.resize(maxPairs);
+  std::sort(pairKeys.begin(), pairKeys.end());
+}
+
+// ctx.pairs from the keys: pairs that already existed keep their candidate lists (both sorted by a, b: a merge,
+// in ranges on the World's threads, each range's start found by binary search).
+void carryPairs(StepContext& ctx) {
+  const std::vector<uint64_t>& pairKeys = ctx.pairKeys;
   std::vector<Pair>& pairs = ctx.pairs;
   std::vector<Pair>& previousPairs = ctx.previousPairs;
   // The same pairs as the last substep (a resting pile): each keeps its own lists already.
@@ -378,6 +392,25 @@ void findPairs(StepContext& ctx, double h) {
       }
     }
   });
+}
+}  // namespace
+
+// Every two bodies' boxes that overlap (closed intervals on all three axes) and that the bodies' filters keep.
+// The fat boxes' pairs are kept while they still hold every pair (a resting pile builds no grid); the pairs are
+// then those of the kept list whose bounds overlap, in the same (sorted) order: the same pairs either way.
+void findPairs(StepContext& ctx, double h) {
+  bodyBounds(ctx, h);
+  refreshJointExclusions(ctx);
+  if (!fatBoxesHold(ctx)) refreshFatPairs(ctx, h);
+  keepOverlapping(ctx);
+  // Sleepers in a pair wake (after every pair is known: the filter above saw the bodies as they were).
+  for (uint64_t key : ctx.pairKeys) {
+    const int i = static_cast<int>(key >> 32), j = static_cast<int>(key & 0xffffffffu);
+    if (ctx.bodies[static_cast<size_t>(i)].asleep) ctx.wake(i);
+    if (ctx.bodies[static_cast<size_t>(j)].asleep) ctx.wake(j);
+  }
+  capPairs(ctx);
+  carryPairs(ctx);
 }
 
 double stepTravel(StepContext& ctx, double h) {

@@ -178,8 +178,16 @@ AtlasCheck checkAtlas(const TriangleMesh& mesh, int resolution) {
   return check;
 }
 
-TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
-  // Weld positions to find triangle adjacency across uv seams.
+namespace {
+// What the charts are made from: each triangle's dominant axis (and sign) and face normal, and the triangles
+// across each of its edges (positions welded, so that uv seams do not cut them apart).
+struct Faces {
+  std::vector<int> axis;
+  std::vector<glm::vec3> normal;
+  std::vector<std::vector<int>> adjacent;
+};
+
+Faces facesOf(const TriangleMesh& mesh) {
   std::map<std::tuple<float, float, float>, unsigned> weld;
   std::vector<unsigned> vid(mesh.positions.size());
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
@@ -187,16 +195,17 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
     vid[i] = weld.try_emplace({p.x, p.y, p.z}, static_cast<unsigned>(weld.size())).first->second;
   }
   const size_t nt = mesh.triangles.size();
-  std::vector<int> axis(nt);
-  std::vector<glm::vec3> faceN(nt);
+  Faces f;
+  f.axis.resize(nt);
+  f.normal.resize(nt);
   for (size_t t = 0; t < nt; ++t) {
     const auto& tri = mesh.triangles[t];
     const glm::vec3 n =
         glm::cross(mesh.positions[tri.y] - mesh.positions[tri.x], mesh.positions[tri.z] - mesh.positions[tri.x]);
-    faceN[t] = n;
+    f.normal[t] = n;
     const glm::vec3 a = glm::abs(n);
     const int ax = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
-    axis[t] = ax * 2 + (n[ax] < 0 ? 1 : 0);
+    f.axis[t] = ax * 2 + (n[ax] < 0 ? 1 : 0);
   }
   std::map<std::pair<unsigned, unsigned>, std::vector<int>> edges;
   for (size_t t = 0; t < nt; ++t) {
@@ -204,72 +213,109 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
     for (int k = 0; k < 3; ++k)
       edges[{std::min(v[k], v[(k + 1) % 3]), std::max(v[k], v[(k + 1) % 3])}].push_back(static_cast<int>(t));
   }
-  std::vector<std::vector<int>> adjacent(nt);
+  f.adjacent.resize(nt);
   for (const auto& [e, tris] : edges)
     for (int a : tris)
       for (int b : tris)
-        if (a != b) adjacent[static_cast<size_t>(a)].push_back(b);
-  // Flood fill: connected triangles that face the same axis form a chart.
-  std::vector<int> chartOf(nt, -1);
-  int charts = 0;
+        if (a != b) f.adjacent[static_cast<size_t>(a)].push_back(b);
+  return f;
+}
+
+// Flood fill from each unassigned triangle: the connected triangles that `same` admits get its chart. Returns
+// the next free chart number.
+template <typename Same>
+int flood(const Faces& f, std::vector<int>& chartOf, int first, Same&& same) {
+  int next = first;
   std::vector<int> stack;
-  for (size_t seed = 0; seed < nt; ++seed) {
-    if (chartOf[seed] >= 0) continue;
-    chartOf[seed] = charts;
+  for (size_t seed = 0; seed < chartOf.size(); ++seed) {
+    if (chartOf[seed] >= 0 || !same(seed, seed)) continue;
+    chartOf[seed] = next;
     stack.assign(1, static_cast<int>(seed));
     while (!stack.empty()) {
-      const int t = stack.back();
+      const size_t t = static_cast<size_t>(stack.back());
       stack.pop_back();
-      for (int u : adjacent[static_cast<size_t>(t)]) {
-        if (chartOf[static_cast<size_t>(u)] < 0 && axis[static_cast<size_t>(u)] == axis[seed]) {
-          chartOf[static_cast<size_t>(u)] = charts;
+      for (int u : f.adjacent[t]) {
+        const size_t uu = static_cast<size_t>(u);
+        if (chartOf[uu] < 0 && same(seed, uu)) {
+          chartOf[uu] = next;
           stack.push_back(u);
         }
       }
     }
-    ++charts;
+    ++next;
   }
-  auto project = [](const glm::vec3& p, int ax) {
-    const int a = ax / 2;
-    const bool neg = ax % 2;
-    // Right-handed in-plane axes so that charts are not mirrored.
-    glm::vec2 q = a == 0 ? glm::vec2(p.z, p.y) : a == 1 ? glm::vec2(p.x, p.z) : glm::vec2(p.x, p.y);
-    if ((a == 0) != neg) q.x = -q.x;
-    if (a == 1) q.y = -q.y;
-    return q;
-  };
-  auto buildCharts = [&](const std::vector<int>& chartIds) {
-    ChartMesh cm;
-    for (size_t t = 0; t < nt; ++t) {
-      const auto& tri = mesh.triangles[t];
-      const glm::vec3 p[3] = {mesh.positions[tri.x], mesh.positions[tri.y], mesh.positions[tri.z]};
-      glm::vec3 n[3];
-      for (int k = 0; k < 3; ++k) {
-        const unsigned vi = k == 0 ? tri.x : k == 1 ? tri.y : tri.z;
-        n[k] = mesh.normals.size() == mesh.positions.size() ? mesh.normals[vi] : glm::normalize(faceN[t]);
-      }
-      glm::vec2 uv[3];
-      for (int k = 0; k < 3; ++k) uv[k] = project(p[k], axis[t]);
-      const bool coloured = mesh.colors.size() == mesh.positions.size();
-      const glm::vec3 c[3] = {coloured ? mesh.colors[tri.x] : glm::vec3(1),
-                              coloured ? mesh.colors[tri.y] : glm::vec3(1),
-                              coloured ? mesh.colors[tri.z] : glm::vec3(1)};
-      const bool looks =
-          mesh.materialUvs.size() == mesh.positions.size() && mesh.materialIds.size() == mesh.positions.size();
-      glm::vec2 muv[3] = {};
-      int mid[3] = {-1, -1, -1};
-      if (looks) {
-        const unsigned vs[3] = {tri.x, tri.y, tri.z};
-        for (int k = 0; k < 3; ++k) muv[k] = mesh.materialUvs[vs[k]], mid[k] = mesh.materialIds[vs[k]];
-      }
-      cm.addTriangle(chartIds[t], p, n, uv, coloured ? c : nullptr, looks ? muv : nullptr, looks ? mid : nullptr);
+  return next;
+}
+
+// A point projected onto the plane of a dominant axis (right-handed in-plane axes: charts are not mirrored).
+glm::vec2 project(const glm::vec3& p, int ax) {
+  const int a = ax / 2;
+  const bool neg = ax % 2;
+  glm::vec2 q = a == 0 ? glm::vec2(p.z, p.y) : a == 1 ? glm::vec2(p.x, p.z) : glm::vec2(p.x, p.y);
+  if ((a == 0) != neg) q.x = -q.x;
+  if (a == 1) q.y = -q.y;
+  return q;
+}
+
+// The mesh's triangles as charts (chartIds), each projected on its axis, with their normals, colours and looks.
+ChartMesh buildCharts(const TriangleMesh& mesh, const Faces& f, const std::vector<int>& chartIds) {
+  ChartMesh cm;
+  const bool coloured = mesh.colors.size() == mesh.positions.size();
+  const bool looks =
+      mesh.materialUvs.size() == mesh.positions.size() && mesh.materialIds.size() == mesh.positions.size();
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const glm::vec3 p[3] = {mesh.positions[tri.x], mesh.positions[tri.y], mesh.positions[tri.z]};
+    glm::vec3 n[3];
+    for (int k = 0; k < 3; ++k) {
+      const unsigned vi = k == 0 ? tri.x : k == 1 ? tri.y : tri.z;
+      n[k] = mesh.normals.size() == mesh.positions.size() ? mesh.normals[vi] : glm::normalize(f.normal[t]);
     }
-    return cm;
-  };
-  // Pack. A chart whose projection folds over itself (a lip over a bumper, both facing one axis) is cut into
-  // pieces: its connected triangles within one cube of a sixteenth of the mesh's size, so layers further apart
-  // than that part; pieces that still fold are split into triangles, and if the atlas still overlaps, every
-  // triangle is a chart of its own.
+    glm::vec2 uv[3];
+    for (int k = 0; k < 3; ++k) uv[k] = project(p[k], f.axis[t]);
+    const glm::vec3 c[3] = {coloured ? mesh.colors[tri.x] : glm::vec3(1), coloured ? mesh.colors[tri.y] : glm::vec3(1),
+                            coloured ? mesh.colors[tri.z] : glm::vec3(1)};
+    glm::vec2 muv[3] = {};
+    int mid[3] = {-1, -1, -1};
+    if (looks) {
+      const unsigned vs[3] = {tri.x, tri.y, tri.z};
+      for (int k = 0; k < 3; ++k) muv[k] = mesh.materialUvs[vs[k]], mid[k] = mesh.materialIds[vs[k]];
+    }
+    cm.addTriangle(chartIds[t], p, n, uv, coloured ? c : nullptr, looks ? muv : nullptr, looks ? mid : nullptr);
+  }
+  return cm;
+}
+
+// The charts (of `ids`, numbered below `count`) whose own triangles overlap in the packed atlas, each checked alone.
+std::vector<char> foldedCharts(const TriangleMesh& packed, const std::vector<int>& ids, int count, int resolution) {
+  std::vector<char> bad(static_cast<size_t>(count), 0);
+  for (int c = 0; c < count; ++c) {
+    TriangleMesh one;
+    for (size_t t = 0; t < ids.size(); ++t) {
+      if (ids[t] != c) continue;
+      const unsigned base = static_cast<unsigned>(one.positions.size());
+      const auto& tri = packed.triangles[t];
+      for (unsigned v : {tri.x, tri.y, tri.z}) {
+        one.positions.push_back(packed.positions[v]);
+        one.uvs.push_back(packed.uvs[v]);
+      }
+      one.triangles.push_back({base, base + 1, base + 2});
+    }
+    if (!one.triangles.empty() && !checkAtlas(one, resolution).oneToOne) bad[static_cast<size_t>(c)] = 1;
+  }
+  return bad;
+}
+}  // namespace
+
+// Charts: connected triangles that face the same axis. A chart whose projection folds over itself (a lip over
+// a bumper, both facing one axis) is cut into pieces: its connected triangles within one cube of a sixteenth of
+// the mesh's size, so layers further apart than that part; pieces that still fold are split into triangles, and
+// if the atlas still overlaps, every triangle is a chart of its own.
+TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
+  const Faces f = facesOf(mesh);
+  const size_t nt = mesh.triangles.size();
+  std::vector<int> ids(nt, -1);
+  flood(f, ids, 0, [&](size_t seed, size_t t) { return f.axis[t] == f.axis[seed]; });
   glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
   for (const glm::vec3& p : mesh.positions) {
     lo = glm::min(lo, p);
@@ -277,28 +323,12 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
   }
   const glm::vec3 size = hi - lo;
   const float cell = std::max(std::max({size.x, size.y, size.z}) / 16.0f, 1e-6f);
-  std::vector<int> ids = chartOf;
   for (int attempt = 0; attempt < 4; ++attempt) {
-    TriangleMesh packed = packCharts(buildCharts(ids), resolution);
+    TriangleMesh packed = packCharts(buildCharts(mesh, f, ids), resolution);
     const AtlasCheck check = checkAtlas(packed, resolution);
     if (check.oneToOne || attempt == 3) return packed;
-    // Find the charts with overlaps by checking each alone.
     int next = *std::max_element(ids.begin(), ids.end()) + 1;
-    std::vector<char> bad(static_cast<size_t>(next), 0);
-    for (int c = 0; c < next; ++c) {
-      TriangleMesh one;
-      for (size_t t = 0; t < nt; ++t) {
-        if (ids[t] != c) continue;
-        const unsigned base = static_cast<unsigned>(one.positions.size());
-        const auto& tri = packed.triangles[t];
-        for (unsigned v : {tri.x, tri.y, tri.z}) {
-          one.positions.push_back(packed.positions[v]);
-          one.uvs.push_back(packed.uvs[v]);
-        }
-        one.triangles.push_back({base, base + 1, base + 2});
-      }
-      if (!one.triangles.empty() && !checkAtlas(one, resolution).oneToOne) bad[static_cast<size_t>(c)] = 1;
-    }
+    const std::vector<char> bad = foldedCharts(packed, ids, next, resolution);
     bool any = false;
     if (attempt == 0) {
       // Pieces: flood fill over the bad charts' triangles, within one chart and one cube (of the centroid).
@@ -309,26 +339,11 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
         cube[t] = glm::ivec3(glm::floor((c - lo) / cell));
       }
       std::vector<int> piece(nt, -1);
-      std::vector<int> stack;
-      for (size_t seed = 0; seed < nt; ++seed) {
-        if (!bad[static_cast<size_t>(ids[seed])] || piece[seed] >= 0) continue;
-        const glm::ivec3 home = cube[seed];
-        piece[seed] = next;
-        stack.assign(1, static_cast<int>(seed));
-        while (!stack.empty()) {
-          const size_t t = static_cast<size_t>(stack.back());
-          stack.pop_back();
-          for (int u : adjacent[t]) {
-            const size_t uu = static_cast<size_t>(u);
-            if (piece[uu] < 0 && ids[uu] == ids[seed] && cube[uu] == home) {
-              piece[uu] = next;
-              stack.push_back(u);
-            }
-          }
-        }
-        ++next;
-        any = true;
-      }
+      const int first = next;
+      next = flood(f, piece, next, [&](size_t seed, size_t t) {
+        return bad[static_cast<size_t>(ids[seed])] && ids[t] == ids[seed] && cube[t] == cube[seed];
+      });
+      any = next > first;
       for (size_t t = 0; t < nt; ++t)
         if (piece[t] >= 0) ids[t] = piece[t];
     } else {
@@ -341,7 +356,7 @@ TriangleMesh generateAtlas(const TriangleMesh& mesh, int resolution) {
     }
     if (!any) return packed;
   }
-  return packCharts(buildCharts(ids), resolution);
+  return packCharts(buildCharts(mesh, f, ids), resolution);
 }
 
 }  // namespace crumple

@@ -10,6 +10,7 @@
 #include <crumple/engine/overrides.h>
 #include <crumple/engine/scene.h>
 #include <crumple/core/log.h>
+#include <crumple/engine/scene_node.h>
 
 namespace crumple {
 
@@ -26,153 +27,9 @@ glm::dquat eulerDegreesToQuat(const glm::dvec3& d) {
 
 namespace {
 
-const char* typeName(const json& j) {
-  switch (j.type()) {
-    case json::value_t::null:
-      return "null";
-    case json::value_t::object:
-      return "an object";
-    case json::value_t::array:
-      return "an array";
-    case json::value_t::string:
-      return "a string";
-    case json::value_t::boolean:
-      return "a boolean";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-      return "an integer";
-    case json::value_t::number_float:
-      return "a number";
-    default:
-      return "something else";
-  }
-}
-
-std::string shortDump(const json& j) {
-  // Arrays and objects are counted, never dumped: a value nested 100000 deep would overflow the stack.
-  if (j.is_array()) return "an array of " + std::to_string(j.size()) + (j.size() == 1 ? " item" : " items");
-  if (j.is_object()) return "an object of " + std::to_string(j.size()) + (j.size() == 1 ? " key" : " keys");
-  std::string s = j.dump();
-  if (s.size() > 40) s = s.substr(0, 37) + "...";
-  return s;
-}
-
-// A view of one JSON object at a key path, with typed, validated getters.
-class Node {
- public:
-  Node(const json& j, std::string path, const std::string& file) : j_(j), path_(std::move(path)), file_(file) {}
-
-  [[noreturn]] void fail(const std::string& key, const std::string& why) const {
-    throw SceneError(file_, join(key), why);
-  }
-  std::string join(const std::string& key) const {
-    if (key.empty()) return path_;
-    if (!key.empty() && key[0] == '[') return path_ + key;
-    return path_.empty() ? key : path_ + "." + key;
-  }
-  bool has(const std::string& key) const { return j_.is_object() && j_.contains(key); }
-  const json& raw(const std::string& key) const { return j_.at(key); }
-
-  void requireObject() const {
-    if (!j_.is_object()) throw SceneError(file_, path_, std::string("must be an object, got ") + typeName(j_));
-  }
-
-  // Warn about keys nobody reads: likely typos.
-  void checkKeys(std::initializer_list<const char*> known) const {
-    for (auto it = j_.begin(); it != j_.end(); ++it) {
-      bool ok = false;
-      for (const char* k : known) ok = ok || it.key() == k;
-      if (!ok && isOverriddenPath(join(it.key()))) fail(it.key(), "unknown key");  // set by an override
-      if (!ok) logWarning(quoteText(file_, 300), ": ", quoteText(join(it.key()), 300), ": unknown key, ignored");
-    }
-  }
-
-  double number(const std::string& key, double def, double lo, double hi, bool loOpen = false,
-                bool hiOpen = false) const {
-    if (!has(key)) return def;
-    return numberValue(j_.at(key), key, lo, hi, loOpen, hiOpen);
-  }
-  double requiredNumber(const std::string& key, double lo, double hi, bool loOpen = false) const {
-    if (!has(key)) fail(key, "is required");
-    return numberValue(j_.at(key), key, lo, hi, loOpen, false);
-  }
-  double numberValue(const json& v, const std::string& key, double lo, double hi, bool loOpen, bool hiOpen) const {
-    if (!v.is_number()) fail(key, std::string("must be a number, got ") + typeName(v) + " " + shortDump(v));
-    const double x = v.get<double>();
-    if (!std::isfinite(x)) fail(key, "must be finite");
-    if ((loOpen ? !(x > lo) : !(x >= lo)) || (hiOpen ? !(x < hi) : !(x <= hi))) {
-      std::ostringstream os;
-      os << "must be in " << (loOpen ? "(" : "[") << lo << ", " << hi << (hiOpen ? ")" : "]") << ", got " << x;
-      fail(key, os.str());
-    }
-    return x;
-  }
-  int integer(const std::string& key, int def, int lo, int hi) const {
-    if (!has(key)) return def;
-    const json& v = j_.at(key);
-    if (!v.is_number_integer() && !(v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()))
-      fail(key, std::string("must be an integer, got ") + typeName(v) + " " + shortDump(v));
-    const double x = v.get<double>();
-    if (!(x >= lo && x <= hi)) {
-      std::ostringstream os;
-      os << "must be in [" << lo << ", " << hi << "], got " << shortDump(v);
-      fail(key, os.str());
-    }
-    return static_cast<int>(x);
-  }
-  bool boolean(const std::string& key, bool def) const {
-    if (!has(key)) return def;
-    const json& v = j_.at(key);
-    if (!v.is_boolean()) fail(key, std::string("must be true or false, got ") + typeName(v));
-    return v.get<bool>();
-  }
-  std::string string(const std::string& key, const std::string& def) const {
-    if (!has(key)) return def;
-    const json& v = j_.at(key);
-    if (!v.is_string()) fail(key, std::string("must be a string, got ") + typeName(v));
-    return v.get<std::string>();
-  }
-  // A string that must be one of `names` (each with what it stands for); the first name when the key is absent.
-  template <typename E>
-  E choice(const std::string& key, const std::vector<std::pair<std::string, E>>& names) const {
-    const std::string v = string(key, names.front().first);
-    std::string list;
-    for (size_t i = 0; i < names.size(); ++i) {
-      if (names[i].first == v) return names[i].second;
-      list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + ("\"" + names[i].first + "\"");
-    }
-    fail(key, "must be " + list + ", got '" + quoteText(v) + "'");
-  }
-  std::string requiredString(const std::string& key) const {
-    if (!has(key)) fail(key, "is required");
-    return string(key, "");
-  }
-  glm::dvec3 vec3(const std::string& key, glm::dvec3 def, double limit = 1e6) const {
-    if (!has(key)) return def;
-    return vec3Value(j_.at(key), key, limit);
-  }
-  glm::dvec3 vec3Value(const json& v, const std::string& key, double limit) const {
-    if (!v.is_array() || v.size() != 3) fail(key, "must be an array of 3 numbers, got " + shortDump(v));
-    glm::dvec3 r;
-    for (int i = 0; i < 3; ++i)
-      r[i] = Node(v, join(key), file_)
-                 .numberValue(v[static_cast<size_t>(i)], "[" + std::to_string(i) + "]", -limit, limit, false, false);
-    return r;
-  }
-  Node child(const std::string& key) const {
-    Node n(j_.at(key), join(key), file_);
-    n.requireObject();
-    return n;
-  }
-  const json& value() const { return j_; }
-  const std::string& path() const { return path_; }
-  const std::string& file() const { return file_; }
-
- private:
-  const json& j_;
-  std::string path_;
-  const std::string& file_;
-};
+using scene_file::Node;
+using scene_file::shortDump;
+using scene_file::typeName;
 
 std::string lineColumn(const std::string& text, size_t byte) {
   size_t line = 1, col = 1;
@@ -516,12 +373,10 @@ JointDesc parseJoint(const Node& n, size_t index, const std::set<std::string>& b
   return j;
 }
 
-}  // namespace
-
-Scene parseScene(const std::string& text, const std::string& file, const std::string& baseDir) {
-  json root;
+// The text as JSON (a malformed file: where and why).
+json parseJson(const std::string& text, const std::string& file) {
   try {
-    root = json::parse(text);
+    return json::parse(text);
   } catch (const json::parse_error& e) {
     std::string what = e.what();
     const auto pos = what.find("syntax error");
@@ -533,19 +388,16 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
     const auto pos = what.find("] ");
     throw SceneError(file, "", "malformed JSON: " + (pos != std::string::npos ? what.substr(pos + 2) : what));
   }
-  Node n(root, "", file);
-  if (!root.is_object())
-    throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
-  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "threads", "materials", "deformation", "bodies",
-               "joints", "no_collide", "cameras"});
-  Scene s;
-  s.file = file;
+}
+
+// The top level's own values: format, name, gravity, timestep, duration, threads.
+void parseTop(const Node& n, Scene& s) {
   if (n.has("format")) {
     const std::string f = n.string("format", "");
     if (f != "crumple-scene/1")
       n.fail("format", "unsupported format '" + quoteText(f) + "' (expected crumple-scene/1)");
   }
-  s.name = n.string("name", fs::path(file).stem().string());
+  s.name = n.string("name", fs::path(s.file).stem().string());
   // It names the default output folder, out/<name>: a name such as "../x" would write outside out/.
   if (const std::string why = fileNameProblem(s.name); !why.empty())
     n.fail("name", n.has("name")
@@ -558,50 +410,58 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   s.duration = n.number("duration", s.duration, 0, 1e5, true);
   if (s.duration / s.timestep > 1e8) n.fail("duration", "more than 10^8 steps");
   s.threads = n.integer("threads", s.threads, 0, 256);
+}
 
-  if (n.has("materials")) {
-    Node mats = n.child("materials");
-    for (auto it = mats.value().begin(); it != mats.value().end(); ++it) {
-      if (it.key().empty()) mats.fail("", "a material name must not be empty");
-      if (const std::string why = nameProblem(it.key()); !why.empty())
-        mats.fail("", "the material name '" + quoteText(it.key()) + "' is " + why);
-      s.materials[it.key()] = parseMaterial(Node(it.value(), mats.join(it.key()), file), it.key());
-    }
+// "materials": each by its name.
+void parseMaterials(const Node& n, Scene& s) {
+  if (!n.has("materials")) return;
+  Node mats = n.child("materials");
+  for (auto it = mats.value().begin(); it != mats.value().end(); ++it) {
+    if (it.key().empty()) mats.fail("", "a material name must not be empty");
+    if (const std::string why = nameProblem(it.key()); !why.empty())
+      mats.fail("", "the material name '" + quoteText(it.key()) + "' is " + why);
+    s.materials[it.key()] = parseMaterial(Node(it.value(), mats.join(it.key()), s.file), it.key());
   }
-  if (n.has("deformation")) {
-    Node d = n.child("deformation");
-    d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
-                 "address_raster", "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval",
-                 "normal_mapped_normals", "feel_dents"});
-    auto& ds = s.deformation;
-    ds.enabled = d.boolean("enabled", ds.enabled);
-    ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
-    ds.bumpDepth = d.number("bump_depth", ds.bumpDepth, 0, 10, true);
-    ds.bumpDepthCollide = d.number("bump_depth_collide", ds.bumpDepthCollide, 0, 10);
-    auto& o = ds.options;
-    o.addressMap = d.integer("address_map", o.addressMap, 16, 4096);
-    const std::string path = d.string("path", "gather");
-    if (path == "gather" || path == "gpu")
-      o.path = deform::Path::Gather;  // "gpu": its name before the scatter had a GPU twin
-    else if (path == "scatter")
-      o.path = deform::Path::Scatter;
-    else if (path == "readback")
-      o.path = deform::Path::Readback;
-    else
-      d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + quoteText(path) + "'");
-    o.addressRaster = d.choice<deform::AddressRaster>("address_raster", {{"auto", deform::AddressRaster::Auto},
-                                                                         {"compute", deform::AddressRaster::Compute},
-                                                                         {"fragment", deform::AddressRaster::Fragment}});
-    o.tangent = d.choice<deform::TangentMode>("tangent_correction", {{"none", deform::TangentMode::None},
-                                                                     {"multiply", deform::TangentMode::Multiply},
-                                                                     {"divide", deform::TangentMode::Divide}});
-    o.tangentFloor = static_cast<float>(d.number("tangent_floor", o.tangentFloor, 0, 1, true));
-    o.craterRims = d.boolean("crater_rims", o.craterRims);
-    ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);
-    ds.contactInterval = d.number("contact_interval", ds.contactInterval, 0, 10);
-    ds.normalMappedNormals = d.boolean("normal_mapped_normals", ds.normalMappedNormals);
-    ds.feelDents = d.boolean("feel_dents", ds.feelDents);
-  }
+}
+
+// "deformation": when collisions dent and how.
+void parseDeformation(const Node& n, DeformationSettings& ds) {
+  if (!n.has("deformation")) return;
+  Node d = n.child("deformation");
+  d.checkKeys({"enabled", "impulse_floor", "bump_depth", "bump_depth_collide", "address_map", "path",
+               "address_raster", "tangent_correction", "tangent_floor", "crater_rims", "lazy_maps", "contact_interval",
+               "normal_mapped_normals", "feel_dents"});
+  ds.enabled = d.boolean("enabled", ds.enabled);
+  ds.impulseFloor = d.number("impulse_floor", ds.impulseFloor, 0, 1e12);
+  ds.bumpDepth = d.number("bump_depth", ds.bumpDepth, 0, 10, true);
+  ds.bumpDepthCollide = d.number("bump_depth_collide", ds.bumpDepthCollide, 0, 10);
+  auto& o = ds.options;
+  o.addressMap = d.integer("address_map", o.addressMap, 16, 4096);
+  const std::string path = d.string("path", "gather");
+  if (path == "gather" || path == "gpu")
+    o.path = deform::Path::Gather;  // "gpu": its name before the scatter had a GPU twin
+  else if (path == "scatter")
+    o.path = deform::Path::Scatter;
+  else if (path == "readback")
+    o.path = deform::Path::Readback;
+  else
+    d.fail("path", "must be \"gather\", \"scatter\" or \"readback\", got '" + quoteText(path) + "'");
+  o.addressRaster = d.choice<deform::AddressRaster>("address_raster", {{"auto", deform::AddressRaster::Auto},
+                                                                       {"compute", deform::AddressRaster::Compute},
+                                                                       {"fragment", deform::AddressRaster::Fragment}});
+  o.tangent = d.choice<deform::TangentMode>("tangent_correction", {{"none", deform::TangentMode::None},
+                                                                   {"multiply", deform::TangentMode::Multiply},
+                                                                   {"divide", deform::TangentMode::Divide}});
+  o.tangentFloor = static_cast<float>(d.number("tangent_floor", o.tangentFloor, 0, 1, true));
+  o.craterRims = d.boolean("crater_rims", o.craterRims);
+  ds.lazyMaps = d.boolean("lazy_maps", ds.lazyMaps);
+  ds.contactInterval = d.number("contact_interval", ds.contactInterval, 0, 10);
+  ds.normalMappedNormals = d.boolean("normal_mapped_normals", ds.normalMappedNormals);
+  ds.feelDents = d.boolean("feel_dents", ds.feelDents);
+}
+
+// "bodies" (required, names unique, at most 64 collision groups); returns their names.
+std::set<std::string> parseBodies(const Node& n, Scene& s, const std::string& baseDir) {
   if (!n.has("bodies")) n.fail("bodies", "is required");
   const json& bodies = n.raw("bodies");
   if (!bodies.is_array()) n.fail("bodies", std::string("must be an array, got ") + typeName(bodies));
@@ -609,9 +469,9 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   std::set<std::string> names;
   for (size_t i = 0; i < bodies.size(); ++i) {
     const std::string path = "bodies[" + std::to_string(i) + "]";
-    BodyDesc b = parseBody(Node(bodies[i], path, file), s, baseDir);
+    BodyDesc b = parseBody(Node(bodies[i], path, s.file), s, baseDir);
     if (!names.insert(b.name).second)
-      throw SceneError(file, path + ".name", "duplicate body name '" + quoteText(b.name) + "'");
+      throw SceneError(s.file, path + ".name", "duplicate body name '" + quoteText(b.name) + "'");
     s.bodies.push_back(std::move(b));
   }
   std::set<std::string> groups;
@@ -619,63 +479,93 @@ Scene parseScene(const std::string& text, const std::string& file, const std::st
   if (groups.size() > 64) {
     for (size_t i = 0; i < s.bodies.size(); ++i)
       if (std::distance(groups.begin(), groups.find(s.bodies[i].group)) >= 64)
-        throw SceneError(file, "bodies[" + std::to_string(i) + "].group", "more than 64 collision groups");
+        throw SceneError(s.file, "bodies[" + std::to_string(i) + "].group", "more than 64 collision groups");
   }
-  if (n.has("joints")) {
-    const json& js = n.raw("joints");
-    if (!js.is_array()) n.fail("joints", std::string("must be an array, got ") + typeName(js));
-    if (js.size() > 100000) n.fail("joints", "more than 100000 joints");
-    std::set<std::string> jointNames;
-    for (size_t i = 0; i < js.size(); ++i) {
-      const std::string path = "joints[" + std::to_string(i) + "]";
-      JointDesc j = parseJoint(Node(js[i], path, file), i, names);
-      if (!jointNames.insert(j.name).second)
-        throw SceneError(file, path + ".name", "duplicate joint name '" + quoteText(j.name) + "'");
-      s.joints.push_back(std::move(j));
-    }
+  return names;
+}
+
+// "joints" between the named bodies (names unique).
+void parseJoints(const Node& n, Scene& s, const std::set<std::string>& names) {
+  if (!n.has("joints")) return;
+  const json& js = n.raw("joints");
+  if (!js.is_array()) n.fail("joints", std::string("must be an array, got ") + typeName(js));
+  if (js.size() > 100000) n.fail("joints", "more than 100000 joints");
+  std::set<std::string> jointNames;
+  for (size_t i = 0; i < js.size(); ++i) {
+    const std::string path = "joints[" + std::to_string(i) + "]";
+    JointDesc j = parseJoint(Node(js[i], path, s.file), i, names);
+    if (!jointNames.insert(j.name).second)
+      throw SceneError(s.file, path + ".name", "duplicate joint name '" + quoteText(j.name) + "'");
+    s.joints.push_back(std::move(j));
   }
-  if (n.has("no_collide")) {
-    const json& nc = n.raw("no_collide");
-    if (!nc.is_array()) n.fail("no_collide", "must be an array of [group, group] pairs");
-    for (size_t i = 0; i < nc.size(); ++i) {
-      const std::string path = "no_collide[" + std::to_string(i) + "]";
-      if (!nc[i].is_array() || nc[i].size() != 2 || !nc[i][0].is_string() || !nc[i][1].is_string())
-        throw SceneError(file, path, "must be a pair of group names [\"a\", \"b\"]");
-      for (size_t k = 0; k < 2; ++k)
-        if (!groups.count(nc[i][k].get<std::string>()))
-          throw SceneError(file, path + "[" + std::to_string(k) + "]",
-                           "no body is in group '" + quoteText(nc[i][k].get<std::string>()) + "'");
-      s.noCollide.push_back({nc[i][0].get<std::string>(), nc[i][1].get<std::string>()});
-    }
+}
+
+// "no_collide": pairs of the bodies' collision groups.
+void parseNoCollide(const Node& n, Scene& s) {
+  if (!n.has("no_collide")) return;
+  std::set<std::string> groups;
+  for (const BodyDesc& b : s.bodies) groups.insert(b.group);
+  const json& nc = n.raw("no_collide");
+  if (!nc.is_array()) n.fail("no_collide", "must be an array of [group, group] pairs");
+  for (size_t i = 0; i < nc.size(); ++i) {
+    const std::string path = "no_collide[" + std::to_string(i) + "]";
+    if (!nc[i].is_array() || nc[i].size() != 2 || !nc[i][0].is_string() || !nc[i][1].is_string())
+      throw SceneError(s.file, path, "must be a pair of group names [\"a\", \"b\"]");
+    for (size_t k = 0; k < 2; ++k)
+      if (!groups.count(nc[i][k].get<std::string>()))
+        throw SceneError(s.file, path + "[" + std::to_string(k) + "]",
+                         "no body is in group '" + quoteText(nc[i][k].get<std::string>()) + "'");
+    s.noCollide.push_back({nc[i][0].get<std::string>(), nc[i][1].get<std::string>()});
   }
-  if (n.has("cameras")) {
-    const json& cams = n.raw("cameras");
-    if (!cams.is_array()) n.fail("cameras", "must be an array");
-    std::set<std::string> camNames;
-    for (size_t i = 0; i < cams.size(); ++i) {
-      Node c(cams[i], "cameras[" + std::to_string(i) + "]", file);
-      c.requireObject();
-      c.checkKeys({"name", "position", "target", "up", "fov", "follow", "follow_heading", "displace"});
-      CameraDesc cd;
-      cd.name = c.string("name", "camera" + std::to_string(i));
-      if (const std::string why = fileNameProblem(cd.name); !why.empty()) c.fail("name", why);
-      if (!camNames.insert(cd.name).second) c.fail("name", "duplicate camera name '" + quoteText(cd.name) + "'");
-      cd.position = c.vec3("position", cd.position);
-      cd.target = c.vec3("target", cd.target);
-      cd.up = c.vec3("up", cd.up);
-      cd.fov = c.number("fov", cd.fov, 0, 180, true, true);
-      cd.follow = c.string("follow", "");
-      if (c.has("follow") && !names.count(cd.follow))
-        c.fail("follow", "no body is named '" + quoteText(cd.follow) + "'");
-      cd.followHeading = c.boolean("follow_heading", false);
-      if (c.has("follow_heading") && cd.follow.empty()) c.fail("follow_heading", "needs \"follow\"");
-      cd.displace = c.boolean("displace", false);
-      if (glm::length(cd.target - cd.position) < 1e-9) c.fail("target", "must differ from position");
-      if (glm::length(glm::cross(glm::normalize(cd.target - cd.position), cd.up)) < 1e-6)
-        c.fail("up", "must not be parallel to the view direction");
-      s.cameras.push_back(cd);
-    }
+}
+
+// "cameras" (names unique; "follow" a named body).
+void parseCameras(const Node& n, Scene& s, const std::set<std::string>& names) {
+  if (!n.has("cameras")) return;
+  const json& cams = n.raw("cameras");
+  if (!cams.is_array()) n.fail("cameras", "must be an array");
+  std::set<std::string> camNames;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    Node c(cams[i], "cameras[" + std::to_string(i) + "]", s.file);
+    c.requireObject();
+    c.checkKeys({"name", "position", "target", "up", "fov", "follow", "follow_heading", "displace"});
+    CameraDesc cd;
+    cd.name = c.string("name", "camera" + std::to_string(i));
+    if (const std::string why = fileNameProblem(cd.name); !why.empty()) c.fail("name", why);
+    if (!camNames.insert(cd.name).second) c.fail("name", "duplicate camera name '" + quoteText(cd.name) + "'");
+    cd.position = c.vec3("position", cd.position);
+    cd.target = c.vec3("target", cd.target);
+    cd.up = c.vec3("up", cd.up);
+    cd.fov = c.number("fov", cd.fov, 0, 180, true, true);
+    cd.follow = c.string("follow", "");
+    if (c.has("follow") && !names.count(cd.follow)) c.fail("follow", "no body is named '" + quoteText(cd.follow) + "'");
+    cd.followHeading = c.boolean("follow_heading", false);
+    if (c.has("follow_heading") && cd.follow.empty()) c.fail("follow_heading", "needs \"follow\"");
+    cd.displace = c.boolean("displace", false);
+    if (glm::length(cd.target - cd.position) < 1e-9) c.fail("target", "must differ from position");
+    if (glm::length(glm::cross(glm::normalize(cd.target - cd.position), cd.up)) < 1e-6)
+      c.fail("up", "must not be parallel to the view direction");
+    s.cameras.push_back(cd);
   }
+}
+}  // namespace
+
+Scene parseScene(const std::string& text, const std::string& file, const std::string& baseDir) {
+  const json root = parseJson(text, file);
+  Node n(root, "", file);
+  if (!root.is_object())
+    throw SceneError(file, "", std::string("the top level must be an object, got ") + typeName(root));
+  n.checkKeys({"format", "name", "gravity", "timestep", "duration", "threads", "materials", "deformation", "bodies",
+               "joints", "no_collide", "cameras"});
+  Scene s;
+  s.file = file;
+  parseTop(n, s);
+  parseMaterials(n, s);
+  parseDeformation(n, s.deformation);
+  const std::set<std::string> names = parseBodies(n, s, baseDir);
+  parseJoints(n, s, names);
+  parseNoCollide(n, s);
+  parseCameras(n, s, names);
   return s;
 }
 

@@ -99,38 +99,29 @@ void subtractProduct(const Block& a, const Block& b, int nq, int nr, Block& targ
     }
 }
 
-}  // namespace
+// What identifies a system: its active joints in order, each with which of its ends are dynamic.
+int endsCode(const StepContext& ctx, const Joint& jt) {
+  return (jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() ? 1 : 0) | (ctx.body(jt.def.b).dynamic() ? 2 : 0);
+}
 
-
-// The system of this call: the cached one with the sides brought up to date
-// while the active joints and which of their ends are dynamic stay the same,
-// else built anew.
-JointSystem& buildSystem(StepContext& ctx) {
-  if (!ctx.jointSolver.system) ctx.jointSolver.system = std::make_unique<JointSystem>();
-  JointSystem& s = *ctx.jointSolver.system;
-  auto code = [&](const Joint& jt) {
-    return (jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() ? 1 : 0) | (ctx.body(jt.def.b).dynamic() ? 2 : 0);
-  };
-  // Compared in place (no vector built when it is the same).
+// True when `s` is this call's system (compared in place: no vector built when it is the same).
+bool sameSystem(const StepContext& ctx, const JointSystem& s) {
   size_t at = 0;
   bool same = true;
   for (size_t i = 0; i < ctx.joints.size() && same; ++i) {
     const Joint& jt = ctx.joints[i];
     if (!active(ctx, jt)) continue;
-    same = at + 1 < s.signature.size() && s.signature[at] == static_cast<int>(i) && s.signature[at + 1] == code(jt);
+    same = at + 1 < s.signature.size() && s.signature[at] == static_cast<int>(i) &&
+           s.signature[at + 1] == endsCode(ctx, jt);
     at += 2;
   }
-  if (same && at == s.signature.size()) {
-    for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k] = sideAt(ctx, s.sides[k].index);
-    return s;
-  }
+  return same && at == s.signature.size();
+}
+
+// The active joints (ids, and their ends' slots), each body given its slot (side) on first use; the signature.
+void collectJoints(const StepContext& ctx, JointSystem& s, std::vector<int>& ids,
+                   std::vector<std::pair<int, int>>& ends) {
   s.signature.clear();
-  for (size_t i = 0; i < ctx.joints.size(); ++i) {
-    const Joint& jt = ctx.joints[i];
-    if (!active(ctx, jt)) continue;
-    s.signature.push_back(static_cast<int>(i));
-    s.signature.push_back(code(jt));
-  }
   s.conditional = false;
   s.slot.assign(ctx.bodies.size(), -1);
   s.sides.assign(1, Side{});
@@ -149,20 +140,24 @@ JointSystem& buildSystem(StepContext& ctx) {
     }
     return k;
   };
-  std::vector<int> active;
-  std::vector<std::pair<int, int>> ends;
   for (size_t i = 0; i < ctx.joints.size(); ++i) {
     const Joint& jt = ctx.joints[i];
-    if (!crumple::detail::joints::active(ctx, jt)) continue;
+    if (!active(ctx, jt)) continue;
+    s.signature.push_back(static_cast<int>(i));
+    s.signature.push_back(endsCode(ctx, jt));
     const int sa = slotOf(jt.def.a), sb = slotOf(jt.def.b);
-    active.push_back(static_cast<int>(i));
+    ids.push_back(static_cast<int>(i));
     ends.emplace_back(sa, sb);
   }
-  // A spanning forest over the bodies (what cannot move counting as one): the joints taken strongest first (most
-  // rows: a weld, then a hinge or a slider, a ball, a rod), then by id; one whose ends the forest already connects
-  // closes a loop. The forest is solved directly; the loops one by one around it. (With every joint of a component
-  // that holds a loop solved one by one, a heavy body welded on a long lever to a body held by a ring of joints
-  // kept only part of gravity's pull out of its velocity each substep.)
+}
+
+// A spanning forest over the bodies (what cannot move counting as one): the joints taken strongest first (most
+// rows: a weld, then a hinge or a slider, a ball, a rod), then by id; one whose ends the forest already connects
+// closes a loop. The forest is solved directly (s.joints); the loops one by one around it (s.loops). (With every
+// joint of a component that holds a loop solved one by one, a heavy body welded on a long lever to a body held by
+// a ring of joints kept only part of gravity's pull out of its velocity each substep.)
+void spanningForest(const StepContext& ctx, JointSystem& s, const std::vector<int>& ids,
+                    const std::vector<std::pair<int, int>>& ends) {
   auto rowCount = [&](int i) {
     switch (ctx.joints[static_cast<size_t>(i)].def.type) {
       case JointType::Fixed: return 6;
@@ -172,18 +167,18 @@ JointSystem& buildSystem(StepContext& ctx) {
       default: return 1;
     }
   };
-  std::vector<size_t> strongest(active.size());
+  std::vector<size_t> strongest(ids.size());
   for (size_t k = 0; k < strongest.size(); ++k) strongest[k] = k;
   std::stable_sort(strongest.begin(), strongest.end(),
-                   [&](size_t p, size_t q) { return rowCount(active[p]) > rowCount(active[q]); });
+                   [&](size_t p, size_t q) { return rowCount(ids[p]) > rowCount(ids[q]); });
   DisjointSets forest;
   forest.reset(s.sides.size());
   for (size_t k = 1; k < s.sides.size(); ++k)
     if (!(s.sides[k].invMass > 0)) forest.unite(static_cast<int>(k), 0);  // what cannot move is one
-  std::vector<char> closesLoop(active.size(), 0);
+  std::vector<char> closesLoop(ids.size(), 0);
   for (size_t k : strongest) closesLoop[k] = !forest.unite(ends[k].first, ends[k].second);
-  for (size_t k = 0; k < active.size(); ++k) {
-    const int i = active[k];
+  for (size_t k = 0; k < ids.size(); ++k) {
+    const int i = ids[k];
     const Joint& jt = ctx.joints[static_cast<size_t>(i)];
     const int sa = ends[k].first, sb = ends[k].second;
     if (closesLoop[k]) {
@@ -200,7 +195,11 @@ JointSystem& buildSystem(StepContext& ctx) {
     if (s.sides[static_cast<size_t>(sa)].invMass > 0) s.onBody[static_cast<size_t>(sa)].emplace_back(kk, -1);
     if (s.sides[static_cast<size_t>(sb)].invMass > 0) s.onBody[static_cast<size_t>(sb)].emplace_back(kk, +1);
   }
-  // Minimum degree order over the joint graph (ties: the lower id), with the fill it makes.
+}
+
+// The forest's elimination order: minimum degree over the joint graph (ties: the lower id), with the fill it
+// makes (s.order, s.place, s.later); then the factorisation's workspace sized.
+void eliminationOrder(JointSystem& s) {
   const size_t n = s.joints.size();
   std::vector<std::vector<int>> adj(n);
   auto link = [&](int p, int q) {
@@ -245,6 +244,24 @@ JointSystem& buildSystem(StepContext& ctx) {
   s.off.resize(n);
   for (size_t p = 0; p < n; ++p) s.off[p].resize(s.later[p].size());
   s.x.resize(n);
+}
+}  // namespace
+
+// The system of this call: the cached one with the sides brought up to date
+// while the active joints and which of their ends are dynamic stay the same,
+// else built anew.
+JointSystem& buildSystem(StepContext& ctx) {
+  if (!ctx.jointSolver.system) ctx.jointSolver.system = std::make_unique<JointSystem>();
+  JointSystem& s = *ctx.jointSolver.system;
+  if (sameSystem(ctx, s)) {
+    for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k] = sideAt(ctx, s.sides[k].index);
+    return s;
+  }
+  std::vector<int> ids;
+  std::vector<std::pair<int, int>> ends;
+  collectJoints(ctx, s, ids, ends);
+  spanningForest(ctx, s, ids, ends);
+  eliminationOrder(s);
   return s;
 }
 
@@ -325,10 +342,10 @@ void solveLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
                s.sides[static_cast<size_t>(s.loopEnds[k].second)], h, pre);
 }
 
-// Solves every joint's rows at once and applies the impulses.
-void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
+namespace {
+// The system's matrix, block by block (s.diag, s.off), from the rows of each body's joints.
+void assemble(JointSystem& s) {
   const size_t n = s.joints.size();
-  auto size = [&](int pos) { return s.rows[static_cast<size_t>(s.order[static_cast<size_t>(pos)])].n; };
   for (size_t p = 0; p < n; ++p) {
     s.diag[p] = {};
     for (Block& b : s.off[p]) b = {};
@@ -379,8 +396,13 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
       }
     }
   }
-  // Factor: eliminate each position into the later ones it is coupled to; the
-  // off-diagonal blocks become D_p^-1 A_pq.
+}
+
+// Factor: eliminate each position into the later ones it is coupled to; the off-diagonal blocks become
+// D_p^-1 A_pq.
+void factor(JointSystem& s) {
+  const size_t n = s.joints.size();
+  auto size = [&](int pos) { return s.rows[static_cast<size_t>(s.order[static_cast<size_t>(pos)])].n; };
   for (size_t p = 0; p < n; ++p)
     for (int k = 0; k < size(static_cast<int>(p)); ++k) s.scale[p][static_cast<size_t>(k)] = s.diag[p].m[k][k];
   for (size_t p = 0; p < n; ++p) {
@@ -409,7 +431,13 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
     });
     off.swap(scaled);
   }
-  // Solve: forward, the diagonal, back.
+}
+
+// The impulses (s.x, by position): the right-hand sides (the rows' errors as rates), then forward
+// substitution, the diagonal, back substitution.
+void substitute(JointSystem& s, double h, bool pre) {
+  const size_t n = s.joints.size();
+  auto size = [&](int pos) { return s.rows[static_cast<size_t>(s.order[static_cast<size_t>(pos)])].n; };
   for (size_t p = 0; p < n; ++p) {
     const JointRows& jr = s.rows[static_cast<size_t>(s.order[p])];
     for (int k = 0; k < jr.n; ++k) s.x[p][static_cast<size_t>(k)] = pre ? -jr.err[k] / h : -jr.err[k];
@@ -446,6 +474,15 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
       }
     }
   }
+}
+}  // namespace
+
+// Solves every joint's rows at once and applies the impulses.
+void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
+  const size_t n = s.joints.size();
+  assemble(s);
+  factor(s);
+  substitute(s, h, pre);
   // Apply, in id order.
   for (size_t k = 0; k < n; ++k) {
     const JointRows& jr = s.rows[k];

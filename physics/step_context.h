@@ -6,16 +6,16 @@
 // poses, the contact groups, the poses at the start of the position update).
 //
 // The stages, one file each, in the order World::step and World::substep
-// (world.cpp) run them (docs/architecture.md has the same table):
+// (world_step.cpp) run them (docs/architecture.md has the same table):
 //   World::step, once a step:
 //     broad_phase.cpp        stepTravel        (substeps: only pairs that can meet count)
 //   World::substep, every substep:
-//     world.cpp              the world inverse inertias
+//     world_step.cpp         the world inverse inertias
 //     broad_phase.cpp        findPairs
 //     islands.cpp            findIslands       (the units the passes run in parallel)
 //     broad_phase.cpp        findCandidates
 //     joint_step.cpp         findAnchored      (bodies welded to the world or to static bodies)
-//     without joints: World::collideAndContact (world.cpp), island by island:
+//     without joints: World::collideAndContact (world_step.cpp), island by island:
 //       collision_step.cpp   CollisionRun      (narrow_phase.cpp, polytope.cpp find the contacts)
 //       contact_step.cpp     integrateVelocity of the island's bodies, then ContactRun;
 //     then the bodies in no island (integrateVelocity) and ContactRun::finish (resting_solve.cpp)
@@ -30,7 +30,7 @@
 //     joint_step.cpp         postStabilize
 //     sleep.cpp              updateSleep
 //   World::step, after the substeps: when any body's state left finite numbers, the whole
-//     step is undone (world.cpp, checkFinite) and its StepStatus names the body.
+//     step is undone (world_step.cpp, checkFinite) and its StepStatus names the body.
 // Each file opens with what its stage guarantees.
 #pragma once
 #include <glm/glm.hpp>

@@ -1,0 +1,262 @@
+// The order of the stages in a step and a substep (World::step, World::substep, World::collideAndContact), with
+// the step's refusal of a non-finite state. The stages themselves live one per file (physics/step_context.h lists
+// them); the World's API is in world.cpp.
+#include <crumple/physics/world.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+
+#include <crumple/physics/step_context.h>
+#include <crumple/physics/thread_pool.h>
+
+namespace crumple {
+
+using detail::finite;
+
+namespace {
+// Bodies per item of the per-body loops that run on the pool.
+constexpr size_t kBodyGrain = 256;
+
+// Adds the milliseconds since `since` to `ms` and restarts the clock.
+class StageClock {
+ public:
+  void lap(double& ms) {
+    const auto now = std::chrono::steady_clock::now();
+    ms += std::chrono::duration<double, std::milli>(now - since_).count();
+    since_ = now;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point since_ = std::chrono::steady_clock::now();
+};
+}  // namespace
+
+namespace {
+bool finiteState(const RigidBody& b) {
+  return finite(b.x) && finite(b.v) && finite(b.w) && finite(b.q);
+}
+
+// After the substeps: every body's state finite, or the step undone (StepStatus).
+StepStatus checkFinite(detail::StepContext& ctx, const std::vector<detail::BodyState>& before, double timeBefore) {
+  std::vector<int> first(static_cast<size_t>(ctx.workers()), -1);  // per worker: its lowest non-finite body
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+    int& f = first[static_cast<size_t>(worker)];
+    for (size_t i = begin; i < end; ++i)
+      if (!finiteState(ctx.bodies[i]) && (f < 0 || static_cast<int>(i) < f)) f = static_cast<int>(i);
+  });
+  int bad = -1;
+  for (int f : first)
+    if (f >= 0 && (bad < 0 || f < bad)) bad = f;
+  StepStatus status;
+  if (bad < 0) return status;
+  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+    RigidBody& b = ctx.bodies[i];
+    b.x = before[i].x;
+    b.q = before[i].q;
+    b.v = before[i].v;
+    b.w = before[i].w;
+  }
+  // What the step found and kept is dropped with it: pairs, manifolds, events, reports, breaks.
+  ctx.pairs.clear();
+  ctx.previousPairs.clear();
+  ctx.events.clear();
+  ctx.contactReports.clear();
+  ctx.jointBreaks.clear();
+  ctx.time = timeBefore;
+  const detail::BodyState& last = before[static_cast<size_t>(bad)];
+  status.ok = false;
+  status.body = bad;
+  status.lastPose = {last.x, last.q};
+  status.lastVelocity = last.v;
+  status.lastAngularVelocity = last.w;
+  return status;
+}
+}  // namespace
+
+void World::collideAndContact(double h) {
+  detail::StepContext& ctx = *ctx_;
+  const auto start = std::chrono::steady_clock::now();
+  detail::CollisionRun collision(ctx, h);
+  detail::ContactRun contact(ctx, h);
+  // A movable body is in one island at most (islands.cpp): its velocities are integrated there, once.
+  std::vector<char>& done = ctx.integrated;
+  done.assign(ctx.bodies.size(), 0);
+  // Per worker (a cache line each): seconds in the collision step and in all, for the stage profile.
+  struct alignas(64) Seconds {
+    double collide = 0, all = 0;
+  };
+  std::vector<Seconds> seconds(static_cast<size_t>(ctx.workers()));
+  ctx.forEachIsland([&](size_t island, int worker) {
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    collision.island(island, worker);
+    const auto t1 = Clock::now();
+    for (uint32_t k = ctx.islandStart[island]; k < ctx.islandStart[island + 1]; ++k) {
+      const detail::Pair& p = ctx.pairs[ctx.islandPairs[k]];
+      for (int i : {p.a, p.b}) {
+        const size_t b = static_cast<size_t>(i);
+        if (done[b] || !ctx.bodies[b].movable()) continue;
+        done[b] = 1;
+        detail::integrateVelocity(ctx, b, h);
+        contact.startBody(b);
+      }
+    }
+    contact.island(island, worker);
+    Seconds& t = seconds[static_cast<size_t>(worker)];
+    t.collide += std::chrono::duration<double>(t1 - t0).count();
+    t.all += std::chrono::duration<double>(Clock::now() - t0).count();
+  });
+  collision.finish();
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t b = begin; b < end; ++b) {
+      if (done[b]) continue;
+      detail::integrateVelocity(ctx, b, h);
+      contact.startBody(b);
+    }
+  });
+  contact.finish();
+  // The stage profile: the wall time split as the workers' time was.
+  const double wall = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  double collideTime = 0, islandTime = 0;
+  for (const Seconds& t : seconds) {
+    collideTime += t.collide;
+    islandTime += t.all;
+  }
+  const double share = islandTime > 0 ? collideTime / islandTime : 0.0;
+  ctx.stats.ms.collide += wall * share;
+  ctx.stats.ms.contact -= wall * share;  // the caller laps the whole as the contact step's
+}
+
+void World::substep(double h) {
+  detail::StepContext& ctx = *ctx_;
+  StepProfile& ms = ctx.stats.ms;
+  StageClock clock;
+  // World inverse inertias: orientations stay fixed until the position update.
+  ctx.invInertia.resize(ctx.bodies.size());
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) ctx.invInertia[i] = ctx.bodies[i].invInertiaWorld();
+  });
+  detail::findPairs(ctx, h);
+  ctx.stats.pairs += static_cast<int>(ctx.pairs.size());
+  for (detail::Pair& p : ctx.pairs) p.looks = p.keptLooks = 0;
+  detail::findIslands(ctx);
+  clock.lap(ms.broadPhase);
+  detail::findCandidates(ctx, h);
+  clock.lap(ms.candidates);
+  detail::findAnchored(ctx);
+  if (ctx.joints.empty()) {
+    // 1-3 island by island, each island's data still in the cache from one stage to the next: the same
+    // impulses in the same order as the stages one after the other (no joints to stabilise between them).
+    collideAndContact(h);
+    clock.lap(ms.contact);
+  } else {
+    // 1. collision with restitution on predicted positions (emits events)
+    detail::collide(ctx, h);
+    clock.lap(ms.collide);
+    // 2. velocities, 3. contact with the restitution ramp
+    detail::integrateVelocities(ctx, h);
+    clock.lap(ms.contact);
+    detail::preStabilize(ctx, h, ctx.settings.jointIterations, true);
+    clock.lap(ms.joints);
+    detail::contactStep(ctx, h);
+    clock.lap(ms.contact);
+  }
+  for (const detail::Pair& p : ctx.pairs) {
+    ctx.stats.looks += p.looks;
+    ctx.stats.keptLooks += p.keptLooks;
+  }
+  // 4. shock propagation
+  detail::shockPropagation(ctx, h);
+  clock.lap(ms.shockPropagation);
+  // Joints again: the contacts and shock propagation moved the velocities.
+  detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);
+  clock.lap(ms.joints);
+  // 5. positions, then the positional projection
+  ctx.stepStart.resize(ctx.bodies.size());
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) ctx.stepStart[i] = {ctx.bodies[i].x, ctx.bodies[i].q};
+  });
+  detail::endOfStepDepths(ctx, h);
+  detail::integratePositions(ctx, h);
+  detail::projectPositions(ctx, h);
+  clock.lap(ms.positions);
+  detail::postStabilize(ctx, h);
+  clock.lap(ms.joints);
+  // 6. sleeping
+  detail::updateSleep(ctx, h);
+  clock.lap(ms.sleep);
+  ctx.time += h;
+}
+
+StepStatus World::step(double h) {
+  if (!(h > 0) || !std::isfinite(h)) throw std::invalid_argument("time step must be positive and finite");
+  const auto start = std::chrono::steady_clock::now();
+  detail::StepContext& ctx = *ctx_;
+  // The pool: WorldSettings::threads in all (0: the hardware's), made again when the count changes.
+  int threads = ctx.settings.threads > 0 ? ctx.settings.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, 256);
+  if (threads == 1) {
+    pool_.reset();
+  } else if (!pool_ || pool_->size() != threads) {
+    pool_.reset();
+    pool_ = std::make_unique<detail::ThreadPool>(threads);
+  }
+  ctx.pool = pool_.get();
+  ctx.events.clear();
+  ctx.contactReports.clear();
+  ctx.jointBreaks.clear();
+  for (detail::Joint& jt : ctx.joints) jt.stepImpulse = glm::dvec3(0);
+  ctx.reportContacts.resize(ctx.bodies.size(), 0);
+  if (!ctx.bumpNormals.empty()) ctx.bumpNormals.resize(ctx.bodies.size(), 0);
+  if (!ctx.dentRise.empty()) ctx.dentRise.resize(ctx.bodies.size(), -1.0);
+  if (!ctx.dentBox.empty()) ctx.dentBox.resize(ctx.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
+  ctx.stats = {};
+  ctx.frozen.assign(ctx.bodies.size(), 0);
+  // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
+  // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
+  // the thinner one's half thickness (stepTravel).
+  std::vector<double> travel(static_cast<size_t>(ctx.workers()), 0.0);  // the largest per worker
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+    double most = 0;
+    for (size_t i = begin; i < end; ++i) {
+      const RigidBody& b = ctx.bodies[i];
+      if (!b.movable()) continue;
+      const double speed =
+          glm::length(b.v) + glm::length(ctx.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
+      most = std::max(most, speed * h);
+    }
+    travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);
+  });
+  const double maxTravel = *std::max_element(travel.begin(), travel.end());
+  double ratio = maxTravel / (ctx.settings.substepFraction * std::max(ctx.minHalfThickness, 1e-4));
+  if (ratio > 1) ratio = detail::stepTravel(ctx, h);
+  const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, ctx.settings.maxSubsteps));
+  ctx.substepsCapped = ratio > n;
+  // Each body's state before the step: what a step that goes non-finite is undone to.
+  std::vector<detail::BodyState>& before = ctx.stepBefore;
+  before.resize(ctx.bodies.size());
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+    for (size_t i = begin; i < end; ++i) before[i] = {ctx.bodies[i].x, ctx.bodies[i].q, ctx.bodies[i].v, ctx.bodies[i].w};
+  });
+  const double timeBefore = ctx.time;
+  for (int s = 0; s < n; ++s) substep(h / n);
+  ctx.stats.substeps = n;
+  const StepStatus status = checkFinite(ctx, before, timeBefore);
+  std::vector<int> awake(static_cast<size_t>(ctx.workers()), 0);
+  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+    int count = 0;
+    for (size_t i = begin; i < end; ++i) {
+      ctx.force[i] = glm::dvec3(0);
+      ctx.torque[i] = glm::dvec3(0);
+      count += ctx.bodies[i].movable();
+    }
+    awake[static_cast<size_t>(worker)] += count;
+  });
+  for (int a : awake) ctx.stats.awake += a;
+  ctx.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return status;
+}
+
+}  // namespace crumple

@@ -31,7 +31,6 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-// The wheel mesh is a cylinder along y; wheels turn about the body's z axis.
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 }  // namespace
@@ -43,8 +42,6 @@ SideDecision decideSide(const Material& material, double thickness, double impul
   d.deformDepth = deformDepth(thickness, d.percentDeform);
   return d;
 }
-
-namespace {}  // namespace
 
 Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), assets_(scene.file) {
   world_.settings().gravity = scene.gravity;
@@ -82,160 +79,6 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
 Simulation::~Simulation() {
   for (DentCopy& d : dents_)
     if (d.fence) glDeleteSync(d.fence);
-}
-
-void Simulation::beforeDent(int i) {
-  DentCopy& d = dents_[static_cast<size_t>(i)];
-  if (!d.feel) return;
-  d.pending = true;
-  if (!d.start.empty()) return;
-  const deform::Surface& surface = *bodies_[static_cast<size_t>(i)].surface;
-  d.resolution = surface.resolution();
-  d.start = surface.downloadHeight().pixels;  // once, before its first dent
-  d.height = d.start;
-}
-
-void Simulation::readBackDents() {
-  for (size_t i = 0; i < dents_.size(); ++i) {
-    DentCopy& d = dents_[i];
-    if (!d.pending) continue;
-    d.pending = false;
-    const deform::Surface& surface = *bodies_[i].surface;
-    const size_t bytes = static_cast<size_t>(d.resolution) * static_cast<size_t>(d.resolution) * sizeof(float);
-    if (d.pixels.size() != bytes) d.pixels = gl::Buffer(bytes, nullptr, GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
-    if (d.fence) glDeleteSync(d.fence);
-    glBindBuffer(GL_PIXEL_PACK_BUFFER, d.pixels.id());
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glGetTextureImage(surface.height().id(), 0, GL_RED, GL_FLOAT, static_cast<GLsizei>(bytes), nullptr);
-    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
-    d.fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
-    d.k = surface.bumpDepth();
-  }
-}
-
-void Simulation::takeInDents() {
-  for (size_t i = 0; i < dents_.size(); ++i) {
-    DentCopy& d = dents_[i];
-    if (!d.fence) continue;
-    // Issued a step ago: on a GPU long done (the wait returns at once); the flush makes sure it was sent.
-    const auto waitStart = Clock::now();
-    glClientWaitSync(d.fence, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ull);
-    timings_.dentWaitMs += msSince(waitStart);
-    ++timings_.dentReads;
-    glDeleteSync(d.fence);
-    d.fence = nullptr;
-    const size_t texels = d.height.size();
-    const void* map = glMapNamedBufferRange(d.pixels.id(), 0, static_cast<GLsizeiptr>(texels * sizeof(float)),
-                                           GL_MAP_READ_BIT);
-    if (!map) continue;
-    std::memcpy(d.height.data(), map, texels * sizeof(float));
-    glUnmapNamedBuffer(d.pixels.id());
-    // Where the map differs from its start: the rectangle around it, and which tiles of kDentTile x kDentTile
-    // texels hold a change (an atlas spreads one dent over charts far apart in uv: the rectangle can cover the
-    // whole map while the tiles cover the dent).
-    const int r = d.resolution;
-    const int tiles = (r + kDentTile - 1) / kDentTile;
-    std::vector<char> changed(static_cast<size_t>(tiles) * static_cast<size_t>(tiles), 0);
-    d.lo = glm::ivec2(r);
-    d.hi = glm::ivec2(-1);
-    float highest = 0.5f;
-    for (int y = 0; y < r; ++y)
-      for (int x = 0; x < r; ++x) {
-        const size_t t = static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x);
-        if (d.height[t] == d.start[t]) continue;
-        d.lo = glm::min(d.lo, glm::ivec2(x, y));
-        d.hi = glm::max(d.hi, glm::ivec2(x, y));
-        highest = std::max(highest, d.height[t]);
-        changed[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(tiles) + static_cast<size_t>(x / kDentTile)] = 1;
-      }
-    const TriangleMesh& mesh = *bodies_[i].mesh;
-    d.boxLo = glm::dvec3(1e300);
-    d.boxHi = glm::dvec3(-1e300);
-    // The triangles over changed tiles (one texel around: the lookup interpolates between texel centres), in a
-    // mesh and a BVH of their own: the lookups search these, not the whole mesh (a car's 60 000 triangles cost a
-    // microsecond a lookup), and the box around them is where lookups happen at all.
-    TriangleMesh over;
-    d.triangleOf.clear();
-    if (d.hi.x >= d.lo.x) {
-      for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
-        const glm::uvec3& t = mesh.triangles[ti];
-        const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
-        const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
-        const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
-        if (thi.x < d.lo.x || thi.y < d.lo.y || tlo.x > d.hi.x || tlo.y > d.hi.y) continue;
-        bool over_ = false;
-        for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile && !over_; ++ty)
-          for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile && !over_; ++tx)
-            over_ = changed[static_cast<size_t>(ty) * static_cast<size_t>(tiles) + static_cast<size_t>(tx)] != 0;
-        if (!over_) continue;
-        const unsigned first = static_cast<unsigned>(over.positions.size());
-        for (int k = 0; k < 3; ++k) {
-          const glm::dvec3 p(mesh.positions[t[k]]);
-          d.boxLo = glm::min(d.boxLo, p);
-          d.boxHi = glm::max(d.boxHi, p);
-          over.positions.push_back(mesh.positions[t[k]]);
-        }
-        over.triangles.emplace_back(first, first + 1, first + 2);
-        d.triangleOf.push_back(static_cast<int>(ti));
-      }
-      d.boxLo -= d.k;
-      d.boxHi += d.k;
-    }
-    d.near = over.triangles.empty() ? nullptr : std::make_unique<NearTriangles>(over, kNearCell, kOnSurface);
-    const bool dented = d.boxHi.x >= d.boxLo.x;
-    world_.setDented(bodies_[i].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
-                     {d.boxLo, d.boxHi});
-  }
-}
-
-double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {
-  bent = n;
-  if (i < 0) return 0;
-  const DentCopy& d = dents_[static_cast<size_t>(i)];
-  // Only points over dented texels look anything up.
-  if (!d.near || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
-      p.z > d.boxHi.z)
-    return 0;
-  return lookUpDepth(d, i, p, n, bent);
-}
-
-double Simulation::lookUpDepth(const DentCopy& d, int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {
-  const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
-  // The nearest triangle over the changed tiles (exact; among equally near ones, as where a mesh holds a face twice, the
-  // lowest index). A point further from them than kOnSurface (more than the
-  // collision shape's own error off the surface there) lies over the rest of the surface, where the map is as it
-  // started: it feels nothing, as points outside the box do. (Those triangles reach past the change by the rest
-  // of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
-  const TriangleBvh::Hit hit = d.near->closest(p);
-  if (hit.triangle < 0) return 0;
-  const glm::uvec3 t = mesh.triangles[static_cast<size_t>(d.triangleOf[static_cast<size_t>(hit.triangle)])];
-  const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);
-  const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;
-  const int r = d.resolution;
-  // The height and its derivatives in uv, bilinear between texel centres.
-  const glm::dvec2 f = uv * double(r) - 0.5;
-  const glm::ivec2 base(static_cast<int>(std::floor(f.x)), static_cast<int>(std::floor(f.y)));
-  if (base.x + 1 < d.lo.x - 1 || base.y + 1 < d.lo.y - 1 || base.x > d.hi.x + 1 || base.y > d.hi.y + 1) return 0;
-  auto at = [&](int x, int y) {
-    x = std::clamp(x, 0, r - 1);
-    y = std::clamp(y, 0, r - 1);
-    return double(d.height[static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x)]);
-  };
-  const double fx = f.x - base.x, fy = f.y - base.y;
-  const double h00 = at(base.x, base.y), h10 = at(base.x + 1, base.y), h01 = at(base.x, base.y + 1),
-               h11 = at(base.x + 1, base.y + 1);
-  const double h = (h00 * (1 - fx) + h10 * fx) * (1 - fy) + (h01 * (1 - fx) + h11 * fx) * fy;
-  const double hu = ((h10 - h00) * (1 - fy) + (h11 - h01) * fy) * r;  // dh/du
-  const double hv = ((h01 - h00) * (1 - fx) + (h11 - h10) * fx) * r;  // dh/dv
-  // The dented surface P + n k (h - 0.5): its tangents dP/du + n k dh/du, dP/dv + n k dh/dv.
-  UvFrame frame;
-  if (uvFrame(mesh, t, frame)) {
-    glm::dvec3 m = glm::cross(frame.dPdu + n * (d.k * hu), frame.dPdv + n * (d.k * hv));
-    if (glm::dot(m, n) < 0) m = -m;
-    const double len = glm::length(m);
-    if (len > 1e-12) bent = m / len;
-  }
-  return d.k * (0.5 - h);
 }
 
 void Simulation::gpuTimes(bool wait) {

@@ -12,14 +12,14 @@ the dented region, darker where deeper, optionally beside a second map's
   tools/dent-view.py A/car.png --compare B/car.png --png side-by-side.png
 
 Standard library only."""
-import argparse, os, struct, sys, zlib
+import argparse, os, struct, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import png_decode  # noqa: E402
+from scenegen import png  # noqa: E402
 
 
 def read_png16(path):
-    w, h, depth, ctype, raw = png_decode.decode(path)
+    w, h, depth, ctype, raw = png.decode(path)
     if depth != 16 or ctype != 0:
         sys.exit("%s: not a 16-bit grey height map" % path)
     rows = [[struct.unpack(">H", bytes(line[2 * x:2 * x + 2]))[0] / 65535 for x in range(w)] for line in raw]
@@ -37,14 +37,6 @@ def measure(w, h, H, eps):
     holes = sum(1 for y in range(y0, y1 + 1) for x in range(x0, x1 + 1)
                 if not dented(x, y) and ((dented(x - 1, y) and dented(x + 1, y)) or (dented(x, y - 1) and dented(x, y + 1))))
     return cells, cont, holes, min(H[y][x] for x, y in cells)
-
-
-def write_png8(path, rows):
-    raw = b"".join(b"\0" + bytes(r) for r in rows)
-    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", len(rows[0]), len(rows), 8, 0, 0, 0, 0))
-                + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
 
 
 def main():
@@ -96,7 +88,7 @@ def main():
         if args.scale < 1 or args.scale > 16:
             sys.exit("--scale must be in [1, 16]")
         rows = [[v for v in r for _ in range(args.scale)] for r in rows for _ in range(args.scale)]
-        write_png8(args.png, rows)
+        png.write_grey8(args.png, rows)
         print("wrote %s (texels x %d-%d, y %d-%d)" % (args.png, x0, x1, y0, y1))
 
 

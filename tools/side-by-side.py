@@ -4,7 +4,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import png_decode  # noqa: E402
+from scenegen import png  # noqa: E402
 
 
 def main():
@@ -13,12 +13,12 @@ def main():
         return
     if len(sys.argv) < 3:
         sys.exit(__doc__)
-    pictures = [png_decode.read_rgb(p) for p in sys.argv[2:]]
+    pictures = [png.read_rgb(p) for p in sys.argv[2:]]
     height = pictures[0][1]
     if any(p[1] != height for p in pictures):
         sys.exit("the pictures differ in height")
     rows = [b"".join(p[2][y] for p in pictures) for y in range(height)]
-    png_decode.write_rgb(sys.argv[1], sum(p[0] for p in pictures), height, rows)
+    png.write_rgb(sys.argv[1], sum(p[0] for p in pictures), height, rows)
 
 
 main()

@@ -6,7 +6,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import png_decode  # noqa: E402
+from scenegen import png  # noqa: E402
 
 THRESHOLD = 30  # summed |r g b| difference from the background that counts as moving
 
@@ -17,7 +17,7 @@ def main():
         return
     if len(sys.argv) < 4:
         sys.exit(__doc__)
-    frames = [png_decode.read_rgb(p) for p in sys.argv[2:]]
+    frames = [png.read_rgb(p) for p in sys.argv[2:]]
     w, h = frames[0][0], frames[0][1]
     if any(f[0] != w or f[1] != h for f in frames):
         sys.exit("the frames differ in size")
@@ -35,7 +35,7 @@ def main():
                     pick = p
             row[3 * x:3 * x + 3] = pick
         out.append(bytes(row))
-    png_decode.write_rgb(sys.argv[1], w, h, out)
+    png.write_rgb(sys.argv[1], w, h, out)
 
 
 main()

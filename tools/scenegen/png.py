@@ -1,5 +1,5 @@
-"""PNG reading and writing shared by the tools' scripts (no Pillow on a bare machine): chunks, zlib, the five row
-filters; 8-bit RGB out."""
+"""PNG reading and writing for the tools (no Pillow on a bare machine): chunks, zlib, the five row filters in;
+8-bit RGB, 8- and 16-bit grey out (unfiltered rows, zlib level 9: the same bytes on every run)."""
 import struct
 import sys
 import zlib
@@ -58,13 +58,36 @@ def read_rgb(path):
     return w, h, [b"".join(bytes(line[i:i + 3]) for i in range(0, w * bpp, bpp)) for line in raw]
 
 
-def write_rgb(path, width, height, rows):
-    """Writes 8-bit RGB rows (bytes of width * 3 each) as a PNG."""
-    raw = b"".join(b"\x00" + bytes(rows[y]) for y in range(height))
+def encode(width, height, depth, colour, rows):
+    """PNG bytes of `rows` (bytes each, packed as the depth and colour type say), each row unfiltered."""
+    raw = b"".join(b"\x00" + bytes(row) for row in rows)
 
     def chunk(kind, body):
         return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
 
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+
+
+def write_rgb(path, width, height, rows):
+    """Writes 8-bit RGB rows (bytes of width * 3 each) as a PNG."""
     with open(path, "wb") as out:
-        out.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)) +
-                  chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+        out.write(encode(width, height, 8, 2, rows[:height]))
+
+
+def write_grey8(path, rows):
+    """Writes 8-bit grey rows (a list of byte values each) as a PNG."""
+    with open(path, "wb") as out:
+        out.write(encode(len(rows[0]), len(rows), 8, 0, [bytes(r) for r in rows]))
+
+
+def write_grey16(path, width, height, pixel):
+    """Writes a 16-bit grey PNG whose texel (x, y) is pixel(x, y) in [0, 1] (clamped, rounded to 1/65535)."""
+    rows = []
+    for y in range(height):
+        row = bytearray()
+        for x in range(width):
+            row += struct.pack(">H", max(0, min(65535, int(round(pixel(x, y) * 65535)))))
+        rows.append(bytes(row))
+    with open(path, "wb") as out:
+        out.write(encode(width, height, 16, 0, rows))

@@ -1,0 +1,23 @@
+"""The pieces crumple's scene files share: where they live, a material, writing a scene."""
+import json
+import os
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCENES = os.path.join(ROOT, "scenes")
+ASSETS = os.path.join(SCENES, "assets")
+
+
+def material(density, restitution, friction, kappa, thickness, color, metallic, roughness, texture=None):
+    """A scene's material (docs/scene-format.md), its keys in the order the scene files write them."""
+    m = {"density": density, "restitution": restitution, "friction": friction, "kappa": kappa,
+         "thickness": thickness, "color": color, "metallic": metallic, "roughness": roughness}
+    if texture is not None:
+        m["texture"] = texture
+    return m
+
+
+def write_scene(path, scene):
+    """Writes a scene as JSON, indented one space a level, with a final newline."""
+    with open(path, "w") as f:
+        json.dump(scene, f, indent=1)
+        f.write("\n")

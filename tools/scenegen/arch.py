@@ -9,7 +9,7 @@ import argparse
 import math
 import os
 
-from .scene import ASSETS, SCENES, material, write_scene
+from .scene import ASSETS, SCENES, material, scene_of, write_scene
 
 N, RI, T, DEPTH = 10, 2.0, 0.4, 0.6
 
@@ -43,18 +43,13 @@ def scene():
         bodies.append({"name": "voussoir_%d" % k, "shape": {"type": "mesh", "file": "assets/voussoir.obj"},
                        "material": "stone" if k % 2 == 0 else "stone_dark", "position": [0, 0, 0],
                        "orientation": [0, 0, round((k + 0.5) * 180 / N - 90, 6)], "bump_map": {"resolution": 256}})
-    return {
-        "format": "crumple-scene/1",
-        "name": "arch",
-        "duration": 10.0,
-        "materials": {
-            "ground": material(2000, 0.0, 0.6, 0.0, 0.2, [0.45, 0.43, 0.4], 0, 0.9),
-            "stone": material(2400, 0.0, 0.6, 0.0, 0.2, [0.72, 0.66, 0.56], 0, 0.85),
-            "stone_dark": material(2400, 0.0, 0.6, 0.0, 0.2, [0.6, 0.54, 0.45], 0, 0.85),
-        },
-        "bodies": bodies,
-        "cameras": [{"name": "main", "position": [3.2, 2.2, 6.5], "target": [0, 1.3, 0], "fov": 45}],
+    materials = {
+        "ground": material(2000, 0.0, 0.6, 0.0, 0.2, [0.45, 0.43, 0.4], 0, 0.9),
+        "stone": material(2400, 0.0, 0.6, 0.0, 0.2, [0.72, 0.66, 0.56], 0, 0.85),
+        "stone_dark": material(2400, 0.0, 0.6, 0.0, 0.2, [0.6, 0.54, 0.45], 0, 0.85),
     }
+    cameras = [{"name": "main", "position": [3.2, 2.2, 6.5], "target": [0, 1.3, 0], "fov": 45}]
+    return scene_of("arch", 10.0, materials, bodies, cameras)
 
 
 def main():

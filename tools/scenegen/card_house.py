@@ -11,7 +11,7 @@ import argparse
 import math
 import os
 
-from .scene import SCENES, material, write_scene
+from .scene import SCENES, material, scene_of, write_scene
 
 T, L, D, TILT, STOREYS = 0.01, 0.3, 0.2, 20.0, 3
 
@@ -52,17 +52,12 @@ def scene():
     bodies = [{"name": "table", "shape": {"type": "box", "size": [3, 0.1, 2]}, "material": "table", "static": True,
                "position": [0, -0.05, 0]}]
     bodies += cards()
-    return {
-        "format": "crumple-scene/1",
-        "name": "card-house",
-        "duration": 10.0,
-        "materials": {
-            "table": material(700, 0.0, 0.6, 0.0, 0.05, [0.35, 0.22, 0.13], 0, 0.6),
-            "card": material(700, 0.0, 0.6, 0.0, 0.01, [0.92, 0.9, 0.85], 0, 0.7),
-        },
-        "bodies": bodies,
-        "cameras": [{"name": "main", "position": [0.55, 0.6, 2.0], "target": [0, 0.4, 0], "fov": 36}],
+    materials = {
+        "table": material(700, 0.0, 0.6, 0.0, 0.05, [0.35, 0.22, 0.13], 0, 0.6),
+        "card": material(700, 0.0, 0.6, 0.0, 0.01, [0.92, 0.9, 0.85], 0, 0.7),
     }
+    cameras = [{"name": "main", "position": [0.55, 0.6, 2.0], "target": [0, 0.4, 0], "fov": 36}]
+    return scene_of("card-house", 10.0, materials, bodies, cameras)
 
 
 def main():

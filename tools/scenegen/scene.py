@@ -16,6 +16,12 @@ def material(density, restitution, friction, kappa, thickness, color, metallic, 
     return m
 
 
+def scene_of(name, duration, materials, bodies, cameras):
+    """A scene file's top level: its name and duration, materials, bodies and cameras (in the files' key order)."""
+    return {"format": "crumple-scene/1", "name": name, "duration": duration, "materials": materials,
+            "bodies": bodies, "cameras": cameras}
+
+
 def write_scene(path, scene):
     """Writes a scene as JSON, indented one space a level, with a final newline."""
     with open(path, "w") as f:

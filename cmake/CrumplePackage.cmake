@@ -65,7 +65,7 @@ foreach(entry ${CRUMPLE_LIBRARIES})
   string(REPLACE ":" ";" parts "${entry}")
   list(GET parts 0 folder)
   file(GLOB headers RELATIVE "${PROJECT_SOURCE_DIR}" CONFIGURE_DEPENDS "${PROJECT_SOURCE_DIR}/${folder}/*.h")
-  list(REMOVE_ITEM headers physics/step_context.h physics/joint_solver.h physics/disjoint_sets.h deform/passes.h
+  list(REMOVE_ITEM headers physics/step_context.h physics/stages.h physics/joint_solver.h physics/disjoint_sets.h deform/passes.h
        deform/bindings.h render/renderer_impl.h engine/scene_node.h engine/gltf_check.h)
   install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/crumple/${folder})
 endforeach()

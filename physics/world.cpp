@@ -1,5 +1,5 @@
 // The World's API: bodies, joints and their settings, snapshots, forces. The order of the stages (step,
-// substep) is in world_step.cpp; the stages themselves live one per file (physics/step_context.h lists them).
+// substep) is in world_step.cpp; the stages themselves live one per file (physics/stages.h lists them).
 #include <crumple/physics/world.h>
 
 #include <algorithm>

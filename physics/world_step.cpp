@@ -1,5 +1,5 @@
 // The order of the stages in a step and a substep (World::step, World::substep, World::collideAndContact), with
-// the step's refusal of a non-finite state. The stages themselves live one per file (physics/step_context.h lists
+// the step's refusal of a non-finite state. The stages themselves live one per file (physics/stages.h lists
 // them); the World's API is in world.cpp.
 #include <crumple/physics/world.h>
 

@@ -12,12 +12,7 @@ THRESHOLD = 30  # summed |r g b| difference from the background that counts as m
 
 
 def main():
-    if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
-        print(__doc__)
-        return
-    if len(sys.argv) < 4:
-        sys.exit(__doc__)
-    frames = [png.read_rgb(p) for p in sys.argv[2:]]
+    out_path, frames = png.pictures_from_command_line(__doc__, 2)
     w, h = frames[0][0], frames[0][1]
     if any(f[0] != w or f[1] != h for f in frames):
         sys.exit("the frames differ in size")
@@ -35,7 +30,7 @@ def main():
                     pick = p
             row[3 * x:3 * x + 3] = pick
         out.append(bytes(row))
-    png.write_rgb(sys.argv[1], w, h, out)
+    png.write_rgb(out_path, w, h, out)
 
 
 main()

@@ -91,3 +91,14 @@ def write_grey16(path, width, height, pixel):
         rows.append(bytes(row))
     with open(path, "wb") as out:
         out.write(encode(width, height, 16, 0, rows))
+
+
+def pictures_from_command_line(doc, least):
+    """(OUT, [(width, height, rows), ...]) of a picture tool's command line `OUT IN...` (at least `least` inputs),
+    each input read as 8-bit RGB; --help prints `doc`."""
+    if len(sys.argv) > 1 and sys.argv[1] in ("-h", "--help"):
+        print(doc)
+        sys.exit(0)
+    if len(sys.argv) < 2 + least:
+        sys.exit(doc)
+    return sys.argv[1], [read_rgb(p) for p in sys.argv[2:]]

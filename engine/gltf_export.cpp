@@ -13,6 +13,7 @@
 #define TINYGLTF_NO_EXTERNAL_IMAGE
 #include <tiny_gltf.h>
 
+#include <crumple/engine/surface_bake.h>
 #include <crumple/gl/image.h>
 
 namespace crumple {
@@ -143,6 +144,54 @@ MeshAccessors addMesh(tinygltf::Model& m, const TriangleMesh& mesh) {
   return r;
 }
 
+double linearToSrgb(double c) {
+  return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
+}
+
+// An image of the export (textures/<file>), as a texture with the sampler 0; its index.
+int addTexture(tinygltf::Model& m, const fs::path& root, const std::string& file, const gl::Image& image,
+               const std::string& name) {
+  fs::create_directories(root / "textures");
+  gl::writePng((root / "textures" / file).string(), image, 8);
+  tinygltf::Image img;
+  img.name = name;
+  img.uri = uriOf("textures/" + file);
+  img.mimeType = "image/png";
+  m.images.push_back(img);
+  tinygltf::Texture tex;
+  tex.source = static_cast<int>(m.images.size() - 1);
+  tex.sampler = 0;
+  m.textures.push_back(tex);
+  return static_cast<int>(m.textures.size() - 1);
+}
+
+// A procedural surface (asphalt, concrete, clay) baked into the body's atlas: the base colour (sRGB) and
+// metallic-roughness textures, at the body's map resolution (256 without a map), their factors 1.
+void bakeLook(tinygltf::Model& m, tinygltf::Material& mat, const fs::path& root, const BodyRuntime& b,
+              const Material& sm) {
+  const int size = b.surface ? b.surface->resolution() : 256;
+  const glm::vec3 linear(static_cast<float>(srgbToLinear(sm.color.r)), static_cast<float>(srgbToLinear(sm.color.g)),
+                         static_cast<float>(srgbToLinear(sm.color.b)));
+  const BakedSurface baked =
+      bakeSurface(*b.mesh, size, surfaceTextureNamed(sm.texture), sm.textureScale, linear, sm.roughness);
+  gl::Image base(size, size, 3), mr(size, size, 3);
+  for (size_t i = 0; i < baked.color.size(); ++i) {
+    for (int c = 0; c < 3; ++c)
+      base.pixels[3 * i + static_cast<size_t>(c)] =
+          static_cast<float>(linearToSrgb(std::clamp(static_cast<double>(baked.color[i][c]), 0.0, 1.0)));
+    mr.pixels[3 * i + 1] = baked.roughness[i];  // glTF: roughness in green, metallic in blue
+    mr.pixels[3 * i + 2] = sm.metallic;
+  }
+  mat.pbrMetallicRoughness.baseColorTexture.index = addTexture(m, root, b.name + "_base.png", base, b.name + "_base");
+  mat.pbrMetallicRoughness.baseColorTexture.texCoord = 0;
+  mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
+  mat.pbrMetallicRoughness.metallicRoughnessTexture.index =
+      addTexture(m, root, b.name + "_metallic_roughness.png", mr, b.name + "_metallic_roughness");
+  mat.pbrMetallicRoughness.metallicRoughnessTexture.texCoord = 0;
+  mat.pbrMetallicRoughness.metallicFactor = 1.0;
+  mat.pbrMetallicRoughness.roughnessFactor = 1.0;
+}
+
 // Material fields another part of crumple may add (metallic, roughness): used when the struct has them.
 template <class M>
 void setPbr(tinygltf::Material& out, const M& mat) {
@@ -254,6 +303,8 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
       if (sm) setPbr(mat, *sm);
       tinygltf::Value::Object extras;
       if (sm) extras["crumple_material"] = tinygltf::Value(sm->name);
+      if (sm && acc.uv >= 0 && surfaceTextureNamed(sm->texture) != render::SurfaceTexture::None)
+        bakeLook(m, mat, root, b, *sm);
       if (b.surface && acc.uv >= 0) {
         const std::string file = b.name + ".png";
         // The height map as written to the output folder: 16-bit grey, 0.5 flat (docs/maps.md).

@@ -1,5 +1,7 @@
 #include <crumple/engine/scene_view.h>
 
+#include <crumple/engine/surface_bake.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,11 +27,7 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
     it.color = b.material->color;
     it.metallic = b.material->metallic;
     it.roughness = b.material->roughness;
-    const std::string& tex = b.material->texture;
-    it.texture = tex == "asphalt"    ? render::SurfaceTexture::Asphalt
-                 : tex == "concrete" ? render::SurfaceTexture::Concrete
-                 : tex == "clay"     ? render::SurfaceTexture::Clay
-                                     : render::SurfaceTexture::None;
+    it.texture = surfaceTextureNamed(b.material->texture);
     it.textureScale = b.material->textureScale;
     it.look = b.look.get();
     it.ownColor = !b.material->hasColor;

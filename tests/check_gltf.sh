@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# ctest gltf_validator: crumple-sim --export gltf of two shipped scenes (the default scene, and the highway past its
-# crash with --animate) through the Khronos glTF validator: 0 errors and 0 warnings. Skipped (exit 77) where node is
+# ctest gltf_validator: crumple-sim --export gltf of three shipped scenes (the default scene, the highway past its
+# crash with --animate, the wrecking ball's baked clay and concrete textures) through the Khronos glTF validator: 0 errors and 0 warnings. Skipped (exit 77) where node is
 # missing, or the validator (npm could not fetch it).
 # Usage: check_gltf.sh CRUMPLE_SIM SCENES_DIR
 set -euo pipefail
@@ -19,4 +19,6 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 "$sim" "$scenes/sphere-into-plate.json" --steps 60 --quiet --export gltf --out "$tmp/plate"
 "$sim" "$scenes/highway.json" --steps 720 --quiet --export gltf --animate --out "$tmp/highway"
-node "$here/validate_gltf.js" "$tmp/plate/export/scene.gltf" "$tmp/highway/export/scene.gltf"
+"$sim" "$scenes/wrecking-ball.json" --steps 2 --quiet --export gltf --out "$tmp/wrecking"
+node "$here/validate_gltf.js" "$tmp/plate/export/scene.gltf" "$tmp/highway/export/scene.gltf" \
+  "$tmp/wrecking/export/scene.gltf"

@@ -1193,6 +1193,74 @@ TEST_CASE("--export gltf writes every body at its final pose with its atlas, nor
   CHECK(!fs::exists(kTmp / "export_bad"));
 }
 
+TEST_CASE("--export gltf bakes a procedural surface into base colour and roughness textures over the atlas") {
+  // wrecking-ball: the wall is clay, the ground concrete (each with a map, so an atlas); the ball plain steel.
+  const fs::path out = kTmp / "export_baked";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/wrecking-ball.json --out " + out.string() +
+                     " --quiet --steps 2 --export gltf",
+                 &log) == 0);
+  CAPTURE(log);
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  std::string err, warn;
+  REQUIRE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "export" / "scene.gltf").string()));
+  CHECK(warn.empty());
+  auto srgbToLinear = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  struct Expect {
+    const char* body;
+    glm::dvec3 color;  // the scene's sRGB colour
+    double roughness;
+  };
+  for (const Expect& e : {Expect{"wall", {0.72, 0.5, 0.36}, 0.75}, Expect{"ground", {0.35, 0.34, 0.32}, 0.95}}) {
+    CAPTURE(e.body);
+    const auto mat = std::find_if(model.materials.begin(), model.materials.end(),
+                                  [&](const tinygltf::Material& m) { return m.name == e.body; });
+    REQUIRE(mat != model.materials.end());
+    const auto& pbr = mat->pbrMetallicRoughness;
+    REQUIRE(pbr.baseColorTexture.index >= 0);
+    REQUIRE(pbr.metallicRoughnessTexture.index >= 0);
+    CHECK(pbr.baseColorFactor == std::vector<double>{1, 1, 1, 1});
+    CHECK(pbr.roughnessFactor == 1.0);
+    const tinygltf::Image& base =
+        model.images[static_cast<size_t>(model.textures[static_cast<size_t>(pbr.baseColorTexture.index)].source)];
+    const tinygltf::Image& mr =
+        model.images[static_cast<size_t>(model.textures[static_cast<size_t>(pbr.metallicRoughnessTexture.index)].source)];
+    REQUIRE(base.component >= 3);
+    REQUIRE(mr.component >= 3);
+    REQUIRE(base.width == mr.width);
+    // Over the texels a chart covers (the rest black): the mean linear colour is the material's times an albedo of
+    // about 1 (the procedural surface averages 1), and it varies (a surface, not a flat fill).
+    glm::dvec3 sum(0);
+    double lum = 0, lum2 = 0, rough = 0;
+    size_t n = 0;
+    for (size_t i = 0; i < static_cast<size_t>(base.width) * static_cast<size_t>(base.height); ++i) {
+      const unsigned char* px = &base.image[i * static_cast<size_t>(base.component)];
+      if (px[0] == 0 && px[1] == 0 && px[2] == 0) continue;
+      const glm::dvec3 c(srgbToLinear(px[0] / 255.0), srgbToLinear(px[1] / 255.0), srgbToLinear(px[2] / 255.0));
+      sum += c;
+      const double l = c.r + c.g + c.b;
+      lum += l;
+      lum2 += l * l;
+      rough += mr.image[i * static_cast<size_t>(mr.component) + 1] / 255.0;
+      ++n;
+    }
+    REQUIRE(n > static_cast<size_t>(base.width * base.height) / 10);
+    const glm::dvec3 mean = sum / double(n);
+    for (int c = 0; c < 3; ++c) CHECK(mean[c] == doctest::Approx(srgbToLinear(e.color[c])).epsilon(0.15));
+    const double meanLum = lum / double(n), spread = std::sqrt(std::max(0.0, lum2 / double(n) - meanLum * meanLum));
+    CHECK(spread / meanLum > 0.02);
+    CHECK(rough / double(n) == doctest::Approx(e.roughness).epsilon(0.12));
+    CHECK(fs::exists(out / "export" / "textures" / (std::string(e.body) + "_base.png")));
+  }
+  // A material without a procedural surface keeps its factors alone.
+  const auto ball = std::find_if(model.materials.begin(), model.materials.end(),
+                                 [](const tinygltf::Material& m) { return m.name == "ball"; });
+  REQUIRE(ball != model.materials.end());
+  CHECK(ball->pbrMetallicRoughness.baseColorTexture.index < 0);
+}
+
 TEST_CASE("--export gltf --animate plays the run: every moving body's poses at the frames' times") {
   const fs::path out = kTmp / "export_animated";
   fs::remove_all(out);

@@ -148,14 +148,14 @@ double linearToSrgb(double c) {
   return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
 }
 
-// An image of the export (textures/<file>), as a texture with the sampler 0; its index.
-int addTexture(tinygltf::Model& m, const fs::path& root, const std::string& file, const gl::Image& image,
-               const std::string& name) {
-  fs::create_directories(root / "textures");
-  gl::writePng((root / "textures" / file).string(), image, 8);
+// An image written into the export (<folder>/<file>, 8 bits a channel), as a texture with the sampler 0; its index.
+int addTexture(tinygltf::Model& m, const fs::path& root, const std::string& folder, const std::string& file,
+               const gl::Image& image, const std::string& name) {
+  fs::create_directories(root / folder);
+  gl::writePng((root / folder / file).string(), image, 8);
   tinygltf::Image img;
   img.name = name;
-  img.uri = uriOf("textures/" + file);
+  img.uri = uriOf(folder + "/" + file);
   img.mimeType = "image/png";
   m.images.push_back(img);
   tinygltf::Texture tex;
@@ -182,11 +182,11 @@ void bakeLook(tinygltf::Model& m, tinygltf::Material& mat, const fs::path& root,
     mr.pixels[3 * i + 1] = baked.roughness[i];  // glTF: roughness in green, metallic in blue
     mr.pixels[3 * i + 2] = sm.metallic;
   }
-  mat.pbrMetallicRoughness.baseColorTexture.index = addTexture(m, root, b.name + "_base.png", base, b.name + "_base");
+  mat.pbrMetallicRoughness.baseColorTexture.index = addTexture(m, root, "textures", b.name + "_base.png", base, b.name + "_base");
   mat.pbrMetallicRoughness.baseColorTexture.texCoord = 0;
   mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
   mat.pbrMetallicRoughness.metallicRoughnessTexture.index =
-      addTexture(m, root, b.name + "_metallic_roughness.png", mr, b.name + "_metallic_roughness");
+      addTexture(m, root, "textures", b.name + "_metallic_roughness.png", mr, b.name + "_metallic_roughness");
   mat.pbrMetallicRoughness.metallicRoughnessTexture.texCoord = 0;
   mat.pbrMetallicRoughness.metallicFactor = 1.0;
   mat.pbrMetallicRoughness.roughnessFactor = 1.0;
@@ -314,19 +314,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
         // The normal map with green inverted: crumple's green points down the image, glTF's up.
         gl::Image nm = gl::readPng((maps / "normalmaps" / file).string(), 3);
         for (size_t i = 1; i < nm.pixels.size(); i += 3) nm.pixels[i] = 1.0f - nm.pixels[i];
-        fs::create_directories(root / "normalmaps");
-        gl::writePng((root / "normalmaps" / file).string(), nm, 8);
-
-        tinygltf::Image image;
-        image.name = b.name + "_normal";
-        image.uri = uriOf("normalmaps/" + file);
-        image.mimeType = "image/png";
-        m.images.push_back(image);
-        tinygltf::Texture tex;
-        tex.source = static_cast<int>(m.images.size() - 1);
-        tex.sampler = 0;
-        m.textures.push_back(tex);
-        mat.normalTexture.index = static_cast<int>(m.textures.size() - 1);
+        mat.normalTexture.index = addTexture(m, root, "normalmaps", file, nm, b.name + "_normal");
         mat.normalTexture.texCoord = 0;
         // Its tangent frame, once per mesh that carries a normal map (a viewer would make up its own otherwise).
         const TriangleMesh& mesh = *b.mesh;

@@ -192,6 +192,21 @@ void bakeLook(tinygltf::Model& m, tinygltf::Material& mat, const fs::path& root,
   mat.pbrMetallicRoughness.roughnessFactor = 1.0;
 }
 
+// The vehicles' parts (wheels, belts, grousers) in their body's frame, and whose body (in Simulation::bodies())
+// each is on.
+std::vector<VehiclePart> localParts(const Simulation& sim, std::vector<int>* owners = nullptr) {
+  std::vector<VehiclePart> parts;
+  for (const VehicleRuntime& v : sim.vehicles()) {
+    const size_t first = parts.size();
+    addVehicleParts(v, glm::dmat4(1), parts);
+    if (owners) owners->insert(owners->end(), parts.size() - first, v.body);
+  }
+  return parts;
+}
+
+// A rigid transform as a pose (the parts' transforms turn and move, never scale).
+Pose poseOf(const glm::dmat4& m) { return {glm::dvec3(m[3]), glm::normalize(glm::quat_cast(glm::dmat3(m)))}; }
+
 // Material fields another part of crumple may add (metallic, roughness): used when the struct has them.
 template <class M>
 void setPbr(tinygltf::Material& out, const M& mat) {
@@ -209,6 +224,9 @@ void GltfAnimation::record(const Simulation& sim) {
     const RigidBody& rb = sim.world().body(bodies[i].index);
     poses[i].push_back({rb.origin(), rb.q});
   }
+  const std::vector<VehiclePart> now = localParts(sim);
+  parts.resize(now.size());
+  for (size_t k = 0; k < now.size(); ++k) parts[k].push_back(poseOf(now[k].model));
 }
 
 namespace {
@@ -224,21 +242,20 @@ void addAnimation(tinygltf::Model& m, const Simulation& sim, const GltfAnimation
   tinygltf::Animation anim;
   anim.name = "run";
   const auto& bodies = sim.bodies();
-  for (size_t i = 0; i < bodies.size() && i < a.poses.size(); ++i) {
-    if (sim.world().body(bodies[i].index).isStatic || a.poses[i].size() != frames) continue;
+  // A node's translation and rotation channels through `poses` (one a frame).
+  auto animate = [&](int node, const std::vector<Pose>& poses) {
     std::vector<glm::vec3> translation(frames);
     std::vector<glm::vec4> rotation(frames);  // glTF: x, y, z, w
-    glm::dquat last = a.poses[i].front().orientation;
+    glm::dquat last = poses.front().orientation;
     for (size_t f = 0; f < frames; ++f) {
-      translation[f] = glm::vec3(a.poses[i][f].position);
+      translation[f] = glm::vec3(poses[f].position);
       // The same hemisphere as the frame before: the viewer's slerp then turns the short way, as the body did.
-      glm::dquat q = a.poses[i][f].orientation;
+      glm::dquat q = poses[f].orientation;
       if (glm::dot(q, last) < 0) q = -q;
       last = q;
       rotation[f] = glm::vec4(static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z),
                               static_cast<float>(q.w));
     }
-    const int node = static_cast<int>(i);  // the nodes are the bodies, in order
     auto channel = [&](const void* data, size_t bytes, int type, const char* path) {
       tinygltf::AnimationSampler sampler;
       sampler.input = input;
@@ -253,8 +270,56 @@ void addAnimation(tinygltf::Model& m, const Simulation& sim, const GltfAnimation
     };
     channel(translation.data(), frames * sizeof(glm::vec3), TINYGLTF_TYPE_VEC3, "translation");
     channel(rotation.data(), frames * sizeof(glm::vec4), TINYGLTF_TYPE_VEC4, "rotation");
-  }
+  };
+  // The nodes are the bodies, in order, then the vehicles' parts (addParts).
+  for (size_t i = 0; i < bodies.size() && i < a.poses.size(); ++i)
+    if (!sim.world().body(bodies[i].index).isStatic && a.poses[i].size() == frames)
+      animate(static_cast<int>(i), a.poses[i]);
+  for (size_t k = 0; k < a.parts.size(); ++k)
+    if (a.parts[k].size() == frames) animate(static_cast<int>(bodies.size() + k), a.parts[k]);
   if (!anim.channels.empty()) m.animations.push_back(anim);
+}
+}  // namespace
+
+namespace {
+// The vehicles' wheels, belts and grousers: each a node under its body's node (node of body i: i), at its pose on
+// the body, with its mesh and a plain material of its colour (rubber, dull metal).
+void addParts(tinygltf::Model& m, const Simulation& sim, std::map<const TriangleMesh*, MeshAccessors>& meshes) {
+  std::vector<int> owners;
+  const std::vector<VehiclePart> parts = localParts(sim, &owners);
+  std::map<std::string, int> counts;
+  for (size_t k = 0; k < parts.size(); ++k) {
+    const VehiclePart& part = parts[k];
+    const std::string& body = sim.bodies()[static_cast<size_t>(owners[k])].name;
+    const std::string name = body + "_" + part.kind + std::to_string(counts[body + part.kind]++);
+    auto it = meshes.find(part.shape);
+    if (it == meshes.end()) it = meshes.emplace(part.shape, addMesh(m, *part.shape)).first;
+    tinygltf::Material mat;
+    mat.name = name;
+    mat.pbrMetallicRoughness.baseColorFactor = {srgbToLinear(part.color.r), srgbToLinear(part.color.g),
+                                                srgbToLinear(part.color.b), 1.0};
+    mat.pbrMetallicRoughness.metallicFactor = 0.0;
+    mat.pbrMetallicRoughness.roughnessFactor = 0.85;
+    m.materials.push_back(mat);
+    tinygltf::Primitive prim;
+    prim.mode = TINYGLTF_MODE_TRIANGLES;
+    prim.indices = it->second.indices;
+    prim.material = static_cast<int>(m.materials.size() - 1);
+    prim.attributes["POSITION"] = it->second.position;
+    if (it->second.normal >= 0) prim.attributes["NORMAL"] = it->second.normal;
+    tinygltf::Mesh mesh;
+    mesh.name = name;
+    mesh.primitives.push_back(prim);
+    m.meshes.push_back(mesh);
+    tinygltf::Node node;
+    node.name = name;
+    node.mesh = static_cast<int>(m.meshes.size() - 1);
+    const Pose pose = poseOf(part.model);
+    node.translation = {pose.position.x, pose.position.y, pose.position.z};
+    node.rotation = {pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w};
+    m.nodes.push_back(node);
+    m.nodes[static_cast<size_t>(owners[k])].children.push_back(static_cast<int>(m.nodes.size() - 1));
+  }
 }
 }  // namespace
 
@@ -352,6 +417,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
     m.nodes.push_back(node);
     scene.nodes.push_back(static_cast<int>(m.nodes.size() - 1));
   }
+  addParts(m, sim, meshes);
   m.scenes.push_back(scene);
   m.defaultScene = 0;
   if (animation && animation->times.size() >= 2) addAnimation(m, sim, *animation);

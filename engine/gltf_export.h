@@ -20,6 +20,7 @@ namespace crumple {
 struct GltfAnimation {
   std::vector<double> times;
   std::vector<std::vector<Pose>> poses;  // [body][frame]: the shape frame's origin and the orientation
+  std::vector<std::vector<Pose>> parts;  // [vehicle part][frame]: a wheel's, belt's or grousers' pose on its body
   void record(const Simulation& sim);    // the poses now, at the world's time
 };
 

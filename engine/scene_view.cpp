@@ -47,6 +47,7 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
   std::vector<VehiclePart> parts = sim.vehicleParts();
   for (const VehiclePart& part : sim.jointParts()) parts.push_back(part);
   for (const VehiclePart& part : parts) {
+    if (!part.mesh) continue;  // (without GL)
     render::RenderItem it;
     it.vao = part.mesh->vao.id();
     it.indexCount = part.mesh->indexCount;

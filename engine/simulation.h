@@ -98,6 +98,7 @@ class Simulation {
   gl::GpuTimer* renderTimer() { return renderTimer_.get(); }
   deform::Deformer* deformer() { return deformer_.get(); }
   std::vector<VehicleRuntime>& vehicles() { return vehicles_; }
+  const std::vector<VehicleRuntime>& vehicles() const { return vehicles_; }
   // Live changes (the sandbox's panel).
   std::map<std::string, Material>& sceneMaterials() { return scene_.materials; }
   DeformationSettings& deformationSettings() { return scene_.deformation; }

@@ -18,7 +18,8 @@ VehicleRuntime makeVehicle(const VehicleDesc& d, int bodyIndex, int worldIndex, 
   const VehicleParams& vp = d.params;
   VehicleRuntime v(bodyIndex, Vehicle(worldIndex, vp));
   v.script = d.script;
-  if (gl) v.wheelMesh = std::make_shared<deform::GpuMesh>(cylinderMesh(vp.wheelRadius, d.wheelWidth, 64));
+  v.wheelShape = std::make_shared<TriangleMesh>(cylinderMesh(vp.wheelRadius, d.wheelWidth, 64));
+  if (gl) v.wheelMesh = std::make_shared<deform::GpuMesh>(*v.wheelShape);
   if (!d.treads) return v;
   v.pitch = d.treadPitch;
   v.grouserHeight = d.grouserHeight;
@@ -39,12 +40,13 @@ VehicleRuntime makeVehicle(const VehicleDesc& d, int bodyIndex, int worldIndex, 
     length = std::max(length, hi - lo + 2 * r);
     v.treads.push_back(t);
   }
-  if (gl) {
+  {
     const double w = d.wheelWidth, gh = v.grouserHeight, p = v.pitch;
     // The belt wraps the wheels: from the grousers' roots up to the wheel tops.
     TriangleMesh belt = boxMesh({length, 2 * r, w}, 128);
     for (auto& q : belt.positions) q.y += static_cast<float>(gh + r);
-    v.beltMesh = std::make_shared<deform::GpuMesh>(belt);
+    v.beltShape = std::make_shared<TriangleMesh>(std::move(belt));
+    if (gl) v.beltMesh = std::make_shared<deform::GpuMesh>(*v.beltShape);
     // Grousers every pitch along the belt's underside, as many as fit
     // whatever their shift in [0, pitch).
     TriangleMesh bars;
@@ -58,7 +60,8 @@ VehicleRuntime makeVehicle(const VehicleDesc& d, int bodyIndex, int worldIndex, 
       bars.uvs.insert(bars.uvs.end(), bar.uvs.begin(), bar.uvs.end());
       for (const auto& tri : bar.triangles) bars.triangles.push_back(tri + glm::uvec3(base));
     }
-    v.grouserMesh = std::make_shared<deform::GpuMesh>(bars);
+    v.grouserShape = std::make_shared<TriangleMesh>(std::move(bars));
+    if (gl) v.grouserMesh = std::make_shared<deform::GpuMesh>(*v.grouserShape);
   }
   return v;
 }
@@ -93,19 +96,22 @@ glm::dmat4 treadModel(const VehicleRuntime& v, size_t t, bool grousers, const gl
 
 void addVehicleParts(const VehicleRuntime& v, const glm::dmat4& body, std::vector<VehiclePart>& parts) {
   const VehicleParams& p = v.vehicle.params();
-  if (v.wheelMesh) {
+  if (v.wheelShape) {
     for (size_t i = 0; i < p.wheels.size(); ++i) {
       const WheelState& w = v.vehicle.wheels()[i];
       // The wheel's centre hangs below its attachment by the spring's length.
       const glm::dvec3 centre = p.wheels[i] - glm::dvec3(0, p.suspensionRest - (w.onGround ? w.compression : 0.0), 0);
-      parts.push_back(
-          {v.wheelMesh.get(), body * glm::translate(glm::dmat4(1), centre) * kWheelToAxle, glm::vec3(0.06f)});
+      parts.push_back({v.wheelMesh.get(), body * glm::translate(glm::dmat4(1), centre) * kWheelToAxle,
+                       glm::vec3(0.06f), v.wheelShape.get(), "wheel"});
     }
   }
   for (size_t t = 0; t < v.treads.size(); ++t) {
-    if (v.beltMesh) parts.push_back({v.beltMesh.get(), treadModel(v, t, false, body), glm::vec3(0.12f, 0.12f, 0.11f)});
-    if (v.grouserMesh)
-      parts.push_back({v.grouserMesh.get(), treadModel(v, t, true, body), glm::vec3(0.2f, 0.19f, 0.17f)});
+    if (v.beltShape)
+      parts.push_back({v.beltMesh.get(), treadModel(v, t, false, body), glm::vec3(0.12f, 0.12f, 0.11f),
+                       v.beltShape.get(), "belt"});
+    if (v.grouserShape)
+      parts.push_back({v.grouserMesh.get(), treadModel(v, t, true, body), glm::vec3(0.2f, 0.19f, 0.17f),
+                       v.grouserShape.get(), "grousers"});
   }
 }
 

@@ -37,15 +37,19 @@ struct VehicleRuntime {
   // track's links do, and print a clean ladder.
   std::vector<TreadRuntime> treads;
   std::shared_ptr<const deform::GpuMesh> beltMesh, grouserMesh;
+  // The wheel's, the belt's and the grousers' meshes on the CPU (for exports; the GPU's above are made from them).
+  std::shared_ptr<const TriangleMesh> wheelShape, beltShape, grouserShape;
   double pitch = 0, grouserHeight = 0;
   double travel = 0;  // m along the body's x since the start
 };
 
 // A vehicle's wheel or track, placed in the world, for drawing.
 struct VehiclePart {
-  const deform::GpuMesh* mesh = nullptr;
+  const deform::GpuMesh* mesh = nullptr;  // null without GL
   glm::dmat4 model{1};
   glm::vec3 color{0.08f};
+  const TriangleMesh* shape = nullptr;  // the mesh on the CPU (exports)
+  const char* kind = "part";            // "wheel", "belt", "grousers", "cable"
 };
 
 // A vehicle for body `bodyIndex` (in Simulation::bodies()), world body `worldIndex`;

@@ -1326,6 +1326,49 @@ TEST_CASE("--export gltf --animate plays the run: every moving body's poses at t
   CHECK(!fs::exists(kTmp / "animate_bad"));
 }
 
+TEST_CASE("--export gltf carries a vehicle's wheels and tracks as nodes on its body, animated with it") {
+  // tank-tracks: a tank on 8 road wheels with a belt and grousers on each side.
+  const fs::path out = kTmp / "export_vehicle";
+  fs::remove_all(out);
+  std::string log;
+  REQUIRE(runSim(std::string(CRUMPLE_SCENES) + "/tank-tracks.json --out " + out.string() +
+                     " --quiet --steps 24 --export gltf --animate",
+                 &log) == 0);
+  CAPTURE(log);
+  const json summary = json::parse(slurp(out / "summary.json"));
+  tinygltf::Model model;
+  tinygltf::TinyGLTF loader;
+  std::string err, warn;
+  REQUIRE(loader.LoadASCIIFromFile(&model, &err, &warn, (out / "export" / "scene.gltf").string()));
+  const size_t bodies = summary["bodies"].size();
+  REQUIRE(model.nodes.size() == bodies + 8 + 2 + 2);
+  const auto tank = std::find_if(model.nodes.begin(), model.nodes.end(),
+                                 [](const tinygltf::Node& n) { return n.name == "tank"; });
+  REQUIRE(tank != model.nodes.end());
+  REQUIRE(tank->children.size() == 12);
+  std::map<std::string, int> kinds;
+  std::set<int> children(tank->children.begin(), tank->children.end());
+  for (int c : tank->children) {
+    const tinygltf::Node& part = model.nodes[static_cast<size_t>(c)];
+    CAPTURE(part.name);
+    CHECK(static_cast<size_t>(c) >= bodies);  // after the bodies' nodes, not roots of the scene
+    CHECK(std::find(model.scenes[0].nodes.begin(), model.scenes[0].nodes.end(), c) == model.scenes[0].nodes.end());
+    REQUIRE(part.mesh >= 0);
+    const tinygltf::Primitive& prim = model.meshes[static_cast<size_t>(part.mesh)].primitives.at(0);
+    CHECK(model.accessors[static_cast<size_t>(prim.attributes.at("POSITION"))].count > 0);
+    REQUIRE(part.translation.size() == 3);
+    // On the body: within a few metres of its origin, in its frame.
+    CHECK(std::hypot(part.translation[0], part.translation[1], part.translation[2]) < 4.0);
+    kinds[part.name.substr(5, part.name.find_last_not_of("0123456789") - 4)]++;
+  }
+  CHECK(kinds == std::map<std::string, int>{{"belt", 2}, {"grousers", 2}, {"wheel", 8}});
+  // Each part node has its own channels in the animation, with the bodies' key times.
+  REQUIRE(model.animations.size() == 1);
+  std::map<int, int> channels;
+  for (const tinygltf::AnimationChannel& c : model.animations[0].channels) channels[c.target_node]++;
+  for (int c : tank->children) CHECK(channels[c] == 2);
+}
+
 TEST_CASE("--video without ffmpeg on PATH is bad input with a clear message") {
   const fs::path out = kTmp / "video_noffmpeg";
   fs::remove_all(out);

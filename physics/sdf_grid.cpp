@@ -207,7 +207,9 @@ NearTriangles::Kept& NearTriangles::kept() const {
     mine->clear();
   }
   mine->used = ++clock;
-  if (mine->entries.size() > (size_t(1) << 18)) mine->clear();  // (a bound on the memory a thread keeps)
+  // (a bound on the memory a thread keeps: 2^16 entries of 48 bytes a slot, ~25 MB for the eight; a dent's cells
+  // hold a few thousand lists of about eight)
+  if (mine->entries.size() > (size_t(1) << 16)) mine->clear();
   return *mine;
 }
 

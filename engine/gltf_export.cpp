@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <stdexcept>
+#include <tuple>
 
 // The implementation is compiled once, in the mesh loader, with these settings: keep them the same here.
 #define TINYGLTF_NO_STB_IMAGE_WRITE
@@ -165,11 +166,9 @@ int addTexture(tinygltf::Model& m, const fs::path& root, const std::string& fold
   return static_cast<int>(m.textures.size() - 1);
 }
 
-// A procedural surface (asphalt, concrete, clay) baked into the body's atlas: the base colour (sRGB) and
-// metallic-roughness textures, at the body's map resolution (256 without a map), their factors 1.
-void bakeLook(tinygltf::Model& m, tinygltf::Material& mat, const fs::path& root, const BodyRuntime& b,
-              const Material& sm) {
-  const int size = b.surface ? b.surface->resolution() : 256;
+// The body's surface baked at size x size: its base colour and metallic-roughness textures (their indices).
+std::pair<int, int> bakeTextures(tinygltf::Model& m, const fs::path& root, const BodyRuntime& b, const Material& sm,
+                                 int size) {
   const glm::vec3 linear(static_cast<float>(srgbToLinear(sm.color.r)), static_cast<float>(srgbToLinear(sm.color.g)),
                          static_cast<float>(srgbToLinear(sm.color.b)));
   const BakedSurface baked =
@@ -182,11 +181,25 @@ void bakeLook(tinygltf::Model& m, tinygltf::Material& mat, const fs::path& root,
     mr.pixels[3 * i + 1] = baked.roughness[i];  // glTF: roughness in green, metallic in blue
     mr.pixels[3 * i + 2] = sm.metallic;
   }
-  mat.pbrMetallicRoughness.baseColorTexture.index = addTexture(m, root, "textures", b.name + "_base.png", base, b.name + "_base");
+  return {addTexture(m, root, "textures", b.name + "_base.png", base, b.name + "_base"),
+          addTexture(m, root, "textures", b.name + "_metallic_roughness.png", mr, b.name + "_metallic_roughness")};
+}
+
+// The textures baked for a mesh, material and size: bodies that share all three share them (base colour,
+// metallic-roughness).
+using BakedTextures = std::map<std::tuple<const TriangleMesh*, const Material*, int>, std::pair<int, int>>;
+
+// A procedural surface (asphalt, concrete, clay) baked into the body's atlas: the base colour (sRGB) and
+// metallic-roughness textures, at the body's map resolution (256 without a map), their factors 1.
+void bakeLook(tinygltf::Model& m, tinygltf::Material& mat, const fs::path& root, const BodyRuntime& b,
+              const Material& sm, BakedTextures& baked) {
+  const int size = b.surface ? b.surface->resolution() : 256;
+  auto [kept, fresh] = baked.try_emplace({b.mesh.get(), &sm, size}, -1, -1);
+  if (fresh) kept->second = bakeTextures(m, root, b, sm, size);
+  mat.pbrMetallicRoughness.baseColorTexture.index = kept->second.first;
   mat.pbrMetallicRoughness.baseColorTexture.texCoord = 0;
   mat.pbrMetallicRoughness.baseColorFactor = {1.0, 1.0, 1.0, 1.0};
-  mat.pbrMetallicRoughness.metallicRoughnessTexture.index =
-      addTexture(m, root, "textures", b.name + "_metallic_roughness.png", mr, b.name + "_metallic_roughness");
+  mat.pbrMetallicRoughness.metallicRoughnessTexture.index = kept->second.second;
   mat.pbrMetallicRoughness.metallicRoughnessTexture.texCoord = 0;
   mat.pbrMetallicRoughness.metallicFactor = 1.0;
   mat.pbrMetallicRoughness.roughnessFactor = 1.0;
@@ -342,6 +355,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
   m.samplers.push_back(sampler);
 
   std::map<const TriangleMesh*, MeshAccessors> meshes;
+  BakedTextures baked;
   tinygltf::Scene scene;
   scene.name = sim.scene().name;
   for (const BodyRuntime& b : sim.bodies()) {
@@ -369,7 +383,7 @@ void writeGltfExport(const Simulation& sim, const std::string& dir, const std::s
       tinygltf::Value::Object extras;
       if (sm) extras["crumple_material"] = tinygltf::Value(sm->name);
       if (sm && acc.uv >= 0 && surfaceTextureNamed(sm->texture) != render::SurfaceTexture::None)
-        bakeLook(m, mat, root, b, *sm);
+        bakeLook(m, mat, root, b, *sm, baked);
       if (b.surface && acc.uv >= 0) {
         const std::string file = b.name + ".png";
         // The height map as written to the output folder: 16-bit grey, 0.5 flat (docs/maps.md).

@@ -183,6 +183,14 @@ class Simulation {
     std::vector<float> start;          // the map before its first dent
     std::vector<float> height;         // the map as last read back
     int resolution = 0;
+    // Per tile of kDentTile x kDentTile texels (row by row): its texels that differ from `start` (their
+    // rectangle, none while hi < lo) and the highest of them (0.5 at least); made anew where a read-back changed it.
+    struct Tile {
+      glm::ivec2 lo{0}, hi{-1};
+      float highest = 0.5f;
+    };
+    std::vector<Tile> tiles;
+    std::vector<glm::ivec4> triangleTexels;  // per mesh triangle: the texels its uvs cover, one around (lo, hi)
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
     glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
     double k = 0;                      // the bump depth (m)
@@ -193,6 +201,8 @@ class Simulation {
   void beforeDent(int body);  // body (of bodies_) is about to be dented: its map's start kept, a read-back due
   void readBackDents();       // after the step's deformations: the changed maps start coming back
   void takeInDents();         // before the physics: the maps that came back, in the world
+  void takeInMap(DentCopy& d, const float* map);  // a read-back map into d.height, d.tiles, d.lo/hi
+  void findDentedTriangles(DentCopy& d, int body);  // the triangles over its changed tiles, in the world
   double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;
   double lookUpDepth(const DentCopy& d, int body, const glm::dvec3& point, const glm::dvec3& normal,
                      glm::dvec3& bent) const;

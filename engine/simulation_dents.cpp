@@ -57,64 +57,106 @@ void Simulation::takeInDents() {
     const void* map = glMapNamedBufferRange(d.pixels.id(), 0, static_cast<GLsizeiptr>(texels * sizeof(float)),
                                            GL_MAP_READ_BIT);
     if (!map) continue;
-    std::memcpy(d.height.data(), map, texels * sizeof(float));
+    takeInMap(d, static_cast<const float*>(map));
     glUnmapNamedBuffer(d.pixels.id());
-    // Where the map differs from its start: the rectangle around it, and which tiles of kDentTile x kDentTile
-    // texels hold a change (an atlas spreads one dent over charts far apart in uv: the rectangle can cover the
-    // whole map while the tiles cover the dent).
-    const int r = d.resolution;
-    const int tiles = (r + kDentTile - 1) / kDentTile;
-    std::vector<char> changed(static_cast<size_t>(tiles) * static_cast<size_t>(tiles), 0);
-    d.lo = glm::ivec2(r);
-    d.hi = glm::ivec2(-1);
-    float highest = 0.5f;
-    for (int y = 0; y < r; ++y)
-      for (int x = 0; x < r; ++x) {
-        const size_t t = static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x);
-        if (d.height[t] == d.start[t]) continue;
-        d.lo = glm::min(d.lo, glm::ivec2(x, y));
-        d.hi = glm::max(d.hi, glm::ivec2(x, y));
-        highest = std::max(highest, d.height[t]);
-        changed[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(tiles) + static_cast<size_t>(x / kDentTile)] = 1;
-      }
-    const TriangleMesh& mesh = *bodies_[i].mesh;
-    d.boxLo = glm::dvec3(1e300);
-    d.boxHi = glm::dvec3(-1e300);
-    // The triangles over changed tiles (one texel around: the lookup interpolates between texel centres), in a
-    // mesh and a BVH of their own: the lookups search these, not the whole mesh (a car's 60 000 triangles cost a
-    // microsecond a lookup), and the box around them is where lookups happen at all.
-    TriangleMesh over;
-    d.triangleOf.clear();
-    if (d.hi.x >= d.lo.x) {
-      for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
-        const glm::uvec3& t = mesh.triangles[ti];
-        const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
-        const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
-        const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
-        if (thi.x < d.lo.x || thi.y < d.lo.y || tlo.x > d.hi.x || tlo.y > d.hi.y) continue;
-        bool over_ = false;
-        for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile && !over_; ++ty)
-          for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile && !over_; ++tx)
-            over_ = changed[static_cast<size_t>(ty) * static_cast<size_t>(tiles) + static_cast<size_t>(tx)] != 0;
-        if (!over_) continue;
-        const unsigned first = static_cast<unsigned>(over.positions.size());
-        for (int k = 0; k < 3; ++k) {
-          const glm::dvec3 p(mesh.positions[t[k]]);
-          d.boxLo = glm::min(d.boxLo, p);
-          d.boxHi = glm::max(d.boxHi, p);
-          over.positions.push_back(mesh.positions[t[k]]);
-        }
-        over.triangles.emplace_back(first, first + 1, first + 2);
-        d.triangleOf.push_back(static_cast<int>(ti));
-      }
-      d.boxLo -= d.k;
-      d.boxHi += d.k;
-    }
-    d.near = over.triangles.empty() ? nullptr : std::make_unique<NearTriangles>(over, kNearCell, kOnSurface);
-    const bool dented = d.boxHi.x >= d.boxLo.x;
-    world_.setDented(bodies_[i].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
-                     {d.boxLo, d.boxHi});
+    findDentedTriangles(d, static_cast<int>(i));
   }
+}
+
+// Where the map differs from its start: per tile of kDentTile x kDentTile texels (an atlas spreads one dent over
+// charts far apart in uv: the rectangle around the change can cover the whole map while the tiles cover the
+// dent), and the rectangle around them. Only the rows of tiles that this read-back changed are copied and
+// measured again (a dent changes a few tiles of a map of thousands).
+void Simulation::takeInMap(DentCopy& d, const float* map) {
+  const int r = d.resolution;
+  const int across = (r + kDentTile - 1) / kDentTile;
+  const size_t row = static_cast<size_t>(r);
+  if (d.tiles.empty()) d.tiles.assign(static_cast<size_t>(across) * static_cast<size_t>(across), DentCopy::Tile{});
+  std::vector<char> moved(d.tiles.size(), 0);
+  for (int y = 0; y < r; ++y)
+    for (int tx = 0; tx < across; ++tx) {
+      const size_t at = static_cast<size_t>(y) * row + static_cast<size_t>(tx) * kDentTile;
+      const size_t bytes = static_cast<size_t>(std::min(kDentTile, r - tx * kDentTile)) * sizeof(float);
+      if (std::memcmp(map + at, d.height.data() + at, bytes) == 0) continue;
+      std::memcpy(d.height.data() + at, map + at, bytes);
+      moved[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(across) + static_cast<size_t>(tx)] = 1;
+    }
+  for (size_t t = 0; t < d.tiles.size(); ++t) {
+    if (!moved[t]) continue;
+    DentCopy::Tile& tile = d.tiles[t];
+    tile = {};
+    const int x0 = static_cast<int>(t % static_cast<size_t>(across)) * kDentTile;
+    const int y0 = static_cast<int>(t / static_cast<size_t>(across)) * kDentTile;
+    for (int y = y0; y < std::min(r, y0 + kDentTile); ++y)
+      for (int x = x0; x < std::min(r, x0 + kDentTile); ++x) {
+        const size_t i = static_cast<size_t>(y) * row + static_cast<size_t>(x);
+        if (d.height[i] == d.start[i]) continue;
+        tile.lo = tile.hi.x < tile.lo.x ? glm::ivec2(x, y) : glm::min(tile.lo, glm::ivec2(x, y));
+        tile.hi = glm::max(tile.hi, glm::ivec2(x, y));
+        tile.highest = std::max(tile.highest, d.height[i]);
+      }
+  }
+  d.lo = glm::ivec2(r);
+  d.hi = glm::ivec2(-1);
+  for (const DentCopy::Tile& tile : d.tiles)
+    if (tile.hi.x >= tile.lo.x) {
+      d.lo = glm::min(d.lo, tile.lo);
+      d.hi = glm::max(d.hi, tile.hi);
+    }
+}
+
+// The triangles over changed tiles (one texel around: the lookup interpolates between texel centres), in a mesh
+// and a nearest-triangle structure of their own: the lookups search these, not the whole mesh (a car's 60 000
+// triangles cost a microsecond a lookup), and the box around them is where lookups happen at all.
+void Simulation::findDentedTriangles(DentCopy& d, int i) {
+  const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
+  const int r = d.resolution;
+  const int across = (r + kDentTile - 1) / kDentTile;
+  if (d.triangleTexels.empty()) {
+    d.triangleTexels.reserve(mesh.triangles.size());
+    for (const glm::uvec3& t : mesh.triangles) {
+      const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
+      const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
+      const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
+      d.triangleTexels.emplace_back(tlo, thi);
+    }
+  }
+  float highest = 0.5f;
+  for (const DentCopy::Tile& tile : d.tiles) highest = std::max(highest, tile.highest);
+  d.boxLo = glm::dvec3(1e300);
+  d.boxHi = glm::dvec3(-1e300);
+  TriangleMesh over;
+  d.triangleOf.clear();
+  if (d.hi.x >= d.lo.x) {
+    for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
+      const glm::ivec4& texels = d.triangleTexels[ti];
+      const glm::ivec2 tlo(texels.x, texels.y), thi(texels.z, texels.w);
+      if (thi.x < d.lo.x || thi.y < d.lo.y || tlo.x > d.hi.x || tlo.y > d.hi.y) continue;
+      bool changed = false;
+      for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile && !changed; ++ty)
+        for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile && !changed; ++tx) {
+          const DentCopy::Tile& tile = d.tiles[static_cast<size_t>(ty) * static_cast<size_t>(across) + static_cast<size_t>(tx)];
+          changed = tile.hi.x >= tile.lo.x;
+        }
+      if (!changed) continue;
+      const glm::uvec3& t = mesh.triangles[ti];
+      const unsigned first = static_cast<unsigned>(over.positions.size());
+      for (int k = 0; k < 3; ++k) {
+        const glm::dvec3 p(mesh.positions[t[k]]);
+        d.boxLo = glm::min(d.boxLo, p);
+        d.boxHi = glm::max(d.boxHi, p);
+        over.positions.push_back(mesh.positions[t[k]]);
+      }
+      over.triangles.emplace_back(first, first + 1, first + 2);
+      d.triangleOf.push_back(static_cast<int>(ti));
+    }
+    d.boxLo -= d.k;
+    d.boxHi += d.k;
+  }
+  d.near = over.triangles.empty() ? nullptr : std::make_unique<NearTriangles>(over, kNearCell, kOnSurface);
+  const bool dented = d.boxHi.x >= d.boxLo.x;
+  world_.setDented(bodies_[static_cast<size_t>(i)].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
+                   {d.boxLo, d.boxHi});
 }
 
 double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {

@@ -43,11 +43,46 @@ namespace {
 // Dents: `depth` (World::setSurfaceDepth) where the owner (`dentOwner`) or the other (`dentOther`) is dented, the
 // surfaces rising at most `rise` in all: a sample within that of the undented owner is measured against the
 // dented surfaces, the owner's at the surface point nearest to it, the other's at the sample's own surface point.
+// `otherSamples`: the other's answers at its surface samples, where made (StepContext::sampleDents).
 struct Dents {
   const SurfaceDepth* depth = nullptr;
   bool owner = false, other = false;
   double rise = 0;
+  const detail::StepContext::SampleDents* otherSamples = nullptr;
 };
+
+// Whether sample k of s is a point of its surface with its outward normal (not a core sample a radius inside).
+bool surfaceSample(const Shape& s, size_t k) {
+  return s.sampleRadius == 0 && k < s.sampleNormals.size() && glm::dot(s.sampleNormals[k], s.sampleNormals[k]) > 0.5;
+}
+
+// A body's kept answers at its surface samples, where it keeps them (else each contact asks).
+const detail::StepContext::SampleDents* keptAnswers(const detail::StepContext& ctx, int body, bool dented) {
+  if (!dented || static_cast<size_t>(body) >= ctx.sampleDents.size()) return nullptr;
+  const detail::StepContext::SampleDents& kept = ctx.sampleDents[static_cast<size_t>(body)];
+  return kept.stale || kept.depth.empty() ? nullptr : &kept;
+}
+
+// The depth of body `body`'s dented surface below its surface sample k (`bent`: its normal there): the kept
+// answer, else asked and kept (by the first thread to ask; any other asking meanwhile gets the same answer).
+double sampleDepth(const detail::StepContext::SampleDents& kept, const SurfaceDepth& depth, int body,
+                   const Shape& shape, size_t k, glm::dvec3& bent) {
+  std::atomic<uint8_t>& state = kept.state[k];
+  if (state.load(std::memory_order_acquire) == 2) {
+    bent = kept.bent[k];
+    return kept.depth[k];
+  }
+  const glm::dvec3& n = shape.sampleNormals[k];
+  bent = n;
+  const double d = depth(body, shape.samples[k] + shape.sampleRadius * n, n, bent);
+  uint8_t expected = 0;
+  if (state.compare_exchange_strong(expected, 1, std::memory_order_acq_rel)) {
+    kept.depth[k] = d;
+    kept.bent[k] = bent;
+    state.store(2, std::memory_order_release);
+  }
+  return d;
+}
 
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
                     const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
@@ -108,10 +143,14 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
         // The other's surface point here and its outward normal: a surface sample's own (a fixed point and normal
         // of the other: the same question each time, which the answer's owner may keep), else the core sample
         // pushed out against the owner's gradient.
-        const bool onSurface = r == 0 && normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5;
+        const bool onSurface = surfaceSample(st, index);
         const glm::dvec3 n = onSurface ? st.sampleNormals[index] : -(glm::transpose(otherToOwner) * g);
         glm::dvec3 bentOther = n;
-        otherSinks = (*dents.depth)(iOther, s + r * n, n, bentOther);
+        if (onSurface && dents.otherSamples) {
+          otherSinks = sampleDepth(*dents.otherSamples, *dents.depth, iOther, st, index, bentOther);
+        } else {
+          otherSinks = (*dents.depth)(iOther, s + r * n, n, bentOther);
+        }
         sinks += otherSinks;
         if (!dents.owner) bent = -(otherToOwner * bentOther);
       }
@@ -286,6 +325,27 @@ void dentManifold(const SurfaceDepth& depth, int ia, const RigidBody& A, const P
 }
 
 namespace detail {
+void forgetSurfaceAnswers(StepContext& ctx) {
+  for (size_t i = 0; i < ctx.sampleDents.size() && i < ctx.bodies.size(); ++i) {
+    StepContext::SampleDents& kept = ctx.sampleDents[i];
+    if (!kept.stale) continue;
+    kept.stale = false;
+    const Shape& shape = *ctx.bodies[i].shape;
+    const size_t n = ctx.dented(static_cast<int>(i)) && shape.sampleRadius == 0 ? shape.sampleNormals.size() : 0;
+    if (n == 0) {
+      kept = {};
+      kept.stale = false;
+      continue;
+    }
+    if (kept.depth.size() != n) {
+      kept.state = std::make_unique<std::atomic<uint8_t>[]>(n);
+      kept.depth.assign(n, 0.0);
+      kept.bent.assign(n, glm::dvec3(0));
+    }
+    for (size_t k = 0; k < n; ++k) kept.state[k].store(0, std::memory_order_relaxed);
+  }
+}
+
 SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) {
   auto convex = [](const Shape& s) { return s.type != ShapeType::Mesh || s.polytope != nullptr; };
   SampleSides sides;
@@ -328,7 +388,8 @@ bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   const SampleSides sides = sampleSides(*A.shape, bumpA || pair.dentsA, *B.shape, bumpB || pair.dentsB);
   const bool dentA = pair.dentsA, dentB = pair.dentsB;
   const double rise = (dentA ? ctx.rise(pair.a) : 0.0) + (dentB ? ctx.rise(pair.b) : 0.0);
-  const Dents dentsA{&ctx.surfaceDepth, dentA, dentB, rise}, dentsB{&ctx.surfaceDepth, dentB, dentA, rise};
+  const Dents dentsA{&ctx.surfaceDepth, dentA, dentB, rise, keptAnswers(ctx, pair.b, dentB)},
+      dentsB{&ctx.surfaceDepth, dentB, dentA, rise, keptAnswers(ctx, pair.a, dentA)};
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
                  sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB, dentsA);
   contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
@@ -403,7 +464,8 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   const detail::SampleSides sides = detail::sampleSides(*A.shape, ctx_->bentNormals(ia) || dentA, *B.shape,
                                                         ctx_->bentNormals(ib) || dentB);
   const double rise = (dentA ? ctx_->rise(ia) : 0.0) + (dentB ? ctx_->rise(ib) : 0.0);
-  const Dents dentsA{&ctx_->surfaceDepth, dentA, dentB, rise}, dentsB{&ctx_->surfaceDepth, dentB, dentA, rise};
+  const Dents dentsA{&ctx_->surfaceDepth, dentA, dentB, rise, keptAnswers(*ctx_, ib, dentB)},
+      dentsB{&ctx_->surfaceDepth, dentB, dentA, rise, keptAnswers(*ctx_, ia, dentA)};
   if (sides.bInA)
     contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB, dentsA);
   if (sides.aInB)

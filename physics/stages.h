@@ -46,6 +46,9 @@ bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
 // again (the incident point from the reference face's plane, as the manifold's clipping finds them; those no
 // longer below it dropped). Resting contact needs no new look until it moves. Else a new look, kept.
 void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+// narrow_phase.cpp: forgets the kept answers at the surface samples (StepContext::sampleDents) of each body
+// whose dents changed since (World::setDented, setSurfaceDepth).
+void forgetSurfaceAnswers(StepContext& ctx);
 // Which of a pair's two sample sets the narrow phase tests: B's samples in A's field (bInA), A's in B's (aInB).
 // Both, except where one body is a sphere or a capsule and the other convex (box, sphere, capsule, cylinder, convex mesh):
 // the sphere's centre against the other's field finds their one deepest point exactly, and the other's surface

@@ -10,6 +10,7 @@
 #include <glm/glm.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -220,6 +221,22 @@ struct StepContext {
   SurfaceDepth surfaceDepth;  // World::setSurfaceDepth
   std::vector<double> dentRise;      // per body: World::setDented (empty: none set)
   std::vector<Aabb> dentBox;         // per body: where its dents are (shape frame)
+  // Per body: surfaceDepth's answer at each of its shape's surface samples (a fixed point with its outward
+  // normal: the same question at every contact until the body's dents change), kept the first time a contact
+  // asks it (state: 0 not yet, 1 being kept, 2 kept; the threads of a step may ask at once: one keeps, each
+  // reads only what is kept). Emptied at the step's start after each setDented (forgetSurfaceAnswers).
+  struct SampleDents {
+    std::unique_ptr<std::atomic<uint8_t>[]> state;
+    mutable std::vector<double> depth;
+    mutable std::vector<glm::dvec3> bent;
+    bool stale = true;
+    SampleDents() = default;
+    SampleDents(SampleDents&&) = default;
+    SampleDents& operator=(SampleDents&&) = default;
+    SampleDents(const SampleDents&) {}  // a copied world asks again
+    SampleDents& operator=(const SampleDents&) { return *this = SampleDents(); }
+  };
+  std::vector<SampleDents> sampleDents;
   NormalModifier normalModifier;
   double minHalfThickness = 1e30;  // of every body added (substep size)
   // A dynamic body of a loadBearing shape was ever added (resting_solve.cpp has work only then).

@@ -101,6 +101,7 @@ BodyId World::add(const BodyDef& def) {
   if (slot < ctx.reportContacts.size()) ctx.reportContacts[slot] = 0;
   if (slot < ctx.bumpNormals.size()) ctx.bumpNormals[slot] = 0;
   if (slot < ctx.dentRise.size()) ctx.dentRise[slot] = -1;
+  if (slot < ctx.sampleDents.size()) ctx.sampleDents[slot] = {};
   noteShape(ctx, def);
   // The kept pairs' candidate lists were built for the old body in this slot.
   ctx.pairs.clear();
@@ -220,7 +221,10 @@ void World::setReportContacts(int body, bool on) {
   ctx_->reportContacts.at(static_cast<size_t>(body)) = on;
 }
 
-void World::setSurfaceDepth(SurfaceDepth depth) { ctx_->surfaceDepth = std::move(depth); }
+void World::setSurfaceDepth(SurfaceDepth depth) {
+  ctx_->surfaceDepth = std::move(depth);
+  for (detail::StepContext::SampleDents& kept : ctx_->sampleDents) kept.stale = true;  // another function's answers
+}
 void World::setDented(int i, double maxRise, const Aabb& region) {
   liveBody(*ctx_, i);
   if (std::isnan(maxRise)) throw std::invalid_argument("dent rise is not a number");
@@ -230,6 +234,8 @@ void World::setDented(int i, double maxRise, const Aabb& region) {
   rise[static_cast<size_t>(i)] = maxRise;
   ctx_->dentBox.resize(ctx_->bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
   ctx_->dentBox[static_cast<size_t>(i)] = region;
+  ctx_->sampleDents.resize(ctx_->bodies.size());
+  ctx_->sampleDents[static_cast<size_t>(i)].stale = true;  // asked again at the next step's start
   // Which of its pairs' sample sets are tested, and how far out, depend on it: their lists are made anew.
   if (was != (maxRise >= 0) || maxRise > 0)
     for (detail::Pair& pair : ctx_->pairs)

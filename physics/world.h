@@ -163,7 +163,9 @@ class World {
   // its surface displaced along the normal, on either side of the pair. `depth(body, point, normal, bent)`
   // answers how far the dented surface at a point of the undented one (shape frame, with its outward normal)
   // lies below it (m; negative where it rises) and sets `bent` to the dented surface's outward normal there
-  // (shape frame). The step calls it from its threads at once: it must only read.
+  // (shape frame). The step calls it from its threads at once: it must only read. Its answers at a body's own
+  // surface samples are kept until setDented is called for that body again (or setSurfaceDepth): call it
+  // whenever the body's dents change.
   using SurfaceDepth = crumple::SurfaceDepth;
   void setSurfaceDepth(SurfaceDepth depth);
   // maxRise >= 0: body i is dented within `region` (shape frame: the undented surface over its dented texels),

@@ -2,6 +2,7 @@
 // values that are not finite, and the per-stage timings of a step.
 #include <doctest/doctest.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -211,4 +212,49 @@ TEST_CASE("nearest triangles within a reach: the BVH's distances at any point, t
     CHECK(other[i].distance2 == hits[i].distance2);
   }
   CHECK(near.closest({std::numeric_limits<double>::quiet_NaN(), 0, 0}).triangle == -1);
+}
+
+TEST_CASE("a dented body's answers at its surface samples are kept until its dents change, from any thread") {
+  // An upright cylinder on the ground whose bottom rim's dented surface lies `sunk` inside its undented one: it
+  // settles that much lower. The world asks the depth at each of its rim's samples once a change of its dents
+  // (setDented), not at each contact: a new answer without setDented is not seen, with it is.
+  for (int threads : {1, 2}) {
+    WorldSettings settings;
+    settings.threads = threads;
+    settings.sleeping = false;
+    World w(settings);
+    addGround(w, 0.8, 0.0);
+    BodyDef def;
+    def.shape = makeCylinder(0.2, 0.3);
+    def.origin = {0, 0.15, 0};
+    def.mass = 2;
+    def.restitution = 0;
+    const int c = w.addBody(def);
+    std::atomic<double> sunk{0.005};
+    std::atomic<long> asked{0};
+    w.setSurfaceDepth([&, c](int body, const glm::dvec3&, const glm::dvec3& n, glm::dvec3& bent) {
+      bent = n;
+      if (body != c || n.y > -0.5) return 0.0;
+      if (n.y > -0.75 && n.y < -0.65) ++asked;  // at a rim sample (its normal: 45 degrees down and out)
+      return sunk.load();
+    });
+    w.setDented(c, 0.0);
+    auto settle = [&] {
+      for (int s = 0; s < 240; ++s) w.step(1.0 / 240);
+      return w.body(c).x.y;
+    };
+    const double first = settle();
+    CHECK(first == Approx(0.15 - 0.005).epsilon(0.01));
+    // Each of the rim's 24 bottom samples asked at most once (a thread losing the race to keep one asks too),
+    // over a second of steps whose contacts all met them. (Points of the ground's own samples, projected onto
+    // the cylinder's bottom, are asked at each contact: they move.)
+    CHECK(asked.load() > 0);
+    CHECK(asked.load() <= 24L * threads);
+    sunk = 0.02;
+    const double kept = settle();
+    CHECK(std::abs(kept - first) < 1e-3);  // the kept answers: nothing changed for the world
+    w.setDented(c, 0.0);
+    const double changed = settle();
+    CHECK(changed == Approx(0.15 - 0.02).epsilon(0.01));
+  }
 }

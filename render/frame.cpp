@@ -296,12 +296,26 @@ void Renderer::Impl::Frame::shadeInCompute(GLuint target) {
   glClearNamedFramebufferuiv(m.visibilityFbo.id(), GL_COLOR, 0, none);
   glClearNamedFramebufferfv(m.visibilityFbo.id(), GL_DEPTH, 0, &far);
   mark("visibility clear");
-  m.visibility.use();
   for (size_t index : m.visible) {
     const RenderItem& it = items[index];
-    const glm::mat4 mvp = vp * it.model;
-    m.visibilityMvp.set(mvp);
-    m.visibilityItem.set(static_cast<GLuint>(index));
+    if (it.height && features.mode == 0) {
+      // A bump-mapped item at the depth its parallax march finds (what rests in a dent is seen in it), its
+      // shading features left out (they shade nothing here: fewer variants).
+      PomFeatures f = itemFeatures(it, false);
+      f.look = f.shadows = f.selfShadow = f.ibl = false;
+      f.texture = 0;
+      const PomProgram& p = m.pomVisibility(f);
+      if (p.program.id() != current) use(p);
+      bindItem(p, it);
+      p.item.set(static_cast<GLuint>(index));
+    } else {
+      if (current != m.visibility.id()) {
+        m.visibility.use();
+        current = m.visibility.id();
+      }
+      m.visibilityMvp.set(vp * it.model);
+      m.visibilityItem.set(static_cast<GLuint>(index));
+    }
     glBindVertexArray(itemVao(it, s));  // the simplified mesh where the settings ask for it
     glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);
   }

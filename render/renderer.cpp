@@ -101,6 +101,16 @@ const PomProgram& Renderer::Impl::pomCompute(const PomFeatures& f) {
       .first->second;
 }
 
+const PomProgram& Renderer::Impl::pomVisibility(const PomFeatures& f) {
+  auto found = pomVisibilityVariants.find(f.key());
+  if (found != pomVisibilityVariants.end()) return found->second;
+  const std::string fragment = withDefines(renderShader("pom.frag"), f.defines() + "#define VISIBILITY_PASS 1\n");
+  return pomVisibilityVariants
+      .try_emplace(f.key(), std::vector<Program::Stage>{{GL_VERTEX_SHADER, "pom.vert", std::string(renderShader("pom.vert"))},
+                                                        {GL_FRAGMENT_SHADER, "pom.frag (visibility)", fragment}})
+      .first->second;
+}
+
 Renderer::Impl::MeshBuffers Renderer::Impl::meshBuffers(GLuint vao) {
   GLint buffer = 0, stride = 0, offset = -1, elements = 0;
   glGetVertexArrayIndexediv(vao, 0, GL_VERTEX_BINDING_BUFFER, &buffer);

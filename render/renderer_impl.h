@@ -216,6 +216,9 @@ struct Renderer::Impl {
   Uniform<glm::mat4> visibilityMvp{visibility, "uModelViewProjection"};
   Uniform<GLuint> visibilityItem{visibility, "uItem"};
   std::map<uint32_t, PomProgram> pomComputeVariants;
+  // The visibility pass of a bump-mapped item (pom.vert + pom.frag with VISIBILITY_PASS): the march's depth.
+  const PomProgram& pomVisibility(const PomFeatures& f);
+  std::map<uint32_t, PomProgram> pomVisibilityVariants;
   Texture2D visibilityIds{1, 1, GL_RG32UI};
   Framebuffer visibilityFbo;
   GlName<detail::deleteTexture> sceneColorView;  // sceneColor's storage as RGBA8 (images cannot store sRGB)

@@ -661,3 +661,41 @@ TEST_CASE("shading from a visibility buffer in compute gives the fragment stage'
     CHECK_FALSE(compute.stats().computeShaded);
   }
 }
+
+TEST_CASE("shaded in compute, a ball resting in its crater is drawn inside it, as the fragment stage draws it") {
+  // A crater 4 cm deep (a 25 cm ball's print) and a marble of 5 cm radius on its floor, 4 cm of it below the
+  // plate's top, seen from above at a slant: the flat plate in front of the crater must not hide the marble's
+  // lower part (the visibility pass writes the marched depth). Marble pixels: bluish grey (the plate is warm, lit
+  // or in shadow).
+  test::glContext();
+  View view;
+  view.eye = {0.0f, 0.55f, 0.9f};
+  view.target = {0.0f, 0.1f, 0.0f};
+  view.fovDegrees = 25;
+  const glm::vec3 sunk{0.0f, 0.1f - 0.04f + 0.05f, 0.0f};
+  auto ballPixels = [&](Stage& stage, Shading shading, Image* shaded) {
+    Renderer r(240, 160);
+    r.settings().shading = shading;
+    r.settings().antialias = Antialias::None;
+    std::vector<RenderItem> items = stage.items(true, sunk);
+    items[1].model = glm::scale(items[1].model, glm::vec3(0.2f));  // the 25 cm ball's mesh at 5 cm
+    r.draw(items, view);
+    REQUIRE(r.stats().computeShaded == (shading == Shading::Compute));
+    *shaded = r.readPixels();
+    int n = 0;
+    for (int y = 0; y < shaded->height; ++y)
+      for (int x = 0; x < shaded->width; ++x) n += shaded->at(x, y, 2) > shaded->at(x, y, 0) + 0.02f;
+    return n;
+  };
+  Stage dented, flat;
+  dented.dent(0.04);
+  Image forward, compute, onFlat;
+  const int inForward = ballPixels(dented, Shading::Forward, &forward);
+  const int inCompute = ballPixels(dented, Shading::Compute, &compute);
+  const int flatForward = ballPixels(flat, Shading::Forward, &onFlat);  // its part below the plate's top hidden
+  MESSAGE("marble pixels: fragment stage " << inForward << ", compute " << inCompute << ", undented plate "
+                                           << flatForward);
+  CHECK(inForward > flatForward + flatForward / 10);  // the crater shows the sunk part
+  CHECK(std::abs(inCompute - inForward) <= inForward / 100);
+  CHECK(fractionOff(forward, compute) < 0.002);
+}

@@ -16,7 +16,8 @@
 // in its shader at all.
 // With COMPUTE_SHADING defined the same code shades from a visibility buffer in a compute shader
 // (pom_shade.comp, appended): the inputs are then globals it sets, with the derivatives (what dFdx / dFdy give
-// here) from the triangle's plane at the neighbouring pixels' rays, and main() is shade().
+// here) from the triangle's plane at the neighbouring pixels' rays, and main() is shade(). With VISIBILITY_PASS
+// defined it writes the visibility buffer's ids at the marched depth instead of a colour.
 #ifdef COMPUTE_SHADING
 vec3 vWorld = vec3(0.0), vNormal = vec3(0.0), vColor = vec3(1.0);
 vec2 vUV = vec2(0.0), vMaterialUV = vec2(0.0);
@@ -44,7 +45,15 @@ in vec3 vColor;  // multiplies uColor (glTF's COLOR_0)
 in vec4 vShadow;
 in vec2 vMaterialUV;    // the mesh file's own uv
 flat in int vMaterial;  // its material in the look, -1 none
+#ifdef VISIBILITY_PASS
+// The visibility pass of shading in compute (a bump-mapped item): its item and triangle, at the depth of the
+// surface the march found, so that what rests in a dent is seen in it there too. Nothing is shaded.
+uniform uint uItem;
+out uvec2 id;
+vec4 fragColor;
+#else
 out vec4 fragColor;
+#endif
 // The depth of the surface the parallax march found (a body resting in a dent is drawn inside it), never nearer
 // than the mesh's own (a crater's rim stays at the mesh's depth): conservative depth keeps the early depth test.
 layout(depth_greater) out float gl_FragDepth;
@@ -250,6 +259,10 @@ void main() {
     vec4 clip = uViewProjection * vec4(vWorld + shift, 1.0);
     gl_FragDepth = clamp(max(gl_FragCoord.z, (clip.z / clip.w) * 0.5 + 0.5), 0.0, 1.0);
   }
+#ifdef VISIBILITY_PASS
+  id = uvec2(uItem, uint(gl_PrimitiveID));
+  return;
+#endif
 #endif
 #if DEBUG == 1
   fragColor = vec4(vec3(HAS_MAPS != 0 ? textureGrad(uHeight, uv, duv1, duv2).r : 0.5), 1.0);

@@ -112,6 +112,8 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
   }
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("height bound");
+  for (const Side* side : of) glGenerateTextureMipmap(side->x->height().id());  // (one map may hold two sides)
+  phase("height levels");
 }
 
 void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi) {
@@ -142,6 +144,7 @@ void CommitPass::normals(const SurfaceMaps& maps, int resolution, float slopeSca
     glDispatchCompute(static_cast<GLuint>((nx + per - 1) / per), static_cast<GLuint>((ny + per - 1) / per), 1);
     glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   }
+  glGenerateTextureMipmap(maps.height.id());
 }
 
 }  // namespace crumple::deform

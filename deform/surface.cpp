@@ -1,9 +1,11 @@
 #include <crumple/deform/surface.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <meshoptimizer.h>
 #include <tuple>
+#include <unordered_map>
 #include <vector>
 
 namespace crumple::deform {
@@ -78,6 +80,59 @@ void shadowMesh(const std::vector<float>& v, size_t floats, const std::vector<ui
   const size_t used = meshopt_optimizeVertexFetch(positions.data(), triangles.data(), n, q.data(), unique, 12);
   positions.resize(used * 3);
 }
+
+// Where a mesh's uv charts meet (the displaced renderer reads both sides' heights there, so a seam does not split
+// open where the two charts hold different dents): per triangle edge (the edge opposite corner e is entry
+// 3 t + e), the other chart's uv at the edge's two ends, corner (e + 1) % 3's first (the triangle across the
+// edge whose uvs differ), or -1 where there is none; per vertex two entries, the uvs of up to three other
+// vertices at its position with other uvs and their count.
+void seamTables(const TriangleMesh& mesh, std::vector<glm::vec4>& edges, std::vector<glm::vec4>& vertices) {
+  const size_t count = mesh.positions.size();
+  edges.assign(mesh.triangles.size() * 3, glm::vec4(-1));
+  vertices.assign(count * 2, glm::vec4(0));
+  if (mesh.uvs.size() != count || count == 0) return;
+  std::vector<uint32_t> at(count);  // a position's number, the same for every vertex there
+  meshopt_generateVertexRemap(at.data(), nullptr, count, mesh.positions.data(), count, sizeof(glm::vec3));
+  std::vector<std::vector<uint32_t>> sharing(count);
+  for (uint32_t i = 0; i < count; ++i) sharing[at[i]].push_back(i);
+  for (uint32_t i = 0; i < count; ++i) {
+    glm::vec2 others[3];
+    int n = 0;
+    for (uint32_t j : sharing[at[i]]) {
+      const glm::vec2 uv = mesh.uvs[j];
+      if (n == 3 || uv == mesh.uvs[i] || std::find(others, others + n, uv) != others + n) continue;
+      others[n++] = uv;
+    }
+    vertices[2 * i] = glm::vec4(others[0], others[1]);
+    vertices[2 * i + 1] = glm::vec4(others[2], static_cast<float>(n), 0.0f);
+  }
+  // The triangle edges by the positions at their ends.
+  std::unordered_map<uint64_t, std::vector<uint32_t>> byEnds;  // -> 3 t + e
+  auto ends = [&](uint32_t t, int e) {
+    const glm::uvec3& tri = mesh.triangles[t];
+    return std::make_pair(tri[(e + 1) % 3], tri[(e + 2) % 3]);
+  };
+  for (uint32_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int e = 0; e < 3; ++e) {
+      const auto [a, b] = ends(t, e);
+      if (at[a] == at[b]) continue;
+      const uint64_t lo = std::min(at[a], at[b]), hi = std::max(at[a], at[b]);
+      byEnds[lo << 32 | hi].push_back(3 * t + static_cast<uint32_t>(e));
+    }
+  for (const auto& [k, list] : byEnds)
+    for (uint32_t mine : list) {
+      const auto [a, b] = ends(mine / 3, static_cast<int>(mine % 3));
+      for (uint32_t other : list) {
+        if (other == mine) continue;
+        auto [c, d] = ends(other / 3, static_cast<int>(other % 3));
+        if (at[c] != at[a]) std::swap(c, d);  // c at a's position, d at b's
+        if (mesh.uvs[c] == mesh.uvs[a] && mesh.uvs[d] == mesh.uvs[b]) continue;  // the same chart
+        edges[mine] = glm::vec4(mesh.uvs[c], mesh.uvs[d]);
+        break;
+      }
+    }
+}
+
 }  // namespace
 
 GpuMesh::GpuMesh(const TriangleMesh& mesh) {
@@ -122,6 +177,12 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   boundsMin = mesh.boundsMin();
   boundsMax = mesh.boundsMax();
   describeVertices(vao.id(), vertices.id(), indices.id());
+  std::vector<glm::vec4> edges, shared;
+  seamTables(mesh, edges, shared);
+  if (!edges.empty() && !shared.empty()) {
+    seamEdges = gl::Buffer::fromVector(edges);
+    seamVertices = gl::Buffer::fromVector(shared);
+  }
   if (mesh.triangles.size() > kSimplifyAbove) {
     const std::vector<uint32_t> fewer = simplifiedTriangles(v, kFloats, idx);
     simplifiedIndices = gl::Buffer::fromVector(fewer);
@@ -164,12 +225,13 @@ int SurfaceMaps::boundSize(int resolution) {
 int SurfaceMaps::boundLevels() const { return log2Floor(bound.height()) + 1; }
 
 SurfaceMaps::SurfaceMaps(int resolution)
-    : height(resolution, resolution, GL_R32F),
+    : height(resolution, resolution, GL_R32F, log2Floor(resolution) + 1),
       normal(resolution, resolution, GL_RGBA8),
       bound(boundSize(resolution) + boundSize(resolution) / 2, boundSize(resolution), GL_R32F) {
   const float zero = 0.0f;  // the padding past the map's tiles stays 0; the rest is written with the normals
   glClearTexImage(bound.id(), 0, GL_RED, GL_FLOAT, &zero);
   bound.setFilter(GL_NEAREST, GL_NEAREST);
+  height.setFilter(GL_LINEAR, GL_LINEAR);  // its level 0 alone, but for the displaced renderer's own sampler
 }
 
 Surface::Surface(std::shared_ptr<const GpuMesh> mesh, int resolution, float bumpDepth, float bumpDepthCollide,
@@ -189,6 +251,7 @@ void Surface::makeUnique() {
                      resolution_, resolution_, 1);
   glCopyImageSubData(maps_->bound.id(), GL_TEXTURE_2D, 0, 0, 0, 0, own->bound.id(), GL_TEXTURE_2D, 0, 0, 0, 0,
                      own->bound.width(), own->bound.height(), 1);
+  glGenerateTextureMipmap(own->height.id());
   own->highest = maps_->highest;
   maps_ = std::move(own);
 }

@@ -22,6 +22,10 @@ struct GpuMesh {
                             // material (1, -1 none), normal averaged over the vertices at its position (3) floats
   gl::Buffer indices;
   GLsizei indexCount = 0;
+  // Where its uv charts meet, for the displaced renderer (render/shaders/pom_displace.tese): per triangle edge
+  // (opposite corner e: entry 3 t + e) the uvs of the other chart at the edge's ends, -1 where none; per vertex
+  // (two entries) the uvs of up to three other vertices at its position, and their count.
+  gl::Buffer seamEdges, seamVertices;
   // For interactive views (render::RendererSettings::simplified), meshes over kSimplifyAbove triangles get
   // - the same vertices under fewer triangles: simplified (meshoptimizer's edge collapses, which keep uv seams
   //   and open borders) while the surface moves at most kSimplifyError metres, ordered for the vertex cache;
@@ -45,7 +49,9 @@ struct GpuMesh {
 };
 
 struct SurfaceMaps {
-  gl::Texture2D height;  // R32F
+  // R32F, with mip levels (the deformer makes them after each change; the displaced renderer reads them through a
+  // sampler of its own): sampled at level 0 everywhere else.
+  gl::Texture2D height;
   gl::Texture2D normal;  // RGBA8, tangent space
   // The height's bound pyramid (height_bound.comp, R32F, kept with the normals): level 0 holds per tile of
   // kBoundTile x kBoundTile texels the largest |h - 0.5| there, each level above the largest of 2 x 2 below

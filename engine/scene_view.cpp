@@ -41,6 +41,9 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
       it.heightBound = b.surface->maps().bound.id();
       it.boundTile = deform::SurfaceMaps::kBoundTile;
       it.bumpDepth = b.surface->bumpDepth();
+      it.seamEdges = b.gpuMesh->seamEdges.id();
+      it.seamVertices = b.gpuMesh->seamVertices.id();
+      it.metresPerUv = static_cast<float>(b.gpuMesh->metresPerUv);
     }
     items.push_back(it);
   }

@@ -25,6 +25,8 @@ struct StorageBinding {
 
 // glBindTextureUnit (0: nothing at the unit).
 inline void bindTexture(TextureUnit unit, GLuint texture) { glBindTextureUnit(unit.index, texture); }
+// glBindSampler: `sampler`'s state over the texture at `unit` (0: the texture's own again).
+inline void bindSampler(TextureUnit unit, GLuint sampler) { glBindSampler(unit.index, sampler); }
 // Nothing at `count` units from `first` (glBindTextures with no names).
 inline void unbindTextures(TextureUnit first, GLsizei count) { glBindTextures(first.index, count, nullptr); }
 // glBindImageTexture: level 0 of `texture` (all its layers when `layered`).

@@ -35,6 +35,16 @@ Texture2D::Texture2D(int width, int height, GLenum internalFormat, int levels)
   setWrap(GL_CLAMP_TO_EDGE);
 }
 
+Sampler::Sampler(GLenum minFilter, GLenum magFilter, GLenum wrap) {
+  GLuint name = 0;
+  glCreateSamplers(1, &name);
+  static_cast<GlName&>(*this) = GlName(name);
+  glSamplerParameteri(name, GL_TEXTURE_MIN_FILTER, static_cast<GLint>(minFilter));
+  glSamplerParameteri(name, GL_TEXTURE_MAG_FILTER, static_cast<GLint>(magFilter));
+  glSamplerParameteri(name, GL_TEXTURE_WRAP_S, static_cast<GLint>(wrap));
+  glSamplerParameteri(name, GL_TEXTURE_WRAP_T, static_cast<GLint>(wrap));
+}
+
 Texture2D Texture2D::layerView(const TextureArray& array, int layer) {
   if (layer < 0 || layer >= array.layers()) throw std::out_of_range("texture array layer out of range");
   GLuint view = 0;

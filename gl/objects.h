@@ -43,6 +43,7 @@ inline void deleteFramebuffer(GLuint id) { glDeleteFramebuffers(1, &id); }
 inline void deleteVertexArray(GLuint id) { glDeleteVertexArrays(1, &id); }
 inline void deleteProgram(GLuint id) { glDeleteProgram(id); }
 inline void deleteRenderbuffer(GLuint id) { glDeleteRenderbuffers(1, &id); }
+inline void deleteSampler(GLuint id) { glDeleteSamplers(1, &id); }
 }  // namespace detail
 
 class Buffer : public GlName<detail::deleteBuffer> {
@@ -82,6 +83,12 @@ class Texture2D : public GlName<detail::deleteTexture> {
  private:
   int width_ = 0, height_ = 0;
   GLenum format_ = 0;
+};
+
+// Sampling state of its own, bound to a texture unit over the texture's (bindSampler): one texture read two ways.
+class Sampler : public GlName<detail::deleteSampler> {
+ public:
+  Sampler(GLenum minFilter, GLenum magFilter, GLenum wrap);
 };
 
 // Layers of one size and format (GL_TEXTURE_2D_ARRAY, one level): a shader reaches any layer through one binding.

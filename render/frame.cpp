@@ -258,6 +258,7 @@ void Renderer::Impl::Frame::use(const PomProgram& p) {
   // The displaced path's tessellation.
   p.viewport.set(glm::vec2(static_cast<float>(width), static_cast<float>(height)));
   p.segmentPixels.set(std::max(s.displaceSegmentPixels, 0.5f));
+  p.pixelAngle.set(2.0f * std::tan(glm::radians(view.fovDegrees) * 0.5f) / static_cast<float>(height));
   p.maxLevel.set(32.0f);  // llvmpipe drew torn, flickering faces at 64
 }
 
@@ -354,9 +355,18 @@ void Renderer::Impl::Frame::drawItems() {
     if (p.program.id() != current) use(p);
     bindItem(p, it);
     if (displace) {
+      const bool seams = it.seamEdges && it.seamVertices;
+      p.seams.set(seams ? 1 : 0);
+      if (seams) {
+        gl::bindStorage(pom::kSeamEdges, it.seamEdges);
+        gl::bindStorage(pom::kSeamVertices, it.seamVertices);
+      }
+      p.metresPerUv.set(it.metresPerUv);
+      gl::bindSampler(pom::kHeight, m.displacedHeight.id());
       glBindVertexArray(it.vao);
       glPatchParameteri(GL_PATCH_VERTICES, 3);
       glDrawElements(GL_PATCHES, it.indexCount, GL_UNSIGNED_INT, nullptr);
+      gl::bindSampler(pom::kHeight, 0);
     } else {
       glBindVertexArray(itemVao(it, s));
       glDrawElements(GL_TRIANGLES, itemIndexCount(it, s), GL_UNSIGNED_INT, nullptr);

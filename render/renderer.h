@@ -60,6 +60,10 @@ struct RenderItem {
   SurfaceTexture texture = SurfaceTexture::None;
   float textureScale = 1.0f;
   float bumpDepth = 0.1f;                 // k: the map's range in metres
+  // Where the mesh's uv charts meet (deform::GpuMesh::seamEdges, seamVertices): the displaced path keeps seams
+  // closed with them; 0: no seams known (a seam may open where its charts' dents differ).
+  GLuint seamEdges = 0, seamVertices = 0;
+  float metresPerUv = 1.0f;  // the mesh's size of one uv unit (deform::GpuMesh::metresPerUv)
   glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame): the sun's shadow map, view culling
   // A simplified version of the mesh (the same vertices, fewer triangles), drawn where
   // RendererSettings::simplified asks; 0: none.

@@ -42,7 +42,7 @@ namespace pom {
 constexpr gl::TextureUnit kHeight{0}, kNormalMap{1}, kShadowMap{2}, kPrefiltered{3}, kIrradiance{4}, kBrdfLut{5},
     kHeightBound{6}, kLookSrgb{8}, kLookLinear{9}, kVisibilityIds{10};
 constexpr gl::ImageUnit kShaded{0};
-constexpr gl::StorageBinding kVertices{0}, kIndices{1};
+constexpr gl::StorageBinding kVertices{0}, kIndices{1}, kSeamEdges{2}, kSeamVertices{3};
 }  // namespace pom
 // The one input of the full-screen passes: address_view.frag's uAddress, fxaa.frag's uScene, prefilter.frag's uEnv.
 constexpr gl::TextureUnit kSource{0};
@@ -176,6 +176,8 @@ struct PomProgram {
   Uniform<glm::vec2> lodFade{program, "uLodFade"};
   Uniform<glm::vec2> viewport{program, "uViewport"};  // the displaced path's tessellation
   Uniform<float> segmentPixels{program, "uSegmentPixels"}, maxLevel{program, "uMaxLevel"};
+  Uniform<int> seams{program, "uSeams"};
+  Uniform<float> pixelAngle{program, "uPixelAngle"}, metresPerUv{program, "uMetresPerUv"};
   // The item's (bindItem).
   Uniform<glm::mat4> model{program, "uModel"}, worldToModel{program, "uWorldToModel"};
   Uniform<glm::mat3> normalMatrix{program, "uNormalMatrix"};
@@ -232,6 +234,9 @@ struct Renderer::Impl {
   std::vector<MeshBuffers> itemBuffers;  // this frame's, by item (compute shading)
   // The main pass's programs, one per combination of features, made on first use (a handful per scene).
   std::map<uint32_t, PomProgram> pomVariants;
+  // The displaced path reads the height maps' mip levels (pom_displace.tese filters a vertex's height over the
+  // surface around it); the maps themselves are sampled at level 0 everywhere else.
+  gl::Sampler displacedHeight{GL_LINEAR_MIPMAP_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE};
   const PomProgram& pom(const PomFeatures& f);
   Program shadow = program("shadow.vert", "shadow.frag");
   Uniform<glm::mat4> shadowMvp{shadow, "uLightModelViewProjection"};

@@ -7,6 +7,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <crumple/deform/surface.h>
+#include <crumple/engine/primitives.h>
 #include "gl_fixture.h"
 #include <crumple/render/renderer.h>
 
@@ -109,4 +110,43 @@ TEST_CASE("displacement: a groove across a plate notches its silhouette by the g
   // Displaced: the edge drops by the groove's depth in the groove, stays outside it.
   CHECK(std::abs(topCovered(displaced, empty, centre) - notch) <= 1.5f);
   CHECK(std::abs(topCovered(displaced, empty, side) - edge) <= 1.5f);
+}
+
+TEST_CASE("seam tables: a box's face edges know the next face's uvs, its corners and edge points the others'") {
+  test::glContext();
+  const TriangleMesh mesh = boxMesh({1, 1, 1}, 256);
+  deform::GpuMesh gpu(mesh);
+  std::vector<glm::vec4> edges(mesh.triangles.size() * 3), shared(mesh.positions.size() * 2);
+  glGetNamedBufferSubData(gpu.seamEdges.id(), 0, static_cast<GLsizeiptr>(edges.size() * sizeof(glm::vec4)), edges.data());
+  glGetNamedBufferSubData(gpu.seamVertices.id(), 0, static_cast<GLsizeiptr>(shared.size() * sizeof(glm::vec4)),
+                          shared.data());
+  // The vertex at a position with a uv (the box's vertices are unique by the two together).
+  auto vertexAt = [&](glm::vec3 p, glm::vec2 uv) {
+    for (size_t i = 0; i < mesh.positions.size(); ++i)
+      if (mesh.positions[i] == p && mesh.uvs[i] == uv) return static_cast<int>(i);
+    return -1;
+  };
+  int twins = 0;
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int e = 0; e < 3; ++e) {
+      const glm::vec4 twin = edges[t * 3 + static_cast<size_t>(e)];
+      if (twin.x < 0) continue;
+      ++twins;
+      // The twin's uvs are another chart's vertices at this edge's two ends.
+      const uint32_t a = mesh.triangles[t][(e + 1) % 3], b = mesh.triangles[t][(e + 2) % 3];
+      CHECK(vertexAt(mesh.positions[a], glm::vec2(twin.x, twin.y)) >= 0);
+      CHECK(vertexAt(mesh.positions[b], glm::vec2(twin.z, twin.w)) >= 0);
+      CHECK(glm::vec2(twin.x, twin.y) != mesh.uvs[a]);
+    }
+  // 6 faces of 4 x 4 quads: 16 triangle edges along each face's border, each with its twin; none inside a face.
+  CHECK(twins == 6 * 16);
+  int corners = 0, edgePoints = 0;
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    const int others = static_cast<int>(shared[2 * i + 1].z);
+    corners += others == 2;
+    edgePoints += others == 1;
+    if (others >= 1) CHECK(vertexAt(mesh.positions[i], glm::vec2(shared[2 * i].x, shared[2 * i].y)) >= 0);
+  }
+  CHECK(corners == 8 * 3);      // three faces at each of the 8 corners
+  CHECK(edgePoints == 12 * 3 * 2);  // two faces along each of the 12 edges, 3 points inside each
 }

@@ -10,6 +10,7 @@ in vec3 tcColor[];
 in vec2 tcMaterialUV[];
 in float tcMaterial[];
 in vec3 tcSmoothNormal[];
+in float tcIndex[];
 out vec3 tePosition[];
 out vec3 teNormal[];
 out vec2 teUV[];
@@ -17,6 +18,7 @@ out vec3 teColor[];
 out vec2 teMaterialUV[];
 out float teMaterial[];
 out vec3 teSmoothNormal[];
+out float teIndex[];
 uniform mat4 uModel;
 uniform mat4 uViewProjection;
 uniform vec2 uViewport;       // pixels
@@ -38,6 +40,7 @@ void main() {
   teMaterialUV[gl_InvocationID] = tcMaterialUV[gl_InvocationID];
   teMaterial[gl_InvocationID] = tcMaterial[gl_InvocationID];
   teSmoothNormal[gl_InvocationID] = tcSmoothNormal[gl_InvocationID];
+  teIndex[gl_InvocationID] = tcIndex[gl_InvocationID];
   if (gl_InvocationID == 0) {
     vec4 c[3];
     for (int i = 0; i < 3; ++i) c[i] = uViewProjection * (uModel * vec4(tcPosition[i], 1.0));

@@ -10,8 +10,29 @@ in vec3 teColor[];
 in vec2 teMaterialUV[];
 in float teMaterial[];
 in vec3 teSmoothNormal[];
+in float teIndex[];
 layout(binding = 0) uniform sampler2D uHeight;  // renderer.cpp pom::kHeight
+// Where the mesh's uv charts meet (deform::GpuMesh::seamEdges, seamVertices), read where uSeams is 1.
+layout(std430, binding = 2) readonly buffer SeamEdges { vec4 seamEdge[]; };        // renderer pom::kSeamEdges
+layout(std430, binding = 3) readonly buffer SeamVertices { vec4 seamVertex[]; };  // renderer pom::kSeamVertices
+uniform int uSeams;
 uniform float uBumpDepth;
+uniform float uSegmentPixels;  // the tessellation's segment on screen (pixels)
+uniform float uPixelAngle;     // a pixel's size at 1 m from the eye (m)
+uniform float uMetresPerUv;    // the mesh's size of one uv unit (m)
+float gSegment = 0.0;          // the segment here (m)
+
+// The height at uv filtered over the surface around it (the map's mip levels): over about a segment, and over as
+// far as the surface moves there, whichever is more. The vertices stand a segment apart; a crease whose height
+// drops by centimetres from one texel to the next (a crushed, saturated map) read at them alone aliases into
+// spikes along it, where the filtered height slopes at most about 1:1. A function of uv and of the vertex's
+// distance alone: a vertex shared by two triangles moves the same way in both.
+float heightNear(vec2 uv) {
+  float texel = uMetresPerUv / float(textureSize(uHeight, 0).x);  // m
+  float coarse = textureLod(uHeight, uv, log2(max(0.5 * uBumpDepth / texel, 1.0))).r;
+  float reach = max(gSegment, abs(coarse - 0.5) * uBumpDepth);
+  return textureLod(uHeight, uv, log2(max(reach / texel, 1.0))).r;
+}
 uniform mat4 uModel;
 uniform mat3 uNormalMatrix;
 uniform mat4 uViewProjection;
@@ -31,7 +52,27 @@ void main() {
   vec3 s = b.x * teSmoothNormal[0] + b.y * teSmoothNormal[1] + b.z * teSmoothNormal[2];
   s = length(s) > 1e-6 ? normalize(s) : n;
   vec2 uv = b.x * teUV[0] + b.y * teUV[1] + b.z * teUV[2];
-  float d = (textureLod(uHeight, uv, 0.0).r - 0.5) * uBumpDepth;
+  // On a seam (a point of an edge, or a corner, that another chart holds too) the lower of the charts' heights
+  // there: each side reads both and moves its point alike, so the seam stays closed where the charts' dents
+  // differ (a crease across a hard edge would tear it open into spikes).
+  gSegment = uSegmentPixels * max((uViewProjection * (uModel * vec4(p, 1.0))).w, 0.0) * uPixelAngle;
+  float h = heightNear(uv);
+  if (uSeams != 0) {
+    int zeros = int(b.x == 0.0) + int(b.y == 0.0) + int(b.z == 0.0);
+    if (zeros == 2) {
+      int v = int(teIndex[b.x == 1.0 ? 0 : b.y == 1.0 ? 1 : 2]);
+      vec4 first = seamVertex[2 * v], second = seamVertex[2 * v + 1];
+      int others = int(second.z);
+      if (others > 0) h = min(h, heightNear(first.xy));
+      if (others > 1) h = min(h, heightNear(first.zw));
+      if (others > 2) h = min(h, heightNear(second.xy));
+    } else if (zeros == 1) {
+      int e = b.x == 0.0 ? 0 : b.y == 0.0 ? 1 : 2;  // the edge opposite corner e
+      vec4 twin = seamEdge[3 * gl_PrimitiveID + e];
+      if (twin.x >= 0.0) h = min(h, heightNear(b[(e + 1) % 3] * twin.xy + b[(e + 2) % 3] * twin.zw));
+    }
+  }
+  float d = (h - 0.5) * uBumpDepth;
   // The sun's shadow map holds the undisplaced meshes: look the shadow up where the vertex was, as POM does.
   vShadow = uLightViewProjection * (uModel * vec4(p, 1.0));
   p += s * (d / max(dot(s, n), 0.5));  // a depth d along n, reached along s

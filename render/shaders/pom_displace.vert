@@ -16,6 +16,7 @@ out vec3 tcColor;
 out vec2 tcMaterialUV;
 out float tcMaterial;
 out vec3 tcSmoothNormal;
+out float tcIndex;  // the vertex's number (its entries in the seam tables)
 void main() {
   tcPosition = aPosition;
   tcNormal = aNormal;
@@ -24,4 +25,5 @@ void main() {
   tcMaterialUV = aMaterialUV;
   tcMaterial = aMaterial;
   tcSmoothNormal = aSmoothNormal;
+  tcIndex = float(gl_VertexID);
 }

@@ -88,7 +88,9 @@ void main() {
 #if HAS_MAPS
   vec2 size = vec2(textureSize(uHeight, 0));
   float rho = max(length(gUvDx * size), length(gUvDy * size));
-  gHeightLod = clamp(log2(max(rho, 1e-8)), 0.0, float(textureQueryLevels(uHeight) - 1));
+  // The level the fragment stage's textureQueryLod names: level 0, the only one the maps are sampled at here
+  // (their other levels are the displaced path's, read through a sampler of its own).
+  gHeightLod = clamp(log2(max(rho, 1e-8)), 0.0, 0.0);
 #else
   gHeightLod = 0.0;
 #endif

@@ -22,6 +22,7 @@
 // - For pairs involving a body flagged with setReportContacts: one contact
 //   report per pair that the step pushed apart, at its deepest group.
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 
 #include <crumple/physics/step_context.h>
@@ -158,11 +159,22 @@ ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(
   ctx.lookCount.assign(pairs, 0);
   reporting_ = !ctx.reportContacts.empty();
   pushed_.assign(reporting_ ? pairs : 0, 0.0);
+  predicted_.assign(ctx.bodies.size(), Predicted{});
   resting_ = ctx.settings.restingSolveRows > 0;
   if (resting_) {
     v0_.resize(ctx.bodies.size());
     w0_.resize(ctx.bodies.size());
   }
+}
+
+// ctx.predict(body, h, false), kept while the body's velocities stay the same bits.
+Pose ContactRun::predict(size_t i) {
+  const RigidBody& b = ctx_.bodies[i];
+  if (!b.movable()) return {b.x, b.q};  // (a static body is in many islands: nothing kept for it)
+  Predicted& p = predicted_[i];
+  if (p.made && std::memcmp(&p.v, &b.v, sizeof p.v) == 0 && std::memcmp(&p.w, &b.w, sizeof p.w) == 0) return p.pose;
+  p = {b.v, b.w, ctx_.predict(b, h_, false), true};
+  return p.pose;
 }
 
 void ContactRun::start() {
@@ -179,7 +191,6 @@ void ContactRun::startBody(size_t i) {
 // island's pairs in the order of the sweep over all pairs.
 void ContactRun::island(size_t island, int worker) {
   StepContext& ctx = ctx_;
-  const double h = h_;
   const std::vector<Pair>& pairs = ctx.pairs;
   const int n = std::max(1, ctx.settings.contactPasses);
   const int refresh = std::max(1, ctx.settings.contactRefresh);
@@ -213,8 +224,8 @@ void ContactRun::island(size_t island, int worker) {
         const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
                                                 ctx.version[static_cast<size_t>(pair.b)]};
         reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-        pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : ctx.predict(ctx.body(pair.a), h, false);
-        pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : ctx.predict(ctx.body(pair.b), h, false);
+        pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
+        pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
         if (pass > 1) {
           // A refresh re-finds the geometry only where the predicted poses have
           // moved since the last look; resting contact keeps its groups (their

@@ -126,6 +126,15 @@ class ContactRun {
   bool reporting_ = false, resting_ = false;
   std::vector<double> pushed_;    // per pair, when reporting
   std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's)
+  // Per body, the pose its velocities last predicted and those velocities: a body whose velocities no impulse
+  // changed since is not turned again (the poses stay put through the passes; an island's bodies are its own).
+  struct Predicted {
+    glm::dvec3 v{0}, w{0};
+    Pose pose;
+    bool made = false;
+  };
+  std::vector<Predicted> predicted_;
+  Pose predict(size_t body);
 };
 // resting_solve.cpp (called by contactStep with the velocities it began with)
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0, double h);

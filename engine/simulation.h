@@ -178,8 +178,10 @@ class Simulation {
   struct DentCopy {
     bool feel = false;                 // its dents are felt (feel_dents)
     bool pending = false;              // a read-back is under way
-    std::unique_ptr<NearTriangles> near;  // its triangles over the changed tiles (shape frame): nearest ones
-    std::vector<int> triangleOf;        // per triangle of bvh: the mesh's
+    // The nearest of its mesh's triangles (shape frame), made on its first dent and kept (the lists it keeps per
+    // cell serve every later lookup), and per triangle whether it lies over changed tiles.
+    std::unique_ptr<NearTriangles> near;
+    std::vector<char> overChange;
     std::vector<float> start;          // the map before its first dent
     std::vector<float> height;         // the map as last read back
     int resolution = 0;

@@ -105,9 +105,8 @@ void Simulation::takeInMap(DentCopy& d, const float* map) {
     }
 }
 
-// The triangles over changed tiles (one texel around: the lookup interpolates between texel centres), in a mesh
-// and a nearest-triangle structure of their own: the lookups search these, not the whole mesh (a car's 60 000
-// triangles cost a microsecond a lookup), and the box around them is where lookups happen at all.
+// The triangles over changed tiles (one texel around: the lookup interpolates between texel centres): a lookup
+// whose nearest triangle is one of these reads the map there; the box around them is where lookups happen at all.
 void Simulation::findDentedTriangles(DentCopy& d, int i) {
   const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
   const int r = d.resolution;
@@ -125,8 +124,8 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
   for (const DentCopy::Tile& tile : d.tiles) highest = std::max(highest, tile.highest);
   d.boxLo = glm::dvec3(1e300);
   d.boxHi = glm::dvec3(-1e300);
-  TriangleMesh over;
-  d.triangleOf.clear();
+  d.overChange.assign(mesh.triangles.size(), 0);
+  bool any = false;
   if (d.hi.x >= d.lo.x) {
     for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
       const glm::ivec4& texels = d.triangleTexels[ti];
@@ -140,20 +139,18 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
         }
       if (!changed) continue;
       const glm::uvec3& t = mesh.triangles[ti];
-      const unsigned first = static_cast<unsigned>(over.positions.size());
       for (int k = 0; k < 3; ++k) {
         const glm::dvec3 p(mesh.positions[t[k]]);
         d.boxLo = glm::min(d.boxLo, p);
         d.boxHi = glm::max(d.boxHi, p);
-        over.positions.push_back(mesh.positions[t[k]]);
       }
-      over.triangles.emplace_back(first, first + 1, first + 2);
-      d.triangleOf.push_back(static_cast<int>(ti));
+      d.overChange[ti] = 1;
+      any = true;
     }
     d.boxLo -= d.k;
     d.boxHi += d.k;
   }
-  d.near = over.triangles.empty() ? nullptr : std::make_unique<NearTriangles>(over, kNearCell, kOnSurface);
+  if (any && !d.near) d.near = std::make_unique<NearTriangles>(mesh, kNearCell, kOnSurface);
   const bool dented = d.boxHi.x >= d.boxLo.x;
   world_.setDented(bodies_[static_cast<size_t>(i)].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
                    {d.boxLo, d.boxHi});
@@ -172,14 +169,14 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
 
 double Simulation::lookUpDepth(const DentCopy& d, int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {
   const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
-  // The nearest triangle over the changed tiles (exact; among equally near ones, as where a mesh holds a face twice, the
-  // lowest index). A point further from them than kOnSurface (more than the
-  // collision shape's own error off the surface there) lies over the rest of the surface, where the map is as it
-  // started: it feels nothing, as points outside the box do. (Those triangles reach past the change by the rest
-  // of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
+  // The nearest triangle of the mesh (exact; among equally near ones, as where a mesh holds a face twice, the
+  // lowest index). Where it is not over the changed tiles, or further than kOnSurface (more than the collision
+  // shape's own error off the surface there), the point lies over the rest of the surface, where the map is as it
+  // started: it feels nothing, as points outside the box do. (The triangles over the change reach past it by the
+  // rest of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
   const TriangleBvh::Hit hit = d.near->closest(p);
-  if (hit.triangle < 0) return 0;
-  const glm::uvec3 t = mesh.triangles[static_cast<size_t>(d.triangleOf[static_cast<size_t>(hit.triangle)])];
+  if (hit.triangle < 0 || !d.overChange[static_cast<size_t>(hit.triangle)]) return 0;
+  const glm::uvec3 t = mesh.triangles[static_cast<size_t>(hit.triangle)];
   const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);
   const glm::dvec2 uv = hit.barycentric.x * uv0 + hit.barycentric.y * uv1 + hit.barycentric.z * uv2;
   const int r = d.resolution;

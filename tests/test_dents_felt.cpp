@@ -15,7 +15,7 @@ namespace {
 
 // A steel ball of radius 0.25 m dropped at 8 m/s on a static clay plate (its top at y = 0) that keeps only the
 // first impact's dent (impulse_floor), and, parked away from it, a glass marble of radius 1.5 cm.
-std::string craterScene(bool feel, double ballX = 0) {
+std::string craterScene(bool feel, double ballX = 0, double plateThickness = 0.2, double speed = 8) {
   return R"({"format": "crumple-scene/1", "name": "crater", "gravity": [0, -9.81, 0], "timestep": 0.0041666667,
     "duration": 10,
     "materials": {
@@ -26,10 +26,11 @@ std::string craterScene(bool feel, double ballX = 0) {
                     "feel_dents": )" +
          std::string(feel ? "true" : "false") + R"(},
     "bodies": [
-      {"name": "plate", "shape": {"type": "box", "size": [2, 0.2, 2]}, "material": "clay", "static": true,
-       "position": [0, -0.1, 0], "bump_map": {"resolution": 512}},
+      {"name": "plate", "shape": {"type": "box", "size": [2, )" + std::to_string(plateThickness) + R"(, 2]},
+       "material": "clay", "static": true, "position": [0, )" + std::to_string(-plateThickness / 2) + R"(, 0],
+       "bump_map": {"resolution": 512}},
       {"name": "ball", "shape": {"type": "sphere", "radius": 0.25}, "material": "steel",
-       "position": [)" + std::to_string(ballX) + R"(, 0.6, 0], "velocity": [0, -8, 0]},
+       "position": [)" + std::to_string(ballX) + R"(, 0.6, 0], "velocity": [0, )" + std::to_string(-speed) + R"(, 0]},
       {"name": "marble", "shape": {"type": "sphere", "radius": 0.015}, "material": "glass",
        "position": [0.8, 0.015, 0.8]},
       {"name": "box", "shape": {"type": "box", "size": [0.24, 0.02, 0.04]}, "material": "clay",
@@ -183,4 +184,25 @@ TEST_CASE("with nothing dented, or dents far away, bodies move as they did befor
   CHECK(a.x == b.x);
   CHECK(a.v == b.v);
   CHECK(a.q == b.q);
+}
+
+TEST_CASE("a dent in a thin plate's top is felt on its top, not on its underside 1.6 cm below") {
+  // Each point feels the map where its own nearest surface is: the underside's points are within the lookups'
+  // 2 cm of the dented top, but nearest the undented underside.
+  test::glContext();
+  const double thickness = 0.016;
+  Simulation sim(parseScene(craterScene(true, 0, thickness, 2.5), "crater.json", "."), true);
+  run(sim, 0.5);
+  const double depth = crater(sim).depth;
+  MESSAGE("crater " << depth * 1000 << " mm");
+  REQUIRE(depth > 0.004);
+  REQUIRE(depth < thickness - 0.004);
+  RayHit down, up;
+  REQUIRE(sim.world().raycast({0, 0.4, 0}, {0, -1, 0}, 1.0, index(sim, "ball"), down));
+  REQUIRE(sim.world().raycast({0, -0.5, 0}, {0, 1, 0}, 1.0, index(sim, "ball"), up));
+  MESSAGE("crater " << depth * 1000 << " mm; from above the plate is met " << (down.distance - 0.4) * 1000
+                    << " mm below its top, from below " << (up.distance - (0.5 - thickness)) * 1000
+                    << " mm past its underside");
+  CHECK(down.distance == doctest::Approx(0.4 + depth).epsilon(0.01));
+  CHECK(std::abs(up.distance - (0.5 - thickness)) < 2e-4);
 }

@@ -299,7 +299,7 @@ void Renderer::Impl::Frame::shadeInCompute(GLuint target) {
   mark("visibility clear");
   for (size_t index : m.visible) {
     const RenderItem& it = items[index];
-    if (it.height && features.mode == 0) {
+    if (it.height && features.mode == static_cast<int>(ParallaxMode::Occlusion)) {
       // A bump-mapped item at the depth its parallax march finds (what rests in a dent is seen in it), its
       // shading features left out (they shade nothing here: fewer variants).
       PomFeatures f = itemFeatures(it, false);

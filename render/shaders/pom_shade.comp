@@ -85,15 +85,9 @@ void main() {
   gMaterialUvDy = attribute2(v, 11u, wy) - vMaterialUV;
   vMaterial = int(round(uVertex[v[2] * 17u + 13u]));  // flat: the provoking (last) vertex's
   vShadow = uLightViewProjection * vec4(vWorld, 1.0);
-#if HAS_MAPS
-  vec2 size = vec2(textureSize(uHeight, 0));
-  float rho = max(length(gUvDx * size), length(gUvDy * size));
   // The level the fragment stage's textureQueryLod names: level 0, the only one the maps are sampled at here
   // (their other levels are the displaced path's, read through a sampler of its own).
-  gHeightLod = clamp(log2(max(rho, 1e-8)), 0.0, 0.0);
-#else
   gHeightLod = 0.0;
-#endif
   shade();
   imageStore(uOut, pixel, vec4(srgbEncode(fragColor.rgb), fragColor.a));
 }

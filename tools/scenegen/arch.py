@@ -5,11 +5,10 @@ ground, friction 0.6. It stands (tests/test_physics_stacks.cpp holds the same ar
 One voussoir mesh serves all ten: it spans 81..99 degrees about the arch's centre (the mesh origin), and
 voussoir k is turned about z by (k + 0.5) * 18 - 90 degrees.
 """
-import argparse
 import math
 import os
 
-from .scene import ASSETS, SCENES, material, scene_of, write_scene
+from .scene import ASSETS, SCENES, material, no_options, scene_of, write_scene
 
 N, RI, T, DEPTH = 10, 2.0, 0.4, 0.6
 
@@ -53,7 +52,7 @@ def scene():
 
 
 def main():
-    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    no_options(__doc__)
     voussoir_obj(os.path.join(ASSETS, "voussoir.obj"))
     write_scene(os.path.join(SCENES, "arch.json"), scene())
     print("wrote scenes/assets/voussoir.obj and scenes/arch.json")

@@ -7,11 +7,10 @@ tests/test_sim_app.cpp runs this scene.
 Each card's load goes sideways through the cards it leans on, so the contact step's few passes leave the lower
 A-frames creeping apart; the world's resting solve (islands holding a plate) holds them.
 """
-import argparse
 import math
 import os
 
-from .scene import SCENES, material, scene_of, write_scene
+from .scene import SCENES, material, no_options, scene_of, write_scene
 
 T, L, D, TILT, STOREYS = 0.01, 0.3, 0.2, 20.0, 3
 
@@ -61,6 +60,6 @@ def scene():
 
 
 def main():
-    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    no_options(__doc__)
     write_scene(os.path.join(SCENES, "card-house.json"), scene())
     print("wrote scenes/card-house.json")

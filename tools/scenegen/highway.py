@@ -8,11 +8,10 @@ its segments are bolted (welded) to their posts and the posts are welded to the
 ground by welds that break, so a hard enough hit tears posts out. Cameras: a chase camera that follows the car, a close
 camera at the impact, and one that follows the car's dented front-left corner and side (turning with the car).
 Rerun on purpose after changing it; the scene file is committed."""
-import argparse
 import json
 import os
 
-from .scene import SCENES, material
+from .scene import SCENES, material, no_options
 
 SEGMENT = 4.0      # m, the length of wbeam.obj
 RAIL_START = 0.0   # x of the first segment's start
@@ -102,7 +101,7 @@ def scene():
 
 
 def main():
-    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
+    no_options(__doc__)
     text = json.dumps(scene(), separators=(", ", ": "))
     # One body per line: readable diffs.
     text = text.replace("}, {\"name\"", "},\n    {\"name\"")

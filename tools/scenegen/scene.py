@@ -1,4 +1,5 @@
 """The pieces crumple's scene files share: where they live, a material, writing a scene."""
+import argparse
 import json
 import os
 
@@ -27,3 +28,8 @@ def write_scene(path, scene):
     with open(path, "w") as f:
         json.dump(scene, f, indent=1)
         f.write("\n")
+
+
+def no_options(doc):
+    """The command line of a generator that takes no options: --help prints `doc`."""
+    argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()

@@ -90,6 +90,8 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
                     const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {}) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
+  const size_t n = list ? list->size() : st.samples.size();
+  if (n == 0 && !segment) return;  // (before any turning: most looks at a pair have one side with nothing listed)
   const double r = st.sampleRadius;
   const glm::dvec3 lo = so.boundsMin - r - dents.rise, hi = so.boundsMax + r + dents.rise;
   const glm::dmat3 ro = glm::mat3_cast(po.orientation);
@@ -98,8 +100,6 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   glm::dvec3 hint = rot * (pother.position - po.position);
   const double hintLen = glm::length(hint);
   hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
-  const size_t n = list ? list->size() : st.samples.size();
-  if (n == 0 && !segment) return;
   const bool normals = !st.sampleNormals.empty();
   const size_t first = out.size();
   // One rigid map from the other's shape frame to the owner's: local = M s + t.

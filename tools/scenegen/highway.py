@@ -5,7 +5,7 @@ every 2 m, on both sides of the road; the car is scenes/assets/sedan.obj, a
 smooth procedural body with glass and lights in its vertex colours (both from
 tools/make-assets.py). Around the impact the left rail is held by joints:
 its segments are bolted (welded) to their posts and the posts are welded to the
-ground by welds that break, so a hard enough hit tears posts out. Cameras: a chase camera that follows the car, a close
+ground by welds that break, so a hard enough hit tears posts out. Verges flank the road. Cameras: a chase camera that follows the car, a close
 camera at the impact, and one that follows the car's dented front-left corner and side (turning with the car).
 Rerun on purpose after changing it; the scene file is committed."""
 import json
@@ -25,12 +25,18 @@ POST_EVERY = 2.0
 LOOSE_SEGMENTS = range(9, 10)   # rail_left_09 (x = 36 .. 40 m), where the car hits
 POST_BREAK = 1000.0             # N s
 RAIL_MASS, POST_MASS = 60.0, 25.0
+ROAD_WIDTH, VERGE_WIDTH = 14.0, 20.0   # m
 
 
 def scene():
     joints = []
-    bodies = [{"name": "road", "shape": {"type": "box", "size": [240, 0.4, 14]}, "material": "asphalt",
+    bodies = [{"name": "road", "shape": {"type": "box", "size": [240, 0.4, ROAD_WIDTH]}, "material": "asphalt",
                "static": True, "position": [100, -0.2, 0]}]
+    # Verges beyond the road's edges, flush with it: a post or segment torn out lands on ground.
+    for side, sign in (("left", -1), ("right", 1)):
+        bodies.append({"name": "verge_" + side, "shape": {"type": "box", "size": [240, 0.4, VERGE_WIDTH]},
+                       "material": "verge", "static": True,
+                       "position": [100, -0.2, sign * (ROAD_WIDTH + VERGE_WIDTH) / 2]})
     for side, z, yaw in (("left", -RAIL_Z, 180), ("right", RAIL_Z, 0)):
         # wbeam.obj's traffic face looks along -z: the right rail as it is, the left one turned about y.
         loose = LOOSE_SEGMENTS if side == "left" else []
@@ -79,6 +85,7 @@ def scene():
         "duration": 4.5,
         "materials": {
             "asphalt": material(2400, 0.1, 1.0, 0.0, 0.2, [0.23, 0.23, 0.25], 0, 0.9, "asphalt"),
+            "verge": material(1800, 0.1, 0.8, 0.0, 0.2, [0.30, 0.36, 0.20], 0, 0.95, "clay"),
             "rail": material(7800, 0.4, 0.4, 0.00006, 0.08, [0.58, 0.6, 0.62], 1, 0.35),
             "post": material(7800, 0.4, 0.5, 0.0, 0.1, [0.35, 0.36, 0.38], 0.8, 0.5),
             "car_body": material(300, 0.3, 0.5, 0.0002, 0.12, [1.0, 1.0, 1.0], 0.5, 0.3),
@@ -93,7 +100,7 @@ def scene():
             {"name": "chase", "follow": "car", "follow_heading": True, "position": [-8.5, 3.2, 2.5],
              "target": [2.5, 0.4, 0], "fov": 50},
             {"name": "impact", "position": [36.0, 1.25, -3.1], "target": [39.0, 0.55, -4.9], "fov": 45},
-            {"name": "torn", "position": [41.5, 2.6, -2.0], "target": [37.8, 0.2, -5.8], "fov": 50},
+            {"name": "torn", "position": [39.0, 2.1, -2.8], "target": [43.4, 0.1, -7.4], "fov": 45},
             {"name": "side", "follow": "car", "follow_heading": True, "position": [3.3, 0.7, -2.6],
              "target": [0.3, -0.05, -0.7], "fov": 45, "displace": True},
         ],

@@ -66,7 +66,10 @@ struct Side {
     if (!b.movable()) return;
     v = b.v;
     w = b.w;
-    if (pred) {
+    if (pred && h == 0) {  // predicted = now, unturned (the pose mostly stays put within a call: its rotation kept)
+      predicted = {b.x, b.q};
+      Rp = b.q == pose.orientation ? R : glm::mat3_cast(b.q);
+    } else if (pred) {
       predicted = {b.x + h * b.v, turn(b, b.w, h).q};
       Rp = glm::mat3_cast(predicted.orientation);
     }

@@ -333,6 +333,19 @@ SdfGrid::SdfGrid(const TriangleMesh& mesh, int resolution) : bvh_(mesh) {
   const glm::dvec3 ext = hi - lo;
   const double longest = std::max({ext.x, ext.y, ext.z, 1e-9});
   cell_ = longest / std::max(4, resolution);
+  // A long thin body keeps at least a quarter of the resolution across its thinnest extent (a 4 m guard-rail
+  // beam 0.18 m deep: 12 cells through its profile, not 2, which smoothed its W away), within a budget of nodes.
+  const double shortest = std::max(std::min({ext.x, ext.y, ext.z}), 1e-9);
+  const double across = shortest / std::max(1, resolution / 4);
+  if (across < cell_) {
+    auto nodes = [&](double c) {
+      const glm::dvec3 n = glm::ceil((ext + 4 * c) / c) + 1.0;
+      return n.x * n.y * n.z;
+    };
+    const double coarse = cell_;
+    cell_ = across;
+    while (nodes(cell_) > kMaxNodes && cell_ < coarse) cell_ = std::min(coarse, cell_ * 1.125);
+  }
   const double pad = 2 * cell_;
   origin_ = lo - pad;
   dims_ = glm::ivec3(glm::ceil((ext + 2 * pad) / cell_)) + 1;

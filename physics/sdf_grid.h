@@ -72,7 +72,7 @@ class SdfGrid {
   // Cells of (longest extent) / resolution, or finer where the body is thin: at least resolution / 4 cells across
   // its thinnest extent, as long as the grid stays within kMaxNodes.
   SdfGrid(const TriangleMesh& mesh, int resolution);
-  static constexpr double kMaxNodes = 1 << 21;
+  static constexpr double kMaxNodes = 1 << 19;
   // Signed distance (negative inside). Outside the grid, the distance to the
   // grid box is added to the clamped lookup, which keeps it an upper bound.
   double distance(const glm::dvec3& p, glm::dvec3* gradient) const;

@@ -5,8 +5,10 @@ every 2 m, on both sides of the road; the car is scenes/assets/sedan.obj, a
 smooth procedural body with glass and lights in its vertex colours (both from
 tools/make-assets.py). Around the impact the left rail is held by joints:
 its segments are bolted (welded) to their posts and the posts are welded to the
-ground by welds that break, so a hard enough hit tears posts out. Verges flank the road. Cameras: a chase camera that follows the car, a close
-camera at the impact, and one that follows the car's dented front-left corner and side (turning with the car).
+ground by welds that break, so a hard enough hit tears posts out; verges beyond
+the road's edges catch what it drags off. Cameras: a chase camera that follows
+the car, a close camera at the impact, one where the torn segment lands, and one
+that follows the car's dented front-left corner and side (turning with the car).
 Rerun on purpose after changing it; the scene file is committed."""
 import json
 import os

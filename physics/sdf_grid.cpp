@@ -56,16 +56,11 @@ TriangleBvh::TriangleBvh(const TriangleMesh& mesh) {
   b_.resize(n);
   c_.resize(n);
   centroid_.resize(n);
-  boxes_.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     a_[i] = mesh.positions[mesh.triangles[i].x];
     b_[i] = mesh.positions[mesh.triangles[i].y];
     c_[i] = mesh.positions[mesh.triangles[i].z];
     centroid_[i] = (a_[i] + b_[i] + c_[i]) / 3.0;
-    // (widened by far more than the rounding of a closest point: a box further than a bound is a triangle further)
-    const glm::dvec3 lo = glm::min(a_[i], glm::min(b_[i], c_[i])), hi = glm::max(a_[i], glm::max(b_[i], c_[i]));
-    const glm::dvec3 pad = 1e-9 * (1.0 + glm::abs(lo) + glm::abs(hi));
-    boxes_.push_back({lo - pad, hi + pad});
   }
   order_.resize(n);
   std::iota(order_.begin(), order_.end(), 0);
@@ -113,8 +108,6 @@ TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p, double within2) const
   best.distance2 = std::nextafter(within2, std::numeric_limits<double>::max());
   if (nodes_.empty()) return best;
   auto consider = [&](int t) {
-    const auto& [lo, hi] = boxes_[static_cast<size_t>(t)];
-    if (boxDistance2(p, lo, hi) >= best.distance2) return;
     const glm::dvec3 bc = closestOnTriangle(p, a_[t], b_[t], c_[t]);
     const glm::dvec3 q = bc.x * a_[t] + bc.y * b_[t] + bc.z * c_[t];
     const double d2 = glm::dot(q - p, q - p);
@@ -162,8 +155,6 @@ void TriangleBvh::near(const glm::dvec3& p, double within2, std::vector<std::pai
     }
     for (int i = node.first; i < node.first + node.count; ++i) {
       const int t = order_[i];
-      const auto& [lo, hi] = boxes_[static_cast<size_t>(t)];
-      if (boxDistance2(p, lo, hi) > within2) continue;
       const glm::dvec3 bc = closestOnTriangle(p, a_[t], b_[t], c_[t]);
       const glm::dvec3 q = bc.x * a_[t] + bc.y * b_[t] + bc.z * c_[t];
       const double d2 = glm::dot(q - p, q - p);

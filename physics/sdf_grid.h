@@ -40,7 +40,6 @@ class TriangleBvh {
   std::vector<int> order_;
   std::vector<glm::dvec3> a_, b_, c_;
   std::vector<glm::dvec3> centroid_;
-  std::vector<std::pair<glm::dvec3, glm::dvec3>> boxes_;  // per triangle, a little wider than its corners
 };
 
 // The nearest triangle within a reach, cell by cell: the first query in a cell (of `cell` metres) lists, through

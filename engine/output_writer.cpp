@@ -94,6 +94,21 @@ bool isStagingName(const std::string& name, const std::string& base) {
   return dashes == 1 && digit;
 }
 
+// A marker written whole or not at all (to a name of its own, then renamed over): a run that reads it, or a run
+// killed while writing it, never meets half of one.
+void writeMarker(const fs::path& folder, const nlohmann::json& marker, const std::string& where) {
+  const fs::path path = folder / OutputWriter::kMarker, part = folder / (std::string(OutputWriter::kMarker) + ".part");
+  {
+    std::ofstream out(part);
+    out << marker.dump(1) << "\n";
+    out.close();
+    if (!out) throw std::runtime_error(where + ": cannot write " + OutputWriter::kMarker);
+  }
+  std::error_code ec;
+  fs::rename(part, path, ec);
+  if (ec) throw std::runtime_error(where + ": cannot write " + OutputWriter::kMarker + ": " + ec.message());
+}
+
 }  // namespace
 
 OutputWriter::OutputWriter(const std::string& dir) : given_(dir) {
@@ -124,11 +139,8 @@ void OutputWriter::begin() {
   if (ec) throw SceneError(given_, "", "cannot create a folder next to it: " + ec.message());
   begun_ = true;
   // Its marker names its owner from the start, so that a later run can tell it was left behind.
-  std::ofstream marker(fs::path(staging_) / kMarker);
-  marker << nlohmann::json{{"format", "crumple-output/1"}, {"files", nlohmann::json::array()}, {"owner", ownerRecord()}}
-                .dump(1)
-         << "\n";
-  if (!marker) throw std::runtime_error(staging_ + ": cannot write " + kMarker);
+  writeMarker(staging_, {{"format", "crumple-output/1"}, {"files", nlohmann::json::array()}, {"owner", ownerRecord()}},
+              staging_);
 }
 
 void OutputWriter::removeStaleStaging() const {
@@ -403,10 +415,7 @@ void OutputWriter::commit() {
         files.push_back(fs::relative(it->path(), root).generic_string());
     std::sort(files.begin(), files.end());
     // Without its owner now: the folder is an output, not a staging folder.
-    std::ofstream marker(root / kMarker);
-    marker << nlohmann::json{{"format", "crumple-output/1"}, {"files", files}}.dump(1) << "\n";
-    marker.close();
-    if (!marker) throw std::runtime_error(staging_ + ": cannot write " + kMarker);
+    writeMarker(root, {{"format", "crumple-output/1"}, {"files", files}}, staging_);
   }
   if (fs::exists(dir_, ec)) {
     const std::string old = staging_ + ".old";

@@ -112,7 +112,12 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
   }
   glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT | GL_TEXTURE_FETCH_BARRIER_BIT);
   phase("height bound");
-  for (const Side* side : of) glGenerateTextureMipmap(side->x->height().id());  // (one map may hold two sides)
+  // Each map's levels once (one map may hold two sides: a body against itself, maps shared until made unique).
+  std::vector<GLuint> maps;
+  for (const Side* side : of) maps.push_back(side->x->height().id());
+  std::sort(maps.begin(), maps.end());
+  maps.erase(std::unique(maps.begin(), maps.end()), maps.end());
+  for (GLuint id : maps) glGenerateTextureMipmap(id);
   phase("height levels");
 }
 

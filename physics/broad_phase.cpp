@@ -24,7 +24,8 @@
 // stepTravel (before the substeps): over every pair of bodies whose bounds,
 // swept over the whole step, overlap, the largest ratio of their relative
 // travel within the step to what a substep may take (substepFraction of the
-// thinner one's half thickness); likewise every pair of joined bodies. Bodies
+// thinner one's half thickness), leaving out pairs that never collide (groups
+// set apart, joined bodies); likewise every pair of joined bodies. Bodies
 // falling side by side, or one far from everything, ask for no substeps
 // however fast they move.
 #include <algorithm>
@@ -441,12 +442,15 @@ double stepTravel(StepContext& ctx, double h) {
   double worst = 0;
   const double fraction = ctx.settings.substepFraction;
   std::vector<uint64_t>& keys = ctx.pairKeys;  // (findPairs makes them again for the substeps)
+  refreshJointExclusions(ctx);
   gridPairs(
       ctx, ctx.grid, boxes, nullptr,
       [&](int ia, int ib) {
         const RigidBody& A = bodies[static_cast<size_t>(ia)];
         const RigidBody& B = bodies[static_cast<size_t>(ib)];
-        return (A.movable() || B.movable()) && !A.removed && !B.removed;
+        // Pairs that never collide (groups set apart, joined bodies) need no substeps; the user's filter is not
+        // asked here (it is called once a substep, in findPairs).
+        return (A.movable() || B.movable()) && mayCollide(ctx, ia, ib, false);
       },
       false, keys);
   for (uint64_t key : keys) {

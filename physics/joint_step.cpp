@@ -505,7 +505,7 @@ void refreshJointExclusions(StepContext& ctx) {
   ctx.jointExcludedDirty = false;
 }
 
-bool mayCollide(StepContext& ctx, int a, int b) {
+bool mayCollide(StepContext& ctx, int a, int b, bool askFilter) {
   const RigidBody& A = ctx.body(a);
   const RigidBody& B = ctx.body(b);
   if (A.removed || B.removed) return false;
@@ -515,7 +515,7 @@ bool mayCollide(StepContext& ctx, int a, int b) {
     const uint64_t key = static_cast<uint64_t>(std::min(a, b)) << 32 | static_cast<uint64_t>(std::max(a, b));
     if (std::binary_search(ctx.jointExcluded.begin(), ctx.jointExcluded.end(), key)) return false;
   }
-  if (ctx.filter && !ctx.filter(std::min(a, b), std::max(a, b))) return false;
+  if (askFilter && ctx.filter && !ctx.filter(std::min(a, b), std::max(a, b))) return false;
   return true;
 }
 

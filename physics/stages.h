@@ -149,10 +149,10 @@ void postStabilize(StepContext& ctx, double h);
 void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach);
 bool anyJointActive(const StepContext& ctx);  // a joint not removed or broken with a dynamic body
 void findAnchored(StepContext& ctx);
-// Whether bodies a and b may collide (groups, joints, the user's filter). Safe on several threads at once
-// after refreshJointExclusions (which rebuilds the joined pairs' list when joints changed), unless a user's
-// filter is set (ctx.filter: called as the user gave it).
-bool mayCollide(StepContext& ctx, int a, int b);
+// Whether bodies a and b may collide (groups, joints, and unless askFilter is false the user's filter). Safe on
+// several threads at once after refreshJointExclusions (which rebuilds the joined pairs' list when joints
+// changed), unless a user's filter is asked (ctx.filter: called as the user gave it).
+bool mayCollide(StepContext& ctx, int a, int b, bool askFilter = true);
 void refreshJointExclusions(StepContext& ctx);
 // position_step.cpp
 void endOfStepDepths(StepContext& ctx, double h);

@@ -471,7 +471,10 @@ TEST_CASE("a long thin mesh's distance field resolves its profile: a 4 m guard-r
 }
 
 TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take none, one closing on a plate does") {
-  auto substeps = [](bool plate) {
+  // apart: the plate in a group set apart from the boxes', or (joined) each box joined to it: pairs that never
+  // collide ask for no substeps.
+  enum class Apart { No, Groups, Joined };
+  auto substeps = [](bool plate, Apart apart = Apart::No) {
     World w;
     w.settings().gravity = {0, 0, 0};
     // Two small boxes (half thickness 0.05) 5 mm apart side by side at 30 m/s: 0.125 m a step at 240 Hz, 5
@@ -485,13 +488,36 @@ TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take 
       d.shape = makeBox({2, 0.1, 2});
       d.origin = {0, 9.8, 0};
       d.isStatic = true;
-      w.addBody(d);
+      if (apart == Apart::Joined) {  // a dynamic plate, each box held to it by a rod that lets it fall
+        d.isStatic = false;
+        d.density = 1000;
+      }
+      const int p = w.addBody(d);
+      if (apart == Apart::Groups) {
+        w.setGroup(p, 2);
+        w.setGroupsCollide(0, 2, false);
+      }
+      if (apart == Apart::Joined) {
+        for (int box : {a, b}) {
+          JointDef j;
+          j.type = JointType::Distance;
+          j.a = p;
+          j.b = box;
+          j.anchorA = w.body(p).x;
+          j.anchorB = w.body(box).x;
+          j.minLength = 0;
+          j.maxLength = 10;  // a slack rope: it acts on nothing within the step
+          w.addJoint(j);
+        }
+      }
     }
     w.step(1.0 / 240);
     return w.lastStats().substeps;
   };
   CHECK(substeps(false) == 1);
   CHECK(substeps(true) == 5);  // 0.125 m / (0.5 x 0.05 m)
+  CHECK(substeps(true, Apart::Groups) == 1);
+  CHECK(substeps(true, Apart::Joined) == 1);
 }
 
 TEST_CASE("broad phase: the kept pair list (fat boxes) finds exactly the overlapping pairs as bodies move") {

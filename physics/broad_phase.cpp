@@ -27,8 +27,11 @@
 // thinner one's half thickness), leaving out pairs that never collide (groups
 // set apart, joined bodies); likewise every pair of joined bodies. Bodies
 // falling side by side, or one far from everything, ask for no substeps
-// however fast they move.
+// however fast they move. The pairs come from the fat boxes' list where at most
+// a few bodies' swept boxes left their fat boxes (those few tested against
+// every body), else from a grid of their own: the same pairs either way.
 #include <algorithm>
+#include <cstdint>
 #include <numeric>
 
 #include <crumple/physics/sample_tree.h>
@@ -443,18 +446,14 @@ double stepTravel(StepContext& ctx, double h) {
   const double fraction = ctx.settings.substepFraction;
   std::vector<uint64_t>& keys = ctx.pairKeys;  // (findPairs makes them again for the substeps)
   refreshJointExclusions(ctx);
-  gridPairs(
-      ctx, ctx.grid, boxes, nullptr,
-      [&](int ia, int ib) {
-        const RigidBody& A = bodies[static_cast<size_t>(ia)];
-        const RigidBody& B = bodies[static_cast<size_t>(ib)];
-        // Pairs that never collide (groups set apart, joined bodies) need no substeps; the user's filter is not
-        // asked here (it is called once a substep, in findPairs).
-        return (A.movable() || B.movable()) && mayCollide(ctx, ia, ib, false);
-      },
-      false, keys);
-  for (uint64_t key : keys) {
-    const int ia = static_cast<int>(key >> 32), ib = static_cast<int>(key & 0xffffffffu);
+  auto accept = [&](int ia, int ib) {
+    const RigidBody& A = bodies[static_cast<size_t>(ia)];
+    const RigidBody& B = bodies[static_cast<size_t>(ib)];
+    // Pairs that never collide (groups set apart, joined bodies) need no substeps; the user's filter is not
+    // asked here (it is called once a substep, in findPairs).
+    return (A.movable() || B.movable()) && mayCollide(ctx, ia, ib, false);
+  };
+  auto pairTravel = [&](int ia, int ib) {
     const RigidBody& A = bodies[static_cast<size_t>(ia)];
     const RigidBody& B = bodies[static_cast<size_t>(ib)];
     const Swept& si = swept[static_cast<size_t>(ia)];
@@ -462,6 +461,44 @@ double stepTravel(StepContext& ctx, double h) {
     const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;
     const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
     worst = std::max(worst, travel / allowed);
+  };
+  // The fat boxes' pairs (findPairs) hold every pair whose swept boxes overlap among bodies whose swept box lies
+  // in their fat box and which were active when the fat boxes were made (a pair of bodies neither of which moves
+  // travels nothing); the few others (at most kOutside) are tested against every body. The largest ratio is the
+  // same whatever the order: only where more left their fat boxes is a grid built.
+  constexpr size_t kOutside = 32;
+  const BroadGrid& grid = ctx.grid;
+  std::vector<char> out;
+  size_t outside = SIZE_MAX;  // (no fat boxes yet: a grid)
+  if (grid.fat.size() == n && grid.fatActive.size() == n) {
+    out.assign(n, 0);
+    outside = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const Aabb& box = boxes[i];
+      const Aabb& f = grid.fat[i];
+      const bool in = box.lo.x >= f.lo.x && box.lo.y >= f.lo.y && box.lo.z >= f.lo.z && box.hi.x <= f.hi.x &&
+                      box.hi.y <= f.hi.y && box.hi.z <= f.hi.z && (!bodies[i].movable() || grid.fatActive[i]);
+      out[i] = !in;
+      outside += !in;
+    }
+  }
+  if (outside <= kOutside) {
+    for (uint64_t key : grid.fatKeys) {
+      const int ia = static_cast<int>(key >> 32), ib = static_cast<int>(key & 0xffffffffu);
+      if (!out[static_cast<size_t>(ia)] && !out[static_cast<size_t>(ib)] &&
+          overlap(boxes[static_cast<size_t>(ia)], boxes[static_cast<size_t>(ib)]) && accept(ia, ib))
+        pairTravel(ia, ib);
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (!out[i]) continue;
+      for (size_t j = 0; j < n; ++j)
+        if (j != i && !(out[j] && j < i) && overlap(boxes[i], boxes[j]) &&
+            accept(static_cast<int>(std::min(i, j)), static_cast<int>(std::max(i, j))))
+          pairTravel(static_cast<int>(std::min(i, j)), static_cast<int>(std::max(i, j)));
+    }
+  } else {
+    gridPairs(ctx, ctx.grid, boxes, nullptr, accept, false, keys);
+    for (uint64_t key : keys) pairTravel(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu));
   }
   // Joined bodies, wherever they are, by each one's own turn: the joint solve's Newton passes are linearised
   // in the turn over the substep (a translation is linear in the impulse; joint_step.cpp takes the levers at

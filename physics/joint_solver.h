@@ -70,7 +70,7 @@ struct Side {
       predicted = {b.x, b.q};
       Rp = b.q == pose.orientation ? R : glm::mat3_cast(b.q);
     } else if (pred) {
-      predicted = {b.x + h * b.v, turn(b, b.w, h).q};
+      predicted = {b.x + h * b.v, ctx.turnOf(b, b.w, h).q};
       Rp = glm::mat3_cast(predicted.orientation);
     }
   }

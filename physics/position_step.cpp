@@ -49,7 +49,7 @@ void integratePositions(StepContext& ctx, double h) {
       RigidBody& b = ctx.bodies[i];
       if (!b.movable()) continue;
       b.x += h * b.v;
-      const FreeRotation r = turn(b, b.w, h);
+      const FreeRotation r = ctx.turnOf(b, b.w, h);
       b.q = r.q;
       b.w = r.w;
     }

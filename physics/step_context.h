@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <memory>
 #include <utility>
@@ -438,6 +439,28 @@ struct StepContext {
     if (b.kinematic) return glm::dvec3(0);
     return invInertia[static_cast<size_t>(i)] * torque[static_cast<size_t>(i)];
   }
+  // turn(b, w, h), kept per dynamic body for the last (orientation, w, h) it was asked with within this step
+  // (the same bits in, the same bits out): the joint passes' predicted poses, the contact step's and the position
+  // update ask the same turn again where no impulse changed w between them. A dynamic body is in one island, so
+  // one thread asks for it at a time; a kinematic one (in several islands) turns at constant w: not kept.
+  struct TurnMemo {
+    glm::dquat q{1, 0, 0, 0};
+    glm::dvec3 w{0};
+    double h = 0;
+    uint64_t step = 0;  // turnStep when made (0: never)
+    FreeRotation turned;
+  };
+  mutable std::vector<TurnMemo> turnMemo;
+  uint64_t turnStep = 0;  // World::step's count: a memo of an earlier step is stale (the body's inertia may have changed)
+  FreeRotation turnOf(const RigidBody& b, const glm::dvec3& w, double h) const {
+    if (b.kinematic) return turn(b, w, h);
+    TurnMemo& m = turnMemo[static_cast<size_t>(&b - bodies.data())];
+    if (m.step == turnStep && m.h == h && std::memcmp(&m.w, &w, sizeof w) == 0 &&
+        std::memcmp(&m.q, &b.q, sizeof b.q) == 0)
+      return m.turned;
+    m = {b.q, w, h, turnStep, turn(b, w, h)};
+    return m.turned;
+  }
   // The pose after h at the current velocities (with this step's accelerations when asked).
   Pose predict(const RigidBody& b, double h, bool withForces) const {
     if (!b.movable()) return {b.x, b.q};
@@ -447,7 +470,7 @@ struct StepContext {
       v += h * acceleration(i);
       w += h * angularAcceleration(i);
     }
-    return {b.x + h * v, turn(b, w, h).q};
+    return {b.x + h * v, turnOf(b, w, h).q};
   }
 
   // v_B - v_A at the levers' point.

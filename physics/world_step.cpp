@@ -213,6 +213,8 @@ StepStatus World::step(double h) {
   if (!ctx.dentRise.empty()) ctx.dentRise.resize(ctx.bodies.size(), -1.0);
   if (!ctx.dentBox.empty()) ctx.dentBox.resize(ctx.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
   detail::forgetSurfaceAnswers(ctx);
+  ++ctx.turnStep;
+  ctx.turnMemo.resize(ctx.bodies.size());
   ctx.stats = {};
   ctx.frozen.assign(ctx.bodies.size(), 0);
   // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for

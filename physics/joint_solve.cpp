@@ -387,12 +387,16 @@ void assemble(JointSystem& s) {
         }
         const RowEnd& ei = ends[i];
         const RowEnd& ej = ends[j];
-        for (int a = 0; a < np; ++a)
-          for (int c = 0; c < nq; ++c) {
-            const double* x = ei.g[a];
-            const double* y = ej.wg[c];
-            blk->m[a][c] += x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3] + x[4] * y[4] + x[5] * y[5];
-          }
+        withSize(np, [&](auto NP) {
+          withSize(nq, [&](auto NQ) {
+            for (int a = 0; a < NP(); ++a)
+              for (int c = 0; c < NQ(); ++c) {
+                const double* x = ei.g[a];
+                const double* y = ej.wg[c];
+                blk->m[a][c] += x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3] + x[4] * y[4] + x[5] * y[5];
+              }
+          });
+        });
       }
     }
   }

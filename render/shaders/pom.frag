@@ -45,6 +45,10 @@ in vec3 vColor;  // multiplies uColor (glTF's COLOR_0)
 in vec4 vShadow;
 in vec2 vMaterialUV;    // the mesh file's own uv
 flat in int vMaterial;  // its material in the look, -1 none
+#if DISPLACED
+in float vHeightLod;  // pom_displace.tese: the height map's level the surface was moved by
+uniform float uMetresPerUv;
+#endif
 #ifdef VISIBILITY_PASS
 // The visibility pass of shading in compute (a bump-mapped item): its item and triangle, at the depth of the
 // surface the march found, so that what rests in a dent is seen in it there too. Nothing is shaded.
@@ -316,7 +320,20 @@ void main() {
   vec3 Nb = Nl;
 #if HAS_MAPS
   {
+#if DISPLACED && !defined(COMPUTE_SHADING)
+    // The slopes of the surface as it was moved: the height map at the level the tessellation read it
+    // (vHeightLod), by central differences over that level's texels, as the normal map is made from level 0.
+    // Where a deep crease was smoothed for the vertices, the normal map's level-0 slopes (nearly vertical walls
+    // one texel wide) would light the smooth surface as torn, in black slivers and bright spikes.
+    float lod = max(vHeightLod, 0.0);
+    float texelUv = exp2(floor(lod)) / float(textureSize(uHeight, 0).x);
+    float hx = textureLod(uHeight, uv + vec2(texelUv, 0.0), lod).r - textureLod(uHeight, uv - vec2(texelUv, 0.0), lod).r;
+    float hy = textureLod(uHeight, uv + vec2(0.0, texelUv), lod).r - textureLod(uHeight, uv - vec2(0.0, texelUv), lod).r;
+    float slope = uBumpDepth / (2.0 * max(texelUv * uMetresPerUv, 1e-9));
+    vec3 nt = normalize(vec3(-hx * slope, -hy * slope, 1.0));
+#else
     vec3 nt = textureGrad(uNormalMap, uv, duv1, duv2).xyz * 2.0 - 1.0;
+#endif
     vec3 T = normalize(gradU - Nl * dot(gradU, Nl));
     vec3 B = normalize(gradV - Nl * dot(gradV, Nl));
     Nb = normalize(T * nt.x + B * nt.y + Nl * nt.z);

@@ -27,11 +27,13 @@ float gSegment = 0.0;          // the segment here (m)
 // drops by centimetres from one texel to the next (a crushed, saturated map) read at them alone aliases into
 // spikes along it, where the filtered height slopes at most about 1:1. A function of uv and of the vertex's
 // distance alone: a vertex shared by two triangles moves the same way in both.
+float gLod = 0.0;  // the level heightNear read last
 float heightNear(vec2 uv) {
   float texel = uMetresPerUv / float(textureSize(uHeight, 0).x);  // m
   float coarse = textureLod(uHeight, uv, log2(max(0.5 * uBumpDepth / texel, 1.0))).r;
   float reach = max(gSegment, abs(coarse - 0.5) * uBumpDepth);
-  return textureLod(uHeight, uv, log2(max(reach / texel, 1.0))).r;
+  gLod = log2(max(reach / texel, 1.0));
+  return textureLod(uHeight, uv, gLod).r;
 }
 uniform mat4 uModel;
 uniform mat3 uNormalMatrix;
@@ -44,6 +46,7 @@ out vec4 vShadow;
 out vec3 vColor;
 out vec2 vMaterialUV;
 flat out int vMaterial;
+out float vHeightLod;  // the level of the height map the vertex was moved by (pom.frag shades with its slopes)
 
 void main() {
   vec3 b = gl_TessCoord;
@@ -57,6 +60,7 @@ void main() {
   // differ (a crease across a hard edge would tear it open into spikes).
   gSegment = uSegmentPixels * max((uViewProjection * (uModel * vec4(p, 1.0))).w, 0.0) * uPixelAngle;
   float h = heightNear(uv);
+  vHeightLod = gLod;
   if (uSeams != 0) {
     int zeros = int(b.x == 0.0) + int(b.y == 0.0) + int(b.z == 0.0);
     if (zeros == 2) {

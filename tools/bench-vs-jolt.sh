@@ -40,9 +40,20 @@ if [ ! -f "$jolt/Build/CMakeLists.txt" ]; then
 fi
 prefix=$(dirname "$root")/jolt-install
 echo "== building Jolt ($(git -C "$jolt" describe --tags --always 2>/dev/null || echo 'no git')) into $prefix"
-tools/build-jolt.sh "$jolt" "$prefix" >/dev/null
+# The builds' output goes to a log, shown only when a build fails (a Release build's compiler notes are not the
+# figures' business).
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+quietly() {
+  if ! "$@" >"$log" 2>&1; then
+    cat "$log" >&2
+    echo "$(basename "$0"): failed: $*" >&2
+    exit 1
+  fi
+}
+quietly tools/build-jolt.sh "$jolt" "$prefix"
 echo "== building crumple-bench (commit $(git rev-parse --short HEAD)) against it"
-cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT_DIR="$prefix" -DCRUMPLE_BUILD_TESTS=OFF >/dev/null
-cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench >/dev/null
+quietly cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT_DIR="$prefix" -DCRUMPLE_BUILD_TESTS=OFF
+quietly cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench
 echo "== crumple $(git rev-parse --short HEAD), Jolt $(git -C "$jolt" rev-parse --short HEAD 2>/dev/null || echo '?')"
 build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}"

@@ -144,11 +144,13 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<dou
     a.refresh(ctx, 0, true);  // predicted = now
     b.refresh(ctx, 0, true);
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
-    const Mobility m = mobility(a, b, jr.ra, jr.rb);
     for (int k = 0; k < jr.n; ++k) {
       const Row& row = jr.rows[k];
-      const double inverse = glm::dot(row.lin, m.K * row.lin + m.C * row.ang) +
-                             glm::dot(row.ang, glm::transpose(m.C) * row.lin + m.A * row.ang);
+      // The row's inverse effective mass, row^T M row (joint_solver.h's Mobility) side by side: each body moves
+      // its anchor along the row by its inverse mass and turns by (r x lin + ang) through its inverse inertia.
+      const glm::dvec3 ta = glm::cross(jr.ra, row.lin) + row.ang, tb = glm::cross(jr.rb, row.lin) + row.ang;
+      const double inverse = (a.invMass + b.invMass) * glm::dot(row.lin, row.lin) + glm::dot(ta, a.invInertia * ta) +
+                             glm::dot(tb, b.invInertia * tb);
       if (!(inverse > 0)) continue;
       const double speed = jr.err[k] / h;
       energy += speed * speed / inverse;  // 2 x (speed^2 / 2 / inverse)

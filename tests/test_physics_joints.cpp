@@ -134,7 +134,7 @@ TEST_CASE("joints: a chain of 20 links hanging from one end stays joined, and so
     }
     MESSAGE(std::string(heavy ? "100 kg on 1 kg links" : "20 links")
             << std::string(variant == 2 ? ", one substep a step" : "") << ": largest gap " << worst * 1000 << " mm");
-    CHECK(worst < 0.005);
+    CHECK(worst < 1e-4);  // 0.1 mm on 0.2 m links (about 0.02 mm here)
     CHECK(std::isfinite(t.body(body.back()).x.y));
   }
 }

@@ -66,6 +66,12 @@ bool overlap(const Aabb& a, const Aabb& b) {
   return !(b.lo.x > a.hi.x || a.lo.x > b.hi.x || b.lo.y > a.hi.y || a.lo.y > b.hi.y || b.lo.z > a.hi.z ||
            a.lo.z > b.hi.z);
 }
+
+// Whether box a lies within box b (closed).
+bool within(const Aabb& a, const Aabb& b) {
+  return a.lo.x >= b.lo.x && a.lo.y >= b.lo.y && a.lo.z >= b.lo.z && a.hi.x <= b.hi.x && a.hi.y <= b.hi.y &&
+         a.hi.z <= b.hi.z;
+}
 }  // namespace
 
 // Every two boxes that overlap, once (i < j). Boxes go into the cells of a uniform grid
@@ -260,10 +266,7 @@ bool fatBoxesHold(StepContext& ctx) {
   ctx.parallelRange(n, kBodiesPerRange, [&](size_t begin, size_t end, int) {
     char ok = 1;
     for (size_t i = begin; i < end && ok; ++i) {
-      const Aabb& b = ctx.boxes[i];
-      const Aabb& f = grid.fat[i];
-      ok = b.lo.x >= f.lo.x && b.lo.y >= f.lo.y && b.lo.z >= f.lo.z && b.hi.x <= f.hi.x && b.hi.y <= f.hi.y &&
-           b.hi.z <= f.hi.z && (!grid.active[i] || grid.fatActive[i]);
+      ok = within(ctx.boxes[i], grid.fat[i]) && (!grid.active[i] || grid.fatActive[i]);
     }
     inside[begin / kBodiesPerRange] = ok;
   });
@@ -476,8 +479,7 @@ double stepTravel(StepContext& ctx, double h) {
     for (size_t i = 0; i < n; ++i) {
       const Aabb& box = boxes[i];
       const Aabb& f = grid.fat[i];
-      const bool in = box.lo.x >= f.lo.x && box.lo.y >= f.lo.y && box.lo.z >= f.lo.z && box.hi.x <= f.hi.x &&
-                      box.hi.y <= f.hi.y && box.hi.z <= f.hi.z && (!bodies[i].movable() || grid.fatActive[i]);
+      const bool in = within(box, f) && (!bodies[i].movable() || grid.fatActive[i]);
       out[i] = !in;
       outside += !in;
     }

@@ -453,8 +453,9 @@ struct StepContext {
   mutable std::vector<TurnMemo> turnMemo;
   uint64_t turnStep = 0;  // World::step's count: a memo of an earlier step is stale (the body's inertia may have changed)
   FreeRotation turnOf(const RigidBody& b, const glm::dvec3& w, double h) const {
-    if (b.kinematic) return turn(b, w, h);
-    TurnMemo& m = turnMemo[static_cast<size_t>(&b - bodies.data())];
+    const size_t i = static_cast<size_t>(&b - bodies.data());
+    if (b.kinematic || i >= turnMemo.size()) return turn(b, w, h);  // (outside a step: nothing kept)
+    TurnMemo& m = turnMemo[i];
     if (m.step == turnStep && m.h == h && std::memcmp(&m.w, &w, sizeof w) == 0 &&
         std::memcmp(&m.q, &b.q, sizeof b.q) == 0)
       return m.turned;

@@ -15,11 +15,13 @@ Side sideAt(const StepContext& ctx, int i) {
   const RigidBody& b = ctx.body(i);
   s.pose = {b.x, b.q};
   s.predicted = s.pose;
-  s.R = s.Rp = glm::mat3_cast(b.q);
+  s.R = s.Rp = b.rotation();
   if (!b.movable()) return s;
   if (b.dynamic()) {
     s.invMass = b.invMass;
-    s.invInertia = b.invInertiaWorld();  // at the pose now (post-stabilisation runs after the position update)
+    // At the pose now: the substep's (the same product) until the position update turns the bodies, then made
+    // again (post-stabilisation runs after it).
+    s.invInertia = ctx.invInertiaNow ? ctx.invInertia[static_cast<size_t>(i)] : s.R * b.invInertiaBody * glm::transpose(s.R);
   }
   s.v = b.v;
   s.w = b.w;

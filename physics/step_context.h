@@ -363,6 +363,7 @@ struct StepContext {
 
   // Per body, this substep.
   std::vector<glm::dmat3> invInertia;  // world inverse inertias: orientations stay put until the position update
+  bool invInertiaNow = false;          // invInertia is at the bodies' orientations (cleared by the position update)
   std::vector<char> frozen;            // infinite mass for the impulses (shock propagation's lower levels)
   std::vector<int> level;              // contact graph level (shock propagation)
   // Impulse counts: every impulse the collision step applies bumps both bodies'.

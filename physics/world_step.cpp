@@ -138,6 +138,7 @@ void World::substep(double h) {
   ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) ctx.invInertia[i] = ctx.bodies[i].invInertiaWorld();
   });
+  ctx.invInertiaNow = true;
   detail::findPairs(ctx, h);
   ctx.stats.pairs += static_cast<int>(ctx.pairs.size());
   for (detail::Pair& p : ctx.pairs) p.looks = p.keptLooks = 0;
@@ -180,6 +181,7 @@ void World::substep(double h) {
   });
   detail::endOfStepDepths(ctx, h);
   detail::integratePositions(ctx, h);
+  ctx.invInertiaNow = false;
   detail::projectPositions(ctx, h);
   clock.lap(ms.positions);
   detail::postStabilize(ctx, h);

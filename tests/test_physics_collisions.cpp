@@ -520,6 +520,50 @@ TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take 
   CHECK(substeps(true, Apart::Joined) == 1);
 }
 
+TEST_CASE("substeps: a world that keeps its fat boxes asks for as many substeps as a fresh one at the same state") {
+  // The substep count comes from the fat boxes' pairs where few bodies left their fat boxes, from a grid of its
+  // own otherwise (a world just made has no fat boxes). Small fast spheres in a cloud, made again as they are in
+  // a new world before each step: both must split the step alike, and the run must have needed substeps.
+  World w;
+  w.settings().gravity = {0, 0, 0};
+  w.settings().sleeping = false;
+  Uniform u(13);
+  for (int k = 0; k < 200; ++k) {
+    BodyDef d;
+    d.shape = makeSphere(0.05 + 0.05 * u());
+    d.origin = {2 * u(), 2 * u(), 2 * u()};
+    d.linearVelocity = glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) * 12.0;
+    d.friction = 0;
+    d.restitution = 1;
+    w.addBody(d);
+  }
+  const double h = 1.0 / 240;
+  int split = 0;
+  for (int step = 0; step < 120; ++step) {
+    World fresh;
+    fresh.settings() = w.settings();
+    for (size_t i = 0; i < w.size(); ++i) {
+      const RigidBody& b = w.body(static_cast<int>(i));
+      BodyDef d;
+      d.shape = b.shape;
+      d.origin = b.origin();
+      d.orientation = b.q;
+      d.linearVelocity = b.v;
+      d.angularVelocity = b.w;
+      d.friction = 0;
+      d.restitution = 1;
+      fresh.addBody(d);
+    }
+    w.step(h);
+    fresh.step(h);
+    CAPTURE(step);
+    REQUIRE(fresh.lastStats().substeps == w.lastStats().substeps);
+    split += w.lastStats().substeps > 1;
+  }
+  MESSAGE(split << " of 120 steps split into substeps");
+  CHECK(split > 10);
+}
+
 TEST_CASE("broad phase: the kept pair list (fat boxes) finds exactly the overlapping pairs as bodies move") {
   // Frictionless spheres flying about without gravity (they do not turn, so each predicted pose is x + h v):
   // every step, a pair is every two spheres whose bounds, swept from now to the predicted pose and widened by

@@ -19,9 +19,9 @@ Side sideAt(const StepContext& ctx, int i) {
   if (!b.movable()) return s;
   if (b.dynamic()) {
     s.invMass = b.invMass;
-    // At the pose now: the substep's (the same product) until the position update turns the bodies, then made
-    // again (post-stabilisation runs after it).
-    s.invInertia = ctx.invInertiaNow ? ctx.invInertia[static_cast<size_t>(i)] : s.R * b.invInertiaBody * glm::transpose(s.R);
+    // At the pose now: the substep's until the position update turns the bodies, then made again
+    // (post-stabilisation runs after it).
+    s.invInertia = ctx.invInertiaNow ? ctx.invInertia[static_cast<size_t>(i)] : b.invInertiaWorld();
   }
   s.v = b.v;
   s.w = b.w;

@@ -387,6 +387,8 @@ void carryPairs(StepContext& ctx) {
         p.builtA = old->builtA;
         p.builtB = old->builtB;
         p.builtMargin = old->builtMargin;
+        p.bSegmentNear = old->bSegmentNear;
+        p.aSegmentNear = old->aSegmentNear;
         std::swap(p.kept, old->kept);
         p.keptA = old->keptA;
         p.keptB = old->keptB;
@@ -565,12 +567,18 @@ void findCandidates(StepContext& ctx, double h) {
       if (!stale) continue;
     }
     const double built = margin + skin;
-    auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list) {
+    // A capsule's segment (its deepest point between two core samples) can reach only where a core sample comes
+    // within half their spacing of reaching: `near` tells whether one does, at the lists' reach plus that.
+    auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list, bool segment,
+                       bool& near) {
       list.clear();
       const Shape& so = *owner.shape;
       const Shape& st = *other.shape;
       const double r = st.sampleRadius;
-      const glm::dvec3 lo = so.boundsMin - r - built, hi = so.boundsMax + r + built;
+      const double reach =
+          built + (segment && st.samples.size() > 1 ? st.halfHeight / static_cast<double>(st.samples.size() - 1) : 0.0);
+      near = false;
+      const glm::dvec3 lo = so.boundsMin - r - reach, hi = so.boundsMax + r + reach;
       const glm::dmat3 rot = glm::transpose(owner.rotation());
       const glm::dmat3 rt = other.rotation();
       const glm::dmat3 m = rot * rt;
@@ -579,8 +587,10 @@ void findCandidates(StepContext& ctx, double h) {
         const glm::dvec3 local = m * st.samples[k] + offset;
         if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
           return;
-        if (so.distance(local) - r > built) return;
-        list.push_back(k);
+        const double d = so.distance(local) - r;
+        if (d > reach) return;
+        near = true;
+        if (d <= built) list.push_back(k);
       };
       const SampleTree* tree = st.sampleTree.get();
       if (!tree || tree->size() != st.samples.size()) {
@@ -596,12 +606,13 @@ void findCandidates(StepContext& ctx, double h) {
       std::sort(list.begin(), list.end());  // in sample order, as a whole scan finds them
     };
     const SampleSides sides = sampleSides(*A.shape, bumpA || dentsA, *B.shape, bumpB || dentsB);
+    pair.bSegmentNear = pair.aSegmentNear = false;
     if (sides.bInA)
-      collect(A, B, pair.bInA);
+      collect(A, B, pair.bInA, sides.segmentB, pair.bSegmentNear);
     else
       pair.bInA.clear();
     if (sides.aInB)
-      collect(B, A, pair.aInB);
+      collect(B, A, pair.aInB, sides.segmentA, pair.aSegmentNear);
     else
       pair.aInB.clear();
     pair.builtA = {A.x, A.q};

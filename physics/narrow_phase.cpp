@@ -203,16 +203,49 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   if (ns < 2) return;
   double t0 = 0, t1 = 1;
   if (ns <= 33) {  // (a longer capsule: the search runs over the whole segment, a few more steps than 33 looks)
+    // The owner's exact distance (analytic shapes) is convex along the segment, so its tangent at each sample
+    // bounds it from below everywhere: where the bound between the nearest sample's neighbours cannot beat what
+    // the search would have to beat (no contact, or the samples' deepest contact), no search is made. A capsule
+    // lying on a face has flat tangents: its samples hold the contact.
+    const bool analytic = so.type != ShapeType::Mesh;
+    const glm::dvec3 along = otherToOwner * (s1 - s0);
+    double value[33], slope[33];
     size_t best = 0;
-    double bestD = 1e300;
     for (size_t k = 0; k < ns; ++k) {
-      const double d = f(static_cast<double>(k) / static_cast<double>(ns - 1));
-      if (d < bestD) bestD = d, best = k;
+      glm::dvec3 g;
+      value[k] = analytic ? so.distance(at(static_cast<double>(k) / static_cast<double>(ns - 1)), &g)
+                          : f(static_cast<double>(k) / static_cast<double>(ns - 1));
+      slope[k] = analytic ? glm::dot(g, along) : 0.0;
+      if (value[k] < value[best]) best = k;
     }
+    const double bestD = value[best];
     const double spacing = 2 * st.halfHeight / static_cast<double>(ns - 1);
     if (bestD - 0.5 * spacing >= r) return;
-    t0 = static_cast<double>(best == 0 ? 0 : best - 1) / static_cast<double>(ns - 1);
-    t1 = static_cast<double>(std::min(best + 1, ns - 1)) / static_cast<double>(ns - 1);
+    const size_t k0 = best == 0 ? 0 : best - 1, k1 = std::min(best + 1, ns - 1);
+    t0 = static_cast<double>(k0) / static_cast<double>(ns - 1);
+    t1 = static_cast<double>(k1) / static_cast<double>(ns - 1);
+    if (analytic) {
+      double beat = 0;  // the depth a segment point must be below: none, or every listed sample's less 1e-9
+      for (size_t k = first; k < out.size(); ++k) beat = std::min(beat, out[k].phi - 1e-9);
+      auto bound = [&](double t) {
+        double b = -1e300;
+        for (size_t k = k0; k <= k1; ++k)
+          b = std::max(b, value[k] + slope[k] * (t - static_cast<double>(k) / static_cast<double>(ns - 1)));
+        return b;
+      };
+      // The least of the tangents' upper envelope over [t0, t1]: at an end or where two tangents cross.
+      double least = std::min(bound(t0), bound(t1));
+      for (size_t i = k0; i <= k1; ++i)
+        for (size_t j = i + 1; j <= k1; ++j) {
+          const double ds = slope[i] - slope[j];
+          if (!(std::abs(ds) > 1e-300)) continue;
+          const double ti = static_cast<double>(i) / static_cast<double>(ns - 1),
+                       tj = static_cast<double>(j) / static_cast<double>(ns - 1);
+          const double t = (value[j] - slope[j] * tj - value[i] + slope[i] * ti) / ds;
+          if (t > t0 && t < t1) least = std::min(least, bound(t));
+        }
+      if (least - r >= beat) return;
+    }
   }
   const double golden = 0.5 * (std::sqrt(5.0) - 1);
   double x1 = t1 - golden * (t1 - t0), x2 = t0 + golden * (t1 - t0), f1 = f(x1), f2 = f(x2);
@@ -391,9 +424,9 @@ bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   const Dents dentsA{&ctx.surfaceDepth, dentA, dentB, rise, keptAnswers(ctx, pair.b, dentB)},
       dentsB{&ctx.surfaceDepth, dentB, dentA, rise, keptAnswers(ctx, pair.a, dentA)};
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
-                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB, dentsA);
+                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA);
   contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
-                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA, dentsB);
+                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB);
   sortContacts(out);
   return false;
 }

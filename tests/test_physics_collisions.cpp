@@ -741,6 +741,61 @@ TEST_CASE(
 }
 
 TEST_CASE(
+    "a capsule laid across two thin ridges rests on its surface, not between its core samples, whatever pairs come "
+    "and go beside it") {
+  // A capsule (radius 0.1 m, straight part 1 m: core samples 0.1 m apart) dropped level onto two ridges 2 cm wide
+  // that stand midway between core samples. Only its segment's deepest point (narrow_phase.cpp) holds it at its
+  // radius over the ridges' tops; its core samples' spheres alone would let it sink 8.3 mm. The same capsule beside
+  // 40 balls bouncing on their own plates far away (pairs made and dropped every few substeps, the pair list
+  // remade around its pairs) must move bit for bit as alone: what its pairs carry from one substep to the next
+  // (candidate lists, whether the segment can reach) goes with them.
+  auto run = [](bool crowd) {
+    World w;
+    w.settings().sleeping = false;
+    // The crowd: balls bouncing on plates, half of them before the capsule and its ridges in the bodies' order,
+    // half after, so that the capsule's pairs move along the pair list as the balls' pairs come and go.
+    auto addCrowd = [&](int from, int to) {
+      for (int k = from; crowd && k < to; ++k) {
+        BodyDef ball, plate;
+        plate.shape = makeBox({0.6, 0.1, 0.6});
+        plate.isStatic = true;
+        plate.origin = {20 + 1.5 * (k % 8), -0.05, 1.5 * (k / 8)};
+        ball.shape = makeSphere(0.05 + 0.005 * (k % 5));
+        ball.origin = plate.origin + glm::dvec3(0, 0.15 + 0.04 * (k % 7), 0);
+        ball.restitution = 0.9;
+        w.addBody(ball);
+        w.addBody(plate);
+      }
+    };
+    addCrowd(0, 20);
+    const double top = 0.2, r = 0.1;
+    for (double x : {-0.25, 0.25}) {
+      BodyDef ridge;
+      ridge.shape = makeBox({0.02, 0.4, 1.0});
+      ridge.isStatic = true;
+      ridge.origin = {x, top - 0.2, 0};
+      w.addBody(ridge);
+    }
+    BodyDef cd;
+    cd.shape = makeCapsule(r, 1.0);
+    cd.orientation = glm::angleAxis(glm::half_pi<double>(), glm::dvec3(0, 0, 1));  // its axis along x
+    cd.origin = {0, top + r + 0.01, 0};
+    const int capsule = w.addBody(cd);
+    addCrowd(20, 40);
+    for (int s = 0; s < 480; ++s) w.step(1.0 / 240);
+    return w.body(capsule);
+  };
+  const RigidBody alone = run(false), beside = run(true);
+  MESSAGE("capsule centre " << alone.x.y << " m, its radius over the ridges' tops at " << 0.3 << " m");
+  CHECK(alone.x.y == Approx(0.3).epsilon(0.002 / 0.3));
+  CHECK(std::abs(alone.x.x) < 1e-3);
+  CHECK(beside.x == alone.x);
+  CHECK(beside.q == alone.q);
+  CHECK(beside.v == alone.v);
+  CHECK(beside.w == alone.w);
+}
+
+TEST_CASE(
     "kept manifolds: resting boxes are answered by their carried contacts, a sliding box looks afresh, and "
     "both behave as when every look is new") {
   // contactRefreshTolerance 0 finds every pair's contacts again at every look; the default carries a manifold

@@ -207,15 +207,15 @@ void ContactRun::island(size_t island, int worker) {
     const double eps = -1.0 + static_cast<double>(pass) / n;
     const bool find = (pass - 1) % refresh == 0;
     // Alternate sweeps (forward, then backward): a one-way order pushes every
-    // stack the same way, a little each pass.
-    for (size_t k = 0; k < count; ++k) {
-      const size_t at = pass % 2 ? k : count - 1 - k;
+    // stack the same way, a little each pass. Between finds only the pairs with
+    // contact groups are visited (the others have nothing to solve), in the same order.
+    if (find) s.touching.clear();
+    const size_t visits = find ? count : s.touching.size();
+    for (size_t k = 0; k < visits; ++k) {
+      const size_t at = find ? (pass % 2 ? k : count - 1 - k) : s.touching[pass % 2 ? k : visits - 1 - k];
       const size_t pi = first[at];
       const Pair& pair = pairs[pi];
-      bool look = find;
-      bool reuse = false;
-      Pose pa, pb;
-      if (look) {
+      if (find) {
         // The collision step's last look at this pair was at the poses the
         // first pass predicts now (x + h (v + h a) either way) if no impulse
         // has touched either body since: its contacts are reused, with the
@@ -223,9 +223,10 @@ void ContactRun::island(size_t island, int worker) {
         // contacts are found at the poses the current velocities predict.
         const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
                                                 ctx.version[static_cast<size_t>(pair.b)]};
-        reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-        pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
-        pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
+        const bool reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
+        const Pose pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
+        const Pose pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
+        bool look = true;
         if (pass > 1) {
           // A refresh re-finds the geometry only where the predicted poses have
           // moved since the last look; resting contact keeps its groups (their
@@ -236,12 +237,15 @@ void ContactRun::island(size_t island, int worker) {
           look = displacementExceeds(ctx.lookPoses[pi].first, pa, reachAboutCom(A), ctx.lookPoses[pi].second, pb,
                                      reachAboutCom(B), [&](double moved) { return moved > tolerance; });
         }
+        if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
+        if (ctx.groups[pi].empty()) continue;
+        s.touching.push_back(static_cast<uint32_t>(at));
       }
-      if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
       const bool report = reporting_ && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||
                                          ctx.reportContacts[static_cast<size_t>(pair.b)]);
       solvePair(ctx, pi, eps, s.mu[at], report ? &pushed_[pi] : nullptr);
     }
+    if (find && pass % 2 == 0) std::reverse(s.touching.begin(), s.touching.end());  // (in island order)
   }
 }
 

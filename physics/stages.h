@@ -108,6 +108,7 @@ struct alignas(64) ContactScratch {
   std::vector<ContactGroup> old;
   std::vector<char> inherited;
   std::vector<double> mu;  // the island's pairs' friction
+  std::vector<uint32_t> touching;  // the island's pairs (their places in it) with contact groups, since the last find
 };
 // The contact step island by island: start (with the velocities it begins from: all bodies', or each island's
 // bodies through startIsland before its island), island(k, worker) for every island, then finish.

@@ -68,6 +68,11 @@ void CollisionRun::island(size_t island, int worker) {
       const int ia = pairs[pi].a, ib = pairs[pi].b;
       const std::pair<uint32_t, uint32_t> now{version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
       if (seen[pi] == now) continue;
+      if (!mayTouch(ctx, pairs[pi])) {  // (nothing to find: no look, no pose predicted)
+        ctx.found[pi].clear();
+        seen[pi] = now;
+        continue;
+      }
       for (int it = 0; it < settings.collisionIterations; ++it) {
         const RigidBody& A = ctx.body(ia);
         const RigidBody& B = ctx.body(ib);

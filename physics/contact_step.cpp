@@ -215,6 +215,11 @@ void ContactRun::island(size_t island, int worker) {
       const size_t at = find ? (pass % 2 ? k : count - 1 - k) : s.touching[pass % 2 ? k : visits - 1 - k];
       const size_t pi = first[at];
       const Pair& pair = pairs[pi];
+      if (find && !mayTouch(ctx, pair)) {  // (nothing to find: no groups, no pose predicted)
+        ctx.groups[pi].clear();
+        ctx.lookCount[pi] = 0;
+        continue;
+      }
       if (find) {
         // The collision step's last look at this pair was at the poses the
         // first pass predicts now (x + h (v + h a) either way) if no impulse

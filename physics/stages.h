@@ -41,6 +41,12 @@ namespace crumple::detail {
 // candidate samples (both directions), deepest first.
 // Returns whether they came from the two convex polytopes' manifold (polytope.h) rather than the samples.
 bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+// Whether the pair can touch at all this substep: two polytopes (their manifold needs no lists), or a candidate
+// sample on either side, or a capsule segment in reach (findCandidates). Else every look finds nothing.
+inline bool mayTouch(const StepContext& ctx, const Pair& pair) {
+  return !pair.bInA.empty() || !pair.aInB.empty() || pair.bSegmentNear || pair.aSegmentNear ||
+         (ctx.body(pair.a).shape->polytope && ctx.body(pair.b).shape->polytope);
+}
 // The same contacts, where the pair's last manifold (Pair::kept) was made at poses from which the bodies have
 // moved less than contactRefreshTolerance: its points carried along with the two bodies and their depths measured
 // again (the incident point from the reference face's plane, as the manifold's clipping finds them; those no

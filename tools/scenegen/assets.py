@@ -266,6 +266,19 @@ def lattice2(fn, lo0, lo1, hi0, hi1, cell):
 SEDAN_BOX = ((-2.35, -0.5, -1.05), (2.35, 0.95, 1.05))
 PAINT, GLASS, LAMP, TAIL, TRIM = (0.70, 0.08, 0.06), (0.08, 0.11, 0.14), (0.92, 0.92, 0.85), (0.55, 0.02, 0.02), (0.05, 0.05, 0.05)
 
+# Paint schemes as soft regions. A colour chosen per vertex by a hard test zig-zags along the mesh's edges: a
+# triangle whose corners fall on both sides of the line draws a tooth a cell long, and a car's wheel arches and
+# window frames read as saw blades. Each test here is a membership ramped over about a cell across its line
+# (interpolated over the triangles it is a straight, soft edge), and the colours are blended by it.
+NORMAL_RAMP = 0.15  # the ramp's width for a test on a normal component
+
+def ramp(margin, width):
+    """How far a point is inside a region whose edge is `margin` = 0 (positive inside): 0..1 over `width`."""
+    return min(max(0.5 + margin / width, 0.0), 1.0)
+
+def blend(under, over, amount):
+    return tuple(a + (b - a) * amount for a, b in zip(under, over))
+
 def sedan_sdf(cell):
     """A four-door saloon as a signed distance (negative inside), and its paint
     scheme colour(p, n). x forward, y up, z left, origin at the chassis centre:
@@ -311,25 +324,26 @@ def sedan_fields(cell):
         lower, cabin, arch = parts(p)
         return smax(smin(lower, cabin, 0.05), -arch, 0.04)
     def colour(p, n):
+        # Paint, then tail lamps, lamps and grille, glass and black trim over it (each over the ones before).
         x, y, z = p
         lower, cabin, arch = parts(p)
         az_ = abs(z)
-        if abs(arch) < 0.03 or y < -0.23:
-            return TRIM
-        if cabin < lower + 0.01 and 0.23 < y < 0.72:
-            hw = cabin_hw(y)
-            if abs(n[2]) > 0.55 and cabin2(x, y) < -0.06 and not -0.5 < x < -0.41:
-                return GLASS            # side windows, a B pillar between them
-            if abs(n[0]) > 0.3 and az_ < hw - 0.1:
-                return GLASS            # windscreen and rear window
-        if n[0] > 0.4 and x > 1.9:
-            if -0.02 < y < 0.12 and 0.45 < az_ < 0.82:
-                return LAMP
-            if -0.14 < y < 0.06 and az_ < 0.36:
-                return TRIM             # grille
-        if n[0] < -0.4 and x < -1.9 and 0.0 < y < 0.2 and 0.45 < az_ < 0.86:
-            return TAIL
-        return PAINT
+        w, wn = 2 * cell, NORMAL_RAMP
+        c = PAINT
+        tail = min(ramp(-0.4 - n[0], wn), ramp(-1.9 - x, w), ramp(y, w), ramp(0.2 - y, w), ramp(az_ - 0.45, w),
+                   ramp(0.86 - az_, w))
+        c = blend(c, TAIL, tail)
+        front = min(ramp(n[0] - 0.4, wn), ramp(x - 1.9, w))
+        lamp = min(front, ramp(y + 0.02, w), ramp(0.12 - y, w), ramp(az_ - 0.45, w), ramp(0.82 - az_, w))
+        c = blend(c, LAMP, lamp)
+        grille = min(front, ramp(y + 0.14, w), ramp(0.06 - y, w), ramp(0.36 - az_, w))
+        c = blend(c, TRIM, grille)
+        greenhouse = min(ramp(lower + 0.01 - cabin, w), ramp(y - 0.23, w), ramp(0.72 - y, w))
+        # Side windows (a B pillar between them), windscreen and rear window.
+        side = min(ramp(abs(n[2]) - 0.55, wn), ramp(-0.06 - cabin2(x, y), w), ramp(max(-0.5 - x, x + 0.41), w))
+        screen = min(ramp(abs(n[0]) - 0.3, wn), ramp(cabin_hw(y) - 0.1 - az_, w))
+        c = blend(c, GLASS, min(greenhouse, max(side, screen)))
+        return blend(c, TRIM, max(ramp(0.03 - abs(arch), w), ramp(-0.23 - y, w)))
     return {"f": f, "colour": colour, "cabin2": cabin2}
 
 def sedan_obj(path, cell=0.03):
@@ -400,18 +414,17 @@ def sedan_door_fields(cell):
     def body(p):
         return max(f(p), -pocket(p))
     def body_colour(p, n):
-        if pocket(p) > -0.015 and f(p) < -0.005:
-            return INTERIOR
-        return sed["colour"](p, n)
+        return blend(sed["colour"](p, n), INTERIOR, min(ramp(pocket(p) + 0.015, cell), ramp(-0.01 - f(p), 0.01)))
     def door_colour(p, n):
+        # Paint, then the handle, the inner trim panel and the glass over it.
         x, y, z = p
-        if y > 0.3 and cabin2(x, y) < -(DOOR_INSET + 0.035) and x > DOOR_REAR + 0.035 and abs(n[2]) > 0.55:
-            return GLASS
-        if n[2] < -0.5:
-            return INTERIOR  # the inner trim panel
-        if n[2] > 0.5 and -0.38 < x < -0.24 and 0.12 < y < 0.16:
-            return HANDLE
-        return PAINT
+        w, wn = 2 * cell, NORMAL_RAMP
+        c = blend(PAINT, HANDLE, min(ramp(n[2] - 0.5, wn), ramp(x + 0.38, w), ramp(-0.24 - x, w), ramp(y - 0.12, w),
+                                     ramp(0.16 - y, w)))
+        c = blend(c, INTERIOR, ramp(-0.5 - n[2], wn))
+        glass = min(ramp(y - 0.3, w), ramp(-(DOOR_INSET + 0.035) - cabin2(x, y), w), ramp(x - DOOR_REAR - 0.035, w),
+                    ramp(abs(n[2]) - 0.55, wn))
+        return blend(c, GLASS, glass)
     return body, body_colour, door, door_colour
 
 def sedan_body_obj(path, cell=0.025):

@@ -100,7 +100,8 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   glm::dvec3 hint = rot * (pother.position - po.position);
   const double hintLen = glm::length(hint);
   hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
-  const bool normals = !st.sampleNormals.empty();
+  // (Only a box and a convex mesh read the hint; the other shapes' gradients are unique where they are asked.)
+  const bool normals = !st.sampleNormals.empty() && (so.type == ShapeType::Box || so.polytope);
   const size_t first = out.size();
   // One rigid map from the other's shape frame to the owner's: local = M s + t.
   const glm::dmat3 otherToOwner = rot * rt;

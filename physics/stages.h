@@ -9,7 +9,7 @@
 //     world_step.cpp         the world inverse inertias
 //     broad_phase.cpp        findPairs
 //     islands.cpp            findIslands       (the units the passes run in parallel)
-//     broad_phase.cpp        findCandidates
+//     broad_phase.cpp        findCandidates    (the passes skip pairs that cannot touch: mayTouch)
 //     joint_step.cpp         findAnchored      (bodies welded to the world or to static bodies)
 //     without joints: World::collideAndContact (world_step.cpp), island by island:
 //       collision_step.cpp   CollisionRun      (narrow_phase.cpp, polytope.cpp find the contacts)

@@ -403,7 +403,6 @@ bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   out.clear();
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
-  if (!mayTouch(ctx, pair)) return false;
   const bool bumpA = ctx.bentNormals(pair.a), bumpB = ctx.bentNormals(pair.b);
   // The poses at the substep's start (the bodies have not moved yet): swept tests where a body moves past more
   // than the other's half thickness in the substep (a thin plate the substeps cannot cover).

@@ -42,7 +42,8 @@ namespace crumple::detail {
 // Returns whether they came from the two convex polytopes' manifold (polytope.h) rather than the samples.
 bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
 // Whether the pair can touch at all this substep: two polytopes (their manifold needs no lists), or a candidate
-// sample on either side, or a capsule segment in reach (findCandidates). Else every look finds nothing.
+// sample on either side, or a capsule segment in reach (findCandidates). Else every look finds nothing: the
+// collision and contact passes do not look (pairContacts would find nothing, at the cost of its setup).
 inline bool mayTouch(const StepContext& ctx, const Pair& pair) {
   return !pair.bInA.empty() || !pair.aInB.empty() || pair.bSegmentNear || pair.aSegmentNear ||
          (ctx.body(pair.a).shape->polytope && ctx.body(pair.b).shape->polytope);

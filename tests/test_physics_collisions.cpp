@@ -17,6 +17,27 @@ using namespace crumple;
 using namespace crumple::test;
 using doctest::Approx;
 
+namespace {
+// `count` frictionless, perfectly elastic spheres of radius r0 + dr u in a cube of side `side`, each moving at up to
+// `speed` / 2 m/s per axis (the numbers from Uniform(seed), in that order); their radii.
+std::vector<double> addSphereCloud(World& w, uint64_t seed, int count, double r0, double dr, double side,
+                                   double speed) {
+  Uniform u(seed);
+  std::vector<double> radius;
+  for (int k = 0; k < count; ++k) {
+    BodyDef d;
+    radius.push_back(r0 + dr * u());
+    d.shape = makeSphere(radius.back());
+    d.origin = {side * u(), side * u(), side * u()};
+    d.linearVelocity = glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) * speed;
+    d.friction = 0;
+    d.restitution = 1;
+    w.addBody(d);
+  }
+  return radius;
+}
+}  // namespace
+
 TEST_CASE("free fall matches x = x0 - g t^2 / 2") {
   World w;
   BodyDef d;
@@ -527,16 +548,7 @@ TEST_CASE("substeps: a world that keeps its fat boxes asks for as many substeps 
   World w;
   w.settings().gravity = {0, 0, 0};
   w.settings().sleeping = false;
-  Uniform u(13);
-  for (int k = 0; k < 200; ++k) {
-    BodyDef d;
-    d.shape = makeSphere(0.05 + 0.05 * u());
-    d.origin = {2 * u(), 2 * u(), 2 * u()};
-    d.linearVelocity = glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) * 12.0;
-    d.friction = 0;
-    d.restitution = 1;
-    w.addBody(d);
-  }
+  addSphereCloud(w, 13, 200, 0.05, 0.05, 2, 12.0);
   const double h = 1.0 / 240;
   int split = 0;
   for (int step = 0; step < 120; ++step) {
@@ -572,18 +584,7 @@ TEST_CASE("broad phase: the kept pair list (fat boxes) finds exactly the overlap
   World w;
   w.settings().gravity = {0, 0, 0};
   w.settings().sleeping = false;
-  Uniform u(5);
-  std::vector<double> radius;
-  for (int k = 0; k < 300; ++k) {
-    BodyDef d;
-    radius.push_back(0.1 + 0.15 * u());
-    d.shape = makeSphere(radius.back());
-    d.origin = {3 * u(), 3 * u(), 3 * u()};
-    d.linearVelocity = glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) * 1.5;
-    d.friction = 0;
-    d.restitution = 1;
-    w.addBody(d);
-  }
+  const std::vector<double> radius = addSphereCloud(w, 5, 300, 0.1, 0.15, 3, 1.5);
   const double h = 1.0 / 240;
   int checked = 0;
   std::set<size_t> counts;

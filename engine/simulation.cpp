@@ -67,6 +67,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
                      scene.bodies[i].feelDents.value_or(scene.deformation.feelDents);
     anyFelt = anyFelt || dents_[i].feel;
   }
+  prepareDents();
   if (anyFelt) {
     std::vector<int> bodyOf(world_.size(), -1);
     for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[static_cast<size_t>(bodies_[i].index)] = static_cast<int>(i);
@@ -265,6 +266,8 @@ void Simulation::buildBody(const BodyDesc& d, size_t index) {
       const float k = static_cast<float>(d.bumpMap.bumpDepth.value_or(scene_.deformation.bumpDepth));
       const float kc = static_cast<float>(d.bumpMap.bumpDepthCollide.value_or(scene_.deformation.bumpDepthCollide));
       b.surface = assets_.surface(assets, b.gpuMesh, k, kc, scene_.deformation.lazyMaps, *deformer_);
+      if (assets.hasImage)  // the heights its map starts with (Deformer::createMaps uploads the same floats)
+        imageStarts_[bodies_.size()] = std::make_shared<const std::vector<float>>(assets.initialMap.pixels);
     }
   }
   if (d.vehicle.present) vehicles_.push_back(makeVehicle(d.vehicle, static_cast<int>(bodies_.size()), b.index, gl_));

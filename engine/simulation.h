@@ -175,14 +175,24 @@ class Simulation {
   static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
   static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
   static constexpr double kNearCell = 0.01;    // m: the cells the nearest-triangle lists are kept for
+  // What the bodies of one render mesh and map resolution share for their dents, made when the simulation is
+  // built (not at the first dent, where the crash's frame would wait for it): the nearest of the mesh's triangles
+  // (shape frame; the lists it keeps per cell serve every later lookup on any of them), and per triangle the
+  // texels its uvs cover, one around (lo, hi).
+  struct DentMesh {
+    std::shared_ptr<const NearTriangles> near;
+    std::vector<glm::ivec4> triangleTexels;
+  };
+  std::map<std::pair<const TriangleMesh*, int>, std::shared_ptr<const DentMesh>> dentMeshes_;
+  std::map<size_t, std::shared_ptr<const std::vector<float>>> imageStarts_;  // by body: its bump map image's heights
   struct DentCopy {
     bool feel = false;                 // its dents are felt (feel_dents)
     bool pending = false;              // a read-back is under way
-    // The nearest of its mesh's triangles (shape frame), made on its first dent and kept (the lists it keeps per
-    // cell serve every later lookup), and per triangle whether it lies over changed tiles.
-    std::unique_ptr<NearTriangles> near;
-    std::vector<char> overChange;
-    std::vector<float> start;          // the map before its first dent
+    std::shared_ptr<const DentMesh> mesh;
+    std::vector<char> overChange;      // per triangle: it lies over changed tiles
+    // The map before its first dent: its bump map image's heights, or flat (shared by the bodies of a resolution),
+    // known from the start (no read-back from the GPU at the first dent).
+    std::shared_ptr<const std::vector<float>> start;
     std::vector<float> height;         // the map as last read back
     int resolution = 0;
     // Per tile of kDentTile x kDentTile texels (row by row): its texels that differ from `start` (their
@@ -192,7 +202,6 @@ class Simulation {
       float highest = 0.5f;
     };
     std::vector<Tile> tiles;
-    std::vector<glm::ivec4> triangleTexels;  // per mesh triangle: the texels its uvs cover, one around (lo, hi)
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
     glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
     double k = 0;                      // the bump depth (m)
@@ -200,7 +209,8 @@ class Simulation {
     GLsync fence = nullptr;
   };
   std::vector<DentCopy> dents_;
-  void beforeDent(int body);  // body (of bodies_) is about to be dented: its map's start kept, a read-back due
+  void prepareDents();        // the felt bodies' starting maps and shared meshes (DentMesh)
+  void beforeDent(int body);  // body (of bodies_) is about to be dented: its copy made, a read-back due
   void readBackDents();       // after the step's deformations: the changed maps start coming back
   void takeInDents();         // before the physics: the maps that came back, in the world
   void takeInMap(DentCopy& d, const float* map);  // a read-back map into d.height, d.tiles, d.lo/hi

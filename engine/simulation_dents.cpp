@@ -12,15 +12,47 @@
 
 namespace crumple {
 
+void Simulation::prepareDents() {
+  std::map<int, std::shared_ptr<const std::vector<float>>> flat;  // by resolution
+  for (size_t i = 0; i < dents_.size(); ++i) {
+    DentCopy& d = dents_[i];
+    if (!d.feel) continue;
+    const BodyRuntime& body = bodies_[i];
+    d.resolution = body.surface->resolution();
+    const int r = d.resolution;
+    const size_t texels = static_cast<size_t>(r) * static_cast<size_t>(r);
+    const auto image = imageStarts_.find(i);
+    if (image != imageStarts_.end() && image->second->size() == texels) {
+      d.start = image->second;
+    } else {
+      std::shared_ptr<const std::vector<float>>& level = flat[r];
+      if (!level) level = std::make_shared<const std::vector<float>>(texels, 0.5f);
+      d.start = level;
+    }
+    std::shared_ptr<const DentMesh>& shared = dentMeshes_[{body.mesh.get(), r}];
+    if (!shared) {
+      const TriangleMesh& mesh = *body.mesh;
+      auto made = std::make_shared<DentMesh>();
+      made->near = std::make_shared<const NearTriangles>(mesh, kNearCell, kOnSurface);
+      made->triangleTexels.reserve(mesh.triangles.size());
+      for (const glm::uvec3& t : mesh.triangles) {
+        const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
+        const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
+        const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
+        made->triangleTexels.emplace_back(tlo, thi);
+      }
+      shared = std::move(made);
+    }
+    d.mesh = shared;
+  }
+  imageStarts_.clear();
+}
+
 void Simulation::beforeDent(int i) {
   DentCopy& d = dents_[static_cast<size_t>(i)];
   if (!d.feel) return;
   d.pending = true;
-  if (!d.start.empty()) return;
-  const deform::Surface& surface = *bodies_[static_cast<size_t>(i)].surface;
-  d.resolution = surface.resolution();
-  d.start = surface.downloadHeight().pixels;  // once, before its first dent
-  d.height = d.start;
+  if (d.height.empty()) d.height = *d.start;  // (before its first dent the map is as it started)
 }
 
 void Simulation::readBackDents() {
@@ -73,6 +105,7 @@ void Simulation::takeInMap(DentCopy& d, const float* map) {
   const size_t row = static_cast<size_t>(r);
   if (d.tiles.empty()) d.tiles.assign(static_cast<size_t>(across) * static_cast<size_t>(across), DentCopy::Tile{});
   std::vector<char> moved(d.tiles.size(), 0);
+  const std::vector<float>& start = *d.start;
   for (int y = 0; y < r; ++y)
     for (int tx = 0; tx < across; ++tx) {
       const size_t at = static_cast<size_t>(y) * row + static_cast<size_t>(tx) * kDentTile;
@@ -90,7 +123,7 @@ void Simulation::takeInMap(DentCopy& d, const float* map) {
     for (int y = y0; y < std::min(r, y0 + kDentTile); ++y)
       for (int x = x0; x < std::min(r, x0 + kDentTile); ++x) {
         const size_t i = static_cast<size_t>(y) * row + static_cast<size_t>(x);
-        if (d.height[i] == d.start[i]) continue;
+        if (d.height[i] == start[i]) continue;
         tile.lo = tile.hi.x < tile.lo.x ? glm::ivec2(x, y) : glm::min(tile.lo, glm::ivec2(x, y));
         tile.hi = glm::max(tile.hi, glm::ivec2(x, y));
         tile.highest = std::max(tile.highest, d.height[i]);
@@ -111,24 +144,14 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
   const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
   const int r = d.resolution;
   const int across = (r + kDentTile - 1) / kDentTile;
-  if (d.triangleTexels.empty()) {
-    d.triangleTexels.reserve(mesh.triangles.size());
-    for (const glm::uvec3& t : mesh.triangles) {
-      const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
-      const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
-      const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
-      d.triangleTexels.emplace_back(tlo, thi);
-    }
-  }
   float highest = 0.5f;
   for (const DentCopy::Tile& tile : d.tiles) highest = std::max(highest, tile.highest);
   d.boxLo = glm::dvec3(1e300);
   d.boxHi = glm::dvec3(-1e300);
   d.overChange.assign(mesh.triangles.size(), 0);
-  bool any = false;
   if (d.hi.x >= d.lo.x) {
     for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
-      const glm::ivec4& texels = d.triangleTexels[ti];
+      const glm::ivec4& texels = d.mesh->triangleTexels[ti];
       const glm::ivec2 tlo(texels.x, texels.y), thi(texels.z, texels.w);
       if (thi.x < d.lo.x || thi.y < d.lo.y || tlo.x > d.hi.x || tlo.y > d.hi.y) continue;
       bool changed = false;
@@ -145,12 +168,10 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
         d.boxHi = glm::max(d.boxHi, p);
       }
       d.overChange[ti] = 1;
-      any = true;
     }
     d.boxLo -= d.k;
     d.boxHi += d.k;
   }
-  if (any && !d.near) d.near = std::make_unique<NearTriangles>(mesh, kNearCell, kOnSurface);
   const bool dented = d.boxHi.x >= d.boxLo.x;
   world_.setDented(bodies_[static_cast<size_t>(i)].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
                    {d.boxLo, d.boxHi});
@@ -161,7 +182,7 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
   if (i < 0) return 0;
   const DentCopy& d = dents_[static_cast<size_t>(i)];
   // Only points over dented texels look anything up.
-  if (!d.near || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
+  if (!d.mesh || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
       p.z > d.boxHi.z)
     return 0;
   return lookUpDepth(d, i, p, n, bent);
@@ -174,7 +195,7 @@ double Simulation::lookUpDepth(const DentCopy& d, int i, const glm::dvec3& p, co
   // shape's own error off the surface there), the point lies over the rest of the surface, where the map is as it
   // started: it feels nothing, as points outside the box do. (The triangles over the change reach past it by the
   // rest of its tiles and a texel: a point near their edge reads texels the dent did not touch.)
-  const TriangleBvh::Hit hit = d.near->closest(p);
+  const TriangleBvh::Hit hit = d.mesh->near->closest(p);
   if (hit.triangle < 0 || !d.overChange[static_cast<size_t>(hit.triangle)]) return 0;
   const glm::uvec3 t = mesh.triangles[static_cast<size_t>(hit.triangle)];
   const glm::dvec2 uv0(mesh.uvs[t.x]), uv1(mesh.uvs[t.y]), uv2(mesh.uvs[t.z]);

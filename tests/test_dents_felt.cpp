@@ -4,9 +4,12 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
+#include <unistd.h>
 
 #include <crumple/engine/simulation.h>
+#include <crumple/gl/image.h>
 #include "gl_fixture.h"
 
 using namespace crumple;
@@ -15,7 +18,9 @@ namespace {
 
 // A steel ball of radius 0.25 m dropped at 8 m/s on a static clay plate (its top at y = 0) that keeps only the
 // first impact's dent (impulse_floor), and, parked away from it, a glass marble of radius 1.5 cm.
-std::string craterScene(bool feel, double ballX = 0, double plateThickness = 0.2, double speed = 8) {
+// `plateImage`: the plate's bump map starts from this image (a path) instead of flat.
+std::string craterScene(bool feel, double ballX = 0, double plateThickness = 0.2, double speed = 8,
+                        const std::string& plateImage = "") {
   return R"({"format": "crumple-scene/1", "name": "crater", "gravity": [0, -9.81, 0], "timestep": 0.0041666667,
     "duration": 10,
     "materials": {
@@ -28,7 +33,7 @@ std::string craterScene(bool feel, double ballX = 0, double plateThickness = 0.2
     "bodies": [
       {"name": "plate", "shape": {"type": "box", "size": [2, )" + std::to_string(plateThickness) + R"(, 2]},
        "material": "clay", "static": true, "position": [0, )" + std::to_string(-plateThickness / 2) + R"(, 0],
-       "bump_map": {"resolution": 512}},
+       "bump_map": {)" + (plateImage.empty() ? std::string(R"("resolution": 512)") : R"("image": ")" + plateImage + "\"") + R"(}},
       {"name": "ball", "shape": {"type": "sphere", "radius": 0.25}, "material": "steel",
        "position": [)" + std::to_string(ballX) + R"(, 0.6, 0], "velocity": [0, )" + std::to_string(-speed) + R"(, 0]},
       {"name": "marble", "shape": {"type": "sphere", "radius": 0.015}, "material": "glass",
@@ -181,6 +186,27 @@ TEST_CASE("with nothing dented, or dents far away, bodies move as they did befor
   const RigidBody& a = body(felt, "marble");
   const RigidBody& b = body(paint, "marble");
   CHECK(crater(felt).depth > 0.02);
+  CHECK(a.x == b.x);
+  CHECK(a.v == b.v);
+  CHECK(a.q == b.q);
+}
+
+TEST_CASE("a map that starts from an image is felt where dents changed it, not where the image lies") {
+  // The plate's map starts from an image whose surface stands 5 mm above the mesh everywhere (h = 0.55): only the
+  // texels a dent changed are felt, so the marble far from the dent moves as with dents visual only. (A copy of
+  // the start taken as flat would make the whole image a change, and the marble feel it.)
+  test::glContext();
+  const std::filesystem::path image =
+      std::filesystem::temp_directory_path() / ("crumple_felt_start_" + std::to_string(::getpid()) + ".png");
+  gl::writePng(image.string(), gl::Image(512, 512, 1, 0.55f), 16);
+  Simulation felt(parseScene(craterScene(true, -0.6, 0.2, 8, image.string()), "crater.json", "."), true);
+  Simulation paint(parseScene(craterScene(false, -0.6, 0.2, 8, image.string()), "crater.json", "."), true);
+  std::filesystem::remove(image);
+  run(felt, 1.0);
+  run(paint, 1.0);
+  CHECK(crater(felt).depth > 0.02);
+  const RigidBody& a = body(felt, "marble");
+  const RigidBody& b = body(paint, "marble");
   CHECK(a.x == b.x);
   CHECK(a.v == b.v);
   CHECK(a.q == b.q);

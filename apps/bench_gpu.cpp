@@ -199,8 +199,8 @@ void deformProfile(int iterations) {
   c.deformer.deform(c.requests);
   printPhases("wave of " + std::to_string(events) + " events (compute, 1024)", c.deformer, iterations,
               [&] { c.deformer.deform(c.requests); });
-  // The dented maps' way back to the physics (dents felt): each read back through a pixel buffer and a fence a
-  // step after its dent, then taken in (the tiles that changed, the lookups' triangles). Beside it the same scene
+  // The dented maps' way back to the physics (dents felt): the texels changed, logged by the GPU behind a fence a
+  // step after the dent, then taken in (the tiles that changed, the lookups' triangles). Beside it the same scene
   // with its dents visual only: the physics' cost of feeling them (the two runs part at the first dent felt, so
   // their collisions differ too).
   for (const bool feel : {true, false}) {
@@ -211,10 +211,11 @@ void deformProfile(int iterations) {
     const Timings& t = sim.timings();
     const double each = t.dentReads ? 1.0 / static_cast<double>(t.dentReads) : 0.0;
     if (feel)
-      std::printf("transfer  highway, 900 steps, dents felt: %ld maps read back, %.3f ms each taking in (%.3f ms of "
-                  "it blocked on the fence), %ld deformations, %.3f ms a step of physics\n",
-                  t.dentReads, t.dentReadMs * each, t.dentWaitMs * each, t.deformations,
-                  t.physicsMs / static_cast<double>(sim.steps()));
+      std::printf("transfer  highway, 900 steps, dents felt: %ld maps taken in (%ld texels logged, %ld maps read "
+                  "whole), %.3f ms each taking in (%.3f ms of it blocked on the fence), %ld deformations, %.3f ms a "
+                  "step of physics\n",
+                  t.dentReads, t.dentTexels, t.dentFullReads, t.dentReadMs * each, t.dentWaitMs * each,
+                  t.deformations, t.physicsMs / static_cast<double>(sim.steps()));
     else
       std::printf("transfer  highway, 900 steps, dents not felt: %ld deformations, %.3f ms a step of physics\n",
                   t.deformations, t.physicsMs / static_cast<double>(sim.steps()));

@@ -45,7 +45,7 @@ namespace commit {
 inline constexpr gl::TextureUnit kHeights{0};  // normal_map.comp's and height_bound.comp's uHeightMaps[8]
 inline constexpr gl::ImageUnit kMaps{0};       // dent_commit.comp's uHeights, normal_map.comp's uNormals,
                                                // height_bound(_up).comp's uBounds [8]
-inline constexpr gl::StorageBinding kStats{1}, kArgs{2}, kNormalRegion{3}, kRim{5}, kEntries{6};
+inline constexpr gl::StorageBinding kStats{1}, kArgs{2}, kNormalRegion{3}, kRim{5}, kEntries{6}, kChanges{7};
 }  // namespace commit
 
 }  // namespace crumple::deform::bindings

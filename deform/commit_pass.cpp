@@ -12,9 +12,9 @@ struct CommitEntry {
   GLint slot, resolution, grow, statsIndex;
   GLuint scratchBase;
   float bumpDepth, slopeScale;
-  GLint group;
+  GLint group, changeLog;
 };
-static_assert(sizeof(CommitEntry) == 32, "CommitEntry must match commit_side.glsl");
+static_assert(sizeof(CommitEntry) == 36, "CommitEntry must match commit_side.glsl");
 }  // namespace
 
 CommitPass::CommitPass()
@@ -31,7 +31,7 @@ void CommitPass::reserve(size_t sides) {
 }
 
 void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, const gl::Buffer& stats,
-                     const PhaseMark& phase) {
+                     const gl::Buffer* changes, const PhaseMark& phase) {
   // Sides (by slot; some without X) in groups of kGroup, a dispatch a group and stage; each group dispatched
   // over the largest region of its sides (region_dispatch.comp), the others' workgroups returning at once.
   reserve(sides.size());
@@ -44,7 +44,8 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
     if (s.rim) s.x->heightsMayRise();
     const GLint group = static_cast<GLint>(entries.size() / kGroup);
     entries.push_back({static_cast<GLint>(slot), s.x->resolution(), s.rim ? 1 : 0, s.statsIndex, s.scratch.offset,
-                       s.x->bumpDepth(), s.x->bumpDepth() / (2 * s.x->texelSize()), group});
+                       s.x->bumpDepth(), s.x->bumpDepth() / (2 * s.x->texelSize()), group,
+                       changes ? s.x->changeLog() : -1});
     of.push_back(&s);
     if (s.rim) rim = s.rim;
   }
@@ -80,6 +81,11 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
       glDispatchComputeIndirect(static_cast<GLintptr>(g * 9 + 3 * stage) * sizeof(GLuint));
     }
   };
+  if (!changes && !noChanges_.id()) {
+    const GLuint none[2] = {0, 0};  // count, capacity: nothing is written
+    noChanges_ = gl::Buffer(sizeof none, none, GL_DYNAMIC_STORAGE_BIT);
+  }
+  gl::bindStorage(b::kChanges, (changes ? changes : &noChanges_)->id());
   eachGroup(commit_, cFirst_, 0, [](int k, const Surface& x) {
     gl::bindImage(b::kMaps + k, x.height().id(), GL_READ_WRITE, GL_R32F);
   });

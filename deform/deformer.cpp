@@ -191,6 +191,9 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
+  // The change log (Deformer::logChanges): count, capacity, then 3 uints an entry; mapped for as long as it lives.
+  gl::Buffer changes;
+  GLuint* changesMapped = nullptr;
   // New heights (passes.h, Scratch): per slot and resolution a range of one buffer, made on first use and kept.
   gl::Buffer scratchBuffer;
   size_t scratchUsed = 0;  // uints
@@ -291,6 +294,36 @@ std::pair<size_t, size_t> Deformer::lastGatherTiles() const {
   return impl_->computeGather ? impl_->computeGather->lastKept() : std::pair<size_t, size_t>{0, 0};
 }
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
+
+void Deformer::logChanges(size_t capacity) {
+  Impl& m = *impl_;
+  m.changes = gl::Buffer((2 + 3 * capacity) * sizeof(GLuint), nullptr,
+                         GL_MAP_READ_BIT | GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT |
+                             GL_CLIENT_STORAGE_BIT);
+  m.changesMapped = static_cast<GLuint*>(
+      glMapNamedBufferRange(m.changes.id(), 0, static_cast<GLsizeiptr>(m.changes.size()),
+                            GL_MAP_READ_BIT | GL_MAP_WRITE_BIT | GL_MAP_PERSISTENT_BIT | GL_MAP_COHERENT_BIT));
+  if (!m.changesMapped) throw std::runtime_error("deformer: could not map the change log's buffer");
+  m.changesMapped[0] = 0;
+  m.changesMapped[1] = static_cast<GLuint>(capacity);
+}
+
+GLsync Deformer::fenceChanges() {
+  // The shaders' writes to a persistently mapped buffer reach the CPU through this barrier, then the fence.
+  glMemoryBarrier(GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
+  return glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+}
+
+Deformer::Changes Deformer::changes() const {
+  const Impl& m = *impl_;
+  if (!m.changesMapped) return {};
+  const size_t count = m.changesMapped[0], capacity = m.changesMapped[1];
+  return {m.changesMapped + 2, std::min(count, capacity), count > capacity};
+}
+
+void Deformer::clearChanges() {
+  if (impl_->changesMapped) impl_->changesMapped[0] = 0;  // (coherent: seen by the commands issued after it)
+}
 AddressRaster Deformer::addressRaster() const { return impl_->raster; }
 long Deformer::wavesRun() const { return impl_->waves; }
 size_t Deformer::waveLimit() const {
@@ -461,7 +494,7 @@ void Deformer::Impl::runWave(const DeformOptions& o, const DeformRequest* const*
     commits[static_cast<size_t>(slot)] = {&x, rimsMade[static_cast<size_t>(slot)] ? &rims.ring() : nullptr,
                                           scratchFor(slot, x.resolution()), handles[e] + slot % 2};
   }
-  commit.run(commits, region, stats, phaseMark);
+  commit.run(commits, region, stats, changesMapped ? &changes : nullptr, phaseMark);
 }
 
 int Deformer::deform(const DeformRequest& rq) {

@@ -124,6 +124,22 @@ class Deformer {
   // With the gather in compute (the compute rasteriser): the texel tiles of X's maps the last deformation's gather
   // kept (those near the contact) and all of them, over its sides (read back from the GPU; for tests).
   std::pair<size_t, size_t> lastGatherTiles() const;
+  // The change log: once started, each commit appends, for every texel it changes in a map whose surface has a
+  // log id (Surface::setChangeLog), an entry of three uints (the id, the texel y * resolution + x, the new height's
+  // float bits) to a buffer the CPU reads where the GPU wrote it (persistently mapped, client storage: on a
+  // discrete GPU the shader's writes cross the bus, nothing else does). Entries of one commit come in no set order,
+  // a texel at most once; commits in the order they ran. logChanges(capacity) starts it (capacity: entries);
+  // fenceChanges() makes the commits so far visible to the CPU once the returned fence signals (the caller waits
+  // on it and deletes it); changes() then reads them; clearChanges() empties the log for the commits after it.
+  struct Changes {
+    const GLuint* entries = nullptr;  // 3 uints an entry
+    size_t count = 0;                 // entries written (at most the capacity)
+    bool overflowed = false;          // more changed than the capacity holds: the log is incomplete
+  };
+  void logChanges(size_t capacity);
+  GLsync fenceChanges();
+  Changes changes() const;
+  void clearChanges();
   // Phases of the last deform() when options().profile is set (empty otherwise).
   const std::vector<PhaseTime>& profile() const;
 

@@ -32,6 +32,9 @@ struct DeformOptions {
   // much for many sides as for a few (a dispatch for many), so larger waves save time; the compute rasteriser,
   // which makes waves, is picked on data-centre GPUs (40 GB and more).
   size_t waveMemory = size_t(1) << 30;
+  // Entries of the change log (Deformer::logChanges) the engine keeps where dents are felt: the texels one step's
+  // deformations may change before the maps dented in it are read back whole instead (12 bytes an entry).
+  size_t changeLog = size_t(1) << 20;
   // Measure: glFinish at each phase boundary and record the wall time of each
   // phase (profile()). Slows the stage down; for crumple-bench --deform-profile.
   bool profile = false;

@@ -316,9 +316,10 @@ class CommitPass {
   // Writes each side's new heights into its X's map over its region (sides[k]: region slot k), counts what
   // changed into stats entry statsIndex, puts the scratch back to untouched, and regenerates the normals and the
   // bound pyramid there. The sides (different maps) go stage by stage, one memory barrier a stage for all, each
-  // stage one dispatch for up to kGroup sides (the bound's levels above level 0: one a map).
+  // stage one dispatch for up to kGroup sides (the bound's levels above level 0: one a map). With `changes` (the
+  // Deformer's change log, dent_commit.comp's layout), the texels changed in maps that keep a log are appended.
   void run(const std::vector<Side>& sides, const gl::Buffer& region, const gl::Buffer& stats,
-           const PhaseMark& phase);
+           const gl::Buffer* changes, const PhaseMark& phase);
   // Normals and the bound pyramid over texels [lo, hi] of a map (inclusive).
   void normals(const SurfaceMaps& maps, int resolution, float slopeScale, glm::ivec2 lo, glm::ivec2 hi);
 
@@ -341,6 +342,7 @@ class CommitPass {
   // Per slot: the region grown by a texel (ivec4); per side the entry (commit_side.glsl); per group of kGroup
   // the commit's, the normals' and level 0 of the bound's indirect dispatch (9 uints).
   gl::Buffer normalRegion_, entries_, args_;
+  gl::Buffer noChanges_;  // bound at kChanges when nothing is logged (capacity 0)
 };
 
 }  // namespace crumple::deform

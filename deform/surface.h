@@ -98,12 +98,17 @@ class Surface {
   bool isShared() const { return maps_.use_count() > 1; }
   float texelSize() const { return static_cast<float>(mesh_->metresPerUv / resolution_); }
   gl::Image downloadHeight() const;
+  // Its id in the deformer's change log (Deformer::logChanges): the commits append the texels they change in its
+  // map under this id; -1 (the default): not logged.
+  int changeLog() const { return changeLog_; }
+  void setChangeLog(int id) { changeLog_ = id; }
 
  private:
   std::shared_ptr<const GpuMesh> mesh_;
   std::shared_ptr<SurfaceMaps> maps_;
   int resolution_;
   float k_, kCollide_;
+  int changeLog_ = -1;
 };
 
 }  // namespace crumple::deform

@@ -342,6 +342,8 @@ std::string summaryJson(Simulation& sim, const std::map<std::string, std::string
   tj["dent_read_ms"] = t.dentReadMs;
   tj["dent_wait_ms"] = t.dentWaitMs;
   tj["dent_reads"] = t.dentReads;
+  tj["dent_texels"] = t.dentTexels;
+  tj["dent_full_reads"] = t.dentFullReads;
   tj["deform_ms"] = t.deformMs;
   tj["deform_ms_per_deformation"] = t.deformations ? t.deformMs / static_cast<double>(t.deformations) : 0.0;
   tj["render_ms"] = t.renderMs;

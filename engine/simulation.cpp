@@ -66,9 +66,11 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
     dents_[i].feel = gl_ && bodies_[i].surface && !bodies_[i].mesh->uvs.empty() &&
                      scene.bodies[i].feelDents.value_or(scene.deformation.feelDents);
     anyFelt = anyFelt || dents_[i].feel;
+    if (dents_[i].feel) bodies_[i].surface->setChangeLog(static_cast<int>(i));
   }
   prepareDents();
   if (anyFelt) {
+    deformer_->logChanges(scene.deformation.options.changeLog);
     std::vector<int> bodyOf(world_.size(), -1);
     for (size_t i = 0; i < bodies_.size(); ++i) bodyOf[static_cast<size_t>(bodies_[i].index)] = static_cast<int>(i);
     world_.setSurfaceDepth([this, bodyOf](int index, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) {
@@ -78,8 +80,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
 }
 
 Simulation::~Simulation() {
-  for (DentCopy& d : dents_)
-    if (d.fence) glDeleteSync(d.fence);
+  if (dentFence_) glDeleteSync(dentFence_);
 }
 
 void Simulation::gpuTimes(bool wait) {

@@ -66,6 +66,8 @@ struct Timings {
   double dentReadMs = 0;  // taking the dented maps read back into the physics (the fence's wait included)
   double dentWaitMs = 0;  // of which blocked on the read-backs' fences (the GPU not done a step after the dent)
   long dentReads = 0;     // maps taken in
+  long dentTexels = 0;    // texels their change logs brought
+  long dentFullReads = 0;  // maps read back whole (a step changed more texels than the change log holds)
   double deformGpuMs = 0, renderGpuMs = 0;
   long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;
 };
@@ -170,8 +172,9 @@ class Simulation {
   };
   std::map<int, NormalLookup> normalLookups_;  // by body index in bodies_
   // The world feels its dents (World::setSurfaceDepth): per body of bodies_ whose dents are felt, a CPU copy of
-  // its height map. After a step's deformations each changed map is read back into a pixel buffer behind a fence
-  // (the GPU copies it while the CPU goes on); the next step takes it in before its physics.
+  // its height map where it differs from the start. The deformer logs the texels its commits change in those maps
+  // (Deformer::logChanges, written by the GPU into a buffer the CPU reads in place); after a step's deformations a
+  // fence follows them, and the next step takes the log in before its physics.
   static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
   static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
   static constexpr double kNearCell = 0.01;    // m: the cells the nearest-triangle lists are kept for
@@ -187,33 +190,40 @@ class Simulation {
   std::map<size_t, std::shared_ptr<const std::vector<float>>> imageStarts_;  // by body: its bump map image's heights
   struct DentCopy {
     bool feel = false;                 // its dents are felt (feel_dents)
-    bool pending = false;              // a read-back is under way
+    bool pending = false;              // dented this step: its changes are to be taken in
     std::shared_ptr<const DentMesh> mesh;
     std::vector<char> overChange;      // per triangle: it lies over changed tiles
     // The map before its first dent: its bump map image's heights, or flat (shared by the bodies of a resolution),
-    // known from the start (no read-back from the GPU at the first dent).
+    // known from the start (no read-back from the GPU).
     std::shared_ptr<const std::vector<float>> start;
-    std::vector<float> height;         // the map as last read back
     int resolution = 0;
-    // Per tile of kDentTile x kDentTile texels (row by row): its texels that differ from `start` (their
-    // rectangle, none while hi < lo) and the highest of them (0.5 at least); made anew where a read-back changed it.
+    int across = 0;                    // tiles a row
+    // Per tile of kDentTile x kDentTile texels (row by row; made at the first take-in): once a dent changed one
+    // of its texels, all its texels as the map now holds them (kDentTile a row; empty before: the start holds
+    // there), those of them that differ from `start` (their rectangle, none while hi < lo) and the highest of
+    // them (0.5 at least).
     struct Tile {
+      std::vector<float> texels;
       glm::ivec2 lo{0}, hi{-1};
       float highest = 0.5f;
+      bool moved = false;              // changed by the take-in under way
     };
     std::vector<Tile> tiles;
+    std::vector<size_t> moved;         // the tiles with `moved` set
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
     glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
     double k = 0;                      // the bump depth (m)
-    gl::Buffer pixels;                 // the read-back's pixel buffer
-    GLsync fence = nullptr;
+    float height(int x, int y) const;  // the map at texel (x, y) as last taken in
+    void set(int x, int y, float h);   // takes in one texel's new height
   };
   std::vector<DentCopy> dents_;
+  GLsync dentFence_ = nullptr;  // after the last step's deformations: their change log is complete once it signals
   void prepareDents();        // the felt bodies' starting maps and shared meshes (DentMesh)
-  void beforeDent(int body);  // body (of bodies_) is about to be dented: its copy made, a read-back due
-  void readBackDents();       // after the step's deformations: the changed maps start coming back
-  void takeInDents();         // before the physics: the maps that came back, in the world
-  void takeInMap(DentCopy& d, const float* map);  // a read-back map into d.height, d.tiles, d.lo/hi
+  void beforeDent(int body);  // body (of bodies_) is about to be dented: its changes are to be taken in
+  void readBackDents();       // after the step's deformations: the fence behind their change log
+  void takeInDents();         // before the physics: the changes of the last step's deformations, in the world
+  void takeInFullMap(DentCopy& d, int body);  // where the log overflowed: the whole map read back, compared
+  void measureTiles(DentCopy& d);  // its moved tiles' rectangles and highest, and d.lo/hi
   void findDentedTriangles(DentCopy& d, int body);  // the triangles over its changed tiles, in the world
   double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;
   double lookUpDepth(const DentCopy& d, int body, const glm::dvec3& point, const glm::dvec3& normal,

@@ -1,8 +1,8 @@
-// The world feels its dents (Simulation's part): after a step's deformations each changed height map is read back
-// into a pixel buffer behind a fence; the next step takes it in before its physics (the texels that changed, per
-// tile, and the triangles over them); the narrow phase asks surfaceDepth how far below the undented surface the
-// dented one lies (World::setSurfaceDepth). docs/architecture.md ("Maps between the GPU and the physics") tells
-// the whole.
+// The world feels its dents (Simulation's part): the deformer logs the texels its commits change in felt maps; after
+// a step's deformations a fence follows them, and the next step takes the log in before its physics (the texels
+// that changed, per tile, and the triangles over them); the narrow phase asks surfaceDepth how far below the
+// undented surface the dented one lies (World::setSurfaceDepth). docs/architecture.md ("Maps between the GPU and
+// the physics") tells the whole.
 #include <crumple/engine/simulation.h>
 
 #include <algorithm>
@@ -50,85 +50,128 @@ void Simulation::prepareDents() {
 
 void Simulation::beforeDent(int i) {
   DentCopy& d = dents_[static_cast<size_t>(i)];
-  if (!d.feel) return;
-  d.pending = true;
-  if (d.height.empty()) d.height = *d.start;  // (before its first dent the map is as it started)
+  if (d.feel) d.pending = true;
 }
 
 void Simulation::readBackDents() {
-  for (size_t i = 0; i < dents_.size(); ++i) {
-    DentCopy& d = dents_[i];
-    if (!d.pending) continue;
-    d.pending = false;
-    const deform::Surface& surface = *bodies_[i].surface;
-    const size_t bytes = static_cast<size_t>(d.resolution) * static_cast<size_t>(d.resolution) * sizeof(float);
-    if (d.pixels.size() != bytes) d.pixels = gl::Buffer(bytes, nullptr, GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
-    if (d.fence) glDeleteSync(d.fence);
-    glBindBuffer(GL_PIXEL_PACK_BUFFER, d.pixels.id());
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
-    glGetTextureImage(surface.height().id(), 0, GL_RED, GL_FLOAT, static_cast<GLsizei>(bytes), nullptr);
-    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
-    d.fence = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
-    d.k = surface.bumpDepth();
+  for (size_t i = 0; i < dents_.size(); ++i)
+    if (dents_[i].pending) dents_[i].k = bodies_[i].surface->bumpDepth();
+  if (dentFence_) glDeleteSync(dentFence_);
+  dentFence_ = deformer_->fenceChanges();
+}
+
+float Simulation::DentCopy::height(int x, int y) const {
+  const Tile& t = tiles[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(across) + static_cast<size_t>(x / kDentTile)];
+  if (t.texels.empty()) return (*start)[static_cast<size_t>(y) * static_cast<size_t>(resolution) + static_cast<size_t>(x)];
+  return t.texels[static_cast<size_t>(y % kDentTile) * kDentTile + static_cast<size_t>(x % kDentTile)];
+}
+
+void Simulation::DentCopy::set(int x, int y, float h) {
+  const size_t at = static_cast<size_t>(y / kDentTile) * static_cast<size_t>(across) + static_cast<size_t>(x / kDentTile);
+  Tile& t = tiles[at];
+  if (t.texels.empty()) {  // its texels as they started (those past the map's edge unused)
+    t.texels.assign(static_cast<size_t>(kDentTile) * kDentTile, 0.5f);
+    const int x0 = x / kDentTile * kDentTile, y0 = y / kDentTile * kDentTile;
+    for (int ty = y0; ty < std::min(resolution, y0 + kDentTile); ++ty)
+      for (int tx = x0; tx < std::min(resolution, x0 + kDentTile); ++tx)
+        t.texels[static_cast<size_t>(ty - y0) * kDentTile + static_cast<size_t>(tx - x0)] =
+            (*start)[static_cast<size_t>(ty) * static_cast<size_t>(resolution) + static_cast<size_t>(tx)];
+  }
+  t.texels[static_cast<size_t>(y % kDentTile) * kDentTile + static_cast<size_t>(x % kDentTile)] = h;
+  if (!t.moved) {
+    t.moved = true;
+    moved.push_back(at);
   }
 }
 
 void Simulation::takeInDents() {
+  if (!dentFence_) return;
+  // Fenced a step ago: on a GPU long done (the wait returns at once); the flush makes sure it was sent.
+  const auto waitStart = std::chrono::steady_clock::now();
+  glClientWaitSync(dentFence_, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ull);
+  timings_.dentWaitMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - waitStart).count();
+  glDeleteSync(dentFence_);
+  dentFence_ = nullptr;
+  for (DentCopy& d : dents_)
+    if (d.pending && d.tiles.empty()) {
+      d.across = (d.resolution + kDentTile - 1) / kDentTile;
+      d.tiles.resize(static_cast<size_t>(d.across) * static_cast<size_t>(d.across));
+    }
+  const deform::Deformer::Changes log = deformer_->changes();
+  if (log.overflowed) {
+    for (size_t i = 0; i < dents_.size(); ++i)
+      if (dents_[i].pending) takeInFullMap(dents_[i], static_cast<int>(i));
+  } else {
+    // In the order the commits ran (within one commit a texel comes once): the last of a texel's entries holds.
+    for (size_t e = 0; e < log.count; ++e) {
+      const GLuint* entry = log.entries + 3 * e;
+      if (entry[0] >= dents_.size()) continue;
+      DentCopy& d = dents_[entry[0]];
+      const size_t texels = static_cast<size_t>(d.resolution) * static_cast<size_t>(d.resolution);
+      if (!d.pending || entry[1] >= texels) continue;
+      float h;
+      std::memcpy(&h, &entry[2], sizeof h);
+      d.set(static_cast<int>(entry[1] % static_cast<GLuint>(d.resolution)),
+            static_cast<int>(entry[1] / static_cast<GLuint>(d.resolution)), h);
+    }
+    timings_.dentTexels += static_cast<long>(log.count);
+  }
+  deformer_->clearChanges();
   for (size_t i = 0; i < dents_.size(); ++i) {
     DentCopy& d = dents_[i];
-    if (!d.fence) continue;
-    // Issued a step ago: on a GPU long done (the wait returns at once); the flush makes sure it was sent.
-    const auto waitStart = std::chrono::steady_clock::now();
-    glClientWaitSync(d.fence, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ull);
-    timings_.dentWaitMs +=
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - waitStart).count();
+    if (!d.pending) continue;
+    d.pending = false;
     ++timings_.dentReads;
-    glDeleteSync(d.fence);
-    d.fence = nullptr;
-    const size_t texels = d.height.size();
-    const void* map = glMapNamedBufferRange(d.pixels.id(), 0, static_cast<GLsizeiptr>(texels * sizeof(float)),
-                                           GL_MAP_READ_BIT);
-    if (!map) continue;
-    takeInMap(d, static_cast<const float*>(map));
-    glUnmapNamedBuffer(d.pixels.id());
+    measureTiles(d);
     findDentedTriangles(d, static_cast<int>(i));
   }
 }
 
-// Where the map differs from its start: per tile of kDentTile x kDentTile texels (an atlas spreads one dent over
-// charts far apart in uv: the rectangle around the change can cover the whole map while the tiles cover the
-// dent), and the rectangle around them. Only the rows of tiles that this read-back changed are copied and
-// measured again (a dent changes a few tiles of a map of thousands).
-void Simulation::takeInMap(DentCopy& d, const float* map) {
+// A step whose commits changed more texels than the change log holds: each map dented in it comes back whole
+// (a wait on the GPU, once), and its texels that differ from the copy are taken in.
+void Simulation::takeInFullMap(DentCopy& d, int i) {
+  ++timings_.dentFullReads;
+  const gl::Image map = bodies_[static_cast<size_t>(i)].surface->downloadHeight();
   const int r = d.resolution;
-  const int across = (r + kDentTile - 1) / kDentTile;
-  const size_t row = static_cast<size_t>(r);
-  if (d.tiles.empty()) d.tiles.assign(static_cast<size_t>(across) * static_cast<size_t>(across), DentCopy::Tile{});
-  std::vector<char> moved(d.tiles.size(), 0);
-  const std::vector<float>& start = *d.start;
   for (int y = 0; y < r; ++y)
-    for (int tx = 0; tx < across; ++tx) {
-      const size_t at = static_cast<size_t>(y) * row + static_cast<size_t>(tx) * kDentTile;
-      const size_t bytes = static_cast<size_t>(std::min(kDentTile, r - tx * kDentTile)) * sizeof(float);
-      if (std::memcmp(map + at, d.height.data() + at, bytes) == 0) continue;
-      std::memcpy(d.height.data() + at, map + at, bytes);
-      moved[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(across) + static_cast<size_t>(tx)] = 1;
+    for (int x0 = 0; x0 < r; x0 += kDentTile) {  // a tile's row at a time: most are as they were
+      const float* row = map.pixels.data() + static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x0);
+      const int n = std::min(kDentTile, r - x0);
+      const DentCopy::Tile& tile = d.tiles[static_cast<size_t>(y / kDentTile) * static_cast<size_t>(d.across) +
+                                           static_cast<size_t>(x0 / kDentTile)];
+      const float* now = tile.texels.empty()
+                             ? d.start->data() + static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x0)
+                             : tile.texels.data() + static_cast<size_t>(y % kDentTile) * kDentTile;
+      if (std::memcmp(row, now, static_cast<size_t>(n) * sizeof(float)) == 0) continue;
+      for (int k = 0; k < n; ++k)
+        if (row[k] != d.height(x0 + k, y)) d.set(x0 + k, y, row[k]);
     }
-  for (size_t t = 0; t < d.tiles.size(); ++t) {
-    if (!moved[t]) continue;
-    DentCopy::Tile& tile = d.tiles[t];
-    tile = {};
-    const int x0 = static_cast<int>(t % static_cast<size_t>(across)) * kDentTile;
-    const int y0 = static_cast<int>(t / static_cast<size_t>(across)) * kDentTile;
+}
+
+// The moved tiles measured again against the start (an atlas spreads one dent over charts far apart in uv: the
+// rectangle around the change can cover the whole map while the tiles cover the dent), and the rectangle around
+// all tiles' changes.
+void Simulation::measureTiles(DentCopy& d) {
+  const int r = d.resolution;
+  const std::vector<float>& start = *d.start;
+  for (size_t at : d.moved) {
+    DentCopy::Tile& tile = d.tiles[at];
+    tile.moved = false;
+    tile.lo = glm::ivec2(0);
+    tile.hi = glm::ivec2(-1);
+    tile.highest = 0.5f;
+    const int x0 = static_cast<int>(at % static_cast<size_t>(d.across)) * kDentTile;
+    const int y0 = static_cast<int>(at / static_cast<size_t>(d.across)) * kDentTile;
     for (int y = y0; y < std::min(r, y0 + kDentTile); ++y)
       for (int x = x0; x < std::min(r, x0 + kDentTile); ++x) {
-        const size_t i = static_cast<size_t>(y) * row + static_cast<size_t>(x);
-        if (d.height[i] == start[i]) continue;
+        const float h = tile.texels[static_cast<size_t>(y - y0) * kDentTile + static_cast<size_t>(x - x0)];
+        if (h == start[static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x)]) continue;
         tile.lo = tile.hi.x < tile.lo.x ? glm::ivec2(x, y) : glm::min(tile.lo, glm::ivec2(x, y));
         tile.hi = glm::max(tile.hi, glm::ivec2(x, y));
-        tile.highest = std::max(tile.highest, d.height[i]);
+        tile.highest = std::max(tile.highest, h);
       }
   }
+  d.moved.clear();
   d.lo = glm::ivec2(r);
   d.hi = glm::ivec2(-1);
   for (const DentCopy::Tile& tile : d.tiles)
@@ -205,11 +248,7 @@ double Simulation::lookUpDepth(const DentCopy& d, int i, const glm::dvec3& p, co
   const glm::dvec2 f = uv * double(r) - 0.5;
   const glm::ivec2 base(static_cast<int>(std::floor(f.x)), static_cast<int>(std::floor(f.y)));
   if (base.x + 1 < d.lo.x - 1 || base.y + 1 < d.lo.y - 1 || base.x > d.hi.x + 1 || base.y > d.hi.y + 1) return 0;
-  auto at = [&](int x, int y) {
-    x = std::clamp(x, 0, r - 1);
-    y = std::clamp(y, 0, r - 1);
-    return double(d.height[static_cast<size_t>(y) * static_cast<size_t>(r) + static_cast<size_t>(x)]);
-  };
+  auto at = [&](int x, int y) { return double(d.height(std::clamp(x, 0, r - 1), std::clamp(y, 0, r - 1))); };
   const double fx = f.x - base.x, fy = f.y - base.y;
   const double h00 = at(base.x, base.y), h10 = at(base.x + 1, base.y), h01 = at(base.x, base.y + 1),
                h11 = at(base.x + 1, base.y + 1);

@@ -11,6 +11,7 @@ struct CommitEntry {
   float bumpDepth;   // k (m)
   float slopeScale;  // k / (2 * texel size in metres)
   int group;         // its dispatch (uArgs[9 group ..])
+  int changeLog;     // its map's change-log id (Surface::changeLog), -1: its changes are not logged
 };
 layout(std430, binding = 6) readonly buffer CommitEntries { CommitEntry uEntry[]; };  // bindings::commit::kEntries
 uniform int uFirst;

@@ -178,6 +178,8 @@ class Simulation {
   static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
   static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
   static constexpr double kNearCell = 0.01;    // m: the cells the nearest-triangle lists are kept for
+  static constexpr double kGridCell = 0.04;    // m: the finest cells of DentCopy::grid (coarser past kGridCells)
+  static constexpr double kGridCells = 1 << 20;
   // What the bodies of one render mesh and map resolution share for their dents, made when the simulation is
   // built (not at the first dent, where the crash's frame would wait for it): the nearest of the mesh's triangles
   // (shape frame; the lists it keeps per cell serve every later lookup on any of them), and per triangle the
@@ -212,6 +214,12 @@ class Simulation {
     std::vector<size_t> moved;         // the tiles with `moved` set
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
     glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
+    // Cells of that box (row by row, gridCell a side): 1 where a point may lie within kOnSurface of a triangle over
+    // the change (the cell meets such a triangle's box grown by it); a point elsewhere feels nothing.
+    glm::dvec3 gridLo{0};
+    double gridCell = 1;
+    glm::ivec3 gridDims{0};
+    std::vector<unsigned char> grid;
     double k = 0;                      // the bump depth (m)
     float height(int x, int y) const;  // the map at texel (x, y) as last taken in
     void set(int x, int y, float h);   // takes in one texel's new height
@@ -225,6 +233,7 @@ class Simulation {
   void takeInFullMap(DentCopy& d, int body);  // where the log overflowed: the whole map read back, compared
   void measureTiles(DentCopy& d);  // its moved tiles' rectangles and highest, and d.lo/hi
   void findDentedTriangles(DentCopy& d, int body);  // the triangles over its changed tiles, in the world
+  void markNearChange(DentCopy& d, const TriangleMesh& mesh);  // d.grid
   double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;
   double lookUpDepth(const DentCopy& d, int body, const glm::dvec3& point, const glm::dvec3& normal,
                      glm::dvec3& bent) const;

@@ -214,10 +214,34 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
     }
     d.boxLo -= d.k;
     d.boxHi += d.k;
+    markNearChange(d, mesh);
   }
   const bool dented = d.boxHi.x >= d.boxLo.x;
   world_.setDented(bodies_[static_cast<size_t>(i)].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
                    {d.boxLo, d.boxHi});
+}
+
+// DentCopy::grid: the cells that a box around a triangle over the change, grown by kOnSurface, meets (a lookup
+// counts only where its nearest triangle is over the change and within kOnSurface: inside that triangle's box).
+void Simulation::markNearChange(DentCopy& d, const TriangleMesh& mesh) {
+  const glm::dvec3 size = d.boxHi - d.boxLo;
+  d.gridCell = std::max(kGridCell, std::cbrt(size.x * size.y * size.z / kGridCells));
+  d.gridLo = d.boxLo;
+  d.gridDims = glm::max(glm::ivec3(glm::ceil(size / d.gridCell)), 1);
+  d.grid.assign(static_cast<size_t>(d.gridDims.x) * static_cast<size_t>(d.gridDims.y) * static_cast<size_t>(d.gridDims.z), 0);
+  for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
+    if (!d.overChange[ti]) continue;
+    const glm::uvec3& t = mesh.triangles[ti];
+    const glm::dvec3 a(mesh.positions[t.x]), b(mesh.positions[t.y]), c(mesh.positions[t.z]);
+    const glm::dvec3 lo = glm::min(a, glm::min(b, c)) - kOnSurface, hi = glm::max(a, glm::max(b, c)) + kOnSurface;
+    const glm::ivec3 clo = glm::clamp(glm::ivec3(glm::floor((lo - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
+    const glm::ivec3 chi = glm::clamp(glm::ivec3(glm::floor((hi - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
+    for (int z = clo.z; z <= chi.z; ++z)
+      for (int y = clo.y; y <= chi.y; ++y)
+        for (int x = clo.x; x <= chi.x; ++x)
+          d.grid[(static_cast<size_t>(z) * static_cast<size_t>(d.gridDims.y) + static_cast<size_t>(y)) *
+                     static_cast<size_t>(d.gridDims.x) + static_cast<size_t>(x)] = 1;
+  }
 }
 
 double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n, glm::dvec3& bent) const {
@@ -227,6 +251,10 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
   // Only points over dented texels look anything up.
   if (!d.mesh || p.x < d.boxLo.x || p.y < d.boxLo.y || p.z < d.boxLo.z || p.x > d.boxHi.x || p.y > d.boxHi.y ||
       p.z > d.boxHi.z)
+    return 0;
+  const glm::ivec3 cell = glm::clamp(glm::ivec3(glm::floor((p - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
+  if (!d.grid[(static_cast<size_t>(cell.z) * static_cast<size_t>(d.gridDims.y) + static_cast<size_t>(cell.y)) *
+                  static_cast<size_t>(d.gridDims.x) + static_cast<size_t>(cell.x)])
     return 0;
   return lookUpDepth(d, i, p, n, bent);
 }

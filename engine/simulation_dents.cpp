@@ -92,11 +92,15 @@ void Simulation::takeInDents() {
   timings_.dentWaitMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - waitStart).count();
   glDeleteSync(dentFence_);
   dentFence_ = nullptr;
-  for (DentCopy& d : dents_)
-    if (d.pending && d.tiles.empty()) {
-      d.across = (d.resolution + kDentTile - 1) / kDentTile;
-      d.tiles.resize(static_cast<size_t>(d.across) * static_cast<size_t>(d.across));
-    }
+  auto due = [&](DentCopy& d, size_t i) {  // its changes are taken in now
+    if (!d.pending) d.k = bodies_[i].surface->bumpDepth();  // (logged without beforeDent: taken in all the same)
+    d.pending = true;
+    if (!d.tiles.empty()) return;
+    d.across = (d.resolution + kDentTile - 1) / kDentTile;
+    d.tiles.resize(static_cast<size_t>(d.across) * static_cast<size_t>(d.across));
+  };
+  for (size_t i = 0; i < dents_.size(); ++i)
+    if (dents_[i].pending) due(dents_[i], i);
   const deform::Deformer::Changes log = deformer_->changes();
   if (log.overflowed) {
     for (size_t i = 0; i < dents_.size(); ++i)
@@ -108,7 +112,8 @@ void Simulation::takeInDents() {
       if (entry[0] >= dents_.size()) continue;
       DentCopy& d = dents_[entry[0]];
       const size_t texels = static_cast<size_t>(d.resolution) * static_cast<size_t>(d.resolution);
-      if (!d.pending || entry[1] >= texels) continue;
+      if (!d.feel || entry[1] >= texels) continue;
+      due(d, entry[0]);
       float h;
       std::memcpy(&h, &entry[2], sizeof h);
       d.set(static_cast<int>(entry[1] % static_cast<GLuint>(d.resolution)),

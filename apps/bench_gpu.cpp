@@ -245,6 +245,7 @@ void renderBench(benchmark::State& state, const std::string& off) {
   r.settings().displace = off == "+displace";
   if (off == "+forward") r.settings().shading = render::Shading::Forward;
   if (off == "+compute") r.settings().shading = render::Shading::Compute;
+  if (r.settings().displace) sim.updateCreaseBevels();  // (as drawFrame does before a displaced frame)
   const std::vector<render::RenderItem> items = renderItems(sim);
   const render::View view = cameraView(sim.scene().cameras.front(), &sim);
   r.draw(items, view);  // untimed: the shaders of this view's features are compiled on first use

@@ -48,4 +48,10 @@ inline constexpr gl::ImageUnit kMaps{0};       // dent_commit.comp's uHeights, n
 inline constexpr gl::StorageBinding kStats{1}, kArgs{2}, kNormalRegion{3}, kRim{5}, kEntries{6}, kChanges{7};
 }  // namespace commit
 
+// crease_bevel.comp.
+namespace bevel {
+inline constexpr gl::TextureUnit kHeight{0};
+inline constexpr gl::StorageBinding kUvs{0}, kLinks{1}, kOwn{2}, kFrom{3}, kTo{4}, kFrames{5};
+}  // namespace bevel
+
 }  // namespace crumple::deform::bindings

@@ -42,6 +42,7 @@ void CommitPass::run(const std::vector<Side>& sides, const gl::Buffer& region, c
     const Side& s = sides[slot];
     if (!s.x) continue;
     if (s.rim) s.x->heightsMayRise();
+    s.x->changed();
     const GLint group = static_cast<GLint>(entries.size() / kGroup);
     entries.push_back({static_cast<GLint>(slot), s.x->resolution(), s.rim ? 1 : 0, s.statsIndex, s.scratch.offset,
                        s.x->bumpDepth(), s.x->bumpDepth() / (2 * s.x->texelSize()), group,

@@ -191,6 +191,11 @@ struct Deformer::Impl {
   ReadbackUpdate readback;
   CraterRims rims;
   CommitPass commit;
+  // The crease bevel (creaseBevel): its program, sampler and the relaxation's buffers (a vec4 a node, the largest
+  // mesh's).
+  std::optional<gl::Program> bevelProgram;
+  gl::Sampler bevelSampler{GL_LINEAR_MIPMAP_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE};
+  gl::Buffer bevelOwn, bevelA, bevelB;
   // The change log (Deformer::logChanges): count, capacity, then 3 uints an entry; mapped for as long as it lives.
   gl::Buffer changes;
   GLuint* changesMapped = nullptr;
@@ -294,6 +299,53 @@ std::pair<size_t, size_t> Deformer::lastGatherTiles() const {
   return impl_->computeGather ? impl_->computeGather->lastKept() : std::pair<size_t, size_t>{0, 0};
 }
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
+
+void Deformer::creaseBevel(Surface& s) {
+  SurfaceMaps& maps = s.mutableMaps();
+  const GpuMesh& mesh = s.mesh();
+  if (maps.version == 0 || maps.creaseVersion == maps.version || mesh.nodeCount == 0) return;
+  Impl& m = *impl_;
+  if (!m.bevelProgram) m.bevelProgram.emplace(computeProgram("crease_bevel.comp"));
+  const size_t bytes = static_cast<size_t>(mesh.nodeCount) * 4 * sizeof(float);
+  if (m.bevelOwn.size() < bytes) {
+    m.bevelOwn = gl::Buffer(bytes, nullptr, 0);
+    m.bevelA = gl::Buffer(bytes, nullptr, 0);
+    m.bevelB = gl::Buffer(bytes, nullptr, 0);
+  }
+  if (maps.crease.size() != bytes) maps.crease = gl::Buffer(bytes, nullptr, 0);
+  const gl::StateGuard callerState;
+  const gl::Program& p = *m.bevelProgram;
+  p.use();
+  namespace b = bindings::bevel;
+  p.set(p.location("uNodes"), static_cast<int>(mesh.nodeCount));
+  p.set(p.location("uBumpDepth"), s.bumpDepth());
+  p.set(p.location("uTexel"), s.texelSize());
+  const GLint stage = p.location("uStage");
+  gl::bindTexture(b::kHeight, maps.height.id());
+  gl::bindSampler(b::kHeight, m.bevelSampler.id());  // (the map's own filter reads level 0 alone)
+  gl::bindStorage(b::kUvs, mesh.nodeUvs.id());
+  gl::bindStorage(b::kLinks, mesh.nodeLinks.id());
+  gl::bindStorage(b::kFrames, mesh.nodeFrames.id());
+  gl::bindStorage(b::kOwn, m.bevelOwn.id());
+  const GLuint groups = (mesh.nodeCount + 63) / 64;
+  auto run = [&](int which, const gl::Buffer& from, const gl::Buffer& to) {
+    p.set(stage, which);
+    gl::bindStorage(b::kFrom, from.id());
+    gl::bindStorage(b::kTo, to.id());
+    glDispatchCompute(groups, 1, 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  };
+  run(0, m.bevelB, m.bevelA);
+  // Each round reaches an edge further; a bevel of 1:1 spans at most the bump depth.
+  const int rounds = std::clamp(static_cast<int>(std::ceil(s.bumpDepth() / mesh.shortEdge)) + 1, 1, 32);
+  for (int r = 0; r < rounds; ++r) {
+    run(1, m.bevelA, m.bevelB);
+    std::swap(m.bevelA, m.bevelB);
+  }
+  run(2, m.bevelA, maps.crease);
+  gl::bindSampler(b::kHeight, 0);
+  maps.creaseVersion = maps.version;
+}
 
 void Deformer::logChanges(size_t capacity) {
   Impl& m = *impl_;

@@ -140,6 +140,12 @@ class Deformer {
   GLsync fenceChanges();
   Changes changes() const;
   void clearChanges();
+  // For the displaced renderer: makes `s`'s crease bevel (SurfaceMaps::crease, crease_bevel.comp) if its map
+  // changed since it was last made (nothing for a map no commit has changed, or a mesh without a node graph).
+  // Each node of the mesh is drawn within an edge's length of where any neighbour that moved further went, so a
+  // panel crushed against an undented one across a hard edge meets it in a bevel of 1:1, not a wall: rounds of
+  // that relaxation over the mesh's edges, as many as the bump depth spans short edges (at most 32).
+  void creaseBevel(Surface& s);
   // Phases of the last deform() when options().profile is set (empty otherwise).
   const std::vector<PhaseTime>& profile() const;
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <meshoptimizer.h>
 #include <tuple>
@@ -133,6 +134,66 @@ void seamTables(const TriangleMesh& mesh, std::vector<glm::vec4>& edges, std::ve
     }
 }
 
+
+// The crease bevel's graph (GpuMesh::vertexNodes, nodeUvs, nodeLinks, nodeFrames): the mesh's positions as nodes,
+// per vertex its node; per node the distinct uvs of its vertices and the other nodes it shares a triangle edge
+// with, with the edge's length (each list as CSR: nodes + 1 offsets, then the entries, offsets counted from the
+// first entry); per node its position and the normal averaged over its vertices (two vec4). Returns the number
+// of nodes, 0 where the mesh has no uvs; `shortEdge` is a short edge of the mesh (its 5th percentile).
+GLuint creaseGraph(const TriangleMesh& mesh, std::vector<GLuint>& vertexNode, std::vector<GLuint>& uvs,
+                   std::vector<GLuint>& links, std::vector<glm::vec4>& frames, float& shortEdge) {
+  const size_t count = mesh.positions.size();
+  if (mesh.uvs.size() != count || mesh.normals.size() != count || count == 0 || mesh.triangles.empty()) return 0;
+  vertexNode.resize(count);
+  const size_t nodes =
+      meshopt_generateVertexRemap(vertexNode.data(), nullptr, count, mesh.positions.data(), count, sizeof(glm::vec3));
+  std::vector<std::vector<glm::vec2>> nodeUvs(nodes);
+  frames.assign(nodes * 2, glm::vec4(0));
+  for (size_t i = 0; i < count; ++i) {
+    const GLuint n = vertexNode[i];
+    std::vector<glm::vec2>& list = nodeUvs[n];
+    if (std::find(list.begin(), list.end(), mesh.uvs[i]) == list.end()) list.push_back(mesh.uvs[i]);
+    frames[2 * n] = glm::vec4(mesh.positions[i], 1.0f);
+    frames[2 * n + 1] += glm::vec4(mesh.normals[i], 0.0f);
+  }
+  for (size_t n = 0; n < nodes; ++n) {
+    const glm::vec3 s(frames[2 * n + 1]);
+    frames[2 * n + 1] = glm::vec4(glm::length(s) > 1e-6f ? glm::normalize(s) : glm::vec3(0), 0.0f);
+  }
+  std::vector<std::vector<std::pair<GLuint, float>>> near(nodes);
+  std::vector<float> lengths;
+  for (const glm::uvec3& t : mesh.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const GLuint a = vertexNode[t[e]], b = vertexNode[t[(e + 1) % 3]];
+      if (a == b) continue;
+      const float length = glm::distance(mesh.positions[t[e]], mesh.positions[t[(e + 1) % 3]]);
+      for (const auto& [from, to] : {std::make_pair(a, b), std::make_pair(b, a)}) {
+        auto& list = near[from];
+        if (std::none_of(list.begin(), list.end(), [&](const auto& l) { return l.first == to; }))
+          list.emplace_back(to, length);
+      }
+      lengths.push_back(length);
+    }
+  auto bits = [](float f) {
+    GLuint u;
+    std::memcpy(&u, &f, sizeof u);
+    return u;
+  };
+  auto csr = [&](std::vector<GLuint>& out, auto size, auto put) {
+    out.assign(nodes + 1, 0);
+    for (size_t n = 0; n < nodes; ++n) out[n + 1] = out[n] + static_cast<GLuint>(size(n));
+    for (size_t n = 0; n < nodes; ++n) put(n, out);
+  };
+  csr(uvs, [&](size_t n) { return nodeUvs[n].size(); }, [&](size_t n, std::vector<GLuint>& out) {
+    for (const glm::vec2& uv : nodeUvs[n]) out.insert(out.end(), {bits(uv.x), bits(uv.y)});
+  });
+  csr(links, [&](size_t n) { return near[n].size(); }, [&](size_t n, std::vector<GLuint>& out) {
+    for (const auto& [to, length] : near[n]) out.insert(out.end(), {to, bits(length)});
+  });
+  std::nth_element(lengths.begin(), lengths.begin() + static_cast<long>(lengths.size() / 20), lengths.end());
+  shortEdge = std::max(lengths[lengths.size() / 20], 1e-6f);
+  return static_cast<GLuint>(nodes);
+}
 }  // namespace
 
 GpuMesh::GpuMesh(const TriangleMesh& mesh) {
@@ -182,6 +243,17 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   if (!edges.empty() && !shared.empty()) {
     seamEdges = gl::Buffer::fromVector(edges);
     seamVertices = gl::Buffer::fromVector(shared);
+  }
+  {
+    std::vector<GLuint> node, uvs, links;
+    std::vector<glm::vec4> frames;
+    nodeCount = creaseGraph(mesh, node, uvs, links, frames, shortEdge);
+    if (nodeCount > 0) {
+      vertexNodes = gl::Buffer::fromVector(node);
+      nodeUvs = gl::Buffer::fromVector(uvs);
+      nodeLinks = gl::Buffer::fromVector(links);
+      nodeFrames = gl::Buffer::fromVector(frames);
+    }
   }
   if (mesh.triangles.size() > kSimplifyAbove) {
     const std::vector<uint32_t> fewer = simplifiedTriangles(v, kFloats, idx);
@@ -253,6 +325,7 @@ void Surface::makeUnique() {
                      own->bound.width(), own->bound.height(), 1);
   glGenerateTextureMipmap(own->height.id());
   own->highest = maps_->highest;
+  own->version = maps_->version;
   maps_ = std::move(own);
 }
 

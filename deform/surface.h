@@ -40,6 +40,14 @@ struct GpuMesh {
   gl::VertexArray shadowVao;
   gl::Buffer shadowVertices, shadowIndices;
   GLsizei shadowIndexCount = 0;
+  // The crease bevel's graph (Deformer::creaseBevel): the mesh's positions as nodes (the vertices at one position,
+  // across uv seams and hard edges, are one node); per vertex its node (uint); per node the uvs of its vertices
+  // and its neighbours along triangle edges with the edges' lengths (CSR: nodeCount + 1 offsets, then uv pairs /
+  // (node, length) pairs, floats as their bits), and its position and averaged normal (two vec4). nodeCount 0: no
+  // uvs or normals, no graph.
+  gl::Buffer vertexNodes, nodeUvs, nodeLinks, nodeFrames;
+  GLuint nodeCount = 0;
+  float shortEdge = 0;  // m: a short edge of the mesh (5th percentile), the step of the bevel's reach
   glm::vec3 boundsMin{0}, boundsMax{0};  // shape frame
   double metresPerUv = 1;                // sqrt(surface area / uv area)
   // The compute gather's (deform/texel_cover.cpp), per map resolution: made on first use, kept with the mesh.
@@ -64,6 +72,12 @@ struct SurfaceMaps {
   // lower heights, back to 1 once a crater rim raises some. The deformer's culls bound how far bumps reach by it
   // (a flat map's bumps reach nowhere) instead of by the highest a map could hold.
   float highest = 1.0f;
+  long version = 0;  // commits into these maps so far
+  // For the displaced renderer: per node of the mesh (GpuMesh::vertexNodes), a vec4 whose xyz is how far it is
+  // drawn from where its height puts it (shape frame, m), so that no node lies further than an edge's length
+  // from where a deeper neighbour went (Deformer::creaseBevel); current while creaseVersion == version.
+  gl::Buffer crease;
+  long creaseVersion = -1;
   explicit SurfaceMaps(int resolution);
   static int boundSize(int resolution);  // level 0's width and height (S, a power of two)
   int boundLevels() const;               // log2 S + 1
@@ -95,6 +109,13 @@ class Surface {
   void makeUnique();
   // Its heights may now be anywhere up to 1 (a crater rim raised some): SurfaceMaps::highest.
   void heightsMayRise() { maps_->highest = 1.0f; }
+  // A commit changed its map.
+  void changed() { ++maps_->version; }
+  SurfaceMaps& mutableMaps() { return *maps_; }
+  // The crease bevel of its map as it is now (Deformer::creaseBevel made it since the last change), else null.
+  const gl::Buffer* crease() const {
+    return maps_->version > 0 && maps_->creaseVersion == maps_->version ? &maps_->crease : nullptr;
+  }
   bool isShared() const { return maps_.use_count() > 1; }
   float texelSize() const { return static_cast<float>(mesh_->metresPerUv / resolution_); }
   gl::Image downloadHeight() const;

@@ -44,6 +44,10 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
       it.seamEdges = b.gpuMesh->seamEdges.id();
       it.seamVertices = b.gpuMesh->seamVertices.id();
       it.metresPerUv = static_cast<float>(b.gpuMesh->metresPerUv);
+      if (const gl::Buffer* crease = b.surface->crease()) {
+        it.vertexNodes = b.gpuMesh->vertexNodes.id();
+        it.crease = crease->id();
+      }
     }
     items.push_back(it);
   }
@@ -67,6 +71,7 @@ std::vector<render::RenderItem> renderItems(const Simulation& sim) {
 double drawFrame(Simulation& sim, render::Renderer& renderer, const render::View& view) {
   const auto t0 = std::chrono::steady_clock::now();
   if (sim.renderTimer()) sim.renderTimer()->begin();
+  if (renderer.settings().displace || view.displace) sim.updateCreaseBevels();
   renderer.draw(renderItems(sim), view);
   if (sim.renderTimer()) sim.renderTimer()->end();
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -88,6 +88,12 @@ void Simulation::gpuTimes(bool wait) {
   if (renderTimer_) timings_.renderGpuMs = wait ? renderTimer_->finish() : renderTimer_->ms();
 }
 
+void Simulation::updateCreaseBevels() {
+  if (!deformer_) return;
+  for (BodyRuntime& b : bodies_)
+    if (b.surface) deformer_->creaseBevel(*b.surface);
+}
+
 std::vector<VehiclePart> Simulation::jointParts() const {
   std::vector<VehiclePart> parts;
   if (!cableMesh_) return parts;

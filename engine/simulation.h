@@ -96,6 +96,9 @@ class Simulation {
   Timings& timings() { return timings_; }
   // Brings timings()' GPU times up to date: the results back so far, or (wait) all of them.
   void gpuTimes(bool wait);
+  // Makes the displaced renderer's crease bevels current for every dented surface (deform::Deformer::creaseBevel;
+  // drawFrame calls it before a displaced frame).
+  void updateCreaseBevels();
   // The frames' GPU timer (drawFrame; null without GL).
   gl::GpuTimer* renderTimer() { return renderTimer_.get(); }
   deform::Deformer* deformer() { return deformer_.get(); }

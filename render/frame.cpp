@@ -361,6 +361,12 @@ void Renderer::Impl::Frame::drawItems() {
         gl::bindStorage(pom::kSeamEdges, it.seamEdges);
         gl::bindStorage(pom::kSeamVertices, it.seamVertices);
       }
+      const bool creased = it.vertexNodes && it.crease;
+      p.creased.set(creased ? 1 : 0);
+      if (creased) {
+        gl::bindStorage(pom::kVertexNodes, it.vertexNodes);
+        gl::bindStorage(pom::kCrease, it.crease);
+      }
       p.metresPerUv.set(it.metresPerUv);
       gl::bindSampler(pom::kHeight, m.displacedHeight.id());
       glBindVertexArray(it.vao);

@@ -63,6 +63,10 @@ struct RenderItem {
   // Where the mesh's uv charts meet (deform::GpuMesh::seamEdges, seamVertices): the displaced path keeps seams
   // closed with them; 0: no seams known (a seam may open where its charts' dents differ).
   GLuint seamEdges = 0, seamVertices = 0;
+  // The displaced path's crease bevel (deform::SurfaceMaps::crease: per node, xyz added to where the height moves
+  // it) and each vertex's node (deform::GpuMesh::vertexNodes): a panel crushed against an undented one across a
+  // hard edge meets it in a bevel, not a wall; 0: none.
+  GLuint vertexNodes = 0, crease = 0;
   float metresPerUv = 1.0f;  // the mesh's size of one uv unit (deform::GpuMesh::metresPerUv)
   glm::vec3 boundsMin{-1}, boundsMax{1};  // mesh bounds (model frame): the sun's shadow map, view culling
   // A simplified version of the mesh (the same vertices, fewer triangles), drawn where

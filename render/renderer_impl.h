@@ -42,7 +42,7 @@ namespace pom {
 constexpr gl::TextureUnit kHeight{0}, kNormalMap{1}, kShadowMap{2}, kPrefiltered{3}, kIrradiance{4}, kBrdfLut{5},
     kHeightBound{6}, kLookSrgb{8}, kLookLinear{9}, kVisibilityIds{10};
 constexpr gl::ImageUnit kShaded{0};
-constexpr gl::StorageBinding kVertices{0}, kIndices{1}, kSeamEdges{2}, kSeamVertices{3};
+constexpr gl::StorageBinding kVertices{0}, kIndices{1}, kSeamEdges{2}, kSeamVertices{3}, kVertexNodes{4}, kCrease{5};
 }  // namespace pom
 // The one input of the full-screen passes: address_view.frag's uAddress, fxaa.frag's uScene, prefilter.frag's uEnv.
 constexpr gl::TextureUnit kSource{0};
@@ -177,6 +177,7 @@ struct PomProgram {
   Uniform<glm::vec2> viewport{program, "uViewport"};  // the displaced path's tessellation
   Uniform<float> segmentPixels{program, "uSegmentPixels"}, maxLevel{program, "uMaxLevel"};
   Uniform<int> seams{program, "uSeams"};
+  Uniform<int> creased{program, "uCrease"};
   Uniform<float> pixelAngle{program, "uPixelAngle"}, metresPerUv{program, "uMetresPerUv"};
   // The item's (bindItem).
   Uniform<glm::mat4> model{program, "uModel"}, worldToModel{program, "uWorldToModel"};

@@ -16,6 +16,10 @@ layout(binding = 0) uniform sampler2D uHeight;  // renderer.cpp pom::kHeight
 layout(std430, binding = 2) readonly buffer SeamEdges { vec4 seamEdge[]; };        // renderer pom::kSeamEdges
 layout(std430, binding = 3) readonly buffer SeamVertices { vec4 seamVertex[]; };  // renderer pom::kSeamVertices
 uniform int uSeams;
+// The crease bevel (deform::SurfaceMaps::crease, per node) and each vertex's node, read where uCrease is 1.
+layout(std430, binding = 4) readonly buffer VertexNodes { uint vertexNode[]; };  // renderer pom::kVertexNodes
+layout(std430, binding = 5) readonly buffer Crease { vec4 crease[]; };           // renderer pom::kCrease
+uniform int uCrease;
 uniform float uBumpDepth;
 uniform float uSegmentPixels;  // the tessellation's segment on screen (pixels)
 uniform float uPixelAngle;     // a pixel's size at 1 m from the eye (m)
@@ -48,6 +52,18 @@ out vec2 vMaterialUV;
 flat out int vMaterial;
 out float vHeightLod;  // the level of the height map the vertex was moved by (pom.frag shades with its slopes)
 
+// The move corner i of the patch would make by the height at uvAt (read as its own vertex reads it there): along
+// its averaged normal, (h - 0.5) k.
+vec3 cornerMove(int i, vec2 uvAt) {
+  float keep = gSegment, keepLod = gLod;
+  gSegment = uSegmentPixels * max((uViewProjection * (uModel * vec4(tePosition[i], 1.0))).w, 0.0) * uPixelAngle;
+  float hc = heightNear(uvAt);
+  gSegment = keep;
+  gLod = keepLod;
+  vec3 sc = length(teSmoothNormal[i]) > 1e-6 ? normalize(teSmoothNormal[i]) : teNormal[i];
+  return sc * ((hc - 0.5) * uBumpDepth);
+}
+
 void main() {
   vec3 b = gl_TessCoord;
   vec3 p = b.x * tePosition[0] + b.y * tePosition[1] + b.z * tePosition[2];
@@ -79,7 +95,36 @@ void main() {
   float d = (h - 0.5) * uBumpDepth;
   // The sun's shadow map holds the undisplaced meshes: look the shadow up where the vertex was, as POM does.
   vShadow = uLightViewProjection * (uModel * vec4(p, 1.0));
-  p += s * (d / max(dot(s, n), 0.5));  // a depth d along n, reached along s
+  if (uCrease != 0) {
+    // With a crease bevel (deform::SurfaceMaps::crease: per node, where it is drawn): each corner is drawn there,
+    // and each point moves by its own height plus, interpolated over the triangle, what its corners add to theirs,
+    // so a chart left behind by a crushed neighbour follows it in a bevel instead of standing as a wall. A point
+    // of a seam takes the deeper of the two charts' moves, which each side computes alike.
+    int zeros = int(b.x == 0.0) + int(b.y == 0.0) + int(b.z == 0.0);
+    vec3 moved;
+    if (zeros == 2) {
+      moved = crease[vertexNode[int(teIndex[b.x == 1.0 ? 0 : b.y == 1.0 ? 1 : 2])]].xyz;
+    } else {
+      vec3 own = s * ((heightNear(uv) - 0.5) * uBumpDepth);
+      vec3 add[3];
+      for (int i = 0; i < 3; ++i) add[i] = crease[vertexNode[int(teIndex[i])]].xyz - cornerMove(i, teUV[i]);
+      moved = own + b.x * add[0] + b.y * add[1] + b.z * add[2];
+      if (zeros == 1 && uSeams != 0) {
+        int e = b.x == 0.0 ? 0 : b.y == 0.0 ? 1 : 2;  // the edge opposite corner e
+        vec4 twin = seamEdge[3 * gl_PrimitiveID + e];
+        if (twin.x >= 0.0) {
+          int c1 = (e + 1) % 3, c2 = (e + 2) % 3;
+          vec3 other = s * ((heightNear(b[c1] * twin.xy + b[c2] * twin.zw) - 0.5) * uBumpDepth) +
+                       b[c1] * (crease[vertexNode[int(teIndex[c1])]].xyz - cornerMove(c1, twin.xy)) +
+                       b[c2] * (crease[vertexNode[int(teIndex[c2])]].xyz - cornerMove(c2, twin.zw));
+          if (dot(other, s) < dot(moved, s) || (dot(other, s) == dot(moved, s) && other.x < moved.x)) moved = other;
+        }
+      }
+    }
+    p += moved;
+  } else {
+    p += s * (d / max(dot(s, n), 0.5));  // a depth d along n, reached along s
+  }
   vColor = b.x * teColor[0] + b.y * teColor[1] + b.z * teColor[2];
   vMaterialUV = b.x * teMaterialUV[0] + b.y * teMaterialUV[1] + b.z * teMaterialUV[2];
   vMaterial = int(round(teMaterial[0]));

@@ -167,8 +167,9 @@ GLuint creaseGraph(const TriangleMesh& mesh, std::vector<GLuint>& vertexNode, st
       const GLuint a = vertexNode[t[e]], b = vertexNode[t[(e + 1) % 3]];
       if (a == b) continue;
       const float length = glm::distance(mesh.positions[t[e]], mesh.positions[t[(e + 1) % 3]]);
-      for (const auto& [from, to] : {std::make_pair(a, b), std::make_pair(b, a)}) {
-        auto& list = near[from];
+      for (const std::pair<GLuint, GLuint>& link : {std::make_pair(a, b), std::make_pair(b, a)}) {
+        auto& list = near[link.first];
+        const GLuint to = link.second;  // (a structured binding cannot be captured before C++20)
         if (std::none_of(list.begin(), list.end(), [&](const auto& l) { return l.first == to; }))
           list.emplace_back(to, length);
       }

@@ -71,13 +71,14 @@ void main() {
   vec3 s = b.x * teSmoothNormal[0] + b.y * teSmoothNormal[1] + b.z * teSmoothNormal[2];
   s = length(s) > 1e-6 ? normalize(s) : n;
   vec2 uv = b.x * teUV[0] + b.y * teUV[1] + b.z * teUV[2];
-  // On a seam (a point of an edge, or a corner, that another chart holds too) the lower of the charts' heights
-  // there: each side reads both and moves its point alike, so the seam stays closed where the charts' dents
-  // differ (a crease across a hard edge would tear it open into spikes).
+  // Without a crease bevel, on a seam (a point of an edge, or a corner, that another chart holds too) the lower of
+  // the charts' heights there: each side reads both and moves its point alike, so the seam stays closed where the
+  // charts' dents differ (a crease across a hard edge would tear it open into spikes).
   gSegment = uSegmentPixels * max((uViewProjection * (uModel * vec4(p, 1.0))).w, 0.0) * uPixelAngle;
-  float h = heightNear(uv);
+  float hOwn = heightNear(uv);
+  float h = hOwn;
   vHeightLod = gLod;
-  if (uSeams != 0) {
+  if (uSeams != 0 && uCrease == 0) {
     int zeros = int(b.x == 0.0) + int(b.y == 0.0) + int(b.z == 0.0);
     if (zeros == 2) {
       int v = int(teIndex[b.x == 1.0 ? 0 : b.y == 1.0 ? 1 : 2]);
@@ -105,7 +106,7 @@ void main() {
     if (zeros == 2) {
       moved = crease[vertexNode[int(teIndex[b.x == 1.0 ? 0 : b.y == 1.0 ? 1 : 2])]].xyz;
     } else {
-      vec3 own = s * ((heightNear(uv) - 0.5) * uBumpDepth);
+      vec3 own = s * ((hOwn - 0.5) * uBumpDepth);
       vec3 add[3];
       for (int i = 0; i < 3; ++i) add[i] = crease[vertexNode[int(teIndex[i])]].xyz - cornerMove(i, teUV[i]);
       moved = own + b.x * add[0] + b.y * add[1] + b.z * add[2];

@@ -63,10 +63,10 @@ struct JointBreakRecord {
 // read when they come back: gpuTimes() brings them up to date).
 struct Timings {
   double physicsMs = 0, deformMs = 0, renderMs = 0;
-  double dentReadMs = 0;  // taking the dented maps read back into the physics (the fence's wait included)
-  double dentWaitMs = 0;  // of which blocked on the read-backs' fences (the GPU not done a step after the dent)
+  double dentReadMs = 0;  // taking the dents' changed texels into the physics (the fence's wait included)
+  double dentWaitMs = 0;  // of which blocked on the fences (the GPU not done a step after the dent)
   long dentReads = 0;     // maps taken in
-  long dentTexels = 0;    // texels their change logs brought
+  long dentTexels = 0;    // texels the change log brought
   long dentFullReads = 0;  // maps read back whole (a step changed more texels than the change log holds)
   double deformGpuMs = 0, renderGpuMs = 0;
   long steps = 0, deformations = 0, frames = 0, contactDeformations = 0;

@@ -128,8 +128,10 @@ const PomProgram& Renderer::Impl::pom(const PomFeatures& f) {
   std::vector<Program::Stage> stages;
   if (f.displaced)
     stages = {{GL_VERTEX_SHADER, "pom_displace.vert", std::string(renderShader("pom_displace.vert"))},
-              {GL_TESS_CONTROL_SHADER, "pom_displace.tesc", std::string(renderShader("pom_displace.tesc"))},
-              {GL_TESS_EVALUATION_SHADER, "pom_displace.tese", std::string(renderShader("pom_displace.tese"))},
+              {GL_TESS_CONTROL_SHADER, "pom_displace.tesc",
+               withDefines(renderShader("pom_displace.tesc"), std::string(renderShader("displace_common.glsl")))},
+              {GL_TESS_EVALUATION_SHADER, "pom_displace.tese",
+               withDefines(renderShader("pom_displace.tese"), std::string(renderShader("displace_common.glsl")))},
               {GL_FRAGMENT_SHADER, "pom.frag", fragment}};
   else
     stages = {{GL_VERTEX_SHADER, "pom.vert", std::string(renderShader("pom.vert"))},

@@ -19,12 +19,23 @@ out vec2 teMaterialUV[];
 out float teMaterial[];
 out vec3 teSmoothNormal[];
 out float teIndex[];
-uniform mat4 uModel;
-uniform mat4 uViewProjection;
+// With a crease bevel (uCrease 1), per corner: its node's place (deform::SurfaceMaps::crease) less the move its
+// own chart's height would make it (pom_displace.tese adds these, interpolated, to each point's own move), and the
+// same by the other chart's heights for the seam edge whose first end it is (edge (i + 2) % 3: the twin's first
+// uv) and whose second end it is (edge (i + 1) % 3: the twin's second uv).
+out vec3 teAdd[];
+out vec3 teTwinAdd1[];
+out vec3 teTwinAdd2[];
 uniform vec2 uViewport;       // pixels
-uniform float uSegmentPixels;  // target length of a segment on screen
 uniform float uMaxLevel;
-uniform float uBumpDepth;
+
+// The move corner i would make by the height at uvAt (read as its own vertex reads it there): along its averaged
+// normal, (h - 0.5) k.
+vec3 cornerMove(int i, vec2 uvAt) {
+  gSegment = segmentAt(tcPosition[i]);
+  vec3 s = length(tcSmoothNormal[i]) > 1e-6 ? normalize(tcSmoothNormal[i]) : tcNormal[i];
+  return s * ((heightNear(uvAt) - 0.5) * uBumpDepth);
+}
 
 float level(vec4 a, vec4 b) {
   if (a.w <= 1e-3 || b.w <= 1e-3) return uMaxLevel;  // crosses the eye's plane: finest
@@ -41,6 +52,17 @@ void main() {
   teMaterial[gl_InvocationID] = tcMaterial[gl_InvocationID];
   teSmoothNormal[gl_InvocationID] = tcSmoothNormal[gl_InvocationID];
   teIndex[gl_InvocationID] = tcIndex[gl_InvocationID];
+  if (uCrease != 0) {
+    int i = gl_InvocationID;
+    vec3 place = crease[vertexNode[int(tcIndex[i])]].xyz;
+    teAdd[gl_InvocationID] = place - cornerMove(i, tcUV[i]);
+    teTwinAdd1[gl_InvocationID] = teTwinAdd2[gl_InvocationID] = vec3(0.0);
+    if (uSeams != 0) {
+      vec4 first = seamEdge[3 * gl_PrimitiveID + (i + 2) % 3], second = seamEdge[3 * gl_PrimitiveID + (i + 1) % 3];
+      if (first.x >= 0.0) teTwinAdd1[gl_InvocationID] = place - cornerMove(i, first.xy);
+      if (second.x >= 0.0) teTwinAdd2[gl_InvocationID] = place - cornerMove(i, second.zw);
+    }
+  }
   if (gl_InvocationID == 0) {
     vec4 c[3];
     for (int i = 0; i < 3; ++i) c[i] = uViewProjection * (uModel * vec4(tcPosition[i], 1.0));

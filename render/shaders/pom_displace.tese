@@ -11,37 +11,10 @@ in vec2 teMaterialUV[];
 in float teMaterial[];
 in vec3 teSmoothNormal[];
 in float teIndex[];
-layout(binding = 0) uniform sampler2D uHeight;  // renderer.cpp pom::kHeight
-// Where the mesh's uv charts meet (deform::GpuMesh::seamEdges, seamVertices), read where uSeams is 1.
-layout(std430, binding = 2) readonly buffer SeamEdges { vec4 seamEdge[]; };        // renderer pom::kSeamEdges
-layout(std430, binding = 3) readonly buffer SeamVertices { vec4 seamVertex[]; };  // renderer pom::kSeamVertices
-uniform int uSeams;
-// The crease bevel (deform::SurfaceMaps::crease, per node) and each vertex's node, read where uCrease is 1.
-layout(std430, binding = 4) readonly buffer VertexNodes { uint vertexNode[]; };  // renderer pom::kVertexNodes
-layout(std430, binding = 5) readonly buffer Crease { vec4 crease[]; };           // renderer pom::kCrease
-uniform int uCrease;
-uniform float uBumpDepth;
-uniform float uSegmentPixels;  // the tessellation's segment on screen (pixels)
-uniform float uPixelAngle;     // a pixel's size at 1 m from the eye (m)
-uniform float uMetresPerUv;    // the mesh's size of one uv unit (m)
-float gSegment = 0.0;          // the segment here (m)
-
-// The height at uv filtered over the surface around it (the map's mip levels): over about a segment, and over as
-// far as the surface moves there, whichever is more. The vertices stand a segment apart; a crease whose height
-// drops by centimetres from one texel to the next (a crushed, saturated map) read at them alone aliases into
-// spikes along it, where the filtered height slopes at most about 1:1. A function of uv and of the vertex's
-// distance alone: a vertex shared by two triangles moves the same way in both.
-float gLod = 0.0;  // the level heightNear read last
-float heightNear(vec2 uv) {
-  float texel = uMetresPerUv / float(textureSize(uHeight, 0).x);  // m
-  float coarse = textureLod(uHeight, uv, log2(max(0.5 * uBumpDepth / texel, 1.0))).r;
-  float reach = max(gSegment, abs(coarse - 0.5) * uBumpDepth);
-  gLod = log2(max(reach / texel, 1.0));
-  return textureLod(uHeight, uv, gLod).r;
-}
-uniform mat4 uModel;
+in vec3 teAdd[];      // pom_displace.tesc (with a crease bevel): per corner, its node's place less its own move
+in vec3 teTwinAdd1[];  // the same by the other chart's heights, for the edge whose first end it is (edge (i + 2) % 3)
+in vec3 teTwinAdd2[];  // and for the edge whose second end it is (edge (i + 1) % 3)
 uniform mat3 uNormalMatrix;
-uniform mat4 uViewProjection;
 uniform mat4 uLightViewProjection;
 out vec3 vWorld;
 out vec3 vNormal;
@@ -51,18 +24,6 @@ out vec3 vColor;
 out vec2 vMaterialUV;
 flat out int vMaterial;
 out float vHeightLod;  // the level of the height map the vertex was moved by (pom.frag shades with its slopes)
-
-// The move corner i of the patch would make by the height at uvAt (read as its own vertex reads it there): along
-// its averaged normal, (h - 0.5) k.
-vec3 cornerMove(int i, vec2 uvAt) {
-  float keep = gSegment, keepLod = gLod;
-  gSegment = uSegmentPixels * max((uViewProjection * (uModel * vec4(tePosition[i], 1.0))).w, 0.0) * uPixelAngle;
-  float hc = heightNear(uvAt);
-  gSegment = keep;
-  gLod = keepLod;
-  vec3 sc = length(teSmoothNormal[i]) > 1e-6 ? normalize(teSmoothNormal[i]) : teNormal[i];
-  return sc * ((hc - 0.5) * uBumpDepth);
-}
 
 void main() {
   vec3 b = gl_TessCoord;
@@ -74,7 +35,7 @@ void main() {
   // Without a crease bevel, on a seam (a point of an edge, or a corner, that another chart holds too) the lower of
   // the charts' heights there: each side reads both and moves its point alike, so the seam stays closed where the
   // charts' dents differ (a crease across a hard edge would tear it open into spikes).
-  gSegment = uSegmentPixels * max((uViewProjection * (uModel * vec4(p, 1.0))).w, 0.0) * uPixelAngle;
+  gSegment = segmentAt(p);
   float hOwn = heightNear(uv);
   float h = hOwn;
   vHeightLod = gLod;
@@ -107,17 +68,14 @@ void main() {
       moved = crease[vertexNode[int(teIndex[b.x == 1.0 ? 0 : b.y == 1.0 ? 1 : 2])]].xyz;
     } else {
       vec3 own = s * ((hOwn - 0.5) * uBumpDepth);
-      vec3 add[3];
-      for (int i = 0; i < 3; ++i) add[i] = crease[vertexNode[int(teIndex[i])]].xyz - cornerMove(i, teUV[i]);
-      moved = own + b.x * add[0] + b.y * add[1] + b.z * add[2];
+      moved = own + b.x * teAdd[0] + b.y * teAdd[1] + b.z * teAdd[2];
       if (zeros == 1 && uSeams != 0) {
         int e = b.x == 0.0 ? 0 : b.y == 0.0 ? 1 : 2;  // the edge opposite corner e
         vec4 twin = seamEdge[3 * gl_PrimitiveID + e];
         if (twin.x >= 0.0) {
           int c1 = (e + 1) % 3, c2 = (e + 2) % 3;
           vec3 other = s * ((heightNear(b[c1] * twin.xy + b[c2] * twin.zw) - 0.5) * uBumpDepth) +
-                       b[c1] * (crease[vertexNode[int(teIndex[c1])]].xyz - cornerMove(c1, twin.xy)) +
-                       b[c2] * (crease[vertexNode[int(teIndex[c2])]].xyz - cornerMove(c2, twin.zw));
+                       b[c1] * teTwinAdd1[c1] + b[c2] * teTwinAdd2[c2];
           if (dot(other, s) < dot(moved, s) || (dot(other, s) == dot(moved, s) && other.x < moved.x)) moved = other;
         }
       }

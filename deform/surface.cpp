@@ -86,14 +86,13 @@ void shadowMesh(const std::vector<float>& v, size_t floats, const std::vector<ui
 // open where the two charts hold different dents): per triangle edge (the edge opposite corner e is entry
 // 3 t + e), the other chart's uv at the edge's two ends, corner (e + 1) % 3's first (the triangle across the
 // edge whose uvs differ), or -1 where there is none; per vertex two entries, the uvs of up to three other
-// vertices at its position with other uvs and their count.
-void seamTables(const TriangleMesh& mesh, std::vector<glm::vec4>& edges, std::vector<glm::vec4>& vertices) {
+// vertices at its position with other uvs and their count. `at`: each vertex's position number (positionNumbers).
+void seamTables(const TriangleMesh& mesh, const std::vector<uint32_t>& at, std::vector<glm::vec4>& edges,
+                std::vector<glm::vec4>& vertices) {
   const size_t count = mesh.positions.size();
   edges.assign(mesh.triangles.size() * 3, glm::vec4(-1));
   vertices.assign(count * 2, glm::vec4(0));
   if (mesh.uvs.size() != count || count == 0) return;
-  std::vector<uint32_t> at(count);  // a position's number, the same for every vertex there
-  meshopt_generateVertexRemap(at.data(), nullptr, count, mesh.positions.data(), count, sizeof(glm::vec3));
   std::vector<std::vector<uint32_t>> sharing(count);
   for (uint32_t i = 0; i < count; ++i) sharing[at[i]].push_back(i);
   for (uint32_t i = 0; i < count; ++i) {
@@ -135,18 +134,26 @@ void seamTables(const TriangleMesh& mesh, std::vector<glm::vec4>& edges, std::ve
 }
 
 
-// The crease bevel's graph (GpuMesh::vertexNodes, nodeUvs, nodeLinks, nodeFrames): the mesh's positions as nodes,
-// per vertex its node; per node the distinct uvs of its vertices and the other nodes it shares a triangle edge
+// Each vertex's position number, the same for every vertex at one position (numbered 0.. in order of first use);
+// returns how many positions there are.
+size_t positionNumbers(const TriangleMesh& mesh, std::vector<uint32_t>& at) {
+  const size_t count = mesh.positions.size();
+  at.resize(count);
+  if (count == 0) return 0;
+  return meshopt_generateVertexRemap(at.data(), nullptr, count, mesh.positions.data(), count, sizeof(glm::vec3));
+}
+
+// The crease bevel's graph (GpuMesh::vertexNodes, nodeUvs, nodeLinks, nodeFrames): the mesh's positions as nodes
+// (`at`, `nodes`: positionNumbers), per vertex its node; per node the distinct uvs of its vertices and the other nodes it shares a triangle edge
 // with, with the edge's length (each list as CSR: nodes + 1 offsets, then the entries, offsets counted from the
 // first entry); per node its position and the normal averaged over its vertices (two vec4). Returns the number
 // of nodes, 0 where the mesh has no uvs; `shortEdge` is a short edge of the mesh (its 5th percentile).
-GLuint creaseGraph(const TriangleMesh& mesh, std::vector<GLuint>& vertexNode, std::vector<GLuint>& uvs,
-                   std::vector<GLuint>& links, std::vector<glm::vec4>& frames, float& shortEdge) {
+GLuint creaseGraph(const TriangleMesh& mesh, const std::vector<uint32_t>& at, size_t nodes,
+                   std::vector<GLuint>& vertexNode, std::vector<GLuint>& uvs, std::vector<GLuint>& links,
+                   std::vector<glm::vec4>& frames, float& shortEdge) {
   const size_t count = mesh.positions.size();
   if (mesh.uvs.size() != count || mesh.normals.size() != count || count == 0 || mesh.triangles.empty()) return 0;
-  vertexNode.resize(count);
-  const size_t nodes =
-      meshopt_generateVertexRemap(vertexNode.data(), nullptr, count, mesh.positions.data(), count, sizeof(glm::vec3));
+  vertexNode = at;  // (the nodes are the positions)
   std::vector<std::vector<glm::vec2>> nodeUvs(nodes);
   frames.assign(nodes * 2, glm::vec4(0));
   for (size_t i = 0; i < count; ++i) {
@@ -239,8 +246,10 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   boundsMin = mesh.boundsMin();
   boundsMax = mesh.boundsMax();
   describeVertices(vao.id(), vertices.id(), indices.id());
+  std::vector<uint32_t> at;
+  const size_t positions = positionNumbers(mesh, at);
   std::vector<glm::vec4> edges, shared;
-  seamTables(mesh, edges, shared);
+  seamTables(mesh, at, edges, shared);
   if (!edges.empty() && !shared.empty()) {
     seamEdges = gl::Buffer::fromVector(edges);
     seamVertices = gl::Buffer::fromVector(shared);
@@ -248,7 +257,7 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
   {
     std::vector<GLuint> node, uvs, links;
     std::vector<glm::vec4> frames;
-    nodeCount = creaseGraph(mesh, node, uvs, links, frames, shortEdge);
+    nodeCount = creaseGraph(mesh, at, positions, node, uvs, links, frames, shortEdge);
     if (nodeCount > 0) {
       vertexNodes = gl::Buffer::fromVector(node);
       nodeUvs = gl::Buffer::fromVector(uvs);

@@ -223,6 +223,10 @@ class Simulation {
     double gridCell = 1;
     glm::ivec3 gridDims{0};
     std::vector<unsigned char> grid;
+    size_t gridIndex(const glm::ivec3& c) const {
+      return (static_cast<size_t>(c.z) * static_cast<size_t>(gridDims.y) + static_cast<size_t>(c.y)) *
+                 static_cast<size_t>(gridDims.x) + static_cast<size_t>(c.x);
+    }
     double k = 0;                      // the bump depth (m)
     float height(int x, int y) const;  // the map at texel (x, y) as last taken in
     void set(int x, int y, float h);   // takes in one texel's new height

@@ -243,9 +243,7 @@ void Simulation::markNearChange(DentCopy& d, const TriangleMesh& mesh) {
     const glm::ivec3 chi = glm::clamp(glm::ivec3(glm::floor((hi - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
     for (int z = clo.z; z <= chi.z; ++z)
       for (int y = clo.y; y <= chi.y; ++y)
-        for (int x = clo.x; x <= chi.x; ++x)
-          d.grid[(static_cast<size_t>(z) * static_cast<size_t>(d.gridDims.y) + static_cast<size_t>(y)) *
-                     static_cast<size_t>(d.gridDims.x) + static_cast<size_t>(x)] = 1;
+        for (int x = clo.x; x <= chi.x; ++x) d.grid[d.gridIndex({x, y, z})] = 1;
   }
 }
 
@@ -258,9 +256,7 @@ double Simulation::surfaceDepth(int i, const glm::dvec3& p, const glm::dvec3& n,
       p.z > d.boxHi.z)
     return 0;
   const glm::ivec3 cell = glm::clamp(glm::ivec3(glm::floor((p - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
-  if (!d.grid[(static_cast<size_t>(cell.z) * static_cast<size_t>(d.gridDims.y) + static_cast<size_t>(cell.y)) *
-                  static_cast<size_t>(d.gridDims.x) + static_cast<size_t>(cell.x)])
-    return 0;
+  if (!d.grid[d.gridIndex(cell)]) return 0;
   return lookUpDepth(d, i, p, n, bent);
 }
 

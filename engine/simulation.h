@@ -190,6 +190,7 @@ class Simulation {
   struct DentMesh {
     std::shared_ptr<const NearTriangles> near;
     std::vector<glm::ivec4> triangleTexels;
+    std::vector<UvFrame> frames;  // per triangle: its uv frame (uvFrame), all zero where its uvs are degenerate
   };
   std::map<std::pair<const TriangleMesh*, int>, std::shared_ptr<const DentMesh>> dentMeshes_;
   std::map<size_t, std::shared_ptr<const std::vector<float>>> imageStarts_;  // by body: its bump map image's heights

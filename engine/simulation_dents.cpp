@@ -35,11 +35,13 @@ void Simulation::prepareDents() {
       auto made = std::make_shared<DentMesh>();
       made->near = std::make_shared<const NearTriangles>(mesh, kNearCell, kOnSurface);
       made->triangleTexels.reserve(mesh.triangles.size());
+      made->frames.reserve(mesh.triangles.size());
       for (const glm::uvec3& t : mesh.triangles) {
         const glm::dvec2 a(mesh.uvs[t.x]), b(mesh.uvs[t.y]), c(mesh.uvs[t.z]);
         const glm::ivec2 tlo = glm::clamp(glm::ivec2(glm::floor(glm::min(a, glm::min(b, c)) * double(r))) - 1, 0, r - 1);
         const glm::ivec2 thi = glm::clamp(glm::ivec2(glm::floor(glm::max(a, glm::max(b, c)) * double(r))) + 1, 0, r - 1);
         made->triangleTexels.emplace_back(tlo, thi);
+        uvFrame(mesh, t, made->frames.emplace_back());
       }
       shared = std::move(made);
     }
@@ -285,8 +287,8 @@ double Simulation::lookUpDepth(const DentCopy& d, int i, const glm::dvec3& p, co
   const double hu = ((h10 - h00) * (1 - fy) + (h11 - h01) * fy) * r;  // dh/du
   const double hv = ((h01 - h00) * (1 - fx) + (h11 - h10) * fx) * r;  // dh/dv
   // The dented surface P + n k (h - 0.5): its tangents dP/du + n k dh/du, dP/dv + n k dh/dv.
-  UvFrame frame;
-  if (uvFrame(mesh, t, frame)) {
+  const UvFrame& frame = d.mesh->frames[static_cast<size_t>(hit.triangle)];
+  if (frame.det != 0) {
     glm::dvec3 m = glm::cross(frame.dPdu + n * (d.k * hu), frame.dPdv + n * (d.k * hv));
     if (glm::dot(m, n) < 0) m = -m;
     const double len = glm::length(m);

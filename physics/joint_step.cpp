@@ -135,14 +135,13 @@ bool yieldJoints(StepContext& ctx, const JointSystem& s, double h, const std::ve
 // effective mass, twice over (the rows' coupling, and the turn a fast spin makes a holding joint's anchors drift
 // through within the substep). A joint that holds has no budget: whatever its pre-stabilisation adds beyond this
 // is the solver's, not the scene's. Per joint of s (its joints, then its loops) in `each`; returns the sum.
+// Called right after buildSystem: the sides hold the bodies as they are (predicted = now).
 double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<double>& each) {
   const double reach = ctx.settings.maxCorrectionSpeed * h;
   each.clear();
   double sum = 0;
-  auto add = [&](const Joint& jt, Side a, Side b) {
+  auto add = [&](const Joint& jt, const Side& a, const Side& b) {
     double energy = 0;
-    a.refresh(ctx, 0, true);  // predicted = now
-    b.refresh(ctx, 0, true);
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
     for (int k = 0; k < jr.n; ++k) {
       const Row& row = jr.rows[k];
@@ -419,26 +418,43 @@ void postStabilize(StepContext& ctx, double h) {
   }
 }
 
-void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach) {
-  for (Joint& jt : ctx.joints) {
-    if (!active(ctx, jt)) continue;
+void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach, bool first) {
+  // Orientations stay put in the projection (translations only): each joint's anchors and slider axis turned
+  // into the world once, at its first iteration.
+  std::vector<ProjectedJoint>& turned = ctx.jointProjection;
+  if (first) {
+    turned.resize(ctx.joints.size());
+    for (size_t k = 0; k < ctx.joints.size(); ++k) {
+      const Joint& jt = ctx.joints[k];
+      ProjectedJoint& t = turned[k];
+      t.active = active(ctx, jt);
+      if (!t.active) continue;
+      const JointDef& d = jt.def;
+      auto dir = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).q * local; };
+      t.rA = dir(d.a, jt.rA);
+      t.rB = dir(d.b, jt.rB);
+      if (d.type == JointType::Slider) t.axis = glm::normalize(dir(d.a, jt.axisA));
+    }
+  }
+  for (size_t k = 0; k < ctx.joints.size(); ++k) {
+    const ProjectedJoint& t = turned[k];
+    if (!t.active) continue;
+    const Joint& jt = ctx.joints[k];
     const JointDef& d = jt.def;
     const double wa = d.a >= 0 && ctx.body(d.a).dynamic() ? ctx.body(d.a).invMass : 0;
     const double wb = ctx.body(d.b).dynamic() ? ctx.body(d.b).invMass : 0;
     if (wa + wb <= 0) continue;
-    // Orientations stay put in the projection (translations only).
-    auto dir = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).q * local; };
-    auto point = [&](int i, const glm::dvec3& local) { return i < 0 ? local : ctx.body(i).x + ctx.body(i).q * local; };
     const glm::dvec3 shiftA = d.a >= 0 ? moved[static_cast<size_t>(d.a)] : glm::dvec3(0);
     const glm::dvec3 shiftB = moved[static_cast<size_t>(d.b)];
+    // The anchor gap with the projection's translations so far.
+    const glm::dvec3 gap = (ctx.body(d.b).x + t.rB) - (d.a < 0 ? t.rA : ctx.body(d.a).x + t.rA);
     // The part of the anchor gap the joint forbids, with the projection's translations so far (`shifted`) or
     // without them.
     auto forbidden = [&](bool shifted) {
-      glm::dvec3 e = point(d.b, jt.rB) - point(d.a, jt.rA);
+      glm::dvec3 e = gap;
       if (!shifted) e -= shiftB - shiftA;
       if (d.type == JointType::Slider) {
-        const glm::dvec3 axis = glm::normalize(dir(d.a, jt.axisA));
-        e -= glm::dot(e, axis) * axis;
+        e -= glm::dot(e, t.axis) * t.axis;
       } else if (d.type == JointType::Distance) {
         const double len = glm::length(e);
         if (len < 1e-9) return glm::dvec3(0);

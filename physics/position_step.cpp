@@ -112,7 +112,7 @@ void projectPositions(StepContext& ctx, double h) {
       for (const ContactGroup& g : ctx.groups[pi]) project(g, it);
     // The translations above pulled joined bodies apart: the joints' anchors
     // are brought together again, translations only (joint_step.cpp).
-    projectJoints(ctx, moved, reach);
+    projectJoints(ctx, moved, reach, it == 0);
   }
 }
 

@@ -168,8 +168,16 @@ NearTriangles::NearTriangles(const TriangleMesh& mesh, double cell, double reach
   static std::atomic<uint64_t> made{0};
   id_ = ++made;
   corners_.reserve(mesh.triangles.size());
-  for (const glm::uvec3& t : mesh.triangles)
-    corners_.push_back({mesh.positions[t.x], mesh.positions[t.y], mesh.positions[t.z]});
+  for (const glm::uvec3& t : mesh.triangles) {
+    Corners k{mesh.positions[t.x], mesh.positions[t.y], mesh.positions[t.z], glm::vec3(0), 0.0f};
+    // The ball: its centre rounded to floats, its radius the farthest corner from that centre, rounded up.
+    k.centre = glm::vec3((glm::dvec3(k.a) + glm::dvec3(k.b) + glm::dvec3(k.c)) / 3.0);
+    const glm::dvec3 centre(k.centre);
+    const double r = std::max({glm::length(glm::dvec3(k.a) - centre), glm::length(glm::dvec3(k.b) - centre),
+                               glm::length(glm::dvec3(k.c) - centre)});
+    k.radius = std::nextafter(static_cast<float>(r * (1 + 1e-9)), std::numeric_limits<float>::max());
+    corners_.push_back(k);
+  }
 }
 
 // Per thread, the cells' lists of the last few NearTriangles asked (a contact asks two bodies' in turn): an
@@ -180,6 +188,8 @@ struct NearTriangles::Kept {
     double bound;  // no point of the cell is nearer the triangle
     uint32_t triangle;
     glm::vec3 a, b, c;
+    glm::vec3 centre;  // a ball around the triangle: no point is nearer it than to the ball
+    float radius;
   };
   uint64_t id = 0, used = 0;
   std::vector<uint64_t> keys;  // 0: empty
@@ -249,7 +259,8 @@ std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64ve
   const uint32_t begin = static_cast<uint32_t>(kept.entries.size());
   for (const auto& [d2, t] : found) {
     const Corners& k = corners_[static_cast<size_t>(t)];
-    kept.entries.push_back({std::max(0.0, std::sqrt(d2) - half - 1e-12), static_cast<uint32_t>(t), k.a, k.b, k.c});
+    kept.entries.push_back({std::max(0.0, std::sqrt(d2) - half - 1e-12), static_cast<uint32_t>(t), k.a, k.b, k.c,
+                            k.centre, k.radius});
   }
   std::sort(kept.entries.begin() + begin, kept.entries.end(), [](const Kept::Entry& x, const Kept::Entry& y) {
     return x.bound != y.bound ? x.bound < y.bound : x.triangle < y.triangle;
@@ -271,15 +282,21 @@ TriangleBvh::Hit NearTriangles::closest(const glm::dvec3& p) const {
     return bvh_.closest(p, reach2);  // (far out: the tree, whose ties may differ)
   Kept& kept = this->kept();
   const auto [begin, end] = listed(kept, glm::i64vec3(f));
+  // The best distance so far, for the balls' test: a triangle whose ball lies further than it (and a nanometre,
+  // for the rounding of its distance) is further than the best and is not looked at.
+  double bestDistance = reach_ * (1 + 1e-9);
   for (uint32_t i = begin; i < end; ++i) {
     const Kept::Entry& e = kept.entries[i];
     if (e.bound * e.bound > best.distance2) break;
+    if (glm::length(p - glm::dvec3(e.centre)) - double(e.radius) > bestDistance + 1e-9) continue;
     const glm::dvec3 a(e.a), b(e.b), c(e.c);
     const glm::dvec3 bc = closestOnTriangle(p, a, b, c);
     const glm::dvec3 q = bc.x * a + bc.y * b + bc.z * c;
     const double d2 = glm::dot(q - p, q - p);
-    if (d2 < best.distance2 || (d2 == best.distance2 && static_cast<int>(e.triangle) < best.triangle))
+    if (d2 < best.distance2 || (d2 == best.distance2 && static_cast<int>(e.triangle) < best.triangle)) {
       best = {d2, q, static_cast<int>(e.triangle), bc};
+      bestDistance = std::sqrt(d2);
+    }
   }
   if (best.triangle < 0) best.distance2 = std::numeric_limits<double>::max();
   return best;

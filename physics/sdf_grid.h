@@ -60,6 +60,8 @@ class NearTriangles {
   std::pair<uint32_t, uint32_t> listed(Kept& kept, const glm::i64vec3& cell) const;  // its range of kept.entries
   struct Corners {
     glm::vec3 a, b, c;
+    glm::vec3 centre;  // a ball around the triangle (closest: a triangle whose ball is further than the best is)
+    float radius;
   };
   TriangleBvh bvh_;
   std::vector<Corners> corners_;

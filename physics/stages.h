@@ -154,7 +154,7 @@ void shockPropagation(StepContext& ctx, double h);
 // joint_step.cpp
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
-void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach);
+void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach, bool first);
 bool anyJointActive(const StepContext& ctx);  // a joint not removed or broken with a dynamic body
 void findAnchored(StepContext& ctx);
 // Whether bodies a and b may collide (groups, joints, and unless askFilter is false the user's filter). Safe on

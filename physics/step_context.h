@@ -58,6 +58,13 @@ struct BodyState {
   glm::dvec3 v{0}, w{0};
 };
 
+// A joint in the positional projection (joint_step.cpp's projectJoints): whether it acts, its anchors' levers and
+// a slider's axis in world coordinates (orientations stay put in the projection).
+struct ProjectedJoint {
+  bool active = false;
+  glm::dvec3 rA{0}, rB{0}, axis{0};
+};
+
 // A pair of bodies whose bounds overlap (broad phase), at least one movable.
 struct Pair {
   int a = -1, b = -1;
@@ -382,6 +389,7 @@ struct StepContext {
   std::vector<std::pair<int, double>> jointBreaking;  // joints breaking in a call, with their demand
   std::vector<Joint> jointBooks;      // the joints before it
   std::vector<double> jointClosing;   // per joint of the system a call solves: what closing it takes (energy)
+  std::vector<ProjectedJoint> jointProjection;  // per joint: its anchors turned into the world (projectJoints)
   std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far
 

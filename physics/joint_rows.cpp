@@ -139,8 +139,16 @@ bool active(const StepContext& ctx, const Joint& jt) {
 // flinging its bodies.
 JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, bool pre, double reach,
                     int parts) {
-  const JointDef& d = jt.def;
   JointRows out;
+  fillJointRows(out, jt, a, b, h, pre, reach, parts);
+  return out;
+}
+
+void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b, double h, bool pre, double reach,
+                   int parts) {
+  const JointDef& d = jt.def;
+  out.n = 0;
+  out.worst = 0;
   // What a row's violation now exceeds reach by (0 within it).
   auto excess = [reach](double now) { return now > reach ? now - reach : (now < -reach ? now + reach : 0.0); };
   const bool bounded = pre && reach >= 0;
@@ -254,7 +262,6 @@ JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, boo
     }
   }
   for (int k = 0; k < n; ++k) out.worst = std::max(out.worst, std::abs(err[k]) * (pre ? 1.0 : h));
-  return out;
 }
 
 }  // namespace crumple::detail::joints

@@ -272,8 +272,8 @@ double lookAtJoints(const StepContext& ctx, JointSystem& s, double h, bool pre) 
   double worst = 0;
   for (size_t k = 0; k < s.joints.size(); ++k) {
     const Joint& jt = ctx.joints[static_cast<size_t>(s.joints[k])];
-    s.rows[k] = jointRows(jt, s.sides[static_cast<size_t>(s.ends[k].first)],
-                          s.sides[static_cast<size_t>(s.ends[k].second)], h, pre, reach);
+    fillJointRows(s.rows[k], jt, s.sides[static_cast<size_t>(s.ends[k].first)],
+                  s.sides[static_cast<size_t>(s.ends[k].second)], h, pre, reach);
     worst = std::max(worst, s.rows[k].worst);
   }
   for (size_t k = 0; k < s.loops.size(); ++k) {

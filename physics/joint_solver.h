@@ -148,6 +148,9 @@ constexpr int kMainRows = 1, kLimitRow = 2;
 // flinging its bodies.
 JointRows jointRows(const Joint& jt, const Side& a, const Side& b, double h, bool pre, double reach,
                     int parts = kMainRows | kLimitRow);
+// The same, written into `out` (its rows past out.n are left as they were).
+void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b, double h, bool pre, double reach,
+                   int parts = kMainRows | kLimitRow);
 
 }  // namespace joints
 

@@ -121,19 +121,21 @@ void computeLevels(StepContext& ctx, Scratch& s) {
   }
   // Articulated bodies (joined, both dynamic) act as one unit: a body's level
   // goes at once to every body joined to it.
-  std::vector<std::vector<int>>& joined = s.joined;
-  joined.clear();
+  std::vector<std::vector<int>>& joined = s.joined;  // (its lists keep their memory from call to call)
+  for (std::vector<int>& list : joined) list.clear();
+  bool anyJoined = false;
   for (const Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.a < 0) continue;
     if (!ctx.body(jt.def.a).dynamic() || !ctx.body(jt.def.b).dynamic()) continue;
-    if (joined.empty()) joined.resize(n);
+    if (joined.size() < n) joined.resize(n);
+    anyJoined = true;
     joined[static_cast<size_t>(jt.def.a)].push_back(jt.def.b);
     joined[static_cast<size_t>(jt.def.b)].push_back(jt.def.a);
   }
   auto assign = [&](int j, int l) {
     level[static_cast<size_t>(j)] = l;
     queue.push_back(j);
-    if (joined.empty()) return;
+    if (!anyJoined) return;
     // The joined unit, depth first, all at level l.
     std::vector<int>& stack = s.stack;
     stack.assign(1, j);

@@ -168,23 +168,8 @@ NearTriangles::NearTriangles(const TriangleMesh& mesh, double cell, double reach
   static std::atomic<uint64_t> made{0};
   id_ = ++made;
   corners_.reserve(mesh.triangles.size());
-  for (const glm::uvec3& t : mesh.triangles) {
-    Corners k{mesh.positions[t.x], mesh.positions[t.y], mesh.positions[t.z], {}, {}, {}, {}};
-    // The plane's unit normal, the in-plane vectors g1, g2 whose dots with p - a are p's barycentric coordinates of
-    // b and c, and the altitudes (a vertex's distance from the opposite edge's line). All zero where the triangle
-    // has no area: it is then always looked at.
-    const glm::dvec3 a(k.a), e1 = glm::dvec3(k.b) - a, e2 = glm::dvec3(k.c) - a;
-    const double g11 = glm::dot(e1, e1), g12 = glm::dot(e1, e2), g22 = glm::dot(e2, e2), det = g11 * g22 - g12 * g12;
-    const glm::dvec3 cr = glm::cross(e1, e2);
-    const double area2 = glm::length(cr);  // twice the area
-    if (det > 1e-24 * g11 * g22 && area2 > 0) {
-      k.n = glm::vec3(cr / area2);
-      k.g1 = glm::vec3((g22 * e1 - g12 * e2) / det);
-      k.g2 = glm::vec3((g11 * e2 - g12 * e1) / det);
-      k.altitude = glm::vec3(area2 / glm::length(e2 - e1), area2 / std::sqrt(g22), area2 / std::sqrt(g11));
-    }
-    corners_.push_back(k);
-  }
+  for (const glm::uvec3& t : mesh.triangles)
+    corners_.push_back({mesh.positions[t.x], mesh.positions[t.y], mesh.positions[t.z]});
 }
 
 // Per thread, the cells' lists of the last few NearTriangles asked (a contact asks two bodies' in turn): an
@@ -195,7 +180,6 @@ struct NearTriangles::Kept {
     double bound;  // no point of the cell is nearer the triangle
     uint32_t triangle;
     glm::vec3 a, b, c;
-    glm::vec3 n, g1, g2, altitude;  // Corners' plane and in-plane coordinates (closest's filter)
   };
   uint64_t id = 0, used = 0;
   std::vector<uint64_t> keys;  // 0: empty
@@ -265,8 +249,7 @@ std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64ve
   const uint32_t begin = static_cast<uint32_t>(kept.entries.size());
   for (const auto& [d2, t] : found) {
     const Corners& k = corners_[static_cast<size_t>(t)];
-    kept.entries.push_back({std::max(0.0, std::sqrt(d2) - half - 1e-12), static_cast<uint32_t>(t), k.a, k.b, k.c, k.n,
-                            k.g1, k.g2, k.altitude});
+    kept.entries.push_back({std::max(0.0, std::sqrt(d2) - half - 1e-12), static_cast<uint32_t>(t), k.a, k.b, k.c});
   }
   std::sort(kept.entries.begin() + begin, kept.entries.end(), [](const Kept::Entry& x, const Kept::Entry& y) {
     return x.bound != y.bound ? x.bound < y.bound : x.triangle < y.triangle;
@@ -288,28 +271,15 @@ TriangleBvh::Hit NearTriangles::closest(const glm::dvec3& p) const {
     return bvh_.closest(p, reach2);  // (far out: the tree, whose ties may differ)
   Kept& kept = this->kept();
   const auto [begin, end] = listed(kept, glm::i64vec3(f));
-  // A filter in front of closestOnTriangle: p's distance from a triangle is at least the hypotenuse of its distance
-  // from the plane and how far outside the edge lines it is (its barycentric coordinates times the altitudes).
-  // Beyond the best so far (and 0.1 um for the floats' rounding) the triangle is further than the best: the
-  // same triangle is found with or without the filter.
-  double skipBeyond2 = reach_ * reach_ * (1 + 1e-6);
   for (uint32_t i = begin; i < end; ++i) {
     const Kept::Entry& e = kept.entries[i];
     if (e.bound * e.bound > best.distance2) break;
-    const glm::dvec3 a(e.a);
-    const glm::dvec3 ap = p - a;
-    const double plane = glm::dot(ap, glm::dvec3(e.n)), l1 = glm::dot(ap, glm::dvec3(e.g1)),
-                 l2 = glm::dot(ap, glm::dvec3(e.g2));
-    const double outside = std::max({0.0, (l1 + l2 - 1) * e.altitude.x, -l1 * e.altitude.y, -l2 * e.altitude.z});
-    if (plane * plane + outside * outside > skipBeyond2) continue;
-    const glm::dvec3 b(e.b), c(e.c);
+    const glm::dvec3 a(e.a), b(e.b), c(e.c);
     const glm::dvec3 bc = closestOnTriangle(p, a, b, c);
     const glm::dvec3 q = bc.x * a + bc.y * b + bc.z * c;
     const double d2 = glm::dot(q - p, q - p);
-    if (d2 < best.distance2 || (d2 == best.distance2 && static_cast<int>(e.triangle) < best.triangle)) {
+    if (d2 < best.distance2 || (d2 == best.distance2 && static_cast<int>(e.triangle) < best.triangle))
       best = {d2, q, static_cast<int>(e.triangle), bc};
-      skipBeyond2 = (std::sqrt(d2) + 1e-7) * (std::sqrt(d2) + 1e-7);
-    }
   }
   if (best.triangle < 0) best.distance2 = std::numeric_limits<double>::max();
   return best;

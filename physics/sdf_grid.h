@@ -60,7 +60,6 @@ class NearTriangles {
   std::pair<uint32_t, uint32_t> listed(Kept& kept, const glm::i64vec3& cell) const;  // its range of kept.entries
   struct Corners {
     glm::vec3 a, b, c;
-    glm::vec3 n, g1, g2, altitude;  // its plane and in-plane coordinates (closest's filter; sdf_grid.cpp)
   };
   TriangleBvh bvh_;
   std::vector<Corners> corners_;

@@ -15,6 +15,7 @@
 #include <benchmark/benchmark.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -43,6 +44,63 @@ void crumple::bench::joltLeaveClean() {}
 #endif
 
 namespace {
+
+// The instruction sets this program (and crumple's libraries, built with the same flags) was compiled for, named
+// as Jolt's configuration string names them.
+std::vector<std::string> crumpleInstructionSets() {
+  std::vector<std::string> sets;
+#if defined(__SSE2__)
+  sets.push_back("SSE2");
+#endif
+#if defined(__SSE4_1__)
+  sets.push_back("SSE4.1");
+#endif
+#if defined(__SSE4_2__)
+  sets.push_back("SSE4.2");
+#endif
+#if defined(__AVX__)
+  sets.push_back("AVX");
+#endif
+#if defined(__AVX2__)
+  sets.push_back("AVX2");
+#endif
+#if defined(__AVX512F__)
+  sets.push_back("AVX512");
+#endif
+#if defined(__F16C__)
+  sets.push_back("F16C");
+#endif
+#if defined(__LZCNT__)
+  sets.push_back("LZCNT");
+#endif
+#if defined(__BMI__)
+  sets.push_back("TZCNT");
+#endif
+#if defined(__FMA__)
+  sets.push_back("FMADD");
+#endif
+  return sets;
+}
+
+// The instruction sets a peer's configuration string lists ("... with instructions: SSE2 AVX ... (" up to the first
+// parenthesis) that crumple's build does not use.
+std::vector<std::string> instructionSetsBeyondCrumple(const std::string& configuration) {
+  std::vector<std::string> beyond;
+  const std::string key = "with instructions:";
+  const size_t at = configuration.find(key);
+  if (at == std::string::npos) return beyond;
+  const std::string list = configuration.substr(at + key.size(), configuration.find('(', at) - at - key.size());
+  const std::vector<std::string> ours = crumpleInstructionSets();
+  size_t i = 0;
+  while (i < list.size()) {
+    const size_t end = std::min(list.find(' ', i), list.size());
+    const std::string set = list.substr(i, end - i);
+    if (!set.empty() && std::find(ours.begin(), ours.end(), set) == ours.end()) beyond.push_back(set);
+    i = end + 1;
+  }
+  return beyond;
+}
+
 class Collector : public benchmark::ConsoleReporter {
  public:
   std::map<std::string, double> ms;  // per iteration
@@ -228,12 +286,25 @@ void printMachine() {
       break;
     }
   std::printf("cpu: %s, %u hardware threads\n", model.c_str(), std::thread::hardware_concurrency());
-  std::printf("crumple %s: its physics library at -O3 (CMake build type %s)\n", crumple::versionString(),
-              CRUMPLE_BENCH_BUILD_TYPE);
+  std::string sets;
+  for (const std::string& set : crumpleInstructionSets()) sets += (sets.empty() ? "" : " ") + set;
+  std::printf("crumple %s: its physics library at -O3 (CMake build type %s), instructions: %s (never FMA)\n",
+              crumple::versionString(), CRUMPLE_BENCH_BUILD_TYPE, sets.c_str());
   std::printf("bullet: Debian's libbullet-dev, btSequentialImpulseConstraintSolver, one thread\n");
   if (joltBuilt()) {
     std::printf("jolt: %s, one thread\n", joltConfiguration().c_str());
     for (const std::string& w : joltWarnings()) std::printf("WARNING: %s\n", w.c_str());
+    std::string beyond;
+    for (const std::string& set : instructionSetsBeyondCrumple(joltConfiguration()))
+      if (set != "FMADD") beyond += " " + set;
+    if (!beyond.empty())
+      std::printf("WARNING: Jolt uses instruction sets crumple was not built with:%s; for the same ones configure "
+                  "crumple with -DCMAKE_CXX_FLAGS=-march=x86-64-v3 (tools/bench-vs-jolt.sh does where the CPU has them)\n",
+                  beyond.c_str());
+    const std::vector<std::string> all = instructionSetsBeyondCrumple(joltConfiguration());
+    if (std::find(all.begin(), all.end(), "FMADD") != all.end())
+      std::printf("note: Jolt fuses multiply-adds (FMADD); crumple never does, on purpose: every build steps the same "
+                  "bits (docs/architecture.md, Determinism)\n");
   }
 }
 

@@ -9,6 +9,7 @@ Builds Jolt Physics from the checkout DIR (default ../JoltPhysics, cloned from G
 tools/build-jolt.sh into ../jolt-install, configures crumple in build-bench-jolt/ (Release, with
 CRUMPLE_JOLT_DIR), builds crumple-bench and runs its physics rows on one thread:
   crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions N --strict-peers   (default N: 2)
+crumple is built for x86-64-v3 (AVX2, as Jolt's build is) where the CPU has it, else for the default x86-64.
 It prints the machine, crumple's commit and each peer's configuration above the figures (Jolt's own configuration
 string); a Jolt built with its profiler, debug renderer, asserts or without NDEBUG stops it with its WARNING
 (exit 1: such figures must not be published). --quick: the smoke run.
@@ -52,8 +53,16 @@ quietly() {
   fi
 }
 quietly tools/build-jolt.sh "$jolt" "$prefix"
-echo "== building crumple-bench (commit $(git rev-parse --short HEAD)) against it"
-quietly cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT_DIR="$prefix" -DCRUMPLE_BUILD_TESTS=OFF
+# Jolt's build uses the CPU's AVX2 generation (its CMake defaults); crumple gets the same instruction sets where
+# the CPU has them (x86-64-v3; crumple never fuses multiply-adds, whatever the level: the same bits either way).
+march=
+if grep -qw avx2 /proc/cpuinfo 2>/dev/null && grep -qw bmi2 /proc/cpuinfo && grep -qw f16c /proc/cpuinfo &&
+  grep -qw fma /proc/cpuinfo && grep -qw movbe /proc/cpuinfo && grep -qw abm /proc/cpuinfo; then
+  march=-march=x86-64-v3
+fi
+echo "== building crumple-bench (commit $(git rev-parse --short HEAD)${march:+, $march}) against it"
+quietly cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT_DIR="$prefix" -DCRUMPLE_BUILD_TESTS=OFF \
+  -DCMAKE_CXX_FLAGS="$march"
 quietly cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench
 echo "== crumple $(git rev-parse --short HEAD), Jolt $(git -C "$jolt" rev-parse --short HEAD 2>/dev/null || echo '?')"
 build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}"

@@ -295,14 +295,16 @@ void printMachine() {
     std::printf("jolt: %s, one thread\n", joltConfiguration().c_str());
     for (const std::string& w : joltWarnings()) std::printf("WARNING: %s\n", w.c_str());
     std::string beyond;
-    for (const std::string& set : instructionSetsBeyondCrumple(joltConfiguration()))
-      if (set != "FMADD") beyond += " " + set;
+    bool fused = false;
+    for (const std::string& set : instructionSetsBeyondCrumple(joltConfiguration())) {
+      if (set == "FMADD") fused = true;
+      else beyond += " " + set;
+    }
     if (!beyond.empty())
       std::printf("WARNING: Jolt uses instruction sets crumple was not built with:%s; for the same ones configure "
                   "crumple with -DCMAKE_CXX_FLAGS=-march=x86-64-v3 (tools/bench-vs-jolt.sh does where the CPU has them)\n",
                   beyond.c_str());
-    const std::vector<std::string> all = instructionSetsBeyondCrumple(joltConfiguration());
-    if (std::find(all.begin(), all.end(), "FMADD") != all.end())
+    if (fused)
       std::printf("note: Jolt fuses multiply-adds (FMADD); crumple never does, on purpose: every build steps the same "
                   "bits (docs/architecture.md, Determinism)\n");
   }

@@ -143,17 +143,17 @@ size_t positionNumbers(const TriangleMesh& mesh, std::vector<uint32_t>& at) {
   return meshopt_generateVertexRemap(at.data(), nullptr, count, mesh.positions.data(), count, sizeof(glm::vec3));
 }
 
-// The crease bevel's graph (GpuMesh::vertexNodes, nodeUvs, nodeLinks, nodeFrames): the mesh's positions as nodes
-// (`at`, `nodes`: positionNumbers), per vertex its node; per node the distinct uvs of its vertices and the other nodes it shares a triangle edge
-// with, with the edge's length (each list as CSR: nodes + 1 offsets, then the entries, offsets counted from the
-// first entry); per node its position and the normal averaged over its vertices (two vec4). Returns the number
-// of nodes, 0 where the mesh has no uvs; `shortEdge` is a short edge of the mesh (its 5th percentile).
-GLuint creaseGraph(const TriangleMesh& mesh, const std::vector<uint32_t>& at, size_t nodes,
-                   std::vector<GLuint>& vertexNode, std::vector<GLuint>& uvs, std::vector<GLuint>& links,
-                   std::vector<glm::vec4>& frames, float& shortEdge) {
+// The crease bevel's graph (GpuMesh::nodeUvs, nodeLinks, nodeFrames): the mesh's positions as nodes (`at`, a
+// vertex's node, and `nodes`: positionNumbers); per node the distinct uvs of its vertices and the other nodes it
+// shares a triangle edge with, with the edge's length (each list as CSR: nodes + 1 offsets, then the entries,
+// offsets counted from the first entry); per node its position and the normal averaged over its vertices (two
+// vec4). Returns the number of nodes, 0 where the mesh has no uvs; `shortEdge` is a short edge of the mesh (its
+// 5th percentile).
+GLuint creaseGraph(const TriangleMesh& mesh, const std::vector<uint32_t>& at, size_t nodes, std::vector<GLuint>& uvs,
+                   std::vector<GLuint>& links, std::vector<glm::vec4>& frames, float& shortEdge) {
   const size_t count = mesh.positions.size();
   if (mesh.uvs.size() != count || mesh.normals.size() != count || count == 0 || mesh.triangles.empty()) return 0;
-  vertexNode = at;  // (the nodes are the positions)
+  const std::vector<uint32_t>& vertexNode = at;  // (the nodes are the positions)
   std::vector<std::vector<glm::vec2>> nodeUvs(nodes);
   frames.assign(nodes * 2, glm::vec4(0));
   for (size_t i = 0; i < count; ++i) {
@@ -255,11 +255,11 @@ GpuMesh::GpuMesh(const TriangleMesh& mesh) {
     seamVertices = gl::Buffer::fromVector(shared);
   }
   {
-    std::vector<GLuint> node, uvs, links;
+    std::vector<GLuint> uvs, links;
     std::vector<glm::vec4> frames;
-    nodeCount = creaseGraph(mesh, at, positions, node, uvs, links, frames, shortEdge);
+    nodeCount = creaseGraph(mesh, at, positions, uvs, links, frames, shortEdge);
     if (nodeCount > 0) {
-      vertexNodes = gl::Buffer::fromVector(node);
+      vertexNodes = gl::Buffer::fromVector(at);  // a vertex's node: its position's number
       nodeUvs = gl::Buffer::fromVector(uvs);
       nodeLinks = gl::Buffer::fromVector(links);
       nodeFrames = gl::Buffer::fromVector(frames);

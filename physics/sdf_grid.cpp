@@ -177,7 +177,7 @@ NearTriangles::NearTriangles(const TriangleMesh& mesh, double cell, double reach
 // over memory a query).
 struct NearTriangles::Kept {
   struct Entry {
-    double bound;  // no point of the cell is nearer the triangle
+    double bound;  // the triangle's distance from the cell's centre
     uint32_t triangle;
     glm::vec3 a, b, c;
   };
@@ -249,7 +249,7 @@ std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64ve
   const uint32_t begin = static_cast<uint32_t>(kept.entries.size());
   for (const auto& [d2, t] : found) {
     const Corners& k = corners_[static_cast<size_t>(t)];
-    kept.entries.push_back({std::max(0.0, std::sqrt(d2) - half - 1e-12), static_cast<uint32_t>(t), k.a, k.b, k.c});
+    kept.entries.push_back({std::sqrt(d2), static_cast<uint32_t>(t), k.a, k.b, k.c});
   }
   std::sort(kept.entries.begin() + begin, kept.entries.end(), [](const Kept::Entry& x, const Kept::Entry& y) {
     return x.bound != y.bound ? x.bound < y.bound : x.triangle < y.triangle;
@@ -271,9 +271,12 @@ TriangleBvh::Hit NearTriangles::closest(const glm::dvec3& p) const {
     return bvh_.closest(p, reach2);  // (far out: the tree, whose ties may differ)
   Kept& kept = this->kept();
   const auto [begin, end] = listed(kept, glm::i64vec3(f));
+  // A triangle at distance d from the cell's centre is no nearer to p than d - |p - centre|.
+  const double offCentre = glm::length(p - (f + 0.5) * cell_) * (1 + 1e-9) + 1e-12;
   for (uint32_t i = begin; i < end; ++i) {
     const Kept::Entry& e = kept.entries[i];
-    if (e.bound * e.bound > best.distance2) break;
+    const double bound = e.bound - offCentre;
+    if (bound > 0 && bound * bound > best.distance2) break;
     const glm::dvec3 a(e.a), b(e.b), c(e.c);
     const glm::dvec3 bc = closestOnTriangle(p, a, b, c);
     const glm::dvec3 q = bc.x * a + bc.y * b + bc.z * c;

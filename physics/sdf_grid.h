@@ -43,10 +43,11 @@ class TriangleBvh {
 };
 
 // The nearest triangle within a reach, cell by cell: the first query in a cell (of `cell` metres) lists, through
-// the BVH, the triangles that pass within reach of the cell, nearest first; later queries there test those only,
-// until the next could not be nearer than the nearest found. Exact: TriangleBvh's distance, and among equally
-// near triangles the lowest index. The lists are kept per thread, each a function of its cell alone (the answers
-// are the same at any thread count); a query in a cell already listed costs a hash probe and a few triangles.
+// the BVH, the triangles that pass within reach of the cell, nearest its centre first; later queries there test
+// those only, until the next could not be nearer than the nearest found (its distance from the centre less the
+// query point's). Exact: TriangleBvh's distance, and among equally near triangles the lowest index. The lists are
+// kept per thread, each a function of its cell alone (the answers are the same at any thread count); a query in a
+// cell already listed costs a hash probe and a few triangles.
 class NearTriangles {
  public:
   NearTriangles(const TriangleMesh& mesh, double cell, double reach);

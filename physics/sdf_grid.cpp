@@ -243,7 +243,7 @@ std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64ve
   // within reach + that of the centre, and no nearer to any than (its distance from the centre) - that.
   thread_local std::vector<std::pair<double, int>> found;
   const double half = 0.5 * std::sqrt(3.0) * cell_ * (1 + 1e-9);
-  const glm::dvec3 centre = (glm::dvec3(c) + 0.5) * cell_;
+  const glm::dvec3 centre = centreOf(glm::dvec3(c));
   const double within = reach_ + half;
   bvh_.near(centre, within * within * (1 + 1e-9), found);
   const uint32_t begin = static_cast<uint32_t>(kept.entries.size());
@@ -272,7 +272,7 @@ TriangleBvh::Hit NearTriangles::closest(const glm::dvec3& p) const {
   Kept& kept = this->kept();
   const auto [begin, end] = listed(kept, glm::i64vec3(f));
   // A triangle at distance d from the cell's centre is no nearer to p than d - |p - centre|.
-  const double offCentre = glm::length(p - (f + 0.5) * cell_) * (1 + 1e-9) + 1e-12;
+  const double offCentre = glm::length(p - centreOf(f)) * (1 + 1e-9) + 1e-12;
   for (uint32_t i = begin; i < end; ++i) {
     const Kept::Entry& e = kept.entries[i];
     const double bound = e.bound - offCentre;

@@ -59,6 +59,7 @@ class NearTriangles {
   struct Kept;
   Kept& kept() const;
   std::pair<uint32_t, uint32_t> listed(Kept& kept, const glm::i64vec3& cell) const;  // its range of kept.entries
+  glm::dvec3 centreOf(const glm::dvec3& cell) const { return (cell + 0.5) * cell_; }  // (cell: its integer index)
   struct Corners {
     glm::vec3 a, b, c;
   };

@@ -54,4 +54,9 @@ inline constexpr gl::TextureUnit kHeight{0};
 inline constexpr gl::StorageBinding kUvs{0}, kLinks{1}, kOwn{2}, kFrom{3}, kTo{4}, kFrames{5};
 }  // namespace bevel
 
+namespace levels {
+inline constexpr gl::ImageUnit kTo{0}, kFrom{1};
+inline constexpr gl::StorageBinding kCover{0};
+}  // namespace levels
+
 }  // namespace crumple::deform::bindings

@@ -194,6 +194,7 @@ struct Deformer::Impl {
   // The crease bevel (creaseBevel): its program, sampler and the relaxation's buffers (a vec4 a node, the largest
   // mesh's).
   std::optional<gl::Program> bevelProgram;
+  std::optional<gl::Program> levelsProgram;  // chartLevels
   gl::Sampler bevelSampler{GL_LINEAR_MIPMAP_LINEAR, GL_LINEAR, GL_CLAMP_TO_EDGE};
   gl::Buffer bevelOwn, bevelA, bevelB;
   // The change log (Deformer::logChanges): count, capacity, then 3 uints an entry; mapped for as long as it lives.
@@ -300,10 +301,43 @@ std::pair<size_t, size_t> Deformer::lastGatherTiles() const {
 }
 const std::vector<PhaseTime>& Deformer::profile() const { return impl_->phases; }
 
+void Deformer::chartLevels(Surface& s) {
+  const gl::Texture2D& height = s.maps().height;
+  const std::shared_ptr<const ChartCover> cover = ChartCover::of(s.mesh(), height.width());
+  if (cover->covered == 0) return;  // (no uvs: the levels GL made stay)
+  Impl& m = *impl_;
+  if (!m.levelsProgram) m.levelsProgram.emplace(computeProgram("height_levels.comp"));
+  const gl::StateGuard callerState;
+  const gl::Program& p = *m.levelsProgram;
+  p.use();
+  namespace b = bindings::levels;
+  gl::bindStorage(b::kCover, cover->cover.id());
+  const GLint stage = p.location("uStage"), size = p.location("uSize"), fromSize = p.location("uFromSize");
+  const GLint coverTo = p.location("uCoverTo"), coverFrom = p.location("uCoverFrom");
+  const int levels = static_cast<int>(cover->offsets.size());
+  auto sizeOf = [&](int level) { return glm::ivec2(std::max(1, height.width() >> level), std::max(1, height.height() >> level)); };
+  auto run = [&](int which, int level, int from) {
+    const glm::ivec2 to = sizeOf(level);
+    p.set(stage, which);
+    p.set(size, to);
+    p.set(fromSize, sizeOf(from));
+    p.set(coverTo, cover->offsets[static_cast<size_t>(level)]);
+    p.set(coverFrom, cover->offsets[static_cast<size_t>(from)]);
+    gl::bindImageLevel(b::kTo, height.id(), level, GL_READ_WRITE, GL_R32F);
+    gl::bindImageLevel(b::kFrom, height.id(), from, GL_READ_ONLY, GL_R32F);
+    glDispatchCompute(static_cast<GLuint>((to.x + 7) / 8), static_cast<GLuint>((to.y + 7) / 8), 1);
+    glMemoryBarrier(GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  };
+  for (int level = 1; level < levels; ++level) run(0, level, level - 1);
+  for (int level = levels - 2; level >= 1; --level) run(1, level, level + 1);
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+}
+
 void Deformer::creaseBevel(Surface& s) {
   SurfaceMaps& maps = s.mutableMaps();
   const GpuMesh& mesh = s.mesh();
   if (maps.version == 0 || maps.creaseVersion == maps.version || mesh.nodeCount == 0) return;
+  chartLevels(s);
   Impl& m = *impl_;
   if (!m.bevelProgram) m.bevelProgram.emplace(computeProgram("crease_bevel.comp"));
   const size_t bytes = static_cast<size_t>(mesh.nodeCount) * 4 * sizeof(float);

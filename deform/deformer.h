@@ -145,7 +145,14 @@ class Deformer {
   // Each node of the mesh is drawn within an edge's length of where any neighbour that moved further went, so a
   // panel crushed against an undented one across a hard edge meets it in a bevel of 1:1, not a wall: rounds of
   // that relaxation over the mesh's edges, as many as the bump depth spans short edges (at most 32).
+  // Before it makes the bevel, the map's mip levels are made again over its uv charts alone (chartLevels): the
+  // bevel and the displaced renderer read coarse levels, where an atlas's undented gutters would otherwise blend
+  // into a crushed chart's edge.
   void creaseBevel(Surface& s);
+  // `s`'s height map's levels above level 0 over its mesh's uv charts alone (height_levels.comp, ChartCover): each
+  // texel the mean of the covered level-0 texels under it, a texel no chart covers the level above's value at its
+  // centre. Level 0 is unchanged.
+  void chartLevels(Surface& s);
   // Phases of the last deform() when options().profile is set (empty otherwise).
   const std::vector<PhaseTime>& profile() const;
 

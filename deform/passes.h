@@ -207,6 +207,19 @@ struct TexelCover {
   static std::shared_ptr<const TexelCover> of(const GpuMesh& mesh, int resolution);
 };
 
+// Which texels of a mesh's map at one resolution its uv charts cover, as the gather writes them (a texel whose
+// square overlaps a triangle), and per mip level the fraction of each texel's level-0 texels covered: the chart
+// levels' weights (Deformer::chartLevels). `cover` holds the levels one after the other (level k from offsets[k],
+// row-major, level k's size max(1, resolution >> k)). Made on the CPU from the mesh (read back once) on first use at
+// a resolution; kept with the mesh (GpuMesh::chartCovers).
+struct ChartCover {
+  int resolution = 0;
+  std::vector<GLuint> offsets;  // a level's first entry in `cover`; levels = offsets.size()
+  gl::Buffer cover;             // floats
+  long covered = 0;             // level-0 texels covered
+  static std::shared_ptr<const ChartCover> of(const GpuMesh& mesh, int resolution);
+};
+
 // The gather in compute shaders (texel_gather.comp) for all the sides of a wave: where the address pass runs
 // in compute (GPUs whose fragment stage is narrow), X's texels are visited by every invocation of the GPU, not
 // drawn through the graphics stages. Two dispatches for up to kGroup sides of one mesh and map resolution: the

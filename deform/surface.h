@@ -15,6 +15,7 @@
 namespace crumple::deform {
 
 struct TexelCover;  // deform/passes.h: which triangles reach each tile of the texels, at one map resolution
+struct ChartCover;  // deform/passes.h: which texels the uv charts cover, per mip level, at one map resolution
 
 struct GpuMesh {
   gl::VertexArray vao;
@@ -52,6 +53,8 @@ struct GpuMesh {
   double metresPerUv = 1;                // sqrt(surface area / uv area)
   // The compute gather's (deform/texel_cover.cpp), per map resolution: made on first use, kept with the mesh.
   mutable std::map<int, std::shared_ptr<const TexelCover>> texelCovers;
+  // The chart levels' (Deformer::chartLevels), per map resolution: made on first use, kept with the mesh.
+  mutable std::map<int, std::shared_ptr<const ChartCover>> chartCovers;
   explicit GpuMesh(const TriangleMesh& mesh);
   void draw() const;
 };

@@ -53,15 +53,22 @@ void clippedBox(const glm::dvec2 t[3], const glm::dvec3 p[3], glm::dvec2 lo, glm
     bmax = glm::max(bmax, w);
   }
 }
+
+// The mesh's vertices (kFloats a vertex) and indices, read back.
+void readMesh(const GpuMesh& mesh, std::vector<float>& v, std::vector<GLuint>& idx) {
+  v.resize(mesh.vertices.size() / sizeof(float));
+  idx.resize(static_cast<size_t>(mesh.indexCount));
+  glGetNamedBufferSubData(mesh.vertices.id(), 0, static_cast<GLsizeiptr>(v.size() * sizeof(float)), v.data());
+  glGetNamedBufferSubData(mesh.indices.id(), 0, static_cast<GLsizeiptr>(idx.size() * sizeof(GLuint)), idx.data());
+}
 }  // namespace
 
 std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolution) {
   auto found = mesh.texelCovers.find(resolution);
   if (found != mesh.texelCovers.end()) return found->second;
-  std::vector<float> v(mesh.vertices.size() / sizeof(float));
-  std::vector<GLuint> idx(static_cast<size_t>(mesh.indexCount));
-  glGetNamedBufferSubData(mesh.vertices.id(), 0, static_cast<GLsizeiptr>(v.size() * sizeof(float)), v.data());
-  glGetNamedBufferSubData(mesh.indices.id(), 0, static_cast<GLsizeiptr>(idx.size() * sizeof(GLuint)), idx.data());
+  std::vector<float> v;
+  std::vector<GLuint> idx;
+  readMesh(mesh, v, idx);
   auto cover = std::make_shared<TexelCover>();
   cover->resolution = resolution;
   cover->tilesX = (resolution + kTile - 1) / kTile;
@@ -119,6 +126,60 @@ std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolu
   cover->boxes = gl::Buffer::fromVector(boxes);
   cover->listed = start[tiles];
   mesh.texelCovers[resolution] = cover;
+  return cover;
+}
+
+std::shared_ptr<const ChartCover> ChartCover::of(const GpuMesh& mesh, int resolution) {
+  auto found = mesh.chartCovers.find(resolution);
+  if (found != mesh.chartCovers.end()) return found->second;
+  std::vector<float> v;
+  std::vector<GLuint> idx;
+  readMesh(mesh, v, idx);
+  const size_t r = static_cast<size_t>(resolution);
+  std::vector<float> level(r * r, 0.0f);
+  for (size_t tri = 0; tri * 3 + 2 < idx.size(); ++tri) {
+    glm::dvec2 t[3];
+    for (int c = 0; c < 3; ++c) {
+      const size_t at = static_cast<size_t>(idx[tri * 3 + static_cast<size_t>(c)]) * kFloats;
+      t[c] = glm::dvec2(v[at + 6], v[at + 7]) * static_cast<double>(resolution);
+    }
+    const double area = std::abs((t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x));
+    if (area < 1e-12) continue;  // (the gather draws none)
+    const glm::dvec2 tlo = glm::min(glm::min(t[0], t[1]), t[2]) - 0.5, thi = glm::max(glm::max(t[0], t[1]), t[2]) + 0.5;
+    const int x0 = std::max(0, static_cast<int>(std::floor(tlo.x))), y0 = std::max(0, static_cast<int>(std::floor(tlo.y)));
+    const int x1 = std::min(resolution - 1, static_cast<int>(std::floor(thi.x)));
+    const int y1 = std::min(resolution - 1, static_cast<int>(std::floor(thi.y)));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        float& c = level[static_cast<size_t>(y) * r + static_cast<size_t>(x)];
+        if (c == 0.0f && overlaps(t, glm::dvec2(x + 0.5, y + 0.5), glm::dvec2(x + 0.5, y + 0.5))) c = 1.0f;
+      }
+  }
+  auto cover = std::make_shared<ChartCover>();
+  cover->resolution = resolution;
+  for (float c : level) cover->covered += c > 0 ? 1 : 0;
+  // Each level above: its texel's children's mean (level sizes as GL's: max(1, size >> 1)).
+  std::vector<float> all;
+  size_t w = r;
+  for (;;) {
+    cover->offsets.push_back(static_cast<GLuint>(all.size()));
+    all.insert(all.end(), level.begin(), level.end());
+    if (w == 1) break;
+    const size_t up = std::max<size_t>(1, w / 2);
+    std::vector<float> next(up * up, 0.0f);
+    for (size_t y = 0; y < up; ++y)
+      for (size_t x = 0; x < up; ++x) {
+        double sum = 0;
+        int n = 0;
+        for (size_t j = 2 * y; j < std::min(w, 2 * y + 2); ++j)
+          for (size_t i = 2 * x; i < std::min(w, 2 * x + 2); ++i, ++n) sum += level[j * w + i];
+        next[y * up + x] = static_cast<float>(sum / n);
+      }
+    level.swap(next);
+    w = up;
+  }
+  cover->cover = gl::Buffer::fromVector(all);
+  mesh.chartCovers[resolution] = cover;
   return cover;
 }
 

@@ -33,6 +33,10 @@ inline void unbindTextures(TextureUnit first, GLsizei count) { glBindTextures(fi
 inline void bindImage(ImageUnit unit, GLuint texture, GLenum access, GLenum format, bool layered = false) {
   glBindImageTexture(unit.index, texture, 0, layered ? GL_TRUE : GL_FALSE, 0, access, format);
 }
+// glBindImageTexture: one level of `texture`.
+inline void bindImageLevel(ImageUnit unit, GLuint texture, int level, GLenum access, GLenum format) {
+  glBindImageTexture(unit.index, texture, level, GL_FALSE, 0, access, format);
+}
 // glBindBufferBase / glBindBufferRange on GL_SHADER_STORAGE_BUFFER.
 inline void bindStorage(StorageBinding binding, GLuint buffer) {
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, binding.index, buffer);

@@ -315,7 +315,9 @@ void Deformer::chartLevels(Surface& s) {
   const GLint stage = p.location("uStage"), size = p.location("uSize"), fromSize = p.location("uFromSize");
   const GLint coverTo = p.location("uCoverTo"), coverFrom = p.location("uCoverFrom");
   const int levels = static_cast<int>(cover->offsets.size());
-  auto sizeOf = [&](int level) { return glm::ivec2(std::max(1, height.width() >> level), std::max(1, height.height() >> level)); };
+  auto sizeOf = [&](int level) {
+    return glm::ivec2(std::max(1, height.width() >> level), std::max(1, height.height() >> level));
+  };
   auto run = [&](int which, int level, int from) {
     const glm::ivec2 to = sizeOf(level);
     p.set(stage, which);

@@ -146,7 +146,8 @@ std::shared_ptr<const ChartCover> ChartCover::of(const GpuMesh& mesh, int resolu
     const double area = std::abs((t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x));
     if (area < 1e-12) continue;  // (the gather draws none)
     const glm::dvec2 tlo = glm::min(glm::min(t[0], t[1]), t[2]) - 0.5, thi = glm::max(glm::max(t[0], t[1]), t[2]) + 0.5;
-    const int x0 = std::max(0, static_cast<int>(std::floor(tlo.x))), y0 = std::max(0, static_cast<int>(std::floor(tlo.y)));
+    const int x0 = std::max(0, static_cast<int>(std::floor(tlo.x))),
+              y0 = std::max(0, static_cast<int>(std::floor(tlo.y)));
     const int x1 = std::min(resolution - 1, static_cast<int>(std::floor(thi.x)));
     const int y1 = std::min(resolution - 1, static_cast<int>(std::floor(thi.y)));
     for (int y = y0; y <= y1; ++y)

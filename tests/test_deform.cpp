@@ -957,7 +957,9 @@ TEST_CASE("chart levels: a crushed chart's coarse levels stay crushed to its edg
     if (mesh.normals[t.x].y < 0.9f) continue;
     const glm::dvec2 a = glm::dvec2(mesh.uvs[t.x]) * double(res), b = glm::dvec2(mesh.uvs[t.y]) * double(res),
                      c = glm::dvec2(mesh.uvs[t.z]) * double(res);
-    auto side = [](glm::dvec2 p, glm::dvec2 q, glm::dvec2 r) { return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x); };
+    auto side = [](glm::dvec2 p, glm::dvec2 q, glm::dvec2 r) {
+      return (q.x - p.x) * (r.y - p.y) - (q.y - p.y) * (r.x - p.x);
+    };
     for (int y = 0; y < res; ++y)
       for (int x = 0; x < res; ++x) {
         const glm::dvec2 p(x + 0.5, y + 0.5);
@@ -1026,10 +1028,12 @@ TEST_CASE("chart levels: a crushed chart's coarse levels stay crushed to its edg
           sum += c * before[static_cast<size_t>(j) * res + static_cast<size_t>(i)];
           weight += c;
         }
-      if (weight > 0) meanError = std::max(meanError, std::abs(sum / weight - one[static_cast<size_t>(y) * (res / 2) + static_cast<size_t>(x)]));
+      if (weight > 0)
+        meanError = std::max(meanError,
+                             std::abs(sum / weight - one[static_cast<size_t>(y) * (res / 2) + static_cast<size_t>(x)]));
     }
-  MESSAGE("level 2 over the crushed chart and gutter alone: GL's levels up to " << glLevels.second << " ("
-                                                                               << glLevels.first << " texels), chart levels up to " << worst);
+  MESSAGE("level 2 over the crushed chart and gutter alone: GL's levels up to "
+          << glLevels.second << " (" << glLevels.first << " texels), chart levels up to " << worst);
   CHECK(glLevels.second > 0.1);  // (what the chart levels are for)
   CHECK(worst < 1e-6);
   CHECK(meanError < 1e-6);
@@ -1083,11 +1087,10 @@ TEST_CASE("the crease bevel: a crushed face's neighbours follow it to within an 
     if (p.y < -0.059f && std::abs(p.x) < 1e-4f && std::abs(p.z) < 1e-4f)  // the bottom's centre, 12 cm away
       farthest = std::max(farthest, double(glm::length(m)));
   }
-  MESSAGE("largest gap past an edge's length from a deeper neighbour " << worstGap * 1000
-                                                                     << " mm (between neighbours as deep: " << evenGap * 1000
-                                                                     << " mm); a side's node 3 cm under the top moved "
-                                                                     << followed * 1000 << " mm in; the bottom's centre "
-                                                                     << farthest * 1000 << " mm");
+  MESSAGE("largest gap past an edge's length from a deeper neighbour "
+          << worstGap * 1000 << " mm (between neighbours as deep: " << evenGap * 1000
+          << " mm); a side's node 3 cm under the top moved " << followed * 1000 << " mm in; the bottom's centre "
+          << farthest * 1000 << " mm");
   CHECK(worstGap < 1e-4);
   // (the top's edge went in along its averaged normal by its height read as the renderer reads it there, the top's
   // 5 cm (its chart's levels: Deformer::chartLevels), so the side 3 cm below follows it in by about 1.4 cm)

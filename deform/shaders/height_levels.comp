@@ -18,6 +18,8 @@ uniform ivec2 uSize;      // level uLevel's size
 uniform ivec2 uFromSize;  // uFrom's
 uniform uint uCoverTo;    // ChartCover::offsets[uLevel]
 uniform uint uCoverFrom;  // and uFrom's level's
+// uFrom's height at texel t, clamped to its edges.
+float fromAt(ivec2 t) { return imageLoad(uFrom, clamp(t, ivec2(0), uFromSize - 1)).r; }
 void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
   if (p.x >= uSize.x || p.y >= uSize.y) return;
@@ -37,9 +39,7 @@ void main() {
     vec2 at = (vec2(p) + 0.5) * vec2(uFromSize) / vec2(uSize) - 0.5;  // in the level above's texels
     ivec2 a = ivec2(floor(at));
     vec2 f = at - vec2(a);
-    ivec2 hi = uFromSize - 1;
-    float h00 = imageLoad(uFrom, clamp(a, ivec2(0), hi)).r, h10 = imageLoad(uFrom, clamp(a + ivec2(1, 0), ivec2(0), hi)).r;
-    float h01 = imageLoad(uFrom, clamp(a + ivec2(0, 1), ivec2(0), hi)).r, h11 = imageLoad(uFrom, clamp(a + ivec2(1), ivec2(0), hi)).r;
+    float h00 = fromAt(a), h10 = fromAt(a + ivec2(1, 0)), h01 = fromAt(a + ivec2(0, 1)), h11 = fromAt(a + ivec2(1));
     imageStore(uTo, p, vec4(mix(mix(h00, h10, f.x), mix(h01, h11, f.x), f.y)));
   }
 }

@@ -213,7 +213,6 @@ struct TexelCover {
 // row-major, level k's size max(1, resolution >> k)). Made on the CPU from the mesh (read back once) on first use at
 // a resolution; kept with the mesh (GpuMesh::chartCovers).
 struct ChartCover {
-  int resolution = 0;
   std::vector<GLuint> offsets;  // a level's first entry in `cover`; levels = offsets.size()
   gl::Buffer cover;             // floats
   long covered = 0;             // level-0 texels covered

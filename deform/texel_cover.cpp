@@ -54,6 +54,18 @@ void clippedBox(const glm::dvec2 t[3], const glm::dvec3 p[3], glm::dvec2 lo, glm
   }
 }
 
+// Triangle `tri`'s corners from the read-back vertices: positions (shape frame) and uvs in texels at `resolution`;
+// returns twice its area in texels.
+double cornersOf(const std::vector<float>& v, const std::vector<GLuint>& idx, size_t tri, double resolution,
+                 glm::dvec3 p[3], glm::dvec2 t[3]) {
+  for (int c = 0; c < 3; ++c) {
+    const size_t at = static_cast<size_t>(idx[tri * 3 + static_cast<size_t>(c)]) * kFloats;
+    p[c] = glm::dvec3(v[at], v[at + 1], v[at + 2]);
+    t[c] = glm::dvec2(v[at + 6], v[at + 7]) * resolution;
+  }
+  return std::abs((t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x));
+}
+
 // The mesh's vertices (kFloats a vertex) and indices, read back.
 void readMesh(const GpuMesh& mesh, std::vector<float>& v, std::vector<GLuint>& idx) {
   v.resize(mesh.vertices.size() / sizeof(float));
@@ -83,12 +95,7 @@ std::shared_ptr<const TexelCover> TexelCover::of(const GpuMesh& mesh, int resolu
   for (size_t tri = 0; tri * 3 + 2 < idx.size(); ++tri) {
     glm::dvec2 t[3];
     glm::dvec3 p[3];
-    for (int c = 0; c < 3; ++c) {
-      const size_t at = static_cast<size_t>(idx[tri * 3 + static_cast<size_t>(c)]) * kFloats;
-      p[c] = glm::dvec3(v[at], v[at + 1], v[at + 2]);
-      t[c] = glm::dvec2(v[at + 6], v[at + 7]) * res;
-    }
-    const double area = std::abs((t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x));
+    const double area = cornersOf(v, idx, tri, res, p, t);
     if (area < 1e-12) continue;  // texel.geom draws none either
     // A texel's size on this triangle's surface: texels up to half a texel past it extrapolate within this much.
     const double metres = glm::length(glm::cross(p[1] - p[0], p[2] - p[0]));
@@ -139,12 +146,8 @@ std::shared_ptr<const ChartCover> ChartCover::of(const GpuMesh& mesh, int resolu
   std::vector<float> level(r * r, 0.0f);
   for (size_t tri = 0; tri * 3 + 2 < idx.size(); ++tri) {
     glm::dvec2 t[3];
-    for (int c = 0; c < 3; ++c) {
-      const size_t at = static_cast<size_t>(idx[tri * 3 + static_cast<size_t>(c)]) * kFloats;
-      t[c] = glm::dvec2(v[at + 6], v[at + 7]) * static_cast<double>(resolution);
-    }
-    const double area = std::abs((t[1].x - t[0].x) * (t[2].y - t[0].y) - (t[1].y - t[0].y) * (t[2].x - t[0].x));
-    if (area < 1e-12) continue;  // (the gather draws none)
+    glm::dvec3 p[3];
+    if (cornersOf(v, idx, tri, static_cast<double>(resolution), p, t) < 1e-12) continue;  // (the gather draws none)
     const glm::dvec2 tlo = glm::min(glm::min(t[0], t[1]), t[2]) - 0.5, thi = glm::max(glm::max(t[0], t[1]), t[2]) + 0.5;
     const int x0 = std::max(0, static_cast<int>(std::floor(tlo.x))),
               y0 = std::max(0, static_cast<int>(std::floor(tlo.y)));
@@ -157,7 +160,6 @@ std::shared_ptr<const ChartCover> ChartCover::of(const GpuMesh& mesh, int resolu
       }
   }
   auto cover = std::make_shared<ChartCover>();
-  cover->resolution = resolution;
   for (float c : level) cover->covered += c > 0 ? 1 : 0;
   // Each level above: its texel's children's mean (level sizes as GL's: max(1, size >> 1)).
   std::vector<float> all;

@@ -167,51 +167,57 @@ TEST_CASE("a distance field asked at a point that is not finite answers 'far', n
 }
 
 TEST_CASE("nearest triangles within a reach: the BVH's distances at any point, the lowest of equal ones, any thread") {
-  TriangleMesh m = torusMesh(0.5f, 0.15f, 48, 24);
-  const size_t twice = 17;  // a face held twice (as some meshes have): the lower index answers
-  const glm::uvec3 again = m.triangles[twice];
-  m.triangles.push_back(again);
-  const double reach = 0.02;
-  const TriangleBvh bvh(m);
-  const NearTriangles near(m, 0.01, reach);
-  // Points near the surface (up to 3 cm off it, past the reach), and the duplicated face's centre.
-  std::vector<glm::dvec3> points;
-  uint64_t s = 12345;
-  auto uniform = [&] {
-    s = s * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(s >> 11) / 9007199254740992.0;
-  };
-  for (int i = 0; i < 4000; ++i) {
-    const double u = 2 * M_PI * uniform(), v = 2 * M_PI * uniform(), off = 0.06 * uniform() - 0.03;
-    const double rr = 0.15 + off;
-    points.emplace_back((0.5 + rr * std::cos(v)) * std::cos(u), rr * std::sin(v), (0.5 + rr * std::cos(v)) * std::sin(u));
+  // A coarse torus (triangles wider than the cells) and a fine one (triangles smaller than the reach, as a car's
+  // body has them: each cell lists dozens, and a point's nearest is often a neighbour's edge or corner).
+  for (const auto& [segments, rings] : {std::pair{48, 24}, std::pair{360, 120}}) {
+    CAPTURE(segments);
+    TriangleMesh m = torusMesh(0.5f, 0.15f, segments, rings);
+    const size_t twice = 17;  // a face held twice (as some meshes have): the lower index answers
+    const glm::uvec3 again = m.triangles[twice];
+    m.triangles.push_back(again);
+    const double reach = 0.02;
+    const TriangleBvh bvh(m);
+    const NearTriangles near(m, 0.01, reach);
+    // Points near the surface (up to 3 cm off it, past the reach), and the duplicated face's centre.
+    std::vector<glm::dvec3> points;
+    uint64_t s = 12345;
+    auto uniform = [&] {
+      s = s * 6364136223846793005ull + 1442695040888963407ull;
+      return static_cast<double>(s >> 11) / 9007199254740992.0;
+    };
+    for (int i = 0; i < 4000; ++i) {
+      const double u = 2 * M_PI * uniform(), v = 2 * M_PI * uniform(), off = 0.06 * uniform() - 0.03;
+      const double rr = 0.15 + off;
+      points.emplace_back((0.5 + rr * std::cos(v)) * std::cos(u), rr * std::sin(v),
+                          (0.5 + rr * std::cos(v)) * std::sin(u));
+    }
+    const glm::dvec3 centre =
+        (glm::dvec3(m.positions[again.x]) + glm::dvec3(m.positions[again.y]) + glm::dvec3(m.positions[again.z])) / 3.0;
+    points.push_back(centre);
+    std::vector<TriangleBvh::Hit> hits(points.size());
+    int inside = 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const TriangleBvh::Hit expected = bvh.closest(points[i], reach * reach);
+      hits[i] = near.closest(points[i]);
+      CHECK((hits[i].triangle < 0) == (expected.triangle < 0));
+      if (expected.triangle < 0) continue;
+      ++inside;
+      CHECK(hits[i].distance2 == expected.distance2);
+    }
+    CHECK(inside > 1000);
+    CHECK(inside < static_cast<int>(points.size()) - 500);  // (some points lie beyond the reach)
+    CHECK(hits.back().triangle == static_cast<int>(twice));
+    // Another thread, asking in the opposite order (its own cells, listed in another order): the same answers.
+    std::vector<TriangleBvh::Hit> other(points.size());
+    std::thread([&] {
+      for (size_t i = points.size(); i-- > 0;) other[i] = near.closest(points[i]);
+    }).join();
+    for (size_t i = 0; i < points.size(); ++i) {
+      CHECK(other[i].triangle == hits[i].triangle);
+      CHECK(other[i].distance2 == hits[i].distance2);
+    }
+    CHECK(near.closest({std::numeric_limits<double>::quiet_NaN(), 0, 0}).triangle == -1);
   }
-  const glm::dvec3 centre = (glm::dvec3(m.positions[again.x]) + glm::dvec3(m.positions[again.y]) +
-                             glm::dvec3(m.positions[again.z])) / 3.0;
-  points.push_back(centre);
-  std::vector<TriangleBvh::Hit> hits(points.size());
-  int inside = 0;
-  for (size_t i = 0; i < points.size(); ++i) {
-    const TriangleBvh::Hit expected = bvh.closest(points[i], reach * reach);
-    hits[i] = near.closest(points[i]);
-    CHECK((hits[i].triangle < 0) == (expected.triangle < 0));
-    if (expected.triangle < 0) continue;
-    ++inside;
-    CHECK(hits[i].distance2 == expected.distance2);
-  }
-  CHECK(inside > 1000);
-  CHECK(inside < static_cast<int>(points.size()) - 500);  // (some points lie beyond the reach)
-  CHECK(hits.back().triangle == static_cast<int>(twice));
-  // Another thread, asking in the opposite order (its own cells, listed in another order): the same answers.
-  std::vector<TriangleBvh::Hit> other(points.size());
-  std::thread([&] {
-    for (size_t i = points.size(); i-- > 0;) other[i] = near.closest(points[i]);
-  }).join();
-  for (size_t i = 0; i < points.size(); ++i) {
-    CHECK(other[i].triangle == hits[i].triangle);
-    CHECK(other[i].distance2 == hits[i].distance2);
-  }
-  CHECK(near.closest({std::numeric_limits<double>::quiet_NaN(), 0, 0}).triangle == -1);
 }
 
 TEST_CASE("a dented body's answers at its surface samples are kept until its dents change, from any thread") {

@@ -15,11 +15,12 @@
 //   reference face's body.
 // - Where one body moves, relative to the other, by more than the other's half
 //   thickness within the substep (a plate thinner than the substeps can
-//   cover), each of its samples not penetrating at the end is also marched
-//   along its path from the substep's start (conservative advancement through
-//   the other's field): one that crosses the surface is a contact on the side
-//   it came from, as deep as its path went past the surface (continuous
-//   collision against thin bodies, no tunnelling).
+//   cover), each of its samples not penetrating at the end, or penetrating
+//   past the other's middle (its gradient there pointing out of the far side),
+//   is also marched along its path from the substep's start (conservative
+//   advancement through the other's field): one that crosses the surface is a
+//   contact on the side it came from, as deep as its path went past the
+//   surface (continuous collision against thin bodies, no tunnelling).
 // - The list is sorted deepest first; equal depths keep the order found
 //   (samples of b in a first, then of a in b, each in sample order).
 // - On a body flagged with setBumpNormals (and with a normal modifier set), the
@@ -159,27 +160,35 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
       const double len = glm::length(bent);
       if (len > 1e-12) g = bent / len;
     }
-    if (phi >= 0 && swept) {
-      // Did the sample pass through the owner during the substep?
+    if (swept) {
+      // Did the sample pass through the owner during the substep, or go into it from outside so far that it ends
+      // past the middle (its gradient there pointing out of the far side)? Marched along its path from the
+      // substep's start, the first point within tol of the surface is where it came in.
       const glm::dvec3 local0 = otherToOwner0 * s + offset0, path = local - local0;
       const double len = glm::length(path);
-      if (!(len > thin)) continue;
-      double t = 0, phiT = so.distance(local0) - r;
-      if (phiT <= 0) continue;  // touching at the start: the discrete test's business
+      double t = 0, phiT = len > thin ? so.distance(local0) - r : 0.0;
       bool hit = false;
-      for (int it = 0; it < 256 && t < 1; ++it) {
-        if (phiT < tol) {
-          hit = true;
-          break;
+      if (phiT > 0) {  // (touching at the start, or a short path: the discrete test's business)
+        for (int it = 0; it < 256 && t < 1; ++it) {
+          if (phiT < tol) {
+            hit = true;
+            break;
+          }
+          t += std::max(phiT, tol) / len;
+          phiT = so.distance(local0 + path * std::min(t, 1.0)) - r;
         }
-        t += std::max(phiT, tol) / len;
-        phiT = so.distance(local0 + path * std::min(t, 1.0)) - r;
       }
-      if (!hit) continue;
-      // A contact at the end pose, on the side it came from, as deep as the path went past the surface.
+      glm::dvec3 in(0);
       const glm::dvec3 at = local0 + path * std::min(t, 1.0);
-      so.distance(at, &g);
-      phi = std::min(glm::dot(local - at, g), -tol);
+      if (hit) so.distance(at, &in);
+      if (hit && (phi >= 0 || glm::dot(in, g) <= 0)) {
+        // A contact at the end pose, on the side it came from, as deep as the path went past the surface (where
+        // it ends inside, only past the middle: its gradient there points the other way).
+        g = in;
+        phi = std::min(glm::dot(local - at, g), -tol);
+      } else if (phi >= 0) {
+        continue;
+      }
     } else if (phi >= 0) {
       continue;
     }

@@ -3,6 +3,7 @@
 #pragma once
 #include <CLI/CLI.hpp>
 
+#include <iostream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,14 +44,15 @@ inline CLI::Option* addAntialias(CLI::App& app, std::string& value, const std::s
 // --quiet, -q: only errors.
 inline CLI::Option* addQuiet(CLI::App& app, bool& quiet) { return app.add_flag("--quiet,-q", quiet, "Only errors"); }
 
-// Parses the command line. The exit status where the program ends here (--help, --version: 0; bad input: 2),
-// else nothing.
-inline std::optional<int> parse(CLI::App& app, int argc, char** argv) {
+// Parses the command line. The exit status where the program ends here (--help, --version: 0; bad input: 2, with
+// one line "<program>: error: <what>" on stderr, as every other bad input), else nothing.
+inline std::optional<int> parse(CLI::App& app, const std::string& program, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    return rc == 0 ? 0 : 2;  // bad command-line input is bad input: exit 2
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help, --version
+    std::cerr << program << ": error: " << e.what() << " (" << program << " --help lists the options)\n";
+    return 2;  // bad command-line input is bad input: exit 2
   }
   return std::nullopt;
 }

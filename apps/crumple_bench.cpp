@@ -437,7 +437,7 @@ int main(int argc, char** argv) {
       "read-back (deformation), POM on/off (render); prints ms per step/deformation/frame and the ratios."};
   Options o;
   addOptions(app, o);
-  if (const auto rc = cli::parse(app, argc, argv)) return *rc;
+  if (const auto rc = cli::parse(app, "crumple-bench", argc, argv)) return *rc;
   if (o.strictPeers && joltBuilt() && !joltWarnings().empty()) {
     std::printf("jolt: %s\n", joltConfiguration().c_str());
     for (const std::string& w : joltWarnings()) std::printf("WARNING: %s\n", w.c_str());

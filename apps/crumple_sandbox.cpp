@@ -383,7 +383,7 @@ int main(int argc, char** argv) {
   CLI::App cli{"crumple-sandbox: drive a car into guard rails and watch the dents form (GLFW window, imgui panel)."};
   Options o;
   addOptions(cli, o);
-  if (const auto rc = cli::parse(cli, argc, argv)) return *rc;
+  if (const auto rc = cli::parse(cli, "crumple-sandbox", argc, argv)) return *rc;
   setLogLevel(o.quiet ? LogLevel::Error : LogLevel::Info);
   App app;
   if (o.renderScale != "auto") {

@@ -309,7 +309,7 @@ int run(Options& o) {
       glOptions.device = o.gpu;
       gl = gl::createHeadlessContext(glOptions);
     } catch (const gl::ContextError& e) {
-      std::cerr << "crumple-sim: " << e.what() << "\n";
+      std::cerr << "crumple-sim: failed: " << e.what() << "\n";
       return 1;
     }
     logInfo("GL: ", gl->description());
@@ -359,7 +359,7 @@ int main(int argc, char** argv) {
       "heightmaps/, normalmaps/, frames/)."};
   Options o;
   addOptions(app, o);
-  if (const auto rc = cli::parse(app, argc, argv)) return *rc;
+  if (const auto rc = cli::parse(app, "crumple-sim", argc, argv)) return *rc;
   setLogLevel(o.quiet ? LogLevel::Error : o.verbose ? LogLevel::Debug : LogLevel::Info);
   if (const std::string error = checkOptions(o); !error.empty()) {
     std::cerr << "crumple-sim: error: " << error << "\n";

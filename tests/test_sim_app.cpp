@@ -701,6 +701,21 @@ TEST_CASE("--version prints the library's version, the same as the headers'") {
   CHECK(log == std::string("crumple-sim ") + CRUMPLE_VERSION_STRING + "\n");
 }
 
+TEST_CASE("a bad command-line option is bad input: exit 2 and one line 'crumple-sim: error: ...' naming it") {
+  for (const char* args : {"--fps 0", "--steps 0", "--threads 300", "--export obj", "--deform-path foo", "--bogus",
+                           "--animate --steps 1"}) {
+    CAPTURE(args);
+    std::string log;
+    CHECK(runSim(args, &log) == 2);
+    CHECK(log.rfind("crumple-sim: error: ", 0) == 0);
+    CHECK(std::count(log.begin(), log.end(), '\n') == 1);
+    CHECK(log.find("--help") != std::string::npos);
+  }
+  std::string log;
+  CHECK(runSim("--help", &log) == 0);
+  CHECK(log.find("--out") != std::string::npos);
+}
+
 TEST_CASE("an output folder is replaced only when crumple wrote everything in it; a user's file is never deleted") {
   std::string log;
   // The case: any summary.json beside a user's file.

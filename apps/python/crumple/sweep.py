@@ -963,7 +963,8 @@ def _main(argv, default_sim, caught):
             os.replace(record_path + ".tmp", record_path)
             write_csv(csv_path, keys, bodies, ids, variants, rows)
         except OSError as e:
-            print(f"crumple-sweep: error: {out}: {e.strerror or e}", file=sys.stderr)
+            print(f"crumple-sweep: error: --out {out}: cannot write {e.filename or out}: {e.strerror or e}",
+                  file=sys.stderr)
             return 2
         if len(todo) < len(ids):
             say(f"{len(ids) - len(todo)} of {len(ids)} variants already complete in {out}: skipped")

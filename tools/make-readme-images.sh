@@ -45,6 +45,9 @@ tools/strobe.py docs/images/bump-ramp.png $(ls "$tmp"/bump-ramp/frames/main_*.pn
 build/apps/crumple-sim scenes/cow-drop.json --out "$tmp/cow-drop" --render --fps 2 --size 640x360 --duration 2 -q
 tools/dent-view.py "$tmp/cow-drop/heightmaps/ground.png" --crop 196,168,316,347 --scale 2 --png "$tmp/cow-turf.png"
 tools/side-by-side.py docs/images/cow-drop.png "$(ls "$tmp"/cow-drop/frames/main_*.png | tail -1)" "$tmp/cow-turf.png"
+build/apps/crumple-sim scenes/crater-marbles.json --out "$tmp/crater-marbles" --render --fps 1 --size 960x540 -q
+cp "$(ls "$tmp"/crater-marbles/frames/main_*.png | tail -1)" docs/images/crater-marbles-above.png
+cp "$(ls "$tmp"/crater-marbles/frames/low_*.png | tail -1)" docs/images/crater-marbles.png
 shoot car-doors main 3
 shoot wrecking-ball main 1.3
 shoot wrecking-ball wall 2.4 wrecking-ball-dent

@@ -39,6 +39,8 @@ def _overrides(overrides):
     """{key path: value} (or (key path, value) pairs) as (key, JSON text) pairs, in order."""
     if overrides is None:
         return []
+    if isinstance(overrides, (str, bytes)) or not hasattr(overrides, "__iter__"):
+        raise TypeError(f"overrides must be a dict or (key, value) pairs, got {type(overrides).__name__}")
     items = overrides.items() if hasattr(overrides, "items") else overrides
     out = []
     for item in items:
@@ -52,7 +54,8 @@ def _overrides(overrides):
             text = _json.dumps(value, default=_json_default, allow_nan=False)
         except (TypeError, ValueError) as e:
             raise TypeError(f"overrides: {key}: the value is not JSON: {e}") from None
-        out.append((key, text))
+        # (bytes: a key that is not UTF-8 reaches the loader, which names it)
+        out.append((key.encode("utf-8", "surrogateescape"), text))
     return out
 
 
@@ -76,7 +79,7 @@ def _path(function, parameter, value):
 def _vector(function, parameter, value, n):
     """A sequence (list, tuple, numpy array) of n finite numbers as a list of floats: TypeError naming the
     parameter for anything else, ValueError for the wrong length or a value that is not finite."""
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+    if isinstance(value, (str, bytes, dict, set, frozenset)) or not hasattr(value, "__len__"):
         raise TypeError(f"{function}: {parameter} must be a sequence of {n} numbers, got {type(value).__name__}")
     items = list(value.tolist() if hasattr(value, "tolist") else value)
     if len(items) != n:
@@ -89,6 +92,14 @@ def _vector(function, parameter, value, n):
             raise ValueError(f"{function}: {parameter} must be finite, got {list(items)}")
         out.append(float(x))
     return out
+
+
+def _name(function, parameter, value):
+    """A body's or camera's name (str) as UTF-8 bytes; a str that is not valid Unicode (lone surrogates, as
+    surrogateescape decodes bytes that are not UTF-8) keeps its bytes, for the checks that name them."""
+    if not isinstance(value, str):
+        raise TypeError(f"{function}: {parameter} must be a str, got {type(value).__name__}")
+    return value.encode("utf-8", "surrogateescape")
 
 
 def _int(function, parameter, value, low, high):
@@ -129,9 +140,11 @@ def write_png(path, array, bit_depth=None):
     if not np.all(np.isfinite(pixels)):
         raise ValueError("write_png: array holds values that are not finite")
     if bit_depth is not None:
-        if bit_depth not in (8, 16) or isinstance(bit_depth, bool):
+        if isinstance(bit_depth, bool) or not isinstance(bit_depth, _numbers.Integral):
+            raise TypeError(f"write_png: bit_depth must be an int (8 or 16), got {type(bit_depth).__name__}")
+        if bit_depth not in (8, 16):
             raise ValueError(f"write_png: bit_depth must be 8 or 16, got {bit_depth!r}")
-        depth = bit_depth
+        depth = int(bit_depth)
     _crumple._write_png(target, np.ascontiguousarray(pixels), depth)
 
 
@@ -158,10 +171,14 @@ class Simulation(_crumple._Simulation):
     """
 
     def __init__(self, path=None, overrides=None, *, gpu=None, threads=None, _text=None, _origin=""):
-        if gpu is not None and (not isinstance(gpu, int) or gpu < 0):
-            raise ValueError(f"gpu must be a device number >= 0, got {gpu!r}")
-        if threads is not None and (not isinstance(threads, int) or isinstance(threads, bool) or not 0 <= threads <= 256):
-            raise ValueError(f"threads must be an int in [0, 256], got {threads!r}")
+        if self.__dict__.get("_scene") is not None:
+            raise RuntimeError("Simulation: already initialised (make a new Simulation for another scene)")
+        if gpu is not None:
+            gpu = _int("Simulation", "gpu", gpu, 0, 2**31 - 1)
+        if threads is not None:
+            threads = _int("Simulation", "threads", threads, 0, 256)
+        if _text is not None:  # (bytes: a text that is not UTF-8 reaches the loader, which names where)
+            _text = _text.encode("utf-8", "surrogateescape")
         super().__init__(None if path is None else _path("Simulation", "path", path), _overrides(overrides),
                          -1 if gpu is None else gpu, -1 if threads is None else threads, _text, _origin)
         self._scene = _json.loads(self._scene_json)
@@ -210,9 +227,21 @@ class Simulation(_crumple._Simulation):
     def body(self, name):
         """The body named `name` (a crumple.Body: its pose and velocities to read and set, forces and impulses
         to apply, its maps). ValueError naming the bodies when there is none."""
-        if not isinstance(name, str):
-            raise TypeError(f"body: name must be a str, got {type(name).__name__}")
-        return Body(self, name, self._body_index(name))
+        return Body(self, name, self._body_index(_name("body", "name", name)))
+
+    def run(self):
+        """Runs on to the scene's duration (round(duration / timestep) steps in all); returns the steps it
+        ran."""
+        return super().run()
+
+    def height_map(self, name):
+        """The body's height map now: numpy float32 (rows, cols), 0.5 flat, 0 the deepest dent; the surface
+        lies (h - 0.5) x bump_depth metres above the undented shape."""
+        return super().height_map(_name("height_map", "name", name))
+
+    def normal_map(self, name):
+        """The body's tangent-space normal map now: numpy float32 (rows, cols, 3), components in [-1, 1]."""
+        return super().normal_map(_name("normal_map", "name", name))
 
     def render(self, camera=None, width=960, height=540, *, position=None, target=None, up=(0.0, 1.0, 0.0),
                fov=45.0, size=None):
@@ -243,12 +272,24 @@ class Simulation(_crumple._Simulation):
             raise ValueError(f"render: fov must be degrees in [1, 179], got {fov!r}")
         if p == t:
             raise ValueError("render: position and target must differ")
+        # (as a scene's camera: crumple-sim refuses the same at cameras[i].up)
+        view = [b - a for a, b in zip(p, t)]
+        view_length = _math.sqrt(sum(x * x for x in view))
+        cross = [view[1] * u[2] - view[2] * u[1], view[2] * u[0] - view[0] * u[2], view[0] * u[1] - view[1] * u[0]]
+        if _math.sqrt(sum(x * x for x in cross)) < 1e-6 * view_length:
+            raise ValueError(f"render: up must not be zero or parallel to the view direction (position to target), "
+                             f"got {u}")
         return self._render_view(p, t, u, float(fov), width, height)
 
     def _info(self):
-        # The scene as loaded; an object made by __new__ without __init__ has none (the C++ side says so).
+        # The scene as loaded; an object made by __new__ without __init__ has none, and a closed one answers
+        # nothing more (the C++ side says so in both cases).
         scene = self.__dict__.get("_scene")
-        return scene if scene is not None else _json.loads(self._scene_json)
+        if scene is None:
+            return _json.loads(self._scene_json)
+        if self.closed:
+            raise RuntimeError("this crumple.Simulation is closed")
+        return scene
 
     @property
     def name(self):
@@ -277,7 +318,10 @@ class Simulation(_crumple._Simulation):
     def __repr__(self):
         if self.__dict__.get("_scene") is None:
             return "<crumple.Simulation (not initialised)>"
-        return f"<crumple.Simulation {self.name!r} t={self.time:.4f} s, {self.steps} steps>"
+        try:
+            return f"<crumple.Simulation {self.name!r} t={self.time:.4f} s, {self.steps} steps>"
+        except RuntimeError:  # closed
+            return f"<crumple.Simulation {self._scene['name']!r} (closed)>"
 
 
 class Body:
@@ -289,12 +333,17 @@ class Body:
     setting wakes the body; a static body's velocities cannot be set). mass (kg, 0 for a static body),
     static, kinematic and asleep read the body's state now."""
 
-    __slots__ = ("_sim", "name", "_k")
+    __slots__ = ("_sim", "_name", "_k")
 
     def __init__(self, sim, name, k):
         self._sim = sim
-        self.name = name
+        self._name = name
         self._k = k
+
+    @property
+    def name(self):
+        """The body's name (read only: a scene's bodies keep their names)."""
+        return self._name
 
     def _state(self):
         return self._sim._body_state(self._k)
@@ -321,7 +370,8 @@ class Body:
         q = _vector("Body.orientation", "orientation", value, 4)
         if not any(q):
             raise ValueError("Body.orientation: a quaternion must not be zero")
-        self._sim._set_body(self._k, "orientation", q)
+        largest = max(abs(x) for x in q)  # (scaled first: 1e200 squared overflows, 1e-200 squared underflows)
+        self._sim._set_body(self._k, "orientation", [x / largest for x in q])
 
     @property
     def linear_velocity(self):

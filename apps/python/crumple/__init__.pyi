@@ -20,7 +20,8 @@ def load_scene(path: Optional[PathLike] = None, overrides: Overrides = None) -> 
 def write_png(path: PathLike, array: npt.NDArray[Any], bit_depth: Optional[int] = None) -> None: ...
 
 class Body:
-    name: str
+    @property
+    def name(self) -> str: ...
     position: Tuple[float, float, float]
     orientation: Tuple[float, float, float, float]
     linear_velocity: Tuple[float, float, float]

@@ -405,6 +405,25 @@ class ScenesFromPython(unittest.TestCase):
             with self.assertRaisesRegex(RuntimeError, "closed"):
                 call()
         sim.close()  # twice: nothing
+        for call in (lambda: sim.name, lambda: sim.timestep, lambda: sim.cameras()):
+            with self.assertRaisesRegex(RuntimeError, "closed"):
+                call()
+        self.assertIn("(closed)", repr(sim))
+
+    def test_a_simulation_is_initialised_once(self):
+        sim = crumple.Simulation(DROP)
+        with self.assertRaisesRegex(RuntimeError, "already initialised"):
+            sim.__init__(DROP)
+        with self.assertRaises(AttributeError):
+            sim.body("ball").name = "rock"
+
+    def test_input_that_is_not_utf8_names_where_it_is(self):
+        with self.assertRaises(crumple.SceneError):
+            crumple.Simulation.from_json(b'{"format": "crumple-scene/1", "name": "\xff"}')
+        with self.assertRaisesRegex(crumple.SceneError, "not valid UTF-8"):
+            crumple.Simulation(DROP, overrides={"na\udcffme": 1})
+        with self.assertRaisesRegex(ValueError, "no body is named"):
+            crumple.Simulation(DROP).body("\udcff")
 
     def test_arguments_of_the_wrong_type_name_the_parameter(self):
         sim = crumple.Simulation(DROP)
@@ -423,6 +442,22 @@ class ScenesFromPython(unittest.TestCase):
             ball.apply_force([0, float("nan"), 0])
         with self.assertRaisesRegex(ValueError, "no body is named 'rock' \\(bodies: plate, ball, pebble\\)"):
             sim.body("rock")
+        for value in ({0: 5, 1: 6, 2: 7}, {3.0, 1.0, 2.0}):  # (a dict's keys, a set's order: not a vector)
+            with self.assertRaisesRegex(TypeError, "position must be a sequence of 3 numbers"):
+                ball.position = value
+        with self.assertRaisesRegex(TypeError, "height_map: name must be a str"):
+            sim.height_map(None)
+        with self.assertRaisesRegex(TypeError, "threads must be an int"):
+            crumple.Simulation(DROP, threads="2")
+        with self.assertRaisesRegex(TypeError, "gpu must be an int"):
+            crumple.Simulation(DROP, gpu=True)
+        with self.assertRaisesRegex(TypeError, "overrides must be a dict"):
+            crumple.Simulation(DROP, overrides=5)
+        self.assertEqual(crumple.Simulation(DROP, threads=np.int64(2)).name, sim.name)
+        with self.assertRaisesRegex(ValueError, "up must not be zero or parallel to the view direction"):
+            sim.render(position=[0, 3, 0], target=[0, 0, 0], size=(32, 32))
+        ball.orientation = [1e200, 1e200, 0, 0]  # normalised, not overflowed
+        self.assertAlmostEqual(ball.orientation[0], 0.5 ** 0.5)
 
 
 class Bodies(unittest.TestCase):

@@ -61,6 +61,8 @@ ojson sceneJson(const Scene& s) {
     ojson jb;
     jb["name"] = b.name;
     jb["static"] = b.isStatic;
+    jb["kinematic"] = b.kinematic;
+    jb["path"] = !b.path.empty();  // a kinematic body on keyframes: the path sets its pose and velocities
     jb["bump_map"] = b.bumpMap.present ? ojson(b.bumpMap.resolution) : ojson(nullptr);
     bodies.push_back(jb);
   }

@@ -150,8 +150,8 @@ def write_png(path, array, bit_depth=None):
 
 def load_scene(path=None, overrides=None):
     """Loads and checks a scene without running it (no OpenGL). Returns a dict: name, file, timestep,
-    duration, steps (the run's step count), bodies ([{name, static, bump_map: resolution or None}]),
-    cameras and joints (names). Raises SceneError as Simulation does. path None: the built-in default scene."""
+    duration, steps (the run's step count), bodies ([{name, static, kinematic, path (whether it follows
+    keyframes), bump_map: resolution or None}]), cameras and joints (names). Raises SceneError as Simulation does. path None: the built-in default scene."""
     return _json.loads(_crumple._load_scene(None if path is None else _path("load_scene", "path", path),
                                             _overrides(overrides)))
 
@@ -349,7 +349,14 @@ class Body:
         return self._sim._body_state(self._k)
 
     def _set(self, what, value, n):
+        self._check_free(what)
         self._sim._set_body(self._k, what, _vector(f"Body.{what}", what, value, n))
+
+    def _check_free(self, what):
+        # A kinematic body on keyframes is put where its path says at every step: a pose set here would be left
+        # at once, at the speed that takes (a push of hundreds of m/s on whatever lies between).
+        if self._sim._info()["bodies"][self._k].get("path"):
+            raise ValueError(f"Body.{what}: {self._name} follows its path, which sets its pose and velocities")
 
     @property
     def position(self):
@@ -367,6 +374,7 @@ class Body:
 
     @orientation.setter
     def orientation(self, value):
+        self._check_free("orientation")
         q = _vector("Body.orientation", "orientation", value, 4)
         if not any(q):
             raise ValueError("Body.orientation: a quaternion must not be zero")

@@ -417,6 +417,26 @@ class ScenesFromPython(unittest.TestCase):
         with self.assertRaises(AttributeError):
             sim.body("ball").name = "rock"
 
+    def test_a_body_on_a_path_refuses_a_pose_or_velocity(self):
+        # (a pose set there would be left at the next step at the speed that takes: 480 m/s for 2 m)
+        scene = {"format": "crumple-scene/1", "name": "k", "duration": 1,
+                 "materials": {"m": {"density": 1000, "restitution": 0.2, "friction": 0.5, "kappa": 0.0001,
+                                     "thickness": 0.05}},
+                 "bodies": [{"name": "pusher", "shape": {"type": "box", "size": [0.2, 0.2, 0.2]}, "material": "m",
+                             "kinematic": True, "path": [{"t": 0, "position": [0, 1, 0]},
+                                                         {"t": 1, "position": [1, 1, 0]}]}]}
+        with crumple.Simulation.from_dict(scene) as sim:
+            pusher = sim.body("pusher")
+            sim.step(10)
+            before = pusher.position
+            for what, value in (("position", [0, 3, 0]), ("orientation", [1, 0, 0, 0]),
+                                ("linear_velocity", [0, 5, 0]), ("angular_velocity", [0, 1, 0])):
+                with self.assertRaisesRegex(ValueError, "follows its path"):
+                    setattr(pusher, what, value)
+            self.assertEqual(pusher.position, before)
+            sim.step(1)
+            self.assertLess(max(abs(x) for x in pusher.linear_velocity), 2)
+
     def test_input_that_is_not_utf8_names_where_it_is(self):
         with self.assertRaises(crumple.SceneError):
             crumple.Simulation.from_json(b'{"format": "crumple-scene/1", "name": "\xff"}')

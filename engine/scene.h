@@ -175,6 +175,12 @@ struct CameraDesc {
   bool displace = false;  // silhouettes that show dents: drawn with displacement (render::View::displace)
 };
 
+// Whether `up` is zero or along the view from position to target (no picture can be made from it); position and
+// target must differ.
+inline bool upAlongView(const glm::dvec3& position, const glm::dvec3& target, const glm::dvec3& up) {
+  return glm::length(glm::cross(glm::normalize(target - position), up)) < 1e-6;
+}
+
 struct Scene {
   std::string file;  // where it came from ("<built-in>" for defaults)
   std::string name;

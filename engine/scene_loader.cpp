@@ -543,8 +543,7 @@ void parseCameras(const Node& n, Scene& s, const std::set<std::string>& names) {
     if (c.has("follow_heading") && cd.follow.empty()) c.fail("follow_heading", "needs \"follow\"");
     cd.displace = c.boolean("displace", false);
     if (glm::length(cd.target - cd.position) < 1e-9) c.fail("target", "must differ from position");
-    if (glm::length(glm::cross(glm::normalize(cd.target - cd.position), cd.up)) < 1e-6)
-      c.fail("up", "must not be parallel to the view direction");
+    if (upAlongView(cd.position, cd.target, cd.up)) c.fail("up", "must not be parallel to the view direction");
     s.cameras.push_back(cd);
   }
 }

@@ -68,10 +68,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
     anyFelt = anyFelt || dents_[i].feel;
     if (!dents_[i].feel) continue;
     bodies_[i].surface->setChangeLog(static_cast<int>(i));
-    // The next dent is measured from the surface the physics puts the other body on: the dented one, all of
-    // its relief (k' = k). With a smaller k' the new dent would be cut from below the old floor again, as deep
-    // as the old dent is more than k'/k of, and a ball resting in its crater would dig itself in hit by hit.
-    bodies_[i].surface->setBumpDepths(bodies_[i].surface->bumpDepth(), bodies_[i].surface->bumpDepth());
+    setSurfaceDepths(i, bodies_[i].surface->bumpDepth(), bodies_[i].surface->bumpDepthCollide());
   }
   prepareDents();
   if (anyFelt) {
@@ -190,11 +187,17 @@ void Simulation::setRestitution(const std::string& material, double eps) {
 void Simulation::setBumpDepths(double k, double kCollide) {
   scene_.deformation.bumpDepth = k;
   scene_.deformation.bumpDepthCollide = kCollide;
-  for (size_t i = 0; i < bodies_.size(); ++i) {  // (a body whose dents are felt: k' = k, as in the constructor)
-    if (!bodies_[i].surface) continue;
-    const bool felt = i < dents_.size() && dents_[i].feel;
-    bodies_[i].surface->setBumpDepths(static_cast<float>(k), static_cast<float>(felt ? k : kCollide));
-  }
+  for (size_t i = 0; i < bodies_.size(); ++i)
+    if (bodies_[i].surface) setSurfaceDepths(i, static_cast<float>(k), static_cast<float>(kCollide));
+}
+
+void Simulation::setSurfaceDepths(size_t i, float k, float kCollide) {
+  // A body whose dents are felt: the next dent is measured from the surface the physics puts the other body on,
+  // the dented one, all of its relief (k' = k). With a smaller k' the new dent would be cut from below the old
+  // floor again, as deep as the old dent is more than k'/k of, and a ball resting in its crater would dig itself
+  // in hit by hit.
+  const bool felt = i < dents_.size() && dents_[i].feel;
+  bodies_[i].surface->setBumpDepths(k, felt ? k : kCollide);
 }
 
 void Simulation::setNormalMappedNormals(bool on) {

@@ -242,6 +242,8 @@ class Simulation {
   void measureTiles(DentCopy& d);  // its moved tiles' rectangles and highest, and d.lo/hi
   void findDentedTriangles(DentCopy& d, int body);  // the triangles over its changed tiles, in the world
   void markNearChange(DentCopy& d, const TriangleMesh& mesh);  // d.grid
+  // Body i's surface's k and k' (k' = k where its dents are felt).
+  void setSurfaceDepths(size_t i, float k, float kCollide);
   double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;
   double lookUpDepth(const DentCopy& d, int body, const glm::dvec3& point, const glm::dvec3& normal,
                      glm::dvec3& bent) const;

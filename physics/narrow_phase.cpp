@@ -178,14 +178,16 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
           phiT = so.distance(local0 + path * std::min(t, 1.0)) - r;
         }
       }
-      glm::dvec3 in(0);
-      const glm::dvec3 at = local0 + path * std::min(t, 1.0);
-      if (hit) so.distance(at, &in);
-      if (hit && (phi >= 0 || glm::dot(in, g) <= 0)) {
+      if (hit) {
         // A contact at the end pose, on the side it came from, as deep as the path went past the surface (where
         // it ends inside, only past the middle: its gradient there points the other way).
-        g = in;
-        phi = std::min(glm::dot(local - at, g), -tol);
+        const glm::dvec3 at = local0 + path * std::min(t, 1.0);
+        glm::dvec3 in(0);
+        so.distance(at, &in);
+        if (phi >= 0 || glm::dot(in, g) <= 0) {
+          g = in;
+          phi = std::min(glm::dot(local - at, g), -tol);
+        }
       } else if (phi >= 0) {
         continue;
       }

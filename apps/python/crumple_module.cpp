@@ -338,6 +338,10 @@ class PySimulation {
     cam.target = {target[0], target[1], target[2]};
     cam.up = {up[0], up[1], up[2]};
     cam.fov = fov;
+    if (upAlongView(cam.position, cam.target, cam.up))  // (as a scene's camera, which crumple-sim refuses)
+      throw py::value_error(
+          "render: up must not be zero or parallel to the view direction (position to target), got [" +
+          std::to_string(up[0]) + ", " + std::to_string(up[1]) + ", " + std::to_string(up[2]) + "]");
     return draw(cam, width, height);
   }
 

@@ -151,7 +151,8 @@ def write_png(path, array, bit_depth=None):
 def load_scene(path=None, overrides=None):
     """Loads and checks a scene without running it (no OpenGL). Returns a dict: name, file, timestep,
     duration, steps (the run's step count), bodies ([{name, static, kinematic, path (whether it follows
-    keyframes), bump_map: resolution or None}]), cameras and joints (names). Raises SceneError as Simulation does. path None: the built-in default scene."""
+    keyframes), bump_map: resolution or None}]), cameras and joints (names). Raises SceneError as Simulation
+    does. path None: the built-in default scene."""
     return _json.loads(_crumple._load_scene(None if path is None else _path("load_scene", "path", path),
                                             _overrides(overrides)))
 
@@ -272,13 +273,6 @@ class Simulation(_crumple._Simulation):
             raise ValueError(f"render: fov must be degrees in [1, 179], got {fov!r}")
         if p == t:
             raise ValueError("render: position and target must differ")
-        # (as a scene's camera: crumple-sim refuses the same at cameras[i].up)
-        view = [b - a for a, b in zip(p, t)]
-        view_length = _math.sqrt(sum(x * x for x in view))
-        cross = [view[1] * u[2] - view[2] * u[1], view[2] * u[0] - view[0] * u[2], view[0] * u[1] - view[1] * u[0]]
-        if _math.sqrt(sum(x * x for x in cross)) < 1e-6 * view_length:
-            raise ValueError(f"render: up must not be zero or parallel to the view direction (position to target), "
-                             f"got {u}")
         return self._render_view(p, t, u, float(fov), width, height)
 
     def _info(self):

@@ -149,8 +149,13 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
   const JointDef& d = jt.def;
   out.n = 0;
   out.worst = 0;
-  // What a row's violation now exceeds reach by (0 within it).
-  auto excess = [reach](double now) { return now > reach ? now - reach : (now < -reach ? now + reach : 0.0); };
+  out.beyond = 0;
+  // What a row's violation now exceeds reach by (0 within it); the largest in out.beyond.
+  auto excess = [reach, &out](double now) {
+    const double over = now > reach ? now - reach : (now < -reach ? now + reach : 0.0);
+    out.beyond = std::max(out.beyond, std::abs(over));
+    return over;
+  };
   const bool bounded = pre && reach >= 0;
   // Errors at the poses the substep will reach, and (pre) the levers there too: the impulse stands for the
   // joint's force over the substep, and with the end's levers the Newton step's matrix is the derivative of

@@ -132,6 +132,7 @@ struct JointRows {
   double err[6] = {};
   glm::dvec3 ra{0}, rb{0};
   double worst = 0;  // m or rad (pre); m or rad per substep (post)
+  double beyond = 0;  // pre, with a reach: the most a row's violation now exceeds it by (m or rad)
 };
 
 constexpr int kMainRows = 1, kLimitRow = 2;

@@ -135,14 +135,20 @@ bool yieldJoints(StepContext& ctx, const JointSystem& s, double h, const std::ve
 // effective mass, twice over (the rows' coupling, and the turn a fast spin makes a holding joint's anchors drift
 // through within the substep). A joint that holds has no budget: whatever its pre-stabilisation adds beyond this
 // is the solver's, not the scene's. Per joint of s (its joints, then its loops) in `each`; returns the sum.
-// Called right after buildSystem: the sides hold the bodies as they are (predicted = now).
-double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<double>& each) {
+// Called right after buildSystem: the sides hold the bodies as they are (predicted = now). `measure` (a substep's
+// first call): each joint's violation beyond reach is kept, and whether it is closing (Joint::closing).
+double closingEnergy(StepContext& ctx, JointSystem& s, double h, bool measure, std::vector<double>& each) {
   const double reach = ctx.settings.maxCorrectionSpeed * h;
   each.clear();
   double sum = 0;
-  auto add = [&](const Joint& jt, const Side& a, const Side& b) {
+  auto add = [&](Joint& jt, const Side& a, const Side& b) {
     double energy = 0;
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
+    if (measure) {
+      // Closing: within reach, or a quarter of a reach nearer than at the last substep.
+      jt.closing = jr.beyond == 0 || jt.beyond < 0 || jr.beyond < jt.beyond - 0.25 * reach;
+      jt.beyond = jr.beyond;
+    }
     for (int k = 0; k < jr.n; ++k) {
       const Row& row = jr.rows[k];
       // The row's inverse effective mass, row^T M row (joint_solver.h's Mobility) side by side: each body moves
@@ -188,7 +194,9 @@ void settleCredit(StepContext& ctx, const JointSystem& s, double gain) {
     forSystemJoints(ctx, s, [&](Joint& jt, size_t) { jt.credit = std::max(jt.credit, 0.0) * (1 - share); });
   } else if (gain < 0) {
     double shortfall = 0;
-    auto lacks = [](const Joint& jt) { return std::max(jt.closingCap - std::max(jt.credit, 0.0), 0.0); };
+    auto lacks = [](const Joint& jt) {
+      return jt.closing ? std::max(jt.closingCap - std::max(jt.credit, 0.0), 0.0) : 0.0;
+    };
     forSystemJoints(ctx, s, [&](Joint& jt, size_t) { shortfall += lacks(jt); });
     if (!(shortfall > 0)) return;
     const double share = std::min(-gain / shortfall, 1.0);
@@ -336,7 +344,7 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     if (!any) return;
   }
   // Again without the joints that break in it (yieldJoints).
-  for (bool again = true; again;) {
+  for (bool again = true, measure = first; again; measure = false) {
     startCall(ctx);
     JointSystem& s = buildSystem(ctx);
     // The joined bodies' velocities, kinetic energy and the joints' books before the sweeps, and what the sweeps may
@@ -358,14 +366,14 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     // Where no kinematic end drives, closing is paid from the joints' credits (settleCredit), measured now for a
     // joint met for the first time.
     std::vector<double>& closing = ctx.jointClosing;
-    double budget = std::min(closingEnergy(ctx, s, h, closing), moving);
+    double budget = std::min(closingEnergy(ctx, s, h, measure, closing), moving);
     const bool driven = kinematicDrive(ctx, s);
     if (!driven) {
       double credit = 0;
       forSystemJoints(ctx, s, [&](Joint& jt, size_t k) {
         jt.closingCap = closing[k];
         if (jt.credit < 0) jt.credit = closing[k];
-        credit += jt.credit;
+        if (jt.closing) credit += jt.credit;
       });
       budget = std::min(budget, credit);
     }

@@ -16,6 +16,10 @@
 // - The pairs run island by island (islands.cpp; in parallel on the World's
 //   threads): the same impulses, in the same order per body, and the same
 //   events in the same order as one sweep over all pairs.
+// - collisionsCarried (after shock propagation): a hit the passes could not
+//   stop (stages.h) gets, in its pair's event, what the contact step and shock
+//   propagation pushed the pair apart with; a body held still by shock
+//   propagation passes what it took on to its supports, level by level down.
 // - ctx.found / ctx.foundVersion: each pair's last contacts and the impulse
 //   counts they were found at; ctx.predicted stays valid for bodies whose
 //   version has not moved (the contact step's first pass reuses both).
@@ -165,9 +169,112 @@ bool CollisionRun::finish() {
     for (PendingEvent& e : w.events) merged.push_back(std::move(e));
   std::sort(merged.begin(), merged.end(),
             [](const PendingEvent& x, const PendingEvent& y) { return x.pass != y.pass ? x.pass < y.pass : x.pair < y.pair; });
-  for (const PendingEvent& e : merged) ctx_.events.push_back(e.event);
+  ctx_.eventOfPair.assign(ctx_.pairs.size(), -1);
+  for (const PendingEvent& e : merged) {
+    ctx_.eventOfPair[e.pair] = static_cast<int>(ctx_.events.size());
+    ctx_.events.push_back(e.event);
+  }
   for (int ev : eventOfPair_) ctx_.stats.collisions += ev >= 0;
   return std::any_of(workers_.begin(), workers_.end(), [](const WorkerState& w) { return w.any; });
+}
+
+void collisionsCarried(StepContext& ctx, double h) {
+  const size_t np = ctx.pairs.size();
+  if (ctx.pairApproach.size() != np || ctx.eventOfPair.size() != np || ctx.shockPush.size() != np) return;
+  const double fast = std::max(ctx.settings.eventMinApproachSpeed, 2 * glm::length(ctx.settings.gravity) * h);
+  std::vector<size_t>& hit = ctx.carriedPairs;
+  hit.clear();
+  bool absorbed = false;
+  for (size_t pi = 0; pi < np; ++pi) {
+    if (ctx.groups[pi].empty() || (ctx.eventOfPair[pi] < 0 && !(ctx.pairApproach[pi] >= fast))) continue;
+    hit.push_back(pi);
+    for (int b : {ctx.pairs[pi].a, ctx.pairs[pi].b})
+      absorbed = absorbed || ctx.shockAbsorbed[static_cast<size_t>(b)] > 0;
+  }
+  if (hit.empty()) return;
+  // Each pair's push: the contact step's and its island solve's totals, and shock propagation's.
+  auto pushOf = [&](size_t pi) {
+    double push = ctx.shockPush[pi];
+    for (const ContactGroup& g : ctx.groups[pi]) push += g.totals.normal;
+    return push;
+  };
+  // What a body took while frozen in shock propagation it passes on to what holds it up (its pairs with bodies of
+  // lower levels, by their pushes; evenly where none pushed), level by level from the top: a crate crushed between a
+  // heavy ball and the ground stops the ball frozen, and the ground is what takes the blow.
+  std::vector<double>& carried = ctx.carriedPush;
+  carried.assign(absorbed ? np : 0, 0.0);
+  if (absorbed) {
+    const std::vector<int>& level = ctx.level;
+    int top = 0;
+    for (size_t i = 0; i < ctx.bodies.size(); ++i)
+      if (ctx.shockAbsorbed[i] > 0) top = std::max(top, level[i]);
+    std::vector<std::vector<size_t>> supports(static_cast<size_t>(top) + 1);  // by the upper body's level
+    for (size_t pi = 0; pi < np; ++pi) {
+      if (ctx.groups[pi].empty()) continue;
+      const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
+      if (la < 0 || lb < 0 || la == lb || std::max(la, lb) > top) continue;
+      supports[static_cast<size_t>(std::max(la, lb))].push_back(pi);
+    }
+    std::vector<double>& take = ctx.shockAbsorbed;
+    // Per upper body of a level: the sum of its supports' weights and their count (zero again after each level).
+    std::vector<double>& weight = ctx.carriedWeight;
+    weight.assign(ctx.bodies.size(), 0.0);
+    std::vector<int>& count = ctx.carriedCount;
+    count.assign(ctx.bodies.size(), 0);
+    for (int l = top; l >= 1; --l) {
+      const std::vector<size_t>& below = supports[static_cast<size_t>(l)];
+      auto upper = [&](size_t pi) {
+        const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
+        return level[static_cast<size_t>(a)] > level[static_cast<size_t>(b)] ? a : b;
+      };
+      for (size_t pi : below) {
+        const size_t u = static_cast<size_t>(upper(pi));
+        if (!(take[u] > 0)) continue;
+        weight[u] += std::max(pushOf(pi), 0.0);
+        ++count[u];
+      }
+      for (size_t pi : below) {
+        const size_t u = static_cast<size_t>(upper(pi));
+        if (!(take[u] > 0)) continue;
+        const double share = weight[u] > 0 ? std::max(pushOf(pi), 0.0) / weight[u] : 1.0 / count[u];
+        const double pass = take[u] * share;
+        carried[pi] += pass;
+        const size_t other = static_cast<size_t>(ctx.pairs[pi].a) == u ? static_cast<size_t>(ctx.pairs[pi].b)
+                                                                       : static_cast<size_t>(ctx.pairs[pi].a);
+        if (level[other] >= 1) take[other] += pass;
+      }
+      for (size_t pi : below) {
+        const size_t u = static_cast<size_t>(upper(pi));
+        weight[u] = 0;
+        count[u] = 0;
+      }
+    }
+  }
+  for (size_t pi : hit) {
+    const double push = pushOf(pi) + (absorbed ? carried[pi] : 0.0);
+    if (!(push > 0)) continue;
+    const Contact& c = ctx.groups[pi].front().contact;
+    if (ctx.eventOfPair[pi] < 0) {
+      CollisionEvent e;
+      e.time = ctx.time;
+      e.a = c.a;
+      e.b = c.b;
+      e.point = c.point;
+      e.normal = c.normal;
+      e.penetration = -c.phi;
+      const RigidBody& A = ctx.body(c.a);
+      const RigidBody& B = ctx.body(c.b);
+      e.poseA = {A.x, A.q};
+      e.poseB = {B.x, B.q};
+      ctx.eventOfPair[pi] = static_cast<int>(ctx.events.size());
+      ctx.events.push_back(e);
+      ++ctx.stats.collisions;
+    }
+    CollisionEvent& e = ctx.events[static_cast<size_t>(ctx.eventOfPair[pi])];
+    e.impulseVector += (c.a == e.a ? push : -push) * c.normal;
+    e.impulse = glm::length(e.impulseVector);
+    e.elasticImpulse += 2 * push;
+  }
 }
 
 bool collide(StepContext& ctx, double h) {

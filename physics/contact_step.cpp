@@ -153,6 +153,7 @@ ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(
   // for pairs whose predicted poses moved (impulses always use the current
   // velocities).
   const size_t pairs = ctx.pairs.size();
+  ctx.pairApproach.assign(pairs, 0.0);
   ctx.groups.resize(pairs);
   for (auto& g : ctx.groups) g.clear();
   ctx.lookPoses.resize(pairs);
@@ -244,6 +245,8 @@ void ContactRun::island(size_t island, int worker) {
         }
         if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
         if (ctx.groups[pi].empty()) continue;
+        if (pass == 1)
+          for (const ContactGroup& g : ctx.groups[pi]) ctx.pairApproach[pi] = std::max(ctx.pairApproach[pi], -g.speed);
         s.touching.push_back(static_cast<uint32_t>(at));
       }
       const bool report = reporting_ && (ctx.reportContacts[static_cast<size_t>(pair.a)] ||

@@ -19,7 +19,9 @@
 //   resting contact's own scale (its bodies at g h): where the passes raised it
 //   more (a frozen light body shoving a heavy one), its bodies' velocities are
 //   put back as the contact step left them.
-// - Afterwards no body is frozen.
+// - Afterwards no body is frozen. ctx.shockPush holds each pair's normal impulse
+//   from the passes, ctx.shockAbsorbed what each dynamic body took while frozen
+//   (zero for an island undone), for collisionsCarried.
 // - The levels are found by runs of islands (in parallel; over all bodies at
 //   once when there are joints): the same levels, as a path from level 0 to a
 //   dynamic body runs through that body's island only. The passes run island
@@ -46,6 +48,7 @@ struct LevelContact {
   ImpulseSide sa, sb;
   const PatchExtent* extent = nullptr;
   int island = 0;     // its pair's (the passes run island by island)
+  size_t pair = 0;
   PatchMatrix patch;  // valid only for a body's one or two support patches
 };
 
@@ -237,6 +240,7 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
       ++count;
       x.patch.valid = false;
       x.island = ctx.islandOfPair[pi];
+      x.pair = pi;
       x.c = c;
       x.l = g.levers;
       x.mu = mu;
@@ -315,7 +319,15 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
       for (size_t k = begin; k < end; ++k) {
         const Contact& c = lc[k].c;
         const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});
-        if (glm::dot(dj[k], dj[k]) > 0) ctx.applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
+        if (glm::dot(dj[k], dj[k]) > 0) {
+          ctx.applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
+          const double push = glm::dot(dj[k], c.normal) / double(m);
+          ctx.shockPush[lc[k].pair] += push;
+          // A frozen dynamic body (of this island: level 0 is shared and never written) takes it whole.
+          for (int f : {c.a, c.b})
+            if (ctx.frozen[static_cast<size_t>(f)] && ctx.level[static_cast<size_t>(f)] >= 1)
+              ctx.shockAbsorbed[static_cast<size_t>(f)] += push;
+        }
         if (glm::dot(dt[k], dt[k]) > 0) ctx.applyTorqueImpulse(c.a, c.b, dt[k] / double(m));
       }
       if (!(change > tolerance)) break;
@@ -412,18 +424,29 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
   w.energyAfter.assign(k1 - k0, 0.0);
   for (size_t k = 0; k < w.bodies.size(); ++k)
     w.energyAfter[static_cast<size_t>(w.bodyIsland[k])] += ctx.body(w.bodies[k]).kineticEnergy();
+  bool undone = false;
   for (size_t k = 0; k < w.bodies.size(); ++k) {
     const size_t island = static_cast<size_t>(w.bodyIsland[k]);
     if (w.driven[island] || !(w.energyAfter[island] > w.energyBefore[island] + w.slack[island])) continue;
     RigidBody& b = ctx.body(w.bodies[k]);
     b.v = w.velocities[k].first;
     b.w = w.velocities[k].second;
+    ctx.shockAbsorbed[static_cast<size_t>(w.bodies[k])] = 0;
+    undone = true;
   }
+  // (An island undone pushed nothing apart.)
+  if (undone)
+    for (const uint32_t* p = first; p != last; ++p) {
+      const size_t island = static_cast<size_t>(ctx.islandOfPair[*p]) - k0;
+      if (!w.driven[island] && w.energyAfter[island] > w.energyBefore[island] + w.slack[island]) ctx.shockPush[*p] = 0;
+    }
 }
 
 }  // namespace
 
 void shockPropagation(StepContext& ctx, double h) {
+  ctx.shockPush.assign(ctx.pairs.size(), 0.0);
+  ctx.shockAbsorbed.assign(ctx.bodies.size(), 0.0);
   if (ctx.settings.shockPasses <= 0) return;
   const size_t n = ctx.bodies.size();
   Scratch& s = scratch();

@@ -268,6 +268,16 @@ struct StepContext {
   // What the last step produced (all its substeps).
   std::vector<CollisionEvent> events, contactReports;
   std::vector<JointBreak> jointBreaks;
+  // This substep, per pair: the place in `events` of the event the collision step made for it (-1: none), how
+  // fast its contact groups approached when the contact step first looked at them (m/s; 0: not at all), and the
+  // normal impulse shock propagation pushed it apart with (collisionsCarried); per body, the normal impulse a
+  // dynamic body took while frozen in shock propagation (what it would have passed on to what holds it up).
+  std::vector<int> eventOfPair;
+  std::vector<double> pairApproach, shockPush, shockAbsorbed;
+  // collisionsCarried's scratch.
+  std::vector<size_t> carriedPairs;
+  std::vector<double> carriedPush, carriedWeight;
+  std::vector<int> carriedCount;
   // This step's substeps are capped (maxSubsteps): a body may move past a thin
   // one within a substep, so the narrow phase sweeps (narrow_phase.cpp).
   bool substepsCapped = false;

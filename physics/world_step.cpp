@@ -170,6 +170,7 @@ void World::substep(double h) {
   }
   // 4. shock propagation
   detail::shockPropagation(ctx, h);
+  detail::collisionsCarried(ctx, h);
   clock.lap(ms.shockPropagation);
   // Joints again: the contacts and shock propagation moved the velocities.
   detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);

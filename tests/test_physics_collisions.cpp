@@ -900,3 +900,53 @@ TEST_CASE(
   CHECK(kept.slid == doctest::Approx(predicted).epsilon(0.02));
   CHECK(std::abs(kept.slid - fresh.slid) < 0.002);
 }
+
+TEST_CASE("a light body crushed between a heavy one and the ground passes the blow on: the ground's event carries it") {
+  // The collision step's passes move an impulse through a light body a little each (a 1 kg crate under a 510 kg
+  // ball: 1% a pass); the contact step and shock propagation stop the ball. What they push the pairs apart with is
+  // the hit's, and what the crate takes while frozen under the ball reaches the ground.
+  struct Case {
+    double ballMass, speed, crateMass;
+  };
+  for (const Case& k : {Case{510, 6, 1}, Case{1e9, 3, 0.001}}) {
+    CAPTURE(k.ballMass);
+    World w;
+    addGround(w, 0.8, 0.2);
+    BodyDef crate;
+    crate.shape = makeBox({0.125, 0.125, 0.125});
+    crate.origin = {0, 0.0625, 0};
+    crate.mass = k.crateMass;
+    crate.restitution = 0.3;
+    const int c = w.addBody(crate);
+    BodyDef ball;
+    ball.shape = makeSphere(0.25);
+    ball.origin = {0, 0.125 + 0.25 + 0.005, 0};
+    ball.linearVelocity = {0, -k.speed, 0};
+    ball.mass = k.ballMass;
+    ball.restitution = 0.95;
+    const int b = w.addBody(ball);
+    double ground = 0, crateBall = 0, elasticGround = 0;
+    for (int s = 0; s < 24; ++s) {
+      w.step(1.0 / 240);
+      for (const CollisionEvent& e : w.events()) {
+        if ((e.a == c) != (e.b == c)) {
+          if (e.a == b || e.b == b)
+            crateBall += e.impulse;
+          else {
+            ground += e.impulse;
+            elasticGround = std::max(elasticGround, e.elasticImpulse);
+          }
+        }
+      }
+    }
+    const double momentum = k.ballMass * k.speed;
+    MESSAGE("ball " << k.ballMass << " kg at " << k.speed << " m/s: ground took " << ground << " N s, the crate "
+                    << crateBall << " N s from the ball (its momentum " << momentum << ")");
+    // The ball was stopped (not bounced: the crate is squeezed flat between), by the ground through the crate.
+    CHECK(w.body(b).v.y > -0.1 * k.speed);
+    CHECK(crateBall > 0.9 * momentum);
+    CHECK(ground > 0.9 * momentum);
+    CHECK(ground < 2.5 * momentum);
+    CHECK(elasticGround > 1.8 * momentum);
+  }
+}

@@ -14,7 +14,8 @@
 // scene format accepts, driven by a throttle.
 //
 // After every step (240 Hz, 120 steps):
-// - every body's state is finite and the step succeeded (valid input never fails);
+// - every body's state is finite and the step succeeded (valid input never fails); every event names two bodies
+//   and has finite impulses, none negative;
 // - no dynamic body moves faster than the scene can push it: four times the
 //   fastest speed present at the start (a point's |v| + |w| r, kinematic bodies'
 //   surfaces included) plus the correction speed, plus what gravity, the vehicle's
@@ -495,6 +496,12 @@ inline std::string runScenario(const uint8_t* data, size_t size, int steps = 120
     for (size_t i = 0; i < n; ++i)
       if (pressed[i]) sc.pushSpeed = std::max(sc.pushSpeed, pointSpeed(w.body(static_cast<int>(i))));
     const double bound = 4 * (sc.pushSpeed + w.settings().maxCorrectionSpeed) + sc.accelerationBound * t * 4 + 1;
+    for (const CollisionEvent& e : w.events()) {
+      const bool sound = std::isfinite(e.impulse) && e.impulse >= 0 && std::isfinite(e.elasticImpulse) &&
+                         e.elasticImpulse >= 0 && std::isfinite(e.impulseVector.x + e.impulseVector.y + e.impulseVector.z) &&
+                         e.a >= 0 && e.b >= 0 && e.a != e.b && static_cast<size_t>(std::max(e.a, e.b)) < n;
+      if (!sound) return fail(s, "an event's bodies or impulses are not sound");
+    }
     for (size_t i = 0; i < n; ++i) {
       const RigidBody& b = w.body(static_cast<int>(i));
       const bool finiteState = std::isfinite(b.x.x + b.x.y + b.x.z + b.v.x + b.v.y + b.v.z + b.w.x + b.w.y + b.w.z +

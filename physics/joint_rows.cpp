@@ -149,11 +149,11 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
   const JointDef& d = jt.def;
   out.n = 0;
   out.worst = 0;
-  out.beyond = 0;
-  // What a row's violation now exceeds reach by (0 within it); the largest in out.beyond.
+  out.beyond = false;
+  // What a row's violation now exceeds reach by (0 within it).
   auto excess = [reach, &out](double now) {
     const double over = now > reach ? now - reach : (now < -reach ? now + reach : 0.0);
-    out.beyond = std::max(out.beyond, std::abs(over));
+    out.beyond = out.beyond || over != 0;
     return over;
   };
   const bool bounded = pre && reach >= 0;

@@ -132,7 +132,7 @@ struct JointRows {
   double err[6] = {};
   glm::dvec3 ra{0}, rb{0};
   double worst = 0;  // m or rad (pre); m or rad per substep (post)
-  double beyond = 0;  // pre, with a reach: the most a row's violation now exceeds it by (m or rad)
+  bool beyond = false;  // pre, with a reach: a row's violation now exceeds it (the joint closes over substeps)
 };
 
 constexpr int kMainRows = 1, kLimitRow = 2;

@@ -35,9 +35,11 @@
 //   one-sided rows at the bound, acting only where the predicted angle (hinge),
 //   offset (slider) or distance would leave the range. A call that hands the
 //   joined bodies more kinetic energy than closing their violations takes
-//   (closingEnergy) and the motors' work is undone (removeForbiddenVelocity
-//   instead); where no kinematic end drives, closing is paid from the joints'
-//   credits (settleCredit), so the joints' net work is bounded for all time.
+//   (closingEnergy) and the motors' work is scaled back to that (a joint
+//   violated beyond the correction's reach, where half the call or more fits:
+//   scaleCall) or undone (removeForbiddenVelocity instead); where no kinematic
+//   end drives, closing is paid from the joints' credits (settleCredit), so the
+//   joints' net work is bounded for all time.
 // - postStabilize (after the positions): the relative velocity each joint
 //   forbids is removed (limits: only the part that leaves the range), one pass
 //   of the same solve (the rows are linear), up to `jointPostIterations` where
@@ -135,20 +137,17 @@ bool yieldJoints(StepContext& ctx, const JointSystem& s, double h, const std::ve
 // effective mass, twice over (the rows' coupling, and the turn a fast spin makes a holding joint's anchors drift
 // through within the substep). A joint that holds has no budget: whatever its pre-stabilisation adds beyond this
 // is the solver's, not the scene's. Per joint of s (its joints, then its loops) in `each`; returns the sum.
-// Called right after buildSystem: the sides hold the bodies as they are (predicted = now). `measure` (a substep's
-// first call): each joint's violation beyond reach is kept, and whether it is closing (Joint::closing).
-double closingEnergy(StepContext& ctx, JointSystem& s, double h, bool measure, std::vector<double>& each) {
+// Called right after buildSystem: the sides hold the bodies as they are (predicted = now). `far`: whether some joint
+// is violated by more than reach (it closes over substeps).
+double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<double>& each, bool& far) {
   const double reach = ctx.settings.maxCorrectionSpeed * h;
   each.clear();
+  far = false;
   double sum = 0;
-  auto add = [&](Joint& jt, const Side& a, const Side& b) {
+  auto add = [&](const Joint& jt, const Side& a, const Side& b) {
     double energy = 0;
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
-    if (measure) {
-      // Closing: within reach, or a quarter of a reach nearer than at the last substep.
-      jt.closing = jr.beyond == 0 || jt.beyond < 0 || jr.beyond < jt.beyond - 0.25 * reach;
-      jt.beyond = jr.beyond;
-    }
+    far = far || jr.beyond;
     for (int k = 0; k < jr.n; ++k) {
       const Row& row = jr.rows[k];
       // The row's inverse effective mass, row^T M row (joint_solver.h's Mobility) side by side: each body moves
@@ -194,9 +193,7 @@ void settleCredit(StepContext& ctx, const JointSystem& s, double gain) {
     forSystemJoints(ctx, s, [&](Joint& jt, size_t) { jt.credit = std::max(jt.credit, 0.0) * (1 - share); });
   } else if (gain < 0) {
     double shortfall = 0;
-    auto lacks = [](const Joint& jt) {
-      return jt.closing ? std::max(jt.closingCap - std::max(jt.credit, 0.0), 0.0) : 0.0;
-    };
+    auto lacks = [](const Joint& jt) { return std::max(jt.closingCap - std::max(jt.credit, 0.0), 0.0); };
     forSystemJoints(ctx, s, [&](Joint& jt, size_t) { shortfall += lacks(jt); });
     if (!(shortfall > 0)) return;
     const double share = std::min(-gain / shortfall, 1.0);
@@ -314,6 +311,53 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
   restoreCall(ctx, s, saved, books);
 }
 
+// A call whose sweeps handed the joined bodies more than `budget` over their energy `before` (its start: velocities
+// `saved`, the joints' `books`) scaled back along its change of the velocities and of the joints' impulses to the
+// largest share s in [0, 1] that keeps within it (the energy is quadratic in s). Returns s (0: the call undone).
+double scaleCall(StepContext& ctx, const JointSystem& s, const std::vector<BodyState>& saved,
+                 const std::vector<Joint>& books, double before, double budget) {
+  // E(s) = before + B s + A s^2: from the energies at s = 1 (now) and s = -1.
+  double at1 = 0, atMinus1 = 0;
+  size_t n = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i < 0 || !ctx.body(i).dynamic()) continue;
+    RigidBody& b = ctx.body(i);
+    at1 += b.kineticEnergy();
+    const glm::dvec3 v = b.v, w = b.w;
+    b.v = 2.0 * saved[n].v - v;
+    b.w = 2.0 * saved[n].w - w;
+    atMinus1 += b.kineticEnergy();
+    b.v = v;
+    b.w = w;
+    ++n;
+  }
+  const double A = 0.5 * (at1 + atMinus1) - before, B = 0.5 * (at1 - atMinus1);
+  double share = 0;
+  if (A > 0 && budget >= 0) share = std::clamp((-B + std::sqrt(std::max(0.0, B * B + 4 * A * budget))) / (2 * A), 0.0, 1.0);
+  n = 0;
+  for (size_t k = 1; k < s.sides.size(); ++k) {
+    const int i = s.sides[k].index;
+    if (i < 0 || !ctx.body(i).dynamic()) continue;
+    RigidBody& b = ctx.body(i);
+    b.v = saved[n].v + share * (b.v - saved[n].v);
+    b.w = saved[n].w + share * (b.w - saved[n].w);
+    ++n;
+  }
+  size_t m = 0;
+  auto scaleBooks = [&](Joint& jt) {
+    const Joint& was = books[m++];
+    jt.stepImpulse = was.stepImpulse + share * (jt.stepImpulse - was.stepImpulse);
+    jt.callLinear = was.callLinear + share * (jt.callLinear - was.callLinear);
+    jt.callTurnA = was.callTurnA + share * (jt.callTurnA - was.callTurnA);
+    jt.callTurnB = was.callTurnB + share * (jt.callTurnB - was.callTurnB);
+    jt.motorImpulse = was.motorImpulse + share * (jt.motorImpulse - was.motorImpulse);
+  };
+  for (int j : s.joints) scaleBooks(ctx.joints[static_cast<size_t>(j)]);
+  for (int j : s.loops) scaleBooks(ctx.joints[static_cast<size_t>(j)]);
+  return share;
+}
+
 void wakeJoined(StepContext& ctx) {
   for (const Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.a < 0) continue;
@@ -344,7 +388,7 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     if (!any) return;
   }
   // Again without the joints that break in it (yieldJoints).
-  for (bool again = true, measure = first; again; measure = false) {
+  for (bool again = true; again;) {
     startCall(ctx);
     JointSystem& s = buildSystem(ctx);
     // The joined bodies' velocities, kinetic energy and the joints' books before the sweeps, and what the sweeps may
@@ -366,14 +410,15 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     // Where no kinematic end drives, closing is paid from the joints' credits (settleCredit), measured now for a
     // joint met for the first time.
     std::vector<double>& closing = ctx.jointClosing;
-    double budget = std::min(closingEnergy(ctx, s, h, measure, closing), moving);
+    bool far = false;
+    double budget = std::min(closingEnergy(ctx, s, h, closing, far), moving);
     const bool driven = kinematicDrive(ctx, s);
     if (!driven) {
       double credit = 0;
       forSystemJoints(ctx, s, [&](Joint& jt, size_t k) {
         jt.closingCap = closing[k];
         if (jt.credit < 0) jt.credit = closing[k];
-        if (jt.closing) credit += jt.credit;
+        credit += jt.credit;
       });
       budget = std::min(budget, credit);
     }
@@ -396,14 +441,22 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
       if (lookAtJoints(ctx, s, h, true) < ctx.settings.jointTolerance) break;
       solvePass(ctx, s, h, true);
     }
-    // Sweeps that handed the joined bodies more energy than that (joints that contradict each other, a loop solved
-    // joint by joint past its fixed point, a lever the direct solve cannot condition) are undone: the joints then
-    // only take away the relative velocities they forbid, as post-stabilisation does, which never adds energy.
-    const double after = joinedEnergy(ctx, s);
+    // Sweeps that handed the joined bodies more energy than that are, where a joint closes a violation over
+    // substeps, scaled back to it if half of them or more fits (a closing whose levers turn the body past the
+    // estimate still closes, a little slower: undone, a moved body's joint could stay open for good); else (joints
+    // that contradict each other, a loop solved joint by joint past its fixed point, a lever the direct solve cannot
+    // condition) they are undone: the joints then only take away the relative velocities they forbid, as
+    // post-stabilisation does, which never adds energy.
+    double after = joinedEnergy(ctx, s);
     if (!(after <= before + budget + 1e-9 * before)) {
-      restoreCall(ctx, s, saved, books);
       ++ctx.stats.jointFallbacks;
-      removeForbiddenVelocity(ctx, s, h);
+      if (far && scaleCall(ctx, s, saved, books, before, budget) >= 0.5) {
+        after = joinedEnergy(ctx, s);
+        if (!driven) settleCredit(ctx, s, after > before ? std::max(after - before - motors, 0.0) : after - before);
+      } else {
+        restoreCall(ctx, s, saved, books);
+        removeForbiddenVelocity(ctx, s, h);
+      }
     } else if (!driven) {
       settleCredit(ctx, s, after > before ? std::max(after - before - motors, 0.0) : after - before);
     }

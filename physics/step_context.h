@@ -116,11 +116,6 @@ struct Joint {
   // share of a call's gain is taken from here, and the joint calls' losses give it back up to `closingCap`, what
   // closing its last measured violation takes; -1: not yet measured). Only where no kinematic end drives.
   double credit = -1, closingCap = 0;
-  // How far the violation exceeded the correction's reach at the substep's first pre-stabilisation (m or rad;
-  // -1: not yet measured), and whether it shrank since the one before: a joint held open (by contradicting joints,
-  // a static body) is not given back the energy its closing handed out and the other calls took away.
-  double beyond = -1;
-  bool closing = true;
 };
 
 // The joint solver's view of the joint graph (joint_solve.cpp): which joints

@@ -87,6 +87,7 @@ struct Scenario {
   std::vector<double> energySpeed;       // per body: twice the speed at which it would hold all the energy there is
   std::vector<double> mechanismSpeed;    // per body: what a kinematic body can force it to through joints (m/s)
   double springEnergy = 0;               // the vehicles' springs fully compressed (J)
+  double closingEnergy = 0;              // what closing the joints started violated may hand out (J)
   bool energySources = false;            // kinematic bodies, vehicles, motors, overlaps or violated joints
   double pushSpeed = 0;                  // the fastest speed present at the start (m/s)
   double jointSpeed = 0;                 // the fastest a joint's anchor moves at the start (m/s)
@@ -249,6 +250,21 @@ inline void buildScenario(Scenario& sc, ScenarioInput& in) {
       const RigidBody& b = w.body(j.b);
       w.setPose(j.b, {b.x + in.vec(3), glm::normalize(b.q * glm::dquat(1, in.range(-1, 1), 0, 0))});
       sc.energySources = true;
+      // What closing the joints on it may hand out (the engine's bound, joint_step.cpp: each joint's net work at
+      // most twice its rows' effective masses at the correction speed), wherever it ends: contradicting joints
+      // on a heavy body can pass a heavy body's share on to a light one.
+      const double c = w.settings().maxCorrectionSpeed;
+      for (int k = 0; k < static_cast<int>(w.jointCount()); ++k) {
+        const JointDef& o = w.jointDef(k);
+        if (o.b != j.b && o.a != j.b) continue;
+        double inverseMass = 0, inverseInertia = 0;
+        for (int end : {o.a, o.b}) {
+          if (end < 0 || !w.body(end).dynamic()) continue;
+          inverseMass += 1 / w.body(end).mass;
+          inverseInertia += 1 / w.body(end).principal.moments.z;
+        }
+        if (inverseMass > 0) sc.closingEnergy += 2 * 6 * c * c * std::max(1 / inverseMass, 1 / inverseInertia);
+      }
       d << "(violated); ";
     }
   }
@@ -376,8 +392,9 @@ inline void buildScenario(Scenario& sc, ScenarioInput& in) {
   sc.pushSpeed = std::max(sc.pushSpeed, sc.jointSpeed);
   // Energy can gather in one light body (a bead flung along a rod that heavy bodies turn, a marble under a wheel
   // taking the spring's energy): the speed at which a body would hold all the kinetic energy, the springs' and
-  // what falling to the ground would release, twice over (a rod's tip turns at up to sqrt 3 times that speed).
-  double available = sc.springEnergy;
+  // what falling to the ground would release and what closing violated joints may hand out, twice over (a rod's tip
+  // turns at up to sqrt 3 times that speed).
+  double available = sc.springEnergy + sc.closingEnergy;
   for (const RigidBody& b : w.bodies())
     if (b.dynamic()) available += b.kineticEnergy() + b.mass * glm::length(w.settings().gravity) * (std::abs(b.x.y) + 1);
   sc.energySpeed.assign(w.size(), 0.0);

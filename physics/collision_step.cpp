@@ -24,6 +24,7 @@
 //   counts they were found at; ctx.predicted stays valid for bodies whose
 //   version has not moved (the contact step's first pass reuses both).
 #include <algorithm>
+#include <limits>
 
 #include <crumple/physics/step_context.h>
 
@@ -184,13 +185,50 @@ void collisionsCarried(StepContext& ctx, double h) {
   const double fast = std::max(ctx.settings.eventMinApproachSpeed, 2 * glm::length(ctx.settings.gravity) * h);
   std::vector<size_t>& hit = ctx.carriedPairs;
   hit.clear();
+  for (size_t pi = 0; pi < np; ++pi)
+    if (!ctx.groups[pi].empty() && (ctx.eventOfPair[pi] >= 0 || ctx.pairApproach[pi] >= fast)) hit.push_back(pi);
+  if (hit.empty()) return;
+  // Only in an island that a blow struck, and no more than its momentum: the largest, over its pairs whose contacts
+  // approached faster than that at the step's start (the velocities then, at the contacts' points), of the speed
+  // times the heavier dynamic body's mass (without bound where a kinematic body drives). A heavy body resting on a
+  // light one has the collision passes kick the light one into the ground at every substep; its weight is no blow.
+  std::vector<double>& blow = ctx.carriedBlow;
+  blow.assign(ctx.islandCount(), -1.0);  // -1: not yet looked at
+  auto momentum = [&](const Contact& c) {
+    const BodyState& A = ctx.stepBefore[static_cast<size_t>(c.a)];
+    const BodyState& B = ctx.stepBefore[static_cast<size_t>(c.b)];
+    const glm::dvec3 u = (B.v + glm::cross(B.w, c.point - B.x)) - (A.v + glm::cross(A.w, c.point - A.x));
+    const double speed = -glm::dot(u, c.normal);
+    if (!(speed >= fast)) return 0.0;
+    double mass = 0;
+    for (int i : {c.a, c.b}) {
+      const RigidBody& b = ctx.body(i);
+      if (b.kinematic) return std::numeric_limits<double>::infinity();
+      if (b.dynamic()) mass = std::max(mass, b.mass);
+    }
+    return speed * mass;
+  };
+  auto blowOf = [&](size_t pi) {  // at the contact step's groups and the collision step's last contacts
+    double most = 0;
+    for (const ContactGroup& g : ctx.groups[pi]) most = std::max(most, momentum(g.contact));
+    for (const Contact& c : ctx.found[pi]) most = std::max(most, momentum(c));
+    return most;
+  };
   bool absorbed = false;
-  for (size_t pi = 0; pi < np; ++pi) {
-    if (ctx.groups[pi].empty() || (ctx.eventOfPair[pi] < 0 && !(ctx.pairApproach[pi] >= fast))) continue;
-    hit.push_back(pi);
+  size_t kept = 0;
+  for (size_t pi : hit) {
+    const size_t island = static_cast<size_t>(ctx.islandOfPair[pi]);
+    if (blow[island] < 0) {
+      blow[island] = 0;
+      for (uint32_t k = ctx.islandStart[island]; k < ctx.islandStart[island + 1]; ++k)
+        blow[island] = std::max(blow[island], blowOf(ctx.islandPairs[k]));
+    }
+    if (!(blow[island] > 0)) continue;
+    hit[kept++] = pi;
     for (int b : {ctx.pairs[pi].a, ctx.pairs[pi].b})
       absorbed = absorbed || ctx.shockAbsorbed[static_cast<size_t>(b)] > 0;
   }
+  hit.resize(kept);
   if (hit.empty()) return;
   // Each pair's push: the contact step's and its island solve's totals, and shock propagation's.
   auto pushOf = [&](size_t pi) {
@@ -251,7 +289,8 @@ void collisionsCarried(StepContext& ctx, double h) {
     }
   }
   for (size_t pi : hit) {
-    const double push = pushOf(pi) + (absorbed ? carried[pi] : 0.0);
+    const double push = std::min(pushOf(pi) + (absorbed ? carried[pi] : 0.0),
+                                 blow[static_cast<size_t>(ctx.islandOfPair[pi])]);
     if (!(push > 0)) continue;
     const Contact& c = ctx.groups[pi].front().contact;
     if (ctx.eventOfPair[pi] < 0) {
@@ -262,10 +301,10 @@ void collisionsCarried(StepContext& ctx, double h) {
       e.point = c.point;
       e.normal = c.normal;
       e.penetration = -c.phi;
-      const RigidBody& A = ctx.body(c.a);
-      const RigidBody& B = ctx.body(c.b);
-      e.poseA = {A.x, A.q};
-      e.poseB = {B.x, B.q};
+      // The poses the contact was found at (its depth is theirs).
+      const bool same = c.a == ctx.pairs[pi].a;
+      e.poseA = same ? ctx.lookPoses[pi].first : ctx.lookPoses[pi].second;
+      e.poseB = same ? ctx.lookPoses[pi].second : ctx.lookPoses[pi].first;
       ctx.eventOfPair[pi] = static_cast<int>(ctx.events.size());
       ctx.events.push_back(e);
       ++ctx.stats.collisions;

@@ -107,10 +107,11 @@ class CollisionRun {
 // Hits the collision step's passes could not stop (a light body pinned between a heavy one and the ground: each
 // pass moves the impulse through it a little), stopped by the contact step, its island solve and shock
 // propagation instead: for each pair that has an event this substep or whose groups approached faster than
-// eventMinApproachSpeed and 2 g h when the contact step first looked at them, the normal impulse those stages
-// pushed it apart with is added to its event (made where there is none, at its deepest group, with the poses
-// now): to the impulse, and twice over to the elastic impulse (an elastic bounce pushes twice as hard). Called
-// after shock propagation.
+// eventMinApproachSpeed and 2 g h when the contact step first looked at them, in an island a blow struck (some
+// pair's contacts approached that fast at the step's start), the normal impulse those stages pushed it apart
+// with, at most the blow's momentum, is added to its event (made where there is none, at its deepest group, with
+// the poses it was found at): to the impulse, and twice over to the elastic impulse (an elastic bounce pushes
+// twice as hard). Called after shock propagation.
 void collisionsCarried(StepContext& ctx, double h);
 // contact_step.cpp: integrateVelocities over every body; contactStep runs a ContactRun over every island.
 void integrateVelocities(StepContext& ctx, double h);

@@ -271,6 +271,7 @@ struct StepContext {
   std::vector<double> pairApproach, shockPush, shockAbsorbed;
   // collisionsCarried's scratch.
   std::vector<size_t> carriedPairs;
+  std::vector<double> carriedBlow;
   std::vector<double> carriedPush, carriedWeight;
   std::vector<int> carriedCount;
   // This step's substeps are capped (maxSubsteps): a body may move past a thin

@@ -149,6 +149,7 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
   const JointDef& d = jt.def;
   out.n = 0;
   out.worst = 0;
+  out.limit = false;
   out.beyond = false;
   // What a row's violation now exceeds reach by (0 within it).
   auto excess = [reach, &out](double now) {
@@ -229,15 +230,20 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
         if (pre) err[n - 1] = len - jt.length - (bounded ? excess(lenNow - jt.length) : 0.0);
       } else if (pre && (len > jt.maxLength || len < jt.minLength)) {
         linear(dir);
+        out.limit = true;
         const double bound = len > jt.maxLength ? jt.maxLength : jt.minLength;
         const double over = bounded ? excess(lenNow - bound) : 0.0;
         // Only what is still beyond the bound in the bound's direction is left for later.
         err[n - 1] = len - bound - ((over > 0) == (len > bound) ? over : 0.0);
       } else if (!pre) {
-        // Post: only at a bound and moving out of the range.
+        // Post: only at a bound and moving out of the range, or wherever pre-stabilisation held it at a bound
+        // this substep (the speed that closed a violation is no speed the bodies had: it goes too).
         const double l = glm::length(b.point(jt.rB, false) - a.point(jt.rA, false));
         const double speed = glm::dot(dir, u);
-        if ((l >= jt.maxLength - 1e-6 && speed > 0) || (l <= jt.minLength + 1e-6 && speed < 0)) linear(dir);
+        if (jt.limitHeld || (l >= jt.maxLength - 1e-6 && speed > 0) || (l <= jt.minLength + 1e-6 && speed < 0)) {
+          linear(dir);
+          out.limit = true;
+        }
       }
       break;
     }
@@ -261,9 +267,12 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
         if ((over > 0) != (value > bound)) over = 0;  // now beyond the other side: nothing to leave for later
       }
       err[n++] = value - bound - over;
-    } else if (!pre && ((value >= d.upper - tol && rate > 0) || (value <= d.lower + tol && rate < 0))) {
+      out.limit = true;
+    } else if (!pre && (jt.limitHeld || (value >= d.upper - tol && rate > 0) || (value <= d.lower + tol && rate < 0))) {
+      // (Held at a bound by pre-stabilisation this substep: all of the rate goes, as for a distance's range.)
       rows[n] = row;
       err[n++] = rate;
+      out.limit = true;
     }
   }
   for (int k = 0; k < n; ++k) out.worst = std::max(out.worst, std::abs(err[k]) * (pre ? 1.0 : h));

@@ -329,6 +329,7 @@ void solveAlone(StepContext& ctx, Joint& jt, Side& a, Side& b, double h, bool pr
     for (int r = 0; r < jr.n; ++r) rhs[r] = pre ? -jr.err[r] / h : -jr.err[r];
     solveRows(mobility(a, b, jr.ra, jr.rb), jr.rows, jr.n, rhs, lambda);
     applyRows(ctx, jt, jr.ra, jr.rb, a, b, jr.rows, jr.n, lambda);
+    if (pre && jr.limit) jt.limitHeld = true;
   }
 }
 
@@ -495,6 +496,7 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
     applyRows(ctx, jt, jr.ra, jr.rb, s.sides[static_cast<size_t>(s.ends[k].first)],
               s.sides[static_cast<size_t>(s.ends[k].second)], jr.rows, jr.n,
               s.x[static_cast<size_t>(s.place[k])].data());
+    if (pre && jr.limit) jt.limitHeld = true;
   }
 }
 

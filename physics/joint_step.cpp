@@ -41,7 +41,9 @@
 //   end drives, closing is paid from the joints' credits (settleCredit), so the
 //   joints' net work is bounded for all time.
 // - postStabilize (after the positions): the relative velocity each joint
-//   forbids is removed (limits: only the part that leaves the range), one pass
+//   forbids is removed (limits and ranges: only the part that leaves the range,
+//   or all of it where the substep's pre-stabilisation held the joint at a
+//   bound: a violation closed there leaves no speed behind), one pass
 //   of the same solve (the rows are linear), up to `jointPostIterations` where
 //   limits, ranges or loops take part; then every hinge's unwrapped angle is
 //   updated.
@@ -145,10 +147,11 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<dou
   far = false;
   double sum = 0;
   auto add = [&](const Joint& jt, const Side& a, const Side& b) {
-    double energy = 0;
+    double energy = 0, largest = 0;
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
     far = far || jr.beyond;
     for (int k = 0; k < jr.n; ++k) {
+      largest = std::max(largest, std::abs(jr.err[k]));
       const Row& row = jr.rows[k];
       // The row's inverse effective mass, row^T M row (joint_solver.h's Mobility) side by side: each body moves
       // its anchor along the row by its inverse mass and turns by (r x lin + ang) through its inverse inertia.
@@ -158,6 +161,17 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<dou
       if (!(inverse > 0)) continue;
       const double speed = jr.err[k] / h;
       energy += speed * speed / inverse;  // 2 x (speed^2 / 2 / inverse)
+    }
+    if (jr.limit && largest > 1e-3 * reach) {
+      // A limit or range that closes: its rows together (a limit on a plate turning about an end hinge turns it
+      // about the hinge, not about its centre, and takes twice the rows' energies side by side): twice
+      // (speed . lambda) / 2, lambda the impulses of the joint's own Newton step.
+      double rhs[6], lambda[6];
+      for (int k = 0; k < jr.n; ++k) rhs[k] = jr.err[k] / h;
+      solveRows(mobility(a, b, jr.ra, jr.rb), jr.rows, jr.n, rhs, lambda);
+      double together = 0;
+      for (int k = 0; k < jr.n; ++k) together += rhs[k] * lambda[k];
+      energy = std::max(energy, together);
     }
     each.push_back(energy);
     sum += energy;
@@ -390,6 +404,7 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
   // Again without the joints that break in it (yieldJoints).
   for (bool again = true; again;) {
     startCall(ctx);
+    for (Joint& jt : ctx.joints) jt.limitHeld = false;
     JointSystem& s = buildSystem(ctx);
     // The joined bodies' velocities, kinetic energy and the joints' books before the sweeps, and what the sweeps may
     // add to that energy: closing the violations the joints start the substep with (at most maxCorrectionSpeed of

@@ -116,6 +116,9 @@ struct Joint {
   // share of a call's gain is taken from here, and the joint calls' losses give it back up to `closingCap`, what
   // closing its last measured violation takes; -1: not yet measured). Only where no kinematic end drives.
   double credit = -1, closingCap = 0;
+  // The last pre-stabilisation call of this substep held a limit or range row (post-stabilisation then takes away
+  // the whole rate along it, the speed that closed a violation with it).
+  bool limitHeld = false;
 };
 
 // The joint solver's view of the joint graph (joint_solve.cpp): which joints

@@ -252,6 +252,54 @@ TEST_CASE("joints: slider limits hold and the slider does not turn") {
   CHECK(maxTurn < 0.001);
 }
 
+TEST_CASE("joints: a limit or a rope started violated brings its body to the bound, where it stops") {
+  // Zero gravity, 1 kg boxes: a slider 1 cm and 0.5 m below its lower limit, a rope (max 1 m) whose anchors start
+  // 3 m apart, a hinge 1 degree and 30 degrees below its lower limit. Closing gives each a speed (up to the
+  // correction speed) that is no speed it had: at the bound it goes, and nothing moves on.
+  struct Case {
+    JointType type;
+    double start;  // how far below the lower bound (m, or degrees), or past the rope's length
+  };
+  for (const Case& c : {Case{JointType::Slider, 0.01}, Case{JointType::Slider, 0.5}, Case{JointType::Distance, 2.0},
+                        Case{JointType::Hinge, 1.0}, Case{JointType::Hinge, 30.0}}) {
+    CAPTURE(static_cast<int>(c.type));
+    CAPTURE(c.start);
+    PhysicsTestContext t;
+    t.settings().gravity = glm::dvec3(0);
+    const bool hinge = c.type == JointType::Hinge;
+    const int box = hinge ? addMassBox(t, {1, 0.2, 0.05}, {0.5, 0, 0}, 1) : addMassBox(t, {0.2, 0.2, 0.2}, {0, 0, 0}, 1);
+    JointDef j;
+    double bound = 0;
+    if (c.type == JointType::Slider) {
+      j = jointBetween(JointType::Slider, -1, box, {0, 0, 0}, {1, 0, 0});
+      j.limited = true;
+      j.lower = bound = c.start;
+      j.upper = 100;
+    } else if (c.type == JointType::Hinge) {
+      j = jointBetween(JointType::Hinge, -1, box, {0, 0, 0}, {0, 1, 0});
+      j.limited = true;
+      j.lower = bound = c.start * kPi / 180;
+      j.upper = 2 * kPi;
+    } else {
+      j.type = JointType::Distance;
+      j.b = box;
+      j.anchorA = {-(1 + c.start), 0, 0};
+      j.anchorB = {0, 0, 0};
+      j.minLength = 0;
+      j.maxLength = bound = 1;
+    }
+    const int joint = t.world().addJoint(j);
+    t.simulate(2.0);
+    const JointState s = t.world().jointState(joint);
+    const double at = hinge ? s.angle : s.offset;
+    MESSAGE("ends at " << at << " (bound " << bound << "), speed " << glm::length(t.body(box).v) << " m/s, turn "
+                       << glm::length(t.body(box).w) << " rad/s");
+    CHECK(std::abs(at - bound) < 1e-3);
+    CHECK(glm::length(t.body(box).v) < 1e-3);
+    CHECK(glm::length(t.body(box).w) < 1e-3);
+  }
+}
+
 TEST_CASE("joints: a bead slides out along a turning rod: the rod slows as I(r) grows, momentum and energy kept") {
   // Zero gravity: a 10 kg rod 2 m long turns freely on a hinge about y at its centre; a 1 kg bead on an unlimited
   // slider along the rod starts 0.2 m out and is flung outwards. Nothing acts about the hinge's axis, so

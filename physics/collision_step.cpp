@@ -140,16 +140,8 @@ void CollisionRun::island(size_t island, int worker) {
           PendingEvent& pe = events.emplace_back();
           pe.pass = pass;
           pe.pair = pi;
-          CollisionEvent& e = pe.event;
-          e.time = ctx.time;
-          e.a = hit->a;
-          e.b = hit->b;
-          e.point = hit->point;
-          e.normal = hit->normal;
-          e.penetration = -hit->phi;
-          e.elasticImpulse = elastic;
-          e.poseA = hit->a == ia ? pa : pb;
-          e.poseB = hit->a == ia ? pb : pa;
+          pe.event = eventAt(*hit, ctx.time, hit->a == ia ? pa : pb, hit->a == ia ? pb : pa);
+          pe.event.elasticImpulse = elastic;
           ev = static_cast<int>(events.size() - 1);
         }
         if (ev < 0) continue;
@@ -294,19 +286,11 @@ void collisionsCarried(StepContext& ctx, double h) {
     if (!(push > 0)) continue;
     const Contact& c = ctx.groups[pi].front().contact;
     if (ctx.eventOfPair[pi] < 0) {
-      CollisionEvent e;
-      e.time = ctx.time;
-      e.a = c.a;
-      e.b = c.b;
-      e.point = c.point;
-      e.normal = c.normal;
-      e.penetration = -c.phi;
-      // The poses the contact was found at (its depth is theirs).
+      // At the poses the contact was found at (its depth is theirs).
       const bool same = c.a == ctx.pairs[pi].a;
-      e.poseA = same ? ctx.lookPoses[pi].first : ctx.lookPoses[pi].second;
-      e.poseB = same ? ctx.lookPoses[pi].second : ctx.lookPoses[pi].first;
       ctx.eventOfPair[pi] = static_cast<int>(ctx.events.size());
-      ctx.events.push_back(e);
+      ctx.events.push_back(eventAt(c, ctx.time, same ? ctx.lookPoses[pi].first : ctx.lookPoses[pi].second,
+                                   same ? ctx.lookPoses[pi].second : ctx.lookPoses[pi].first));
       ++ctx.stats.collisions;
     }
     CollisionEvent& e = ctx.events[static_cast<size_t>(ctx.eventOfPair[pi])];

@@ -126,20 +126,12 @@ void reportContacts(StepContext& ctx, const std::vector<double>& pushed) {
     const std::vector<ContactGroup>& groups = ctx.groups[pi];
     if (groups.empty() || !(pushed[pi] > 0)) continue;
     const Contact& c = groups.front().contact;
-    CollisionEvent e;
-    e.time = ctx.time;
-    e.a = c.a;
-    e.b = c.b;
-    e.point = c.point;
-    e.normal = c.normal;
-    e.penetration = -c.phi;
+    const RigidBody& A = ctx.body(c.a);
+    const RigidBody& B = ctx.body(c.b);
+    CollisionEvent e = eventAt(c, ctx.time, {A.x, A.q}, {B.x, B.q});
     e.impulse = pushed[pi];
     e.impulseVector = c.normal * pushed[pi];
     e.elasticImpulse = 2 * pushed[pi];
-    const RigidBody& A = ctx.body(c.a);
-    const RigidBody& B = ctx.body(c.b);
-    e.poseA = {A.x, A.q};
-    e.poseB = {B.x, B.q};
     ctx.contactReports.push_back(e);
   }
 }

@@ -150,11 +150,11 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
   out.n = 0;
   out.worst = 0;
   out.limit = false;
-  out.beyond = false;
+  out.beyond = 0;
   // What a row's violation now exceeds reach by (0 within it).
   auto excess = [reach, &out](double now) {
     const double over = now > reach ? now - reach : (now < -reach ? now + reach : 0.0);
-    out.beyond = out.beyond || over != 0;
+    out.beyond = std::max(out.beyond, std::abs(over));
     return over;
   };
   const bool bounded = pre && reach >= 0;

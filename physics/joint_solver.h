@@ -133,7 +133,7 @@ struct JointRows {
   glm::dvec3 ra{0}, rb{0};
   double worst = 0;  // m or rad (pre); m or rad per substep (post)
   bool limit = false;  // a limit row (hinge, slider) or a range row (distance) is among the rows
-  bool beyond = false;  // pre, with a reach: a row's violation now exceeds it (the joint closes over substeps)
+  double beyond = 0;  // pre, with a reach: the most a row's violation now exceeds it by (>0: closes over substeps)
 };
 
 constexpr int kMainRows = 1, kLimitRow = 2;

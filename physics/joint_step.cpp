@@ -141,15 +141,20 @@ bool yieldJoints(StepContext& ctx, const JointSystem& s, double h, const std::ve
 // is the solver's, not the scene's. Per joint of s (its joints, then its loops) in `each`; returns the sum.
 // Called right after buildSystem: the sides hold the bodies as they are (predicted = now). `far`: whether some joint
 // is violated by more than reach (it closes over substeps).
-double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<double>& each, bool& far) {
+double closingEnergy(StepContext& ctx, JointSystem& s, double h, bool first, std::vector<double>& each, bool& far) {
   const double reach = ctx.settings.maxCorrectionSpeed * h;
   each.clear();
   far = false;
   double sum = 0;
-  auto add = [&](const Joint& jt, const Side& a, const Side& b) {
+  auto add = [&](Joint& jt, const Side& a, const Side& b) {
     double energy = 0, largest = 0;
     const JointRows jr = jointRows(jt, a, b, h, true, reach);
-    far = far || jr.beyond;
+    far = far || jr.beyond > 0;
+    if (first) {
+      // Closing: still beyond reach, and a quarter of a reach nearer than at the last substep's start.
+      jt.progressed = jr.beyond > 0 && jt.lastBeyond >= 0 && jr.beyond < jt.lastBeyond - 0.25 * reach;
+      jt.lastBeyond = jr.beyond;
+    }
     for (int k = 0; k < jr.n; ++k) {
       largest = std::max(largest, std::abs(jr.err[k]));
       const Row& row = jr.rows[k];
@@ -162,10 +167,11 @@ double closingEnergy(StepContext& ctx, JointSystem& s, double h, std::vector<dou
       const double speed = jr.err[k] / h;
       energy += speed * speed / inverse;  // 2 x (speed^2 / 2 / inverse)
     }
-    if (jr.limit && largest > 1e-3 * reach) {
-      // A limit or range that closes: its rows together (a limit on a plate turning about an end hinge turns it
-      // about the hinge, not about its centre, and takes twice the rows' energies side by side): twice
-      // (speed . lambda) / 2, lambda the impulses of the joint's own Newton step.
+    if ((jr.limit || jr.beyond > 0) && largest > 1e-3 * reach) {
+      // A limit or range that closes, or a joint violated beyond reach: its rows together (a limit on a plate
+      // turning about an end hinge turns it about the hinge, not about its centre, and takes twice the rows'
+      // energies side by side; a small box closing a gap at the end of a 1 m lever, more): twice (speed . lambda)
+      // / 2, lambda the impulses of the joint's own Newton step.
       double rhs[6], lambda[6];
       for (int k = 0; k < jr.n; ++k) rhs[k] = jr.err[k] / h;
       solveRows(mobility(a, b, jr.ra, jr.rb), jr.rows, jr.n, rhs, lambda);
@@ -426,13 +432,17 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     // joint met for the first time.
     std::vector<double>& closing = ctx.jointClosing;
     bool far = false;
-    double budget = std::min(closingEnergy(ctx, s, h, closing, far), moving);
+    double budget = std::min(closingEnergy(ctx, s, h, first, closing, far), moving);
     const bool driven = kinematicDrive(ctx, s);
     if (!driven) {
       double credit = 0;
       forSystemJoints(ctx, s, [&](Joint& jt, size_t k) {
         jt.closingCap = closing[k];
-        if (jt.credit < 0) jt.credit = closing[k];
+        // (Met for the first time or moved from outside: its closing measured now. A joint that closes is topped up
+        // to what closing it takes now: its levers turn as it closes, and what post-stabilisation takes away gives
+        // back only what the last call spent.)
+        if (jt.credit < 0 || jt.progressed) jt.credit = std::max(jt.credit, closing[k]);
+        jt.progressed = false;
         credit += jt.credit;
       });
       budget = std::min(budget, credit);

@@ -116,6 +116,10 @@ struct Joint {
   // share of a call's gain is taken from here, and the joint calls' losses give it back up to `closingCap`, what
   // closing its last measured violation takes; -1: not yet measured). Only where no kinematic end drives.
   double credit = -1, closingCap = 0;
+  // How far beyond the correction's reach it was at the last substep's start (-1: not measured), and whether it
+  // came a quarter of a reach nearer since (its credit is then topped up to what closing it takes now).
+  double lastBeyond = -1;
+  bool progressed = false;
   // The last pre-stabilisation call of this substep held a limit or range row (post-stabilisation then takes away
   // the whole rate along it, the speed that closed a violation with it).
   bool limitHeld = false;
@@ -163,6 +167,20 @@ inline glm::dvec3 withinReach(const glm::dvec3& moved, const glm::dvec3& step, d
 }
 
 inline Aabb merge(const Aabb& a, const Aabb& b) { return {glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; }
+
+// An event (or a contact report) at contact c, at `time`, with the poses of c.a and c.b; no impulse yet.
+inline CollisionEvent eventAt(const Contact& c, double time, const Pose& poseA, const Pose& poseB) {
+  CollisionEvent e;
+  e.time = time;
+  e.a = c.a;
+  e.b = c.b;
+  e.point = c.point;
+  e.normal = c.normal;
+  e.penetration = -c.phi;
+  e.poseA = poseA;
+  e.poseB = poseB;
+  return e;
+}
 
 // A movable body's turn over h from its orientation with angular velocity w: torque-free (rotation.h; the angular
 // momentum and kinetic energy kept) for a dynamic body, at constant w for a kinematic one.

@@ -204,6 +204,10 @@ void World::setPose(int i, const Pose& pose) {
   b.x = pose.position;
   b.q = glm::normalize(q);
   wake(i);
+  // Its joints close what the move opened: their closing energy is measured afresh (their credit, settleCredit in
+  // joint_step.cpp, is refilled only by what the joints take away, and in zero gravity nothing would).
+  for (detail::Joint& jt : ctx_->joints)
+    if (!jt.removed && (jt.def.a == i || jt.def.b == i)) jt.credit = -1;
 }
 void World::setRestitution(int i, double restitution) {
   RigidBody& b = liveBody(*ctx_, i);

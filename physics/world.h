@@ -137,7 +137,8 @@ class World {
   double time() const;
   // Setters of a body's state; each throws std::invalid_argument on a value
   // that is not finite (std::out_of_range for a bad index). A velocity that is
-  // not zero, or a new pose, wakes the body (static bodies never wake).
+  // not zero, or a new pose, wakes the body (static bodies never wake). A new pose that opens a joint is closed
+  // from the next step (at up to maxCorrectionSpeed).
   void setVelocity(int i, const glm::dvec3& v);         // of the centre of mass
   void setAngularVelocity(int i, const glm::dvec3& w);  // rad/s, world
   void setPose(int i, const Pose& pose);                // centre of mass and orientation (normalised)

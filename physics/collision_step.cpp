@@ -238,7 +238,9 @@ void collisionsCarried(StepContext& ctx, double h) {
     int top = 0;
     for (size_t i = 0; i < ctx.bodies.size(); ++i)
       if (ctx.shockAbsorbed[i] > 0) top = std::max(top, level[i]);
-    std::vector<std::vector<size_t>> supports(static_cast<size_t>(top) + 1);  // by the upper body's level
+    std::vector<std::vector<size_t>>& supports = ctx.carriedSupports;  // by the upper body's level
+    supports.resize(static_cast<size_t>(top) + 1);
+    for (std::vector<size_t>& s : supports) s.clear();
     for (size_t pi = 0; pi < np; ++pi) {
       if (ctx.groups[pi].empty()) continue;
       const int la = level[static_cast<size_t>(ctx.pairs[pi].a)], lb = level[static_cast<size_t>(ctx.pairs[pi].b)];
@@ -251,12 +253,12 @@ void collisionsCarried(StepContext& ctx, double h) {
     weight.assign(ctx.bodies.size(), 0.0);
     std::vector<int>& count = ctx.carriedCount;
     count.assign(ctx.bodies.size(), 0);
+    auto upper = [&](size_t pi) {
+      const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
+      return level[static_cast<size_t>(a)] > level[static_cast<size_t>(b)] ? a : b;
+    };
     for (int l = top; l >= 1; --l) {
       const std::vector<size_t>& below = supports[static_cast<size_t>(l)];
-      auto upper = [&](size_t pi) {
-        const int a = ctx.pairs[pi].a, b = ctx.pairs[pi].b;
-        return level[static_cast<size_t>(a)] > level[static_cast<size_t>(b)] ? a : b;
-      };
       for (size_t pi : below) {
         const size_t u = static_cast<size_t>(upper(pi));
         if (!(take[u] > 0)) continue;

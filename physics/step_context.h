@@ -292,6 +292,7 @@ struct StepContext {
   std::vector<double> pairApproach, shockPush, shockAbsorbed;
   // collisionsCarried's scratch.
   std::vector<size_t> carriedPairs;
+  std::vector<std::vector<size_t>> carriedSupports;
   std::vector<double> carriedBlow;
   std::vector<double> carriedPush, carriedWeight;
   std::vector<int> carriedCount;

@@ -89,6 +89,14 @@ gl::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, co
   const AddressCamera cam = addressCamera(point, n, bx, bo);
   const double range = cam.zFar - cam.zNear;
   const double depthToHeight = range / x.bumpDepth;
+  auto raise = [&](const ReferenceBody& b) {
+    if (!b.height) return 0.0;
+    float highest = 0.5f;
+    for (int y = 0; y < b.height->height; ++y)
+      for (int x0 = 0; x0 < b.height->width; ++x0) highest = std::max(highest, b.height->at(x0, y));
+    return (double(highest) - 0.5) * b.bumpDepthCollide / range;
+  };
+  const double bound = depth / range + raise(x) + raise(other);
   // The camera's view rectangle in view space.
   const glm::dmat4 inv = glm::inverse(cam.projection);
   const glm::dvec2 vlo(inv * glm::dvec4(-1, -1, 0, 1)), vhi(inv * glm::dvec4(1, 1, 0, 1));
@@ -146,7 +154,9 @@ gl::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, co
           zB = std::max(
               zB, std::clamp(zw + (sampleBilinear(other.height, uv) - 0.5) * other.bumpDepthCollide / range, 0.0, 1.0));
         }
-        const double dD = zB - z;
+        // X advanced by `depth` into the other: an overlap beyond it and the bumps' reach was there before the
+        // push, not this event's (DeformRequest::boundByDepth).
+        const double dD = std::min(zB - z, bound);
         if (!(dD > 0)) continue;
         const float h2 = static_cast<float>(std::clamp(h - dD * depthToHeight, 0.0, 1.0));
         out.at(tx0, ty) = std::min(out.at(tx0, ty), h2);

@@ -21,7 +21,8 @@ struct ReferenceBody {
 };
 
 // New height map of side X after one deformation (X advanced by `depth` along
-// n minus the penetration, as in Deformer::deform). Texels not hit keep their value.
+// n minus the penetration, as in Deformer::deform; no texel cut deeper than `depth` and the bumps' reach along
+// n, as DeformRequest::boundByDepth). Texels not hit keep their value.
 gl::Image referenceDeform(const ReferenceBody& x, const ReferenceBody& other, const glm::dvec3& point,
                               const glm::dvec3& n, double penetration, double depth);
 

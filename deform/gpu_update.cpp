@@ -9,7 +9,7 @@ namespace crumple::deform {
 GatherUpdate::GatherUpdate()
     : program_({{GL_VERTEX_SHADER, "texel.vert", std::string(deformShader("texel.vert"))},
                 {GL_GEOMETRY_SHADER, "texel.geom", std::string(deformShader("texel.geom"))},
-                {GL_FRAGMENT_SHADER, "texel_gather.frag", std::string(deformShader("texel_gather.frag"))}}) {}
+                {GL_FRAGMENT_SHADER, "texel_gather.frag", deformSource("texel_gather.frag")}}) {}
 
 void GatherUpdate::bindTexelSpace(int res) {
   auto it = texelSpace_.find(res);
@@ -49,6 +49,7 @@ void GatherUpdate::run(const SideUpdate& u, const GpuMesh& mesh, const gl::Textu
   uDepthToHeight_.set(u.depthToHeight);
   uTangentMode_.set(static_cast<int>(u.tangent));
   uTangentFloor_.set(u.tangentFloor);
+  uPushDepth_.set(u.pushDepth);
   uViewNormal_.set(u.viewNormal);
   mesh.draw();
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -65,7 +66,7 @@ struct GatherEntry {
   GLint slot, resolution, sampler, tangentMode;
   GLuint scratchBase;
   float farthestOther, bumpToDepth, depthToHeight;
-  float tangentFloor, bumpReach, pad[2];
+  float tangentFloor, bumpReach, pushDepth, pad;
 };
 static_assert(sizeof(GatherEntry) == 176, "GatherEntry must match texel_gather.comp's std430 layout");
 }  // namespace
@@ -106,7 +107,8 @@ void ComputeGather::cull(const std::vector<Side>& in, int addressMap, const gl::
     g.depthToHeight = u.depthToHeight;
     g.tangentFloor = u.tangentFloor;
     g.bumpReach = u.bumpReach;
-    g.pad[0] = g.pad[1] = 0;
+    g.pushDepth = u.pushDepth;
+    g.pad = 0;
   }
   for (size_t e = 0; e < order_.size();) {  // runs of one kind, kGroup sides at most
     const GpuMesh* mesh = order_[e]->mesh;
@@ -217,6 +219,7 @@ void ScatterUpdate::run(const SideUpdate& u, const AddressPasses& passes, const 
   uDepthToHeight_.set(u.depthToHeight);
   uTangentMode_.set(static_cast<int>(u.tangent));
   uTangentFloor_.set(u.tangentFloor);
+  uPushDepth_.set(u.pushDepth);
   uViewNormal_.set(u.viewNormal);
   glDispatchCompute(dispatchGroups(passes.size()), dispatchGroups(passes.size()), 1);
 }

@@ -68,6 +68,9 @@ struct SideUpdate {
   float depthToHeight = 0;  // (zfar - znear) / k
   float bumpToDepth = 0;    // X's k' / (zfar - znear)
   float bumpReach = 0;      // how far X's bumps raise a point towards the camera at most: (highest - 0.5) k' / range
+  // The deepest a texel is dented along the view (window depth): X's deformation depth d / range and the reach
+  // of bumps the contact did not feel (DeformRequest::boundByDepth; 2: no bound).
+  float pushDepth = 0;
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;
   glm::vec3 viewNormal{0};  // N_C as owned by X (towards the camera)
@@ -182,7 +185,8 @@ class GatherUpdate {
       uTangentMode_{program_, "uTangentMode"};
   gl::Uniform<float> uViewMargin_{program_, "uViewMargin"}, uFarthestOther_{program_, "uFarthestOther"},
       uBumpReach_{program_, "uBumpReach"}, uBumpToDepth_{program_, "uBumpToDepth"},
-      uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"};
+      uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"},
+      uPushDepth_{program_, "uPushDepth"};
   gl::Uniform<glm::vec3> uViewNormal_{program_, "uViewNormal"};
   gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
   // Framebuffers without attachments, one per map size drawn (a software rasteriser bins all of it); kept, so
@@ -278,7 +282,8 @@ class ScatterUpdate {
   gl::Uniform<int> uSide_{program_, "uSide"}, uResolution_{program_, "uResolution"},
       uTangentMode_{program_, "uTangentMode"};
   gl::Uniform<glm::ivec2> uSize_{program_, "uSize"};
-  gl::Uniform<float> uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"};
+  gl::Uniform<float> uDepthToHeight_{program_, "uDepthToHeight"}, uTangentFloor_{program_, "uTangentFloor"},
+      uPushDepth_{program_, "uPushDepth"};
   gl::Uniform<glm::vec3> uViewNormal_{program_, "uViewNormal"};
   gl::Uniform<GLuint> uScratchBase_{program_, "uScratchBase"};
 };

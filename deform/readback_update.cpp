@@ -105,6 +105,7 @@ void ReadbackUpdate::scatter(const SideUpdate& u, const AddressPasses& passes, c
     if (ca_[i * 2] < 0.0f || cb_[i * 2] < 0.0f) continue;
     float dD = db_[i] - da_[i];
     if (!(dD > 0.0f)) continue;
+    dD = std::min(dD, u.pushDepth);  // an overlap beyond X's advance (and unfelt bumps) was there before the push
     if (tangent) {
       const float c =
           std::abs(glm::dot(glm::normalize(glm::vec3(na_[i * 4], na_[i * 4 + 1], na_[i * 4 + 2])), u.viewNormal));
@@ -113,7 +114,8 @@ void ReadbackUpdate::scatter(const SideUpdate& u, const AddressPasses& passes, c
     const int tx = std::clamp(static_cast<int>(std::floor(ca_[i * 2] * static_cast<float>(res))), 0, res - 1);
     const int ty = std::clamp(static_cast<int>(std::floor(ca_[i * 2 + 1] * static_cast<float>(res))), 0, res - 1);
     const size_t t = static_cast<size_t>(ty) * res + tx;
-    const float h2 = std::clamp(std::fma(-dD, u.depthToHeight, h[t]), 0.0f, 1.0f);  // as the GPU's dent_update.comp
+    const float drop = dD * u.depthToHeight;  // rounded, then subtracted: as the GPU's dent_update.comp
+    const float h2 = std::clamp(h[t] - drop, 0.0f, 1.0f);
     if (!(h2 < h[t])) continue;
     out[t] = std::min(out[t], h2);
     box[0] = std::min(box[0], tx);

@@ -22,6 +22,7 @@ uniform int uResolution;
 uniform float uDepthToHeight;  // (zfar - znear) / k
 uniform int uTangentMode;      // 0 none, 1 multiply by |N . N_C|, 2 divide with a floor
 uniform float uTangentFloor;
+uniform float uPushDepth;      // the deepest a texel is dented, window depth (SideUpdate::pushDepth)
 uniform vec3 uViewNormal;      // N_C as owned by X (towards the camera)
 void main() {
   ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -31,16 +32,19 @@ void main() {
   if (a.x < 0.0 || o.x < 0.0) return;
   float dD = texelFetch(uDepthOther, p, 0).r - texelFetch(uDepthX, p, 0).r;
   if (!(dD > 0.0)) return;
+  dD = min(dD, uPushDepth);  // an overlap beyond X's advance (and unfelt bumps) was there before the push
   if (uTangentMode != 0) {
     float c = abs(dot(normalize(texelFetch(uNormalX, p, 0).xyz), uViewNormal));
     dD = uTangentMode == 1 ? dD * c : dD / max(c, uTangentFloor);
   }
   ivec2 t = clamp(ivec2(floor(a * float(uResolution))), ivec2(0), ivec2(uResolution - 1));
   float h = texelFetch(uHeightX, t, 0).r;
-  // One fused multiply-add, written out: GPUs contract h - dD * k into one
-  // anyway, and the read-back path computes the same fma on the CPU, so the
-  // two paths give bit-identical maps on every driver.
-  float h2 = clamp(fma(-dD, uDepthToHeight, h), 0.0, 1.0);
+  // A multiply, then a subtraction, each rounded (`precise`: no driver fuses
+  // them), as the read-back path computes on the CPU: the two paths give
+  // bit-identical maps on every driver. (An fma() is not one either: Mesa's
+  // llvmpipe splits it into a multiply and an add, NVIDIA's fuses it.)
+  precise float drop = dD * uDepthToHeight;
+  precise float h2 = clamp(h - drop, 0.0, 1.0);
   if (!(h2 < h)) return;
   atomicMin(uScratch[uScratchBase + uint(t.y * uResolution + t.x)], floatBitsToUint(h2));
   atomicMin(uRegion[uSide].x, t.x);

@@ -10,7 +10,8 @@
 // it covers: dents run on to a chart's edge and into its gutter, so bilinear
 // sampling across the edge sees no seam. A texel two triangles reach takes the
 // deeper of their values (the update's atomic minimum).
-// out: gClip, gNormal, gBox (the polygon's texel bounds + 0.5: no spikes past it)
+// out: gClip, gNormal, gBox (the polygon's texel bounds + 0.5: no spikes past it), the triangle (gTri01, gTri2,
+//      gCorner0..2: texel and clip-space corners) for the fragment's nearest point on it (texel_point.glsl)
 layout(triangles) in;
 layout(triangle_strip, max_vertices = 7) out;
 in vec3 vClip[];
@@ -19,6 +20,11 @@ in vec2 vUV[];
 out vec3 gClip;
 out vec3 gNormal;
 flat out vec4 gBox;
+flat out vec4 gTri01;
+flat out vec3 gTri2;  // t2, twice the signed area
+flat out vec3 gCorner0;
+flat out vec3 gCorner1;
+flat out vec3 gCorner2;
 uniform int uResolution;
 uniform float uViewMargin;  // clip units beyond [-1, 1] that are kept (a pixel or two)
 uniform float uBumpReach;   // how far X's bumps raise a point towards the camera at most, in window depth
@@ -98,6 +104,11 @@ void main() {
     gClip = w0 * c0 + w1 * c1 + w2 * c2;
     gNormal = w0 * vNormal[0] + w1 * vNormal[1] + w2 * vNormal[2];
     gBox = box;
+    gTri01 = vec4(t0, t1);
+    gTri2 = vec3(t2, area);
+    gCorner0 = c0;
+    gCorner1 = c1;
+    gCorner2 = c2;
     gl_Position = vec4(q[i] / res * 2.0 - 1.0, 0.0, 1.0);
     EmitVertex();
   }

@@ -19,6 +19,7 @@
 //      pass (layer `slot` of uAddressOther, uDepthOther)
 // out: uScratch (float bits, minimum), uRegion[slot] grows to the touched texels
 layout(local_size_x = 16, local_size_y = 16) in;
+#include "texel_point.glsl"
 layout(std430, binding = 0) buffer Region { ivec4 uRegion[]; };  // bindings::kRegion
 layout(std430, binding = 1) readonly buffer Vertices { float uVertex[]; };  // GpuMesh: 17 floats a vertex; bindings::gather::kVertices
 layout(std430, binding = 2) buffer Scratch { uint uScratch[]; };  // bindings::kScratch
@@ -37,7 +38,8 @@ struct Entry {
   float depthToHeight;     // (zfar - znear) / k
   float tangentFloor;
   float bumpReach;         // how far X's bumps raise a point towards the camera at most (window depth)
-  float pad1, pad2;
+  float pushDepth;         // the deepest a texel is dented, window depth (SideUpdate::pushDepth)
+  float pad1;
 };
 layout(std430, binding = 7) readonly buffer Entries { Entry uEntry[]; };  // bindings::gather::kEntries
 // The kept tiles, (side << 20) | tile each; their head: [0] their count, [1 .. 3] mode 1's indirect dispatch
@@ -143,6 +145,27 @@ bool kept(uint tileIndex) {
   return !(cmin.x > lim || cmax.x < -lim || cmin.y > lim || cmax.y < -lim ||
            cmin.z * 0.5 + 0.5 - gE.bumpReach > gE.farthestOther);
 }
+// How far the other body's depth lies beyond X's surface point `clip` (window depth; <= 0: not inside it, or
+// outside the view grown by `reach` or not seen there), X's point raised by its height h.
+float beyond(vec3 clip, vec2 reach, float h) {
+  if (any(greaterThan(abs(clip.xy), reach))) return -1.0;
+  // Pixel coordinates in the address map (pixel centres at integers).
+  vec2 px = (clip.xy * 0.5 + 0.5) * float(uSize) - 0.5;
+  if (any(lessThan(px, vec2(-0.5))) || any(greaterThan(px, vec2(float(uSize) - 0.5)))) return -1.0;
+  ivec2 b = ivec2(floor(px));
+  vec2 w = px - vec2(b);
+  float dO;
+  if (seen(b) && seen(b + ivec2(1, 0)) && seen(b + ivec2(0, 1)) && seen(b + ivec2(1, 1))) {
+    dO = mix(mix(depthAt(b), depthAt(b + ivec2(1, 0)), w.x), mix(depthAt(b + ivec2(0, 1)), depthAt(b + ivec2(1, 1)), w.x),
+             w.y);
+  } else {
+    ivec2 nearest = ivec2(floor(px + 0.5));
+    if (!seen(nearest)) return -1.0;
+    dO = depthAt(nearest);
+  }
+  float zX = clamp(clip.z * 0.5 + 0.5 - (h - 0.5) * gE.bumpToDepth, 0.0, 1.0);
+  return dO - zX;
+}
 void gatherTile(uint tileIndex, int tilesX) {
   ivec2 tile = ivec2(int(tileIndex) % tilesX, int(tileIndex) / tilesX);
   uint first = uTileStart[tileIndex], count = uTileStart[tileIndex + 1u] - first;
@@ -163,35 +186,25 @@ void gatherTile(uint tileIndex, int tilesX) {
       vec2 t0 = t01.xy, t1 = t01.zw, t2 = t2a.xy;
       if (!reaches(q, t0, t1, t2, t2a.w)) continue;
       float area = t2a.z;
-      float w1 = ((q.x - t0.x) * (t2.y - t0.y) - (q.y - t0.y) * (t2.x - t0.x)) / area;
-      float w2 = ((t1.x - t0.x) * (q.y - t0.y) - (t1.y - t0.y) * (q.x - t0.x)) / area;
-      float w0 = 1.0 - w1 - w2;
+      vec3 w = texelBarycentrics(q, t0, t1, t2, area);
       vec3 c1 = sTri[j * 8u + 3u].xyz, c2 = sTri[j * 8u + 4u].xyz;
-      vec3 clip = w0 * c0k.xyz + w1 * c1 + w2 * c2;
       // The view grown by half the texel's footprint there (the clip coordinates' change over a texel).
       vec2 dx = ((c1.xy - c0k.xy) * (t2.y - t0.y) - (c2.xy - c0k.xy) * (t1.y - t0.y)) / area;
       vec2 dy = ((c2.xy - c0k.xy) * (t1.x - t0.x) - (c1.xy - c0k.xy) * (t2.x - t0.x)) / area;
       vec2 reach = lim + 0.5 * (abs(dx) + abs(dy));
-      if (any(greaterThan(abs(clip.xy), reach))) continue;
-      // Pixel coordinates in the address map (pixel centres at integers).
-      vec2 px = (clip.xy * 0.5 + 0.5) * float(uSize) - 0.5;
-      if (any(lessThan(px, vec2(-0.5))) || any(greaterThan(px, vec2(float(uSize) - 0.5)))) continue;
-      ivec2 b = ivec2(floor(px));
-      vec2 w = px - vec2(b);
-      float dO;
-      if (seen(b) && seen(b + ivec2(1, 0)) && seen(b + ivec2(0, 1)) && seen(b + ivec2(1, 1))) {
-        dO = mix(mix(depthAt(b), depthAt(b + ivec2(1, 0)), w.x), mix(depthAt(b + ivec2(0, 1)), depthAt(b + ivec2(1, 1)), w.x),
-                 w.y);
-      } else {
-        ivec2 nearest = ivec2(floor(px + 0.5));
-        if (!seen(nearest)) continue;
-        dO = depthAt(nearest);
-      }
-      float zX = clamp(clip.z * 0.5 + 0.5 - (h - 0.5) * gE.bumpToDepth, 0.0, 1.0);
-      float dD = dO - zX;
+      float dD = beyond(w.x * c0k.xyz + w.y * c1 + w.z * c2, reach, h);
       if (!(dD > 0.0)) continue;
+      if (any(lessThan(w, vec3(0.0)))) {  // texel_point.glsl: a centre outside the triangle
+        vec3 wn = nearestBarycentrics(q, t0, t1, t2, w);
+        dD = min(dD, beyond(wn.x * c0k.xyz + wn.y * c1 + wn.z * c2, reach, h));
+        if (!(dD > 0.0)) continue;
+      }
+      // X advanced by d into the other (retracted first to contact): an overlap beyond d and the reach of bumps
+      // the contact did not feel was there before the push (a pose the contact did not measure) and is not
+      // this event's.
+      dD = min(dD, gE.pushDepth);
       if (gE.tangentMode != 0) {
-        vec3 normal = w0 * sTri[j * 8u + 5u].xyz + w1 * sTri[j * 8u + 6u].xyz + w2 * sTri[j * 8u + 7u].xyz;
+        vec3 normal = w.x * sTri[j * 8u + 5u].xyz + w.y * sTri[j * 8u + 6u].xyz + w.z * sTri[j * 8u + 7u].xyz;
         float c = abs(dot(normalize(normal), gE.viewNormal.xyz));
         dD = gE.tangentMode == 1 ? dD * c : dD / max(c, gE.tangentFloor);
       }

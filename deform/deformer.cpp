@@ -471,9 +471,8 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   const double raiseX = (static_cast<double>(x.surface->maps().highest) - 0.5) * u.bumpToDepth;
   const double raiseOther = other.surface ? (static_cast<double>(other.surface->maps().highest) - 0.5) * p.otherBumpToDepth : 0.0;
   u.bumpReach = static_cast<float>(raiseX);
-  u.pushDepth = rq.boundByDepth
-                    ? static_cast<float>(depth / range + (x.felt ? 0.0 : raiseX) + (other.felt ? 0.0 : raiseOther))
-                    : 2.0f;  // window depths lie in [0, 1]
+  u.pushDepth =
+      rq.boundByDepth ? static_cast<float>(depth / range + raiseX + raiseOther) : 2.0f;  // window depths lie in [0, 1]
   // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
   p.farthestOther = static_cast<float>(windowDepths(cam, bo).y + raiseOther + 1e-6);
   // X's nearest window depth (its bounds, raised by its bumps): the other body's depth must pass it to dent.

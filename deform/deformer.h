@@ -53,9 +53,6 @@ struct DeformBody {
   Surface* surface = nullptr;
   const GpuMesh* mesh = nullptr;
   glm::dmat4 model{1};
-  // The physics measured the contact on this body's dented surface (its dents and bumps felt): its relief adds no
-  // overlap the contact's penetration left out.
-  bool felt = false;
 };
 
 struct DeformRequest {
@@ -64,10 +61,11 @@ struct DeformRequest {
   glm::dvec3 normal{0};  // N_C, out of A
   double penetration = 0;
   double deformA = 0, deformB = 0;  // t * percentDeform per side (m)
-  // Each texel is dented by at most its side's depth along the normal, plus how far the bumps of a body whose
-  // relief the contact did not feel reach: X is retracted to first contact and advanced by its depth, so an overlap
-  // beyond that was there before (a pose the contact did not measure) and is not this event's to cut. false: no
-  // bound (the whole overlap is cut, as where the other body is pressed in where it stands).
+  // Each texel is dented by at most its side's depth along the normal, plus how far the two maps' bumps (heights
+  // above flat: an image's relief, which contacts do not feel) reach: X is retracted to first contact and advanced
+  // by its depth, so an overlap beyond that was there before (a pose the contact did not measure, as a body
+  // rocking in its own crater) and is not this event's to cut. false: no bound (the whole overlap is cut, as where
+  // the other body is pressed in where it stands).
   bool boundByDepth = true;
 };
 

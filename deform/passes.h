@@ -69,7 +69,7 @@ struct SideUpdate {
   float bumpToDepth = 0;    // X's k' / (zfar - znear)
   float bumpReach = 0;      // how far X's bumps raise a point towards the camera at most: (highest - 0.5) k' / range
   // The deepest a texel is dented along the view (window depth): X's deformation depth d / range and the reach
-  // of bumps the contact did not feel (DeformRequest::boundByDepth; 2: no bound).
+  // of the two maps' bumps (DeformRequest::boundByDepth; 2: no bound).
   float pushDepth = 0;
   TangentMode tangent = TangentMode::None;
   float tangentFloor = 0.2f;

@@ -105,7 +105,7 @@ void ReadbackUpdate::scatter(const SideUpdate& u, const AddressPasses& passes, c
     if (ca_[i * 2] < 0.0f || cb_[i * 2] < 0.0f) continue;
     float dD = db_[i] - da_[i];
     if (!(dD > 0.0f)) continue;
-    dD = std::min(dD, u.pushDepth);  // an overlap beyond X's advance (and unfelt bumps) was there before the push
+    dD = std::min(dD, u.pushDepth);  // an overlap beyond X's advance (and the bumps) was there before the push
     if (tangent) {
       const float c =
           std::abs(glm::dot(glm::normalize(glm::vec3(na_[i * 4], na_[i * 4 + 1], na_[i * 4 + 2])), u.viewNormal));

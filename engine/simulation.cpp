@@ -335,8 +335,8 @@ deform::DeformRequest Simulation::eventRequest(const CollisionEvent& e, int a, i
   const BodyRuntime& A = bodies_[static_cast<size_t>(a)];
   const BodyRuntime& B = bodies_[static_cast<size_t>(b)];
   deform::DeformRequest rq;
-  rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(a, e.poseA), dents_[static_cast<size_t>(a)].feel};
-  rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(b, e.poseB), dents_[static_cast<size_t>(b)].feel};
+  rq.a = {A.surface.get(), A.gpuMesh.get(), modelAt(a, e.poseA)};
+  rq.b = {B.surface.get(), B.gpuMesh.get(), modelAt(b, e.poseB)};
   rq.point = e.point;
   rq.normal = e.normal;
   rq.penetration = e.penetration;

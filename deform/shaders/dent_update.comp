@@ -32,7 +32,7 @@ void main() {
   if (a.x < 0.0 || o.x < 0.0) return;
   float dD = texelFetch(uDepthOther, p, 0).r - texelFetch(uDepthX, p, 0).r;
   if (!(dD > 0.0)) return;
-  dD = min(dD, uPushDepth);  // an overlap beyond X's advance (and unfelt bumps) was there before the push
+  dD = min(dD, uPushDepth);  // an overlap beyond X's advance (and the bumps) was there before the push
   if (uTangentMode != 0) {
     float c = abs(dot(normalize(texelFetch(uNormalX, p, 0).xyz), uViewNormal));
     dD = uTangentMode == 1 ? dD * c : dD / max(c, uTangentFloor);

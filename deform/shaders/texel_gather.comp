@@ -199,9 +199,9 @@ void gatherTile(uint tileIndex, int tilesX) {
         dD = min(dD, beyond(wn.x * c0k.xyz + wn.y * c1 + wn.z * c2, reach, h));
         if (!(dD > 0.0)) continue;
       }
-      // X advanced by d into the other (retracted first to contact): an overlap beyond d and the reach of bumps
-      // the contact did not feel was there before the push (a pose the contact did not measure) and is not
-      // this event's.
+      // X advanced by d into the other (retracted first to contact): an overlap beyond d and the reach of
+      // the maps' bumps was there before the push (a pose the contact did not measure) and is not this
+      // event's.
       dD = min(dD, gE.pushDepth);
       if (gE.tangentMode != 0) {
         vec3 normal = w.x * sTri[j * 8u + 5u].xyz + w.y * sTri[j * 8u + 6u].xyz + w.z * sTri[j * 8u + 7u].xyz;

@@ -71,9 +71,9 @@ void main() {
     dD = min(dD, beyond(wn.x * gCorner0 + wn.y * gCorner1 + wn.z * gCorner2, h));
     if (!(dD > 0.0)) return;
   }
-  // X advanced by d into the other (retracted first to contact): an overlap beyond d and the reach of bumps
-  // the contact did not feel was there before the push (a pose the contact did not measure) and is not
-  // this event's.
+  // X advanced by d into the other (retracted first to contact): an overlap beyond d and the reach of
+  // the maps' bumps was there before the push (a pose the contact did not measure) and is not this
+  // event's.
   dD = min(dD, uPushDepth);
   if (uTangentMode != 0) {
     float c = abs(dot(normalize(gNormal), uViewNormal));

@@ -130,7 +130,7 @@ void reportContacts(StepContext& ctx, const std::vector<double>& pushed) {
     const RigidBody& B = ctx.body(c.b);
     CollisionEvent e = eventAt(c, ctx.time, {A.x, A.q}, {B.x, B.q});
     e.impulse = pushed[pi];
-    e.impulseVector = c.normal * pushed[pi];
+    e.impulseVector = e.normal * pushed[pi];
     e.elasticImpulse = 2 * pushed[pi];
     ctx.contactReports.push_back(e);
   }

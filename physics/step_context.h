@@ -168,17 +168,20 @@ inline glm::dvec3 withinReach(const glm::dvec3& moved, const glm::dvec3& step, d
 
 inline Aabb merge(const Aabb& a, const Aabb& b) { return {glm::min(a.lo, b.lo), glm::max(a.hi, b.hi)}; }
 
-// An event (or a contact report) at contact c, at `time`, with the poses of c.a and c.b; no impulse yet.
+// An event (or a contact report) at contact c, at `time`, with the poses of c.a and c.b; no impulse yet. Its
+// bodies in the order of their indices (the normal out of the first), whichever way the narrow phase found them:
+// a pair's events name it the same way every time.
 inline CollisionEvent eventAt(const Contact& c, double time, const Pose& poseA, const Pose& poseB) {
   CollisionEvent e;
+  const bool swap = c.b >= 0 && c.b < c.a;
   e.time = time;
-  e.a = c.a;
-  e.b = c.b;
+  e.a = swap ? c.b : c.a;
+  e.b = swap ? c.a : c.b;
   e.point = c.point;
-  e.normal = c.normal;
+  e.normal = swap ? -c.normal : c.normal;
   e.penetration = -c.phi;
-  e.poseA = poseA;
-  e.poseB = poseB;
+  e.poseA = swap ? poseB : poseA;
+  e.poseB = swap ? poseA : poseB;
   return e;
 }
 

@@ -86,7 +86,7 @@ struct WorldSettings {
 
 struct CollisionEvent {
   double time = 0;
-  int a = -1, b = -1;           // body indices; a owns the normal
+  int a = -1, b = -1;           // body indices, a < b (or b < 0); a owns the normal
   glm::dvec3 point{0};          // P_C, world
   glm::dvec3 normal{0};         // N_C, unit, out of A
   double penetration = 0;       // d_C >= 0

@@ -180,25 +180,42 @@ void collisionsCarried(StepContext& ctx, double h) {
   for (size_t pi = 0; pi < np; ++pi)
     if (!ctx.groups[pi].empty() && (ctx.eventOfPair[pi] >= 0 || ctx.pairApproach[pi] >= fast)) hit.push_back(pi);
   if (hit.empty()) return;
-  // Only in an island that a blow struck, and no more than its momentum: the largest, over its pairs whose contacts
-  // approached faster than that at the step's start (the velocities then, at the contacts' points), of the speed
-  // times the heavier dynamic body's mass (without bound where a kinematic body drives). A heavy body resting on a
-  // light one has the collision passes kick the light one into the ground at every substep; its weight is no blow.
+  // Only in an island that a blow struck, and no more than its momentum. Struck: some pair's contacts approached
+  // faster than that at the step's start (the velocities then, at the contacts' points). Its momentum: the largest,
+  // over those pairs, of the speed times the heavier dynamic body's mass, or, where more, what the island's dynamic
+  // bodies that moved that fast carried together (a ball and the crate under it landing together: the crate's
+  // landing carries the ball's momentum); without bound where a kinematic body drives (moves at its contact that
+  // fast: a parked one is as static). A heavy body resting on a light one has the collision passes kick the light
+  // one into the ground at every substep; its weight is no blow.
   std::vector<double>& blow = ctx.carriedBlow;
   blow.assign(ctx.islandCount(), -1.0);  // -1: not yet looked at
+  std::vector<size_t>& seen = ctx.carriedSeen;
+  seen.assign(ctx.bodies.size(), 0);
   auto momentum = [&](const Contact& c) {
     const BodyState& A = ctx.stepBefore[static_cast<size_t>(c.a)];
     const BodyState& B = ctx.stepBefore[static_cast<size_t>(c.b)];
-    const glm::dvec3 u = (B.v + glm::cross(B.w, c.point - B.x)) - (A.v + glm::cross(A.w, c.point - A.x));
-    const double speed = -glm::dot(u, c.normal);
+    const glm::dvec3 va = A.v + glm::cross(A.w, c.point - A.x), vb = B.v + glm::cross(B.w, c.point - B.x);
+    const double speed = -glm::dot(vb - va, c.normal);
     if (!(speed >= fast)) return 0.0;
     double mass = 0;
     for (int i : {c.a, c.b}) {
       const RigidBody& b = ctx.body(i);
-      if (b.kinematic) return std::numeric_limits<double>::infinity();
+      if (b.kinematic && glm::length(i == c.a ? va : vb) >= fast) return std::numeric_limits<double>::infinity();
       if (b.dynamic()) mass = std::max(mass, b.mass);
     }
     return speed * mass;
+  };
+  auto moving = [&](size_t island) {  // the island's dynamic bodies' momentum, of those moving `fast` or faster
+    double sum = 0;
+    for (uint32_t k = ctx.islandStart[island]; k < ctx.islandStart[island + 1]; ++k)
+      for (int i : {ctx.pairs[ctx.islandPairs[k]].a, ctx.pairs[ctx.islandPairs[k]].b}) {
+        const RigidBody& b = ctx.body(i);
+        if (!b.dynamic() || seen[static_cast<size_t>(i)] == island + 1) continue;
+        seen[static_cast<size_t>(i)] = island + 1;
+        const double speed = glm::length(ctx.stepBefore[static_cast<size_t>(i)].v);
+        if (speed >= fast) sum += speed * b.mass;
+      }
+    return sum;
   };
   auto blowOf = [&](size_t pi) {  // at the contact step's groups and the collision step's last contacts
     double most = 0;
@@ -214,6 +231,7 @@ void collisionsCarried(StepContext& ctx, double h) {
       blow[island] = 0;
       for (uint32_t k = ctx.islandStart[island]; k < ctx.islandStart[island + 1]; ++k)
         blow[island] = std::max(blow[island], blowOf(ctx.islandPairs[k]));
+      if (blow[island] > 0) blow[island] = std::max(blow[island], moving(island));
     }
     if (!(blow[island] > 0)) continue;
     hit[kept++] = pi;

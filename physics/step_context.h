@@ -299,6 +299,7 @@ struct StepContext {
   std::vector<double> carriedBlow;
   std::vector<double> carriedPush, carriedWeight;
   std::vector<int> carriedCount;
+  std::vector<size_t> carriedSeen;  // per body: the island (+ 1) whose momentum last counted it
   // This step's substeps are capped (maxSubsteps): a body may move past a thin
   // one within a substep, so the narrow phase sweeps (narrow_phase.cpp).
   bool substepsCapped = false;

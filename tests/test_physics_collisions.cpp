@@ -950,3 +950,53 @@ TEST_CASE("a light body crushed between a heavy one and the ground passes the bl
     CHECK(elasticGround > 1.8 * momentum);
   }
 }
+
+TEST_CASE(
+    "a ball and the crate under it land together: the ground's events carry both; a parked platform is as static") {
+  // A 510 kg ball resting on a 1 kg crate, dropped together from 0.3 m onto static ground or onto a kinematic
+  // platform standing still. The crate's landing stops the ball too: the floor's events carry the pair's momentum
+  // (not the crate's alone), the same on both floors (a parked kinematic body drives nothing: no unbounded blow).
+  // Then the ball rests on the crate for two seconds: its weight is no blow, and the events carry almost none of it.
+  const double drop = 0.3, speed = std::sqrt(2 * 9.81 * drop), momentum = 511 * speed;
+  double landing[2] = {0, 0}, resting[2] = {0, 0};
+  for (int kinematic = 0; kinematic < 2; ++kinematic) {
+    World w;
+    BodyDef floor;
+    floor.shape = makeBox({10, 1, 10});
+    floor.origin = {0, -0.5, 0};
+    floor.isStatic = kinematic == 0;
+    floor.kinematic = kinematic == 1;
+    floor.friction = 0.8;
+    floor.restitution = 0.2;
+    const int f = w.addBody(floor);
+    BodyDef crate;
+    crate.shape = makeBox({0.25, 0.25, 0.25});
+    crate.origin = {0, 0.125 + drop, 0};
+    crate.mass = 1;
+    crate.restitution = 0.3;
+    w.addBody(crate);
+    BodyDef ball;
+    ball.shape = makeSphere(0.25);
+    ball.origin = {0, 0.5 + drop, 0};
+    ball.mass = 510;
+    ball.restitution = 0.95;
+    const int b = w.addBody(ball);
+    for (int s = 0; s < 720; ++s) {
+      w.step(1.0 / 240);
+      for (const CollisionEvent& e : w.events())
+        if (e.a == f || e.b == f) (s < 240 ? landing : resting)[kinematic] += e.impulse;
+    }
+    CHECK(std::abs(w.body(b).x.y - 0.5) < 0.01);
+  }
+  const double weight = 510 * 9.81 * 2;
+  MESSAGE("the floor's events: landing " << landing[0] << " N s on the ground, " << landing[1]
+                                         << " on the parked platform (the pair's momentum " << momentum
+                                         << "); resting 2 s " << resting[0] << " and " << resting[1]
+                                         << " N s (the ball's weight over them " << weight << ")");
+  for (int k = 0; k < 2; ++k) {
+    CHECK(landing[k] > 0.9 * momentum);
+    CHECK(landing[k] < 2.5 * momentum);
+    CHECK(resting[k] < 0.05 * weight);
+  }
+  CHECK(landing[1] == doctest::Approx(landing[0]).epsilon(0.05));
+}

@@ -10,7 +10,8 @@
 //   early after a pass that applied nothing.
 // - At most one CollisionEvent per pair and substep, for a hit approaching at
 //   eventMinApproachSpeed or faster, carrying the first hit's geometry, the
-//   elastic impulse and the sum of the pair's impulses; stats.collisions counts them.
+//   elastic impulses of its hits from that one on and the sum of the pair's
+//   impulses; stats.collisions counts them.
 //   The elastic impulse treats a body welded to the world (ctx.anchored) as
 //   immovable: while its welds hold it is part of what it is welded to.
 // - The pairs run island by island (islands.cpp; in parallel on the World's
@@ -136,6 +137,7 @@ void CollisionRun::island(size_t island, int worker) {
         if (B.movable()) ++version[static_cast<size_t>(ib)];
         passAny = true;
         int& ev = eventOfPair_[pi];
+        const bool later = ev >= 0;
         if (ev < 0 && approach >= settings.eventMinApproachSpeed) {
           PendingEvent& pe = events.emplace_back();
           pe.pass = pass;
@@ -148,6 +150,9 @@ void CollisionRun::island(size_t island, int worker) {
         CollisionEvent& e = events[static_cast<size_t>(ev)].event;
         e.impulseVector += hit->a == e.a ? j : -j;
         e.impulse = glm::length(e.impulseVector);
+        // A pair hit again in the substep (a light body pinned between two, struck back and forth) adds each hit's
+        // |j_eps=1|: the elastic impulse is never less than what the hits applied.
+        if (later) e.elasticImpulse += elastic;
       }
     }
     if (passAny) workers_[static_cast<size_t>(worker)].any = true;

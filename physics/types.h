@@ -90,7 +90,7 @@ struct CollisionEvent {
   glm::dvec3 point{0};          // P_C, world
   glm::dvec3 normal{0};         // N_C, unit, out of A
   double penetration = 0;       // d_C >= 0
-  double elasticImpulse = 0;    // |j_eps=1| (plus twice what the later stages pushed, collisionsCarried)
+  double elasticImpulse = 0;    // |j_eps=1| of each hit (plus twice what the later stages pushed, collisionsCarried)
   double impulse = 0;           // |applied impulse| summed over the pair's iterations and the later stages
   glm::dvec3 impulseVector{0};  // applied impulse on B
   Pose poseA, poseB;            // poses at collision time (predicted positions)

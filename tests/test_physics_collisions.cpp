@@ -1000,3 +1000,46 @@ TEST_CASE(
   }
   CHECK(landing[1] == doctest::Approx(landing[0]).epsilon(0.05));
 }
+
+TEST_CASE("a light box pinned between a heavy one and a wall: each event's elastic impulse holds all of its hits") {
+  // The collision passes strike the light box back and forth between the heavy box and the wall in one substep; the
+  // events' |j_eps=1| (what dents are decided from) sums those hits, so it is never less than what they applied
+  // (frictionless here: with friction the impulse applied may lean off the normal).
+  World w;
+  w.settings().gravity = glm::dvec3(0);
+  BodyDef wall;
+  wall.shape = makeBox({0.5, 2, 2});
+  wall.origin = {1.25, 0, 0};
+  wall.isStatic = true;
+  wall.friction = 0;
+  wall.restitution = 0.2;
+  w.addBody(wall);
+  BodyDef light;
+  light.shape = makeBox({0.2, 0.2, 0.2});
+  light.origin = {0.9, -0.9, 0};  // struck off its centre: it turns, and is struck again
+  light.mass = 1;
+  light.friction = 0;
+  light.restitution = 0.3;
+  w.addBody(light);
+  BodyDef heavy;
+  heavy.shape = makeBox({0.5, 0.5, 0.5});
+  heavy.origin = {0.5, -0.75, 0};
+  heavy.mass = 500;
+  heavy.friction = 0;
+  heavy.restitution = 0.5;
+  heavy.linearVelocity = {2, 0, 0};
+  w.addBody(heavy);
+  int events = 0, short_ = 0;
+  double worst = 1e300;
+  for (int step = 0; step < 240; ++step) {
+    w.step(1.0 / 240);
+    for (const CollisionEvent& e : w.events()) {
+      ++events;
+      worst = std::min(worst, e.elasticImpulse / e.impulse);
+      short_ += e.elasticImpulse < e.impulse * (1 - 1e-9);
+    }
+  }
+  MESSAGE(events << " events; the least elastic impulse over impulse applied: " << worst);
+  CHECK(events > 0);
+  CHECK(short_ == 0);
+}

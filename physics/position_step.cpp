@@ -19,9 +19,16 @@
 //   iteration loses its approach (an inelastic, frictionless normal impulse;
 //   it never adds energy). Each iteration ends with projectJoints: what it
 //   moved apart, the joints' anchors, is brought together again (translations).
+// - A dynamic body pinned between a static body and a kinematic one that drives
+//   it straight at the static one (their normals within 25 degrees of opposite)
+//   is held by the static one: the projection leaves the kinematic pair alone
+//   (its overlap grows: the kinematic body passes into the pinned one) rather
+//   than push the pinned body through the static one.
 // - On several threads and without joints to bring together, the projection
 //   runs by runs of whole islands (islands.cpp): each body gets the same
 //   corrections in the same order as over all pairs.
+#include <algorithm>
+
 #include <crumple/physics/step_context.h>
 
 namespace crumple::detail {
@@ -56,6 +63,48 @@ void integratePositions(StepContext& ctx, double h) {
   });
 }
 
+// ctx.squeezed: per pair, 1 for a kinematic body's pair with a dynamic body that some group of a static body's
+// pair pushes back the other way (normals into the dynamic body within 25 degrees of opposite); empty where no
+// pair joins a kinematic body to a dynamic one.
+void squeezedPairs(StepContext& ctx) {
+  std::vector<char>& squeezed = ctx.squeezed;
+  squeezed.clear();
+  const size_t np = std::min(ctx.groups.size(), ctx.pairs.size());
+  auto kinematicPair = [&](const Pair& p) {
+    const RigidBody &a = ctx.body(p.a), &b = ctx.body(p.b);
+    return (a.kinematic && b.dynamic()) || (b.kinematic && a.dynamic());
+  };
+  size_t pi = 0;
+  while (pi < np && (ctx.groups[pi].empty() || !kinematicPair(ctx.pairs[pi]))) ++pi;
+  if (pi == np) return;
+  // The static bodies' normals into each dynamic body, by body.
+  std::vector<std::pair<int, glm::dvec3>>& held = ctx.squeezeStatic;
+  held.clear();
+  for (size_t k = 0; k < np; ++k) {
+    const Pair& p = ctx.pairs[k];
+    const RigidBody &a = ctx.body(p.a), &b = ctx.body(p.b);
+    if (!((!a.movable() && b.dynamic()) || (!b.movable() && a.dynamic()))) continue;
+    for (const ContactGroup& g : ctx.groups[k]) {
+      const bool aHolds = !ctx.body(g.contact.a).movable();
+      held.emplace_back(aHolds ? g.contact.b : g.contact.a, aHolds ? g.contact.normal : -g.contact.normal);
+    }
+  }
+  if (held.empty()) return;
+  std::stable_sort(held.begin(), held.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  squeezed.assign(np, 0);
+  for (; pi < np; ++pi) {
+    if (ctx.groups[pi].empty() || !kinematicPair(ctx.pairs[pi])) continue;
+    for (const ContactGroup& g : ctx.groups[pi]) {
+      const bool aDrives = ctx.body(g.contact.a).kinematic;
+      const int d = aDrives ? g.contact.b : g.contact.a;
+      const glm::dvec3 into = aDrives ? g.contact.normal : -g.contact.normal;  // the kinematic body's push on d
+      auto it = std::lower_bound(held.begin(), held.end(), d, [](const auto& x, int body) { return x.first < body; });
+      for (; it != held.end() && it->first == d && !squeezed[pi]; ++it)
+        squeezed[pi] = glm::dot(into, it->second) < -0.9;  // 25 degrees
+    }
+  }
+}
+
 // Positional projection on the contact step's groups (depths at the new
 // positions from endOfStepDepths). The projection only translates bodies, so
 // from one iteration to the next each group's depth moves by the two bodies'
@@ -67,6 +116,9 @@ void projectPositions(StepContext& ctx, double h) {
   const double reach = settings.maxCorrectionSpeed * h;
   std::vector<glm::dvec3>& moved = ctx.projected;
   moved.assign(ctx.bodies.size(), glm::dvec3(0));
+  squeezedPairs(ctx);
+  const std::vector<char>& squeezed = ctx.squeezed;
+  auto skipped = [&](size_t pi) { return !squeezed.empty() && squeezed[pi]; };
   // One group's correction in iteration `it` (a body that cannot move is not written: islands share them).
   auto project = [&](const ContactGroup& g, int it) {
     const Contact& c = g.contact;
@@ -103,13 +155,15 @@ void projectPositions(StepContext& ctx, double h) {
       const uint32_t* last = ctx.islandPairs.data() + ctx.islandStart[k1];
       for (int it = 0; it < settings.projectionIterations; ++it)
         for (const uint32_t* p = first; p != last; ++p)
-          for (const ContactGroup& g : ctx.groups[*p]) project(g, it);
+          if (!skipped(*p))
+            for (const ContactGroup& g : ctx.groups[*p]) project(g, it);
     });
     return;
   }
   for (int it = 0; it < settings.projectionIterations; ++it) {
     for (size_t pi = 0; pi < ctx.groups.size() && pi < ctx.pairs.size(); ++pi)
-      for (const ContactGroup& g : ctx.groups[pi]) project(g, it);
+      if (!skipped(pi))
+        for (const ContactGroup& g : ctx.groups[pi]) project(g, it);
     // The translations above pulled joined bodies apart: the joints' anchors
     // are brought together again, translations only (joint_step.cpp).
     projectJoints(ctx, moved, reach, it == 0);

@@ -429,6 +429,9 @@ struct StepContext {
   std::vector<ProjectedJoint> jointProjection;  // per joint: its anchors turned into the world (projectJoints)
   std::vector<char> integrated;  // velocities integrated this substep (World::collideAndContact)
   std::vector<glm::dvec3> projected;  // the positional projection's translations so far
+  // The positional projection's scratch (position_step.cpp, squeezedPairs): per pair, 1 where it skips the pair.
+  std::vector<char> squeezed;
+  std::vector<std::pair<int, glm::dvec3>> squeezeStatic;
 
   // Per pair, this substep. The collision step's last contacts, found when the
   // two bodies' impulse counts were foundVersion; the contact step's first

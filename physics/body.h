@@ -75,9 +75,11 @@ struct RigidBody {
     return r * invInertiaBody * glm::transpose(r);
   }
   // World angular momentum about the centre of mass, and kinetic energy (translation and turn).
-  glm::dvec3 angularMomentum() const {
+  glm::dvec3 angularMomentum() const { return angularMomentumOf(w); }
+  // ... of the body turning at `turn` instead (world inertia times it).
+  glm::dvec3 angularMomentumOf(const glm::dvec3& turn) const {
     const glm::dmat3 r = rotation();
-    return r * (inertiaBody * (glm::transpose(r) * w));
+    return r * (inertiaBody * (glm::transpose(r) * turn));
   }
   double kineticEnergy() const { return 0.5 * mass * glm::dot(v, v) + 0.5 * glm::dot(w, angularMomentum()); }
   glm::dvec3 velocityAt(const glm::dvec3& p) const { return v + glm::cross(w, p - x); }

@@ -331,28 +331,24 @@ void removeForbiddenVelocity(StepContext& ctx, JointSystem& s, double h) {
   restoreCall(ctx, s, saved, books);
 }
 
-// A call whose sweeps handed the joined bodies more than `budget` over their energy `before` (its start: velocities
-// `saved`, the joints' `books`) scaled back along its change of the velocities and of the joints' impulses to the
+// A call whose sweeps handed the joined bodies more than `budget` over their energy at its start (velocities `saved`,
+// the joints' `books`) scaled back along its change of the velocities and of the joints' impulses to the
 // largest share s in [0, 1] that keeps within it (the energy is quadratic in s). Returns s (0: the call undone).
 double scaleCall(StepContext& ctx, const JointSystem& s, const std::vector<BodyState>& saved,
-                 const std::vector<Joint>& books, double before, double budget) {
-  // E(s) = before + B s + A s^2: from the energies at s = 1 (now) and s = -1.
-  double at1 = 0, atMinus1 = 0;
+                 const std::vector<Joint>& books, double budget) {
+  // E(s) = E(0) + B s + A s^2 over the velocities v0 + s dv: B = sum of (m v0 . dv + w0 . I dw), A = sum of
+  // (m dv . dv + dw . I dw) / 2, I the world inertia.
+  double A = 0, B = 0;
   size_t n = 0;
   for (size_t k = 1; k < s.sides.size(); ++k) {
     const int i = s.sides[k].index;
     if (i < 0 || !ctx.body(i).dynamic()) continue;
-    RigidBody& b = ctx.body(i);
-    at1 += b.kineticEnergy();
-    const glm::dvec3 v = b.v, w = b.w;
-    b.v = 2.0 * saved[n].v - v;
-    b.w = 2.0 * saved[n].w - w;
-    atMinus1 += b.kineticEnergy();
-    b.v = v;
-    b.w = w;
+    const RigidBody& b = ctx.body(i);
+    const glm::dvec3 dv = b.v - saved[n].v, dw = b.w - saved[n].w, turn = b.angularMomentumOf(dw);
+    A += 0.5 * (b.mass * glm::dot(dv, dv) + glm::dot(dw, turn));
+    B += b.mass * glm::dot(saved[n].v, dv) + glm::dot(saved[n].w, turn);
     ++n;
   }
-  const double A = 0.5 * (at1 + atMinus1) - before, B = 0.5 * (at1 - atMinus1);
   double share = 0;
   if (A > 0 && budget >= 0) share = std::clamp((-B + std::sqrt(std::max(0.0, B * B + 4 * A * budget))) / (2 * A), 0.0, 1.0);
   n = 0;
@@ -475,7 +471,7 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
     double after = joinedEnergy(ctx, s);
     if (!(after <= before + budget + 1e-9 * before)) {
       ++ctx.stats.jointFallbacks;
-      if (far && scaleCall(ctx, s, saved, books, before, budget) >= 0.5) {
+      if (far && scaleCall(ctx, s, saved, books, budget) >= 0.5) {
         after = joinedEnergy(ctx, s);
         if (!driven) settleCredit(ctx, s, after > before ? std::max(after - before - motors, 0.0) : after - before);
       } else {

@@ -181,7 +181,7 @@ class Simulation {
   static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
   static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
   static constexpr double kNearCell = 0.01;    // m: the cells the nearest-triangle lists are kept for
-  static constexpr double kGridCell = 0.04;    // m: the finest cells of DentCopy::grid (coarser past kGridCells)
+  static constexpr double kGridCell = 0.01;    // m: the finest cells of DentCopy::grid (coarser past kGridCells)
   static constexpr double kGridCells = 1 << 20;
   // What the bodies of one render mesh and map resolution share for their dents, made when the simulation is
   // built (not at the first dent, where the crash's frame would wait for it): the nearest of the mesh's triangles
@@ -198,7 +198,8 @@ class Simulation {
     bool feel = false;                 // its dents are felt (feel_dents)
     bool pending = false;              // dented this step: its changes are to be taken in
     std::shared_ptr<const DentMesh> mesh;
-    std::vector<char> overChange;      // per triangle: it lies over changed tiles
+    std::vector<char> overChange;                           // per triangle: part of it lies over changed texels
+    std::vector<std::pair<glm::dvec3, glm::dvec3>> pieces;  // boxes of those parts (shape frame), a changed tile each
     // The map before its first dent: its bump map image's heights, or flat (shared by the bodies of a resolution),
     // known from the start (no read-back from the GPU).
     std::shared_ptr<const std::vector<float>> start;
@@ -217,9 +218,9 @@ class Simulation {
     std::vector<Tile> tiles;
     std::vector<size_t> moved;         // the tiles with `moved` set
     glm::ivec2 lo{0}, hi{-1};          // the texels that differ from `start` (inclusive; none while hi < lo)
-    glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of the triangles over them, grown by the bump depth
-    // Cells of that box (row by row, gridCell a side): 1 where a point may lie within kOnSurface of a triangle over
-    // the change (the cell meets such a triangle's box grown by it); a point elsewhere feels nothing.
+    glm::dvec3 boxLo{0}, boxHi{-1};    // shape-frame box of `pieces`, grown by the bump depth (kOnSurface at least)
+    // Cells of that box (row by row, gridCell a side): 1 where a point may lie within kOnSurface of a part of a
+    // triangle over changed texels (the cell meets a piece's box grown by it); a point elsewhere feels nothing.
     glm::dvec3 gridLo{0};
     double gridCell = 1;
     glm::ivec3 gridDims{0};
@@ -241,7 +242,7 @@ class Simulation {
   void takeInFullMap(DentCopy& d, int body);  // where the log overflowed: the whole map read back, compared
   void measureTiles(DentCopy& d);  // its moved tiles' rectangles and highest, and d.lo/hi
   void findDentedTriangles(DentCopy& d, int body);  // the triangles over its changed tiles, in the world
-  void markNearChange(DentCopy& d, const TriangleMesh& mesh);  // d.grid
+  void markNearChange(DentCopy& d);                 // d.grid
   // Body i's surface's k and k' (k' = k where its dents are felt).
   void setSurfaceDepths(size_t i, float k, float kCollide);
   double surfaceDepth(int body, const glm::dvec3& point, const glm::dvec3& normal, glm::dvec3& bent) const;

@@ -188,8 +188,55 @@ void Simulation::measureTiles(DentCopy& d) {
     }
 }
 
-// The triangles over changed tiles (one texel around: the lookup interpolates between texel centres): a lookup
-// whose nearest triangle is one of these reads the map there; the box around them is where lookups happen at all.
+namespace {
+// The part of triangle (a, b, c) with uvs (ua, ub, uc) whose uv lies in [lo, hi] (clipped in uv, each corner's
+// position carried along: the map from uv to the surface is affine on the triangle), as the box around it; false
+// where none does.
+bool clippedBox(const glm::dvec3 (&p)[3], const glm::dvec2 (&uv)[3], const glm::dvec2& lo, const glm::dvec2& hi,
+                glm::dvec3& boxLo, glm::dvec3& boxHi) {
+  struct Corner {
+    glm::dvec2 uv;
+    glm::dvec3 p;
+  };
+  Corner buffer[2][9];  // a triangle clipped by four half-planes has at most seven corners
+  int n = 3;
+  for (int k = 0; k < 3; ++k) buffer[0][k] = {uv[k], p[k]};
+  int from = 0;
+  for (int plane = 0; plane < 4 && n > 0; ++plane) {
+    const int axis = plane / 2;
+    const bool below = plane % 2 == 1;  // keep uv[axis] <= hi[axis], else uv[axis] >= lo[axis]
+    auto inside = [&](const Corner& c) { return below ? c.uv[axis] <= hi[axis] : c.uv[axis] >= lo[axis]; };
+    const double bound = below ? hi[axis] : lo[axis];
+    const Corner* in = buffer[from];
+    Corner* out = buffer[1 - from];
+    int m = 0;
+    for (int k = 0; k < n; ++k) {
+      const Corner& s = in[k];
+      const Corner& e = in[(k + 1) % n];
+      const bool sIn = inside(s), eIn = inside(e);
+      if (sIn) out[m++] = s;
+      if (sIn != eIn) {
+        const double t = (bound - s.uv[axis]) / (e.uv[axis] - s.uv[axis]);
+        out[m++] = {s.uv + t * (e.uv - s.uv), s.p + t * (e.p - s.p)};
+      }
+    }
+    n = m;
+    from = 1 - from;
+  }
+  if (n == 0) return false;
+  boxLo = boxHi = buffer[from][0].p;
+  for (int k = 1; k < n; ++k) {
+    boxLo = glm::min(boxLo, buffer[from][k].p);
+    boxHi = glm::max(boxHi, buffer[from][k].p);
+  }
+  return true;
+}
+}  // namespace
+
+// The parts of the triangles that lie over changed texels (a lookup at a surface point reads the four texel
+// centres around its uv: it reads a changed texel from within a texel and a half of it), each as a box: a lookup
+// whose nearest triangle is one of these triangles reads the map there; the boxes, grown by kOnSurface, are where
+// lookups happen at all.
 void Simulation::findDentedTriangles(DentCopy& d, int i) {
   const TriangleMesh& mesh = *bodies_[static_cast<size_t>(i)].mesh;
   const int r = d.resolution;
@@ -199,48 +246,59 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
   d.boxLo = glm::dvec3(1e300);
   d.boxHi = glm::dvec3(-1e300);
   d.overChange.assign(mesh.triangles.size(), 0);
+  std::vector<std::pair<glm::dvec3, glm::dvec3>>& pieces = d.pieces;
+  pieces.clear();
   if (d.hi.x >= d.lo.x) {
+    // A changed texel x is read by a lookup at u r in [x - 0.5, x + 1.5) (past the map's edge: clamped to it).
+    auto uvOf = [&](int texel, double past, bool first, bool last) {
+      if (first && past < 0) return -1e300;
+      if (last && past > 0) return 1e300;
+      return (texel + 0.5 + past) / r + (past < 0 ? -1e-9 : 1e-9);
+    };
     for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
       const glm::ivec4& texels = d.mesh->triangleTexels[ti];
       const glm::ivec2 tlo(texels.x, texels.y), thi(texels.z, texels.w);
       if (thi.x < d.lo.x || thi.y < d.lo.y || tlo.x > d.hi.x || tlo.y > d.hi.y) continue;
-      bool changed = false;
-      for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile && !changed; ++ty)
-        for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile && !changed; ++tx) {
-          const DentCopy::Tile& tile = d.tiles[static_cast<size_t>(ty) * static_cast<size_t>(across) + static_cast<size_t>(tx)];
-          changed = tile.hi.x >= tile.lo.x;
-        }
-      if (!changed) continue;
       const glm::uvec3& t = mesh.triangles[ti];
-      for (int k = 0; k < 3; ++k) {
-        const glm::dvec3 p(mesh.positions[t[k]]);
-        d.boxLo = glm::min(d.boxLo, p);
-        d.boxHi = glm::max(d.boxHi, p);
-      }
-      d.overChange[ti] = 1;
+      const glm::dvec3 p[3] = {glm::dvec3(mesh.positions[t.x]), glm::dvec3(mesh.positions[t.y]),
+                               glm::dvec3(mesh.positions[t.z])};
+      const glm::dvec2 uv[3] = {glm::dvec2(mesh.uvs[t.x]), glm::dvec2(mesh.uvs[t.y]), glm::dvec2(mesh.uvs[t.z])};
+      for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile; ++ty)
+        for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile; ++tx) {
+          const DentCopy::Tile& tile = d.tiles[static_cast<size_t>(ty) * static_cast<size_t>(across) + static_cast<size_t>(tx)];
+          if (tile.hi.x < tile.lo.x) continue;
+          const glm::dvec2 lo(uvOf(tile.lo.x, -1, tile.lo.x == 0, false), uvOf(tile.lo.y, -1, tile.lo.y == 0, false));
+          const glm::dvec2 hi(uvOf(tile.hi.x, 1, false, tile.hi.x == r - 1),
+                              uvOf(tile.hi.y, 1, false, tile.hi.y == r - 1));
+          glm::dvec3 lo3, hi3;
+          if (!clippedBox(p, uv, lo, hi, lo3, hi3)) continue;
+          pieces.emplace_back(lo3, hi3);
+          d.overChange[ti] = 1;
+          d.boxLo = glm::min(d.boxLo, lo3);
+          d.boxHi = glm::max(d.boxHi, hi3);
+        }
     }
-    d.boxLo -= d.k;
-    d.boxHi += d.k;
-    markNearChange(d, mesh);
+    const double grow = std::max(d.k, kOnSurface) * (1 + 1e-9) + 1e-12;
+    d.boxLo -= grow;
+    d.boxHi += grow;
+    markNearChange(d);
   }
   const bool dented = d.boxHi.x >= d.boxLo.x;
   world_.setDented(bodies_[static_cast<size_t>(i)].index, dented ? d.k * std::max(0.0, double(highest) - 0.5) : -1.0,
                    {d.boxLo, d.boxHi});
 }
 
-// DentCopy::grid: the cells that a box around a triangle over the change, grown by kOnSurface, meets (a lookup
-// counts only where its nearest triangle is over the change and within kOnSurface: inside that triangle's box).
-void Simulation::markNearChange(DentCopy& d, const TriangleMesh& mesh) {
+// DentCopy::grid: the cells that a part of a triangle over changed texels, its box grown by kOnSurface, meets (a
+// lookup reads a changed texel only where its nearest triangle's point within kOnSurface lies in such a part).
+void Simulation::markNearChange(DentCopy& d) {
   const glm::dvec3 size = d.boxHi - d.boxLo;
   d.gridCell = std::max(kGridCell, std::cbrt(size.x * size.y * size.z / kGridCells));
   d.gridLo = d.boxLo;
   d.gridDims = glm::max(glm::ivec3(glm::ceil(size / d.gridCell)), 1);
   d.grid.assign(static_cast<size_t>(d.gridDims.x) * static_cast<size_t>(d.gridDims.y) * static_cast<size_t>(d.gridDims.z), 0);
-  for (size_t ti = 0; ti < mesh.triangles.size(); ++ti) {
-    if (!d.overChange[ti]) continue;
-    const glm::uvec3& t = mesh.triangles[ti];
-    const glm::dvec3 a(mesh.positions[t.x]), b(mesh.positions[t.y]), c(mesh.positions[t.z]);
-    const glm::dvec3 lo = glm::min(a, glm::min(b, c)) - kOnSurface, hi = glm::max(a, glm::max(b, c)) + kOnSurface;
+  const double grow = kOnSurface * (1 + 1e-9) + 1e-12;
+  for (const auto& [pieceLo, pieceHi] : d.pieces) {
+    const glm::dvec3 lo = pieceLo - grow, hi = pieceHi + grow;
     const glm::ivec3 clo = glm::clamp(glm::ivec3(glm::floor((lo - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
     const glm::ivec3 chi = glm::clamp(glm::ivec3(glm::floor((hi - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
     for (int z = clo.z; z <= chi.z; ++z)

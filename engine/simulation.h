@@ -241,7 +241,7 @@ class Simulation {
   void takeInDents();         // before the physics: the changes of the last step's deformations, in the world
   void takeInFullMap(DentCopy& d, int body);  // where the log overflowed: the whole map read back, compared
   void measureTiles(DentCopy& d);  // its moved tiles' rectangles and highest, and d.lo/hi
-  void findDentedTriangles(DentCopy& d, int body);  // the triangles over its changed tiles, in the world
+  void findDentedTriangles(DentCopy& d, int body);  // the triangles' parts over its changed texels, in the world
   void markNearChange(DentCopy& d);                 // d.grid
   // Body i's surface's k and k' (k' = k where its dents are felt).
   void setSurfaceDepths(size_t i, float k, float kCollide);

@@ -1,6 +1,6 @@
 // The world feels its dents (Simulation's part): the deformer logs the texels its commits change in felt maps; after
 // a step's deformations a fence follows them, and the next step takes the log in before its physics (the texels
-// that changed, per tile, and the triangles over them); the narrow phase asks surfaceDepth how far below the
+// that changed, per tile, and the triangles' parts over them); the narrow phase asks surfaceDepth how far below the
 // undented surface the dented one lies (World::setSurfaceDepth). docs/architecture.md ("Maps between the GPU and
 // the physics") tells the whole.
 #include <crumple/engine/simulation.h>
@@ -189,7 +189,7 @@ void Simulation::measureTiles(DentCopy& d) {
 }
 
 namespace {
-// The part of triangle (a, b, c) with uvs (ua, ub, uc) whose uv lies in [lo, hi] (clipped in uv, each corner's
+// The part of the triangle with corners p and their uvs whose uv lies in [lo, hi] (clipped in uv, each corner's
 // position carried along: the map from uv to the surface is affine on the triangle), as the box around it; false
 // where none does.
 bool clippedBox(const glm::dvec3 (&p)[3], const glm::dvec2 (&uv)[3], const glm::dvec2& lo, const glm::dvec2& hi,

@@ -428,8 +428,10 @@ std::shared_ptr<SurfaceMaps> Deformer::createMaps(int resolution, const gl::Imag
       for (int x = 0; x < resolution; ++x) grey[static_cast<size_t>(y) * resolution + x] = initial->at(x, y, 0);
     maps->height.upload(GL_RED, GL_FLOAT, grey.data());
     maps->highest = *std::max_element(grey.begin(), grey.end());
+    maps->imageHighest = maps->highest;
   } else {
     maps->highest = 0.5f;
+    maps->imageHighest = 0.5f;
     const float half = 0.5f;
     glClearTexImage(maps->height.id(), 0, GL_RED, GL_FLOAT, &half);
   }
@@ -471,8 +473,13 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   const double raiseX = (static_cast<double>(x.surface->maps().highest) - 0.5) * u.bumpToDepth;
   const double raiseOther = other.surface ? (static_cast<double>(other.surface->maps().highest) - 0.5) * p.otherBumpToDepth : 0.0;
   u.bumpReach = static_cast<float>(raiseX);
-  u.pushDepth =
-      rq.boundByDepth ? static_cast<float>(depth / range + raiseX + raiseOther) : 2.0f;  // window depths lie in [0, 1]
+  // The cut's bound counts only the relief the contact did not feel: a body whose dents are felt had its dents
+  // and rims measured (its image's relief not), so an overlap past them is a pose the contact never saw.
+  const double unfeltX = (static_cast<double>(x.surface->unfeltHighest()) - 0.5) * u.bumpToDepth;
+  const double unfeltOther =
+      other.surface ? (static_cast<double>(other.surface->unfeltHighest()) - 0.5) * p.otherBumpToDepth : 0.0;
+  u.pushDepth = rq.boundByDepth ? static_cast<float>(depth / range + unfeltX + unfeltOther)
+                                : 2.0f;  // window depths lie in [0, 1]
   // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.
   p.farthestOther = static_cast<float>(windowDepths(cam, bo).y + raiseOther + 1e-6);
   // X's nearest window depth (its bounds, raised by its bumps): the other body's depth must pass it to dent.

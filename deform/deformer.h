@@ -61,10 +61,11 @@ struct DeformRequest {
   glm::dvec3 normal{0};  // N_C, out of A
   double penetration = 0;
   double deformA = 0, deformB = 0;  // t * percentDeform per side (m)
-  // Each texel is dented by at most its side's depth along the normal, plus how far the two maps' bumps (heights
-  // above flat: an image's relief, which contacts do not feel) reach: X is retracted to first contact and advanced
-  // by its depth, so an overlap beyond that was there before (a pose the contact did not measure, as a body
-  // rocking in its own crater) and is not this event's to cut. false: no bound (the whole overlap is cut, as where
+  // Each texel is dented by at most its side's depth along the normal, plus how far the two maps' bumps that
+  // contacts do not feel reach (heights above flat: an image's relief, and the rims of a body whose dents are not
+  // felt; Surface::unfeltHighest): X is retracted to first contact and advanced by its depth, so an overlap beyond
+  // that was there before (a pose the contact did not measure, as a body rocking in its own crater or rolling over
+  // a rim between its samples) and is not this event's to cut. false: no bound (the whole overlap is cut, as where
   // the other body is pressed in where it stands).
   bool boundByDepth = true;
 };

@@ -335,6 +335,7 @@ void Surface::makeUnique() {
                      own->bound.width(), own->bound.height(), 1);
   glGenerateTextureMipmap(own->height.id());
   own->highest = maps_->highest;
+  own->imageHighest = maps_->imageHighest;
   own->version = maps_->version;
   maps_ = std::move(own);
 }

@@ -75,6 +75,8 @@ struct SurfaceMaps {
   // lower heights, back to 1 once a crater rim raises some. The deformer's culls bound how far bumps reach by it
   // (a flat map's bumps reach nowhere) instead of by the highest a map could hold.
   float highest = 1.0f;
+  // The initial map's highest (0.5 where flat), kept whatever dents do: the relief that no dent made.
+  float imageHighest = 1.0f;
   long version = 0;  // commits into these maps so far
   // For the displaced renderer: per node of the mesh (GpuMesh::vertexNodes), a vec4 whose xyz is how far it is
   // drawn from where its height puts it (shape frame, m), so that no node lies further than an edge's length
@@ -112,6 +114,13 @@ class Surface {
   void makeUnique();
   // Its heights may now be anywhere up to 1 (a crater rim raised some): SurfaceMaps::highest.
   void heightsMayRise() { maps_->highest = 1.0f; }
+  // Whether contacts with its body are measured on its dented surface (the world feels its dents): a deformation
+  // then bounds its cut by the relief of its image only (SurfaceMaps::imageHighest), not of its dents and rims,
+  // which the contact measured (DeformRequest::boundByDepth).
+  void setDentsFelt(bool felt) { dentsFelt_ = felt; }
+  bool dentsFelt() const { return dentsFelt_; }
+  // The highest of its heights that contacts do not feel: its image's where its dents are felt, else its map's.
+  float unfeltHighest() const { return dentsFelt_ ? maps_->imageHighest : maps_->highest; }
   // A commit changed its map.
   void changed() { ++maps_->version; }
   SurfaceMaps& mutableMaps() { return *maps_; }
@@ -133,6 +142,7 @@ class Surface {
   int resolution_;
   float k_, kCollide_;
   int changeLog_ = -1;
+  bool dentsFelt_ = false;
 };
 
 }  // namespace crumple::deform

@@ -68,6 +68,7 @@ Simulation::Simulation(const Scene& scene, bool gl) : scene_(scene), gl_(gl), as
     anyFelt = anyFelt || dents_[i].feel;
     if (!dents_[i].feel) continue;
     bodies_[i].surface->setChangeLog(static_cast<int>(i));
+    bodies_[i].surface->setDentsFelt(true);
     setSurfaceDepths(i, bodies_[i].surface->bumpDepth(), bodies_[i].surface->bumpDepthCollide());
   }
   prepareDents();

@@ -118,7 +118,6 @@ class Surface {
   // then bounds its cut by the relief of its image only (SurfaceMaps::imageHighest), not of its dents and rims,
   // which the contact measured (DeformRequest::boundByDepth).
   void setDentsFelt(bool felt) { dentsFelt_ = felt; }
-  bool dentsFelt() const { return dentsFelt_; }
   // The highest of its heights that contacts do not feel: its image's where its dents are felt, else its map's.
   float unfeltHighest() const { return dentsFelt_ ? maps_->imageHighest : maps_->highest; }
   // A commit changed its map.

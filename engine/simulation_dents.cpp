@@ -266,7 +266,10 @@ void Simulation::findDentedTriangles(DentCopy& d, int i) {
       for (int ty = tlo.y / kDentTile; ty <= thi.y / kDentTile; ++ty)
         for (int tx = tlo.x / kDentTile; tx <= thi.x / kDentTile; ++tx) {
           const DentCopy::Tile& tile = d.tiles[static_cast<size_t>(ty) * static_cast<size_t>(across) + static_cast<size_t>(tx)];
-          if (tile.hi.x < tile.lo.x) continue;
+          // (a tile changed away from the triangle: its lookups there read none of the changed texels)
+          if (tile.hi.x < tile.lo.x || thi.x < tile.lo.x - 1 || thi.y < tile.lo.y - 1 || tlo.x > tile.hi.x + 2 ||
+              tlo.y > tile.hi.y + 2)
+            continue;
           const glm::dvec2 lo(uvOf(tile.lo.x, -1, tile.lo.x == 0, false), uvOf(tile.lo.y, -1, tile.lo.y == 0, false));
           const glm::dvec2 hi(uvOf(tile.hi.x, 1, false, tile.hi.x == r - 1),
                               uvOf(tile.hi.y, 1, false, tile.hi.y == r - 1));
@@ -303,7 +306,7 @@ void Simulation::markNearChange(DentCopy& d) {
     const glm::ivec3 chi = glm::clamp(glm::ivec3(glm::floor((hi - d.gridLo) / d.gridCell)), glm::ivec3(0), d.gridDims - 1);
     for (int z = clo.z; z <= chi.z; ++z)
       for (int y = clo.y; y <= chi.y; ++y)
-        for (int x = clo.x; x <= chi.x; ++x) d.grid[d.gridIndex({x, y, z})] = 1;
+        std::fill_n(d.grid.begin() + static_cast<std::ptrdiff_t>(d.gridIndex({clo.x, y, z})), chi.x - clo.x + 1, 1);
   }
 }
 

@@ -470,14 +470,14 @@ Deformer::Impl::SidePlan Deformer::Impl::plan(const DeformOptions& o, int side, 
   p.otherBumpToDepth = other.surface ? static_cast<float>(other.surface->bumpDepthCollide() / range) : 0.0f;
   // How far each body's bumps move its points in window depth at most (X's towards the camera, the other's away):
   // (h - 0.5) k' / range with h its map's highest (a flat map's bumps move nothing).
-  const double raiseX = (static_cast<double>(x.surface->maps().highest) - 0.5) * u.bumpToDepth;
-  const double raiseOther = other.surface ? (static_cast<double>(other.surface->maps().highest) - 0.5) * p.otherBumpToDepth : 0.0;
+  auto raise = [](float highest, double bumpToDepth) { return (static_cast<double>(highest) - 0.5) * bumpToDepth; };
+  const double raiseX = raise(x.surface->maps().highest, u.bumpToDepth);
+  const double raiseOther = other.surface ? raise(other.surface->maps().highest, p.otherBumpToDepth) : 0.0;
   u.bumpReach = static_cast<float>(raiseX);
   // The cut's bound counts only the relief the contact did not feel: a body whose dents are felt had its dents
   // and rims measured (its image's relief not), so an overlap past them is a pose the contact never saw.
-  const double unfeltX = (static_cast<double>(x.surface->unfeltHighest()) - 0.5) * u.bumpToDepth;
-  const double unfeltOther =
-      other.surface ? (static_cast<double>(other.surface->unfeltHighest()) - 0.5) * p.otherBumpToDepth : 0.0;
+  const double unfeltX = raise(x.surface->unfeltHighest(), u.bumpToDepth);
+  const double unfeltOther = other.surface ? raise(other.surface->unfeltHighest(), p.otherBumpToDepth) : 0.0;
   u.pushDepth = rq.boundByDepth ? static_cast<float>(depth / range + unfeltX + unfeltOther)
                                 : 2.0f;  // window depths lie in [0, 1]
   // The other body's farthest window depth (its bounds, with its bumps): X's texels beyond it cannot dent.

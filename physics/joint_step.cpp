@@ -485,6 +485,87 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
   }
 }
 
+// The contact step and shock propagation stop a joined body at its contacts, and pre-stabilisation then hands
+// it what the joints carry (a limb hanging from a torso that lies on the ground: the limb's weight reaches the
+// torso only through the joint, after its contact stopped it), so a joined body's contact can be left
+// approaching. Contact impulses (shock propagation's passes with every dynamic body on one level: nothing but
+// static, kinematic and sleeping bodies frozen, so a blow pushes both bodies and the joints feel it) and
+// pre-stabilisation take turns until no contact of a joined body approaches faster than jointContactTolerance, at
+// most jointContactRounds turns: projections onto the contacts' and the joints' constraints in turn. A ragdoll
+// lying flat settles in a few turns; one tangled after a fall converges slower (a few percent a turn). Without
+// them a ragdoll lying still pressed into the ground at 5 cm/s each substep, the projection pushed it out, it hit
+// the ground again each step (a thousand collision events a second) and crept along the ground.
+void settleJoinedContacts(StepContext& ctx, double h) {
+  const int rounds = ctx.settings.jointContactRounds;
+  if (rounds <= 0 || ctx.joints.empty()) return;
+  bool touching = false;  // (most substeps of a chain swinging free: no contact at all)
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size() && !touching; ++pi)
+    touching = !ctx.groups[pi].empty();
+  if (!touching) return;
+  std::vector<char>& joined = ctx.jointJoined;
+  joined.assign(ctx.bodies.size(), 0);
+  bool any = false;
+  for (const Joint& jt : ctx.joints) {
+    if (!active(ctx, jt)) continue;
+    for (int b : {jt.def.a, jt.def.b})
+      if (b >= 0 && ctx.body(b).dynamic()) joined[static_cast<size_t>(b)] = any = 1;
+  }
+  if (!any) return;
+  // The fastest approach of a joined body's contact (m/s, >= 0).
+  auto fastest = [&] {
+    double worst = 0;
+    for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi) {
+      const Pair& p = ctx.pairs[pi];
+      if (!joined[static_cast<size_t>(p.a)] && !joined[static_cast<size_t>(p.b)]) continue;
+      for (const ContactGroup& g : ctx.groups[pi])
+        worst = std::max(worst, -glm::dot(ctx.relativeVelocity(g.contact.a, g.contact.b, g.levers), g.contact.normal));
+    }
+    return worst;
+  };
+  const double tolerance = ctx.settings.jointContactTolerance;
+  const double start = fastest();
+  if (!(start > tolerance)) return;
+  // Turns that stop contacts take energy away: where they handed the bodies more kinetic energy than they began
+  // with (beyond resting contact's scale, every body at the speed gravity adds in the substep), a joint violated
+  // beyond what one call closes was paid its closing again each turn (a rope pulled taut under a slab: 76 m/s),
+  // and the velocities are put back as the second pre-stabilisation left them.
+  std::vector<BodyState>& saved = ctx.jointRoundsSaved;
+  saved.resize(ctx.bodies.size());
+  const double restingSpeed = std::max(glm::length(ctx.settings.gravity), 1.0) * h;
+  double before = 0, slack = 0;
+  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+    const RigidBody& b = ctx.bodies[i];
+    saved[i] = {b.x, b.q, b.v, b.w};
+    if (!b.dynamic()) continue;
+    before += b.kineticEnergy();
+    slack += 0.5 * b.mass * restingSpeed * restingSpeed;
+  }
+  std::vector<Joint>& books = ctx.jointRoundsBooks;  // the joints' books too (credits, impulses, breaks)
+  books = ctx.joints;
+  const size_t breaks = ctx.jointBreaks.size();
+  // Each turn must take at least a hundredth off the fastest approach: a swinging bridge's planks, their crates
+  // bouncing on them, stall at an approach the joints hand back whole each turn (it is no resting contact), and the
+  // turns stop there; turns that leave an approach faster than they began with are undone too.
+  double now = start;
+  for (int round = 0; round < rounds; ++round) {
+    shockPropagation(ctx, h, true);
+    preStabilize(ctx, h, ctx.settings.jointIterations, false);
+    const double last = now;
+    now = fastest();
+    if (!(now > tolerance) || !(now < 0.99 * last)) break;
+  }
+  double after = 0;
+  for (const RigidBody& b : ctx.bodies)
+    if (b.dynamic()) after += b.kineticEnergy();
+  if (!(after > before + slack) && !(now > start)) return;
+  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+    ctx.bodies[i].v = saved[i].v;
+    ctx.bodies[i].w = saved[i].w;
+  }
+  ctx.joints.swap(books);
+  ctx.jointBreaks.resize(breaks);
+}
+
 void postStabilize(StepContext& ctx, double h) {
   if (ctx.joints.empty()) return;
   for (bool again = true; again;) {

@@ -140,7 +140,7 @@ void restingLevels(const StepContext& ctx, const Pairs& pairs, std::vector<int>&
 // The contact graph of the contact step's last look (positions moved with the
 // velocities of then); levels from the static (and sleeping) bodies up by
 // breadth-first search (ctx.level; -1: touching nothing).
-void computeLevels(StepContext& ctx, Scratch& s) {
+void computeLevels(StepContext& ctx, Scratch& s, bool flat) {
   const size_t n = ctx.bodies.size();
   const size_t pairs = std::min(ctx.pairs.size(), ctx.groups.size());
   // Each body's neighbours, in pair order.
@@ -209,6 +209,10 @@ void computeLevels(StepContext& ctx, Scratch& s) {
       const int j = static_cast<int>(s.neighbours[k]);
       if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
     }
+  }
+  if (flat) {
+    for (int& l : level) l = std::min(l, 1);
+    return;
   }
   restingLevels(
       ctx,
@@ -506,7 +510,7 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
 
 }  // namespace
 
-void shockPropagation(StepContext& ctx, double h) {
+void shockPropagation(StepContext& ctx, double h, bool flat) {
   ctx.shockPush.assign(ctx.pairs.size(), 0.0);
   ctx.shockAbsorbed.assign(ctx.bodies.size(), 0.0);
   if (ctx.settings.shockPasses <= 0) return;
@@ -514,13 +518,13 @@ void shockPropagation(StepContext& ctx, double h) {
   Scratch& s = scratch();
   // With joints the levels are found over all bodies (a joined unit can span islands); without, each run of
   // islands finds its own (islandLevels) on its thread.
-  const bool levelsHere = ctx.joints.empty();
+  const bool levelsHere = ctx.joints.empty() && !flat;
   if (levelsHere) {
     ctx.level.resize(n);
     s.local.resize(n);
     s.seen.resize(n);
   } else {
-    computeLevels(ctx, s);
+    computeLevels(ctx, s, flat);
   }
   s.share.resize(n);
   s.stamp.resize(n);

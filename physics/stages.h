@@ -159,10 +159,14 @@ void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std
 // plate (a box whose thinnest side is at most a quarter of its middle one: a card, a slab, a plank).
 bool loadBearing(const Shape& shape);
 // shock_propagation.cpp
-void shockPropagation(StepContext& ctx, double h);
+// flat: every dynamic body on level 1 (only static, kinematic and sleeping bodies frozen: impulses between
+// dynamic bodies push both, as in the contact step).
+void shockPropagation(StepContext& ctx, double h, bool flat = false);
 // joint_step.cpp
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
+// Contacts and joints settled together after the second pre-stabilisation (WorldSettings::jointContactRounds).
+void settleJoinedContacts(StepContext& ctx, double h);
 void projectJoints(StepContext& ctx, std::vector<glm::dvec3>& moved, double reach, bool first);
 bool anyJointActive(const StepContext& ctx);  // a joint not removed or broken with a dynamic body
 void findAnchored(StepContext& ctx);

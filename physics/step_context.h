@@ -421,6 +421,9 @@ struct StepContext {
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
   std::vector<BodyState> stepBefore;  // every body before the step (World::step undoes a non-finite one)
   std::vector<BodyState> jointSaved;  // the joined bodies before a pre-stabilisation call (joint_step.cpp)
+  std::vector<char> jointJoined;      // per body: an end of a joint that acts (settleJoinedContacts)
+  std::vector<BodyState> jointRoundsSaved;    // every body before settleJoinedContacts' turns
+  std::vector<Joint> jointRoundsBooks;        // the joints at the same moment
   std::vector<BodyState> jointVelocitySaved;  // ... before the joints' forbidden velocity is taken away
   std::vector<Joint> jointVelocityBooks;  // the joints' books at the same moment
   std::vector<std::pair<int, double>> jointBreaking;  // joints breaking in a call, with their demand

@@ -77,6 +77,12 @@ struct WorldSettings {
   int jointIterations = 10;
   double jointTolerance = 1e-5;  // m, and rad for the angular parts
   int jointPostIterations = 4;
+  // Turns of (contact impulses, then pre-stabilisation again) after the second pre-stabilisation while a contact
+  // of a joined body still approaches faster than jointContactTolerance (m/s) and each turn takes a hundredth off
+  // that approach: the joints carry a limb's weight to the body that rests on the ground only after the contacts
+  // stopped it (a ragdoll lying still crept and hit the ground every step). 0 turns it off.
+  int jointContactRounds = 32;
+  double jointContactTolerance = 1e-4;
   // Threads the step runs on (the caller's included; 0: the machine's hardware
   // threads). The results are the same bits for every count: work is split by
   // island and by body, each writing its own slots, merged in a fixed order.

@@ -174,6 +174,7 @@ void World::substep(double h) {
   clock.lap(ms.shockPropagation);
   // Joints again: the contacts and shock propagation moved the velocities.
   detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);
+  detail::settleJoinedContacts(ctx, h);
   clock.lap(ms.joints);
   // 5. positions, then the positional projection
   ctx.stepStart.resize(ctx.bodies.size());

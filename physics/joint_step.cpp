@@ -494,7 +494,10 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
 // most jointContactRounds turns: projections onto the contacts' and the joints' constraints in turn. A ragdoll
 // lying flat settles in a few turns; one tangled after a fall converges slower (a few percent a turn). Without
 // them a ragdoll lying still pressed into the ground at 5 cm/s each substep, the projection pushed it out, it hit
-// the ground again each step (a thousand collision events a second) and crept along the ground.
+// the ground again each step (a thousand collision events a second) and crept along the ground. A contact
+// approaching faster than jointContactBlow is a blow: then no turns at all (they would take its approach away as
+// resting contact, inelastically and with no event: the highway's car, scraping along the rail it tore loose,
+// stopped hitting it and no longer dragged it along).
 void settleJoinedContacts(StepContext& ctx, double h) {
   const int rounds = ctx.settings.jointContactRounds;
   if (rounds <= 0 || ctx.joints.empty()) return;
@@ -524,7 +527,7 @@ void settleJoinedContacts(StepContext& ctx, double h) {
   };
   const double tolerance = ctx.settings.jointContactTolerance;
   const double start = fastest();
-  if (!(start > tolerance)) return;
+  if (!(start > tolerance) || start > ctx.settings.jointContactBlow) return;
   // Turns that stop contacts take energy away: where they handed the bodies more kinetic energy than they began
   // with (beyond resting contact's scale, every body at the speed gravity adds in the substep), a joint violated
   // beyond what one call closes was paid its closing again each turn (a rope pulled taut under a slab: 76 m/s),

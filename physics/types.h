@@ -80,9 +80,13 @@ struct WorldSettings {
   // Turns of (contact impulses, then pre-stabilisation again) after the second pre-stabilisation while a contact
   // of a joined body still approaches faster than jointContactTolerance (m/s) and each turn takes a hundredth off
   // that approach: the joints carry a limb's weight to the body that rests on the ground only after the contacts
-  // stopped it (a ragdoll lying still crept and hit the ground every step). 0 turns it off.
+  // stopped it (a ragdoll lying still crept and hit the ground every step). None where some such contact
+  // approaches faster than jointContactBlow (m/s): a blow (a car into a rail on breakable posts), left to the next
+  // collision step, its restitution and its event (the joints hand on up to ~0.8 m/s to a ragdoll's resting
+  // contacts through its limbs' levers). 0 rounds turns it off.
   int jointContactRounds = 32;
   double jointContactTolerance = 1e-4;
+  double jointContactBlow = 1.0;
   // Threads the step runs on (the caller's included; 0: the machine's hardware
   // threads). The results are the same bits for every count: work is split by
   // island and by body, each writing its own slots, merged in a fixed order.

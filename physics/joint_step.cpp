@@ -68,6 +68,7 @@
 #include <utility>
 #include <vector>
 
+#include <crumple/physics/disjoint_sets.h>
 #include <crumple/physics/joint_solver.h>
 
 namespace crumple::detail {
@@ -528,20 +529,42 @@ void settleJoinedContacts(StepContext& ctx, double h) {
   const double tolerance = ctx.settings.jointContactTolerance;
   const double start = fastest();
   if (!(start > tolerance) || start > ctx.settings.jointContactBlow) return;
-  // Turns that stop contacts take energy away: where they handed the bodies more kinetic energy than they began
-  // with (beyond resting contact's scale, every body at the speed gravity adds in the substep), a joint violated
-  // beyond what one call closes was paid its closing again each turn (a rope pulled taut under a slab: 76 m/s),
-  // and the velocities are put back as the second pre-stabilisation left them.
+  // Turns that stop contacts take energy away, and they act only on the bodies joined, through contacts and joints,
+  // to a joined body (the systems the turns are for). Where they handed such a system more kinetic energy than it
+  // began with (beyond resting contact's scale, every body at the speed gravity adds in the substep), a joint
+  // violated beyond what one call closes was paid its closing again each turn (a rope pulled taut under a slab:
+  // 76 m/s), and all the velocities are put back as the second pre-stabilisation left them; a body of another
+  // system (a crate landing on the ground beside a bridge, in no system with it) keeps what it had before the turns.
+  const size_t n = ctx.bodies.size();
+  DisjointSets& sets = ctx.jointRoundsSets;
+  sets.reset(n);
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi)
+    if (!ctx.groups[pi].empty() && ctx.body(ctx.pairs[pi].a).dynamic() && ctx.body(ctx.pairs[pi].b).dynamic())
+      sets.unite(ctx.pairs[pi].a, ctx.pairs[pi].b);
+  for (const Joint& jt : ctx.joints)
+    if (active(ctx, jt) && jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() && ctx.body(jt.def.b).dynamic())
+      sets.unite(jt.def.a, jt.def.b);
+  std::vector<int>& system = ctx.jointRoundsSystem;  // per body: its system's index, -1 outside every one
+  system.assign(n, -1);
+  int systems = 0;
+  for (size_t i = 0; i < n; ++i)
+    if (joined[i]) {
+      int& r = system[static_cast<size_t>(sets.find(static_cast<int>(i)))];
+      if (r < 0) r = systems++;
+    }
+  for (size_t i = 0; i < n; ++i)
+    system[i] = ctx.bodies[i].dynamic() ? system[static_cast<size_t>(sets.find(static_cast<int>(i)))] : -1;
   std::vector<BodyState>& saved = ctx.jointRoundsSaved;
-  saved.resize(ctx.bodies.size());
+  saved.resize(n);
+  std::vector<double>& before = ctx.jointRoundsEnergy;
+  before.assign(2 * static_cast<size_t>(systems), 0.0);  // per system: energy before, then its slack
   const double restingSpeed = std::max(glm::length(ctx.settings.gravity), 1.0) * h;
-  double before = 0, slack = 0;
-  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+  for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = ctx.bodies[i];
     saved[i] = {b.x, b.q, b.v, b.w};
-    if (!b.dynamic()) continue;
-    before += b.kineticEnergy();
-    slack += 0.5 * b.mass * restingSpeed * restingSpeed;
+    if (system[i] < 0) continue;
+    before[2 * static_cast<size_t>(system[i])] += b.kineticEnergy();
+    before[2 * static_cast<size_t>(system[i]) + 1] += 0.5 * b.mass * restingSpeed * restingSpeed;
   }
   std::vector<Joint>& books = ctx.jointRoundsBooks;  // the joints' books too (credits, impulses, breaks)
   books = ctx.joints;
@@ -557,11 +580,22 @@ void settleJoinedContacts(StepContext& ctx, double h) {
     now = fastest();
     if (!(now > tolerance) || !(now < 0.99 * last)) break;
   }
-  double after = 0;
-  for (const RigidBody& b : ctx.bodies)
-    if (b.dynamic()) after += b.kineticEnergy();
-  if (!(after > before + slack) && !(now > start)) return;
-  for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+  std::vector<double>& after = ctx.jointRoundsAfter;
+  after.assign(static_cast<size_t>(systems), 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    RigidBody& b = ctx.bodies[i];
+    if (system[i] >= 0) {
+      after[static_cast<size_t>(system[i])] += b.kineticEnergy();
+    } else if (b.dynamic()) {
+      b.v = saved[i].v;
+      b.w = saved[i].w;
+    }
+  }
+  bool gained = now > start;
+  for (size_t k = 0; k < static_cast<size_t>(systems); ++k)
+    gained = gained || after[k] > before[2 * k] + before[2 * k + 1];
+  if (!gained) return;
+  for (size_t i = 0; i < n; ++i) {
     ctx.bodies[i].v = saved[i].v;
     ctx.bodies[i].w = saved[i].w;
   }

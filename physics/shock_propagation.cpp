@@ -210,8 +210,9 @@ void computeLevels(StepContext& ctx, Scratch& s, bool flat) {
       if (level[static_cast<size_t>(j)] < 0) assign(j, level[static_cast<size_t>(i)] + 1);
     }
   }
-  if (flat) {
-    for (int& l : level) l = std::min(l, 1);
+  if (flat) {  // every dynamic body on level 1, whether or not a path leads to level 0 (a bridge hung on hinges)
+    for (size_t i = 0; i < n; ++i)
+      if (level[i] != 0) level[i] = 1;
     return;
   }
   restingLevels(

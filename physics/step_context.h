@@ -424,6 +424,9 @@ struct StepContext {
   std::vector<char> jointJoined;      // per body: an end of a joint that acts (settleJoinedContacts)
   std::vector<BodyState> jointRoundsSaved;    // every body before settleJoinedContacts' turns
   std::vector<Joint> jointRoundsBooks;        // the joints at the same moment
+  DisjointSets jointRoundsSets;               // the systems of bodies joined by contacts and joints to a joined body
+  std::vector<int> jointRoundsSystem;         // per body: its system, -1 outside every one
+  std::vector<double> jointRoundsEnergy, jointRoundsAfter;  // per system: kinetic energy (and slack) before, after
   std::vector<BodyState> jointVelocitySaved;  // ... before the joints' forbidden velocity is taken away
   std::vector<Joint> jointVelocityBooks;  // the joints' books at the same moment
   std::vector<std::pair<int, double>> jointBreaking;  // joints breaking in a call, with their demand

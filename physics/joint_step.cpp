@@ -575,7 +575,9 @@ void settleJoinedContacts(StepContext& ctx, double h) {
   double now = start;
   for (int round = 0; round < rounds; ++round) {
     shockPropagation(ctx, h, true);
-    preStabilize(ctx, h, ctx.settings.jointIterations, false);
+    // One Newton pass a turn: the turns themselves iterate (ten passes a turn cost the chain bridge 80% more time
+    // for the same events: 745 against 740).
+    preStabilize(ctx, h, 1, false);
     const double last = now;
     now = fastest();
     if (!(now > tolerance) || !(now < 0.99 * last)) break;

@@ -19,8 +19,9 @@
 //
 // Guarantees:
 // - preStabilize (twice a substep; the second call only when the contact step
-//   touched a joined body): motors first (velocity targets; the impulse over a
-//   substep is at most maxForce h, over both calls of the substep), then the
+//   touched a joined body, jointsTouched, and again in settleJoinedContacts'
+//   turns): motors first (velocity targets; the impulse over a substep is at
+//   most maxForce h, over all calls of the substep), then the
 //   joints' rows are solved for the impulses that make them hold at the end of
 //   the substep, at the poses the position update will reach with the
 //   velocities (x + h v, q integrated from omega). Each pass is a Newton step
@@ -387,22 +388,25 @@ void wakeJoined(StepContext& ctx) {
 
 }  // namespace
 
+bool jointsTouched(StepContext& ctx) {
+  if (ctx.joints.empty()) return false;
+  std::vector<char>& touched = ctx.jointTouched;
+  touched.assign(ctx.bodies.size(), 0);
+  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi)
+    if (!ctx.groups[pi].empty())
+      touched[static_cast<size_t>(ctx.pairs[pi].a)] = touched[static_cast<size_t>(ctx.pairs[pi].b)] = 1;
+  for (const Joint& jt : ctx.joints)
+    if (active(ctx, jt) &&
+        ((jt.def.a >= 0 && touched[static_cast<size_t>(jt.def.a)]) || touched[static_cast<size_t>(jt.def.b)]))
+      return true;
+  return false;
+}
+
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
   if (ctx.joints.empty()) return;
   if (first) {
     wakeJoined(ctx);
     for (Joint& jt : ctx.joints) jt.motorImpulse = 0;  // the motor's budget is per substep
-  } else {
-    // Again after the contacts: only needed when they touched a joined body.
-    std::vector<char> touched(ctx.bodies.size(), 0);
-    for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size(); ++pi)
-      if (!ctx.groups[pi].empty())
-        touched[static_cast<size_t>(ctx.pairs[pi].a)] = touched[static_cast<size_t>(ctx.pairs[pi].b)] = 1;
-    bool any = false;
-    for (const Joint& jt : ctx.joints)
-      any = any || (active(ctx, jt) && ((jt.def.a >= 0 && touched[static_cast<size_t>(jt.def.a)]) ||
-                                        touched[static_cast<size_t>(jt.def.b)]));
-    if (!any) return;
   }
   // Again without the joints that break in it (yieldJoints).
   for (bool again = true; again;) {
@@ -502,10 +506,6 @@ void preStabilize(StepContext& ctx, double h, int sweeps, bool first) {
 void settleJoinedContacts(StepContext& ctx, double h) {
   const int rounds = ctx.settings.jointContactRounds;
   if (rounds <= 0 || ctx.joints.empty()) return;
-  bool touching = false;  // (most substeps of a chain swinging free: no contact at all)
-  for (size_t pi = 0; pi < ctx.pairs.size() && pi < ctx.groups.size() && !touching; ++pi)
-    touching = !ctx.groups[pi].empty();
-  if (!touching) return;
   std::vector<char>& joined = ctx.jointJoined;
   joined.assign(ctx.bodies.size(), 0);
   bool any = false;
@@ -544,27 +544,28 @@ void settleJoinedContacts(StepContext& ctx, double h) {
   for (const Joint& jt : ctx.joints)
     if (active(ctx, jt) && jt.def.a >= 0 && ctx.body(jt.def.a).dynamic() && ctx.body(jt.def.b).dynamic())
       sets.unite(jt.def.a, jt.def.b);
-  std::vector<int>& system = ctx.jointRoundsSystem;  // per body: its system's index, -1 outside every one
-  system.assign(n, -1);
+  std::vector<int>& bySet = ctx.jointRoundsSystem;  // per set's root: its system's index, -1 for no system
+  bySet.assign(n, -1);
   int systems = 0;
   for (size_t i = 0; i < n; ++i)
     if (joined[i]) {
-      int& r = system[static_cast<size_t>(sets.find(static_cast<int>(i)))];
+      int& r = bySet[static_cast<size_t>(sets.find(static_cast<int>(i)))];
       if (r < 0) r = systems++;
     }
-  for (size_t i = 0; i < n; ++i)
-    system[i] = ctx.bodies[i].dynamic() ? system[static_cast<size_t>(sets.find(static_cast<int>(i)))] : -1;
+  auto systemOf = [&](size_t i) {
+    return ctx.bodies[i].dynamic() ? bySet[static_cast<size_t>(sets.find(static_cast<int>(i)))] : -1;
+  };
   std::vector<BodyState>& saved = ctx.jointRoundsSaved;
   saved.resize(n);
   std::vector<double>& before = ctx.jointRoundsEnergy;
   before.assign(2 * static_cast<size_t>(systems), 0.0);  // per system: energy before, then its slack
-  const double restingSpeed = std::max(glm::length(ctx.settings.gravity), 1.0) * h;
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = ctx.bodies[i];
     saved[i] = {b.x, b.q, b.v, b.w};
-    if (system[i] < 0) continue;
-    before[2 * static_cast<size_t>(system[i])] += b.kineticEnergy();
-    before[2 * static_cast<size_t>(system[i]) + 1] += 0.5 * b.mass * restingSpeed * restingSpeed;
+    const int k = systemOf(i);
+    if (k < 0) continue;
+    before[2 * static_cast<size_t>(k)] += b.kineticEnergy();
+    before[2 * static_cast<size_t>(k) + 1] += ctx.restingSlack(b, h);
   }
   std::vector<Joint>& books = ctx.jointRoundsBooks;  // the joints' books too (credits, impulses, breaks)
   books = ctx.joints;
@@ -575,8 +576,8 @@ void settleJoinedContacts(StepContext& ctx, double h) {
   double now = start;
   for (int round = 0; round < rounds; ++round) {
     shockPropagation(ctx, h, true);
-    // One Newton pass a turn: the turns themselves iterate (ten passes a turn cost the chain bridge 80% more time
-    // for the same events: 745 against 740).
+    // One Newton pass a turn: the turns themselves iterate (ten passes a turn gave the same events on the shipped
+    // scenes: chain bridge 745 against 740, ragdoll 388 against 387, for ten times the passes).
     preStabilize(ctx, h, 1, false);
     const double last = now;
     now = fastest();
@@ -586,8 +587,9 @@ void settleJoinedContacts(StepContext& ctx, double h) {
   after.assign(static_cast<size_t>(systems), 0.0);
   for (size_t i = 0; i < n; ++i) {
     RigidBody& b = ctx.bodies[i];
-    if (system[i] >= 0) {
-      after[static_cast<size_t>(system[i])] += b.kineticEnergy();
+    const int k = systemOf(i);
+    if (k >= 0) {
+      after[static_cast<size_t>(k)] += b.kineticEnergy();
     } else if (b.dynamic()) {
       b.v = saved[i].v;
       b.w = saved[i].w;

@@ -250,9 +250,8 @@ void IslandSolver::startFromContactStep() {
       }
   std::sort(islandBodies.begin(), islandBodies.end());
   islandBodies.erase(std::unique(islandBodies.begin(), islandBodies.end()), islandBodies.end());
-  const double restingSpeed = std::max(glm::length(ctx->settings.gravity), 1.0) * h;
   slack = 0;
-  for (int i : islandBodies) slack += 0.5 * ctx->body(i).mass * restingSpeed * restingSpeed;
+  for (int i : islandBodies) slack += ctx->restingSlack(ctx->body(i), h);
 }
 
 // Warm start: the totals of the group of last substep whose normal agrees best (same pair), in this group's rows,

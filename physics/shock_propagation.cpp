@@ -461,7 +461,6 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
   for (int b : w.bodies) byLevel[fill[static_cast<size_t>(level[static_cast<size_t>(b)])]++] = b;
   // The energy guard's "before", and its slack: resting contact's own scale, every body at the speed gravity adds
   // in the substep (the Jacobi passes' means move resting stacks by that much either way).
-  const double restingSpeed = std::max(glm::length(ctx.settings.gravity), 1.0) * h;
   w.velocities.resize(w.bodies.size());
   w.energyBefore.assign(k1 - k0, 0.0);
   w.slack.assign(k1 - k0, 0.0);
@@ -469,7 +468,7 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
     const RigidBody& b = ctx.body(w.bodies[k]);
     w.velocities[k] = {b.v, b.w};
     w.energyBefore[static_cast<size_t>(w.bodyIsland[k])] += b.kineticEnergy();
-    w.slack[static_cast<size_t>(w.bodyIsland[k])] += 0.5 * b.mass * restingSpeed * restingSpeed;
+    w.slack[static_cast<size_t>(w.bodyIsland[k])] += ctx.restingSlack(b, h);
   }
   for (int l = 1; l <= top; ++l) {
     // Frozen: every level below this one (the one just below joins the frozen; level 0 always was).

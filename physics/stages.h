@@ -163,6 +163,9 @@ bool loadBearing(const Shape& shape);
 // dynamic bodies push both, as in the contact step).
 void shockPropagation(StepContext& ctx, double h, bool flat = false);
 // joint_step.cpp
+// Whether a contact group touches an end of an active joint: the second pre-stabilisation (first = false) and
+// settleJoinedContacts are called only then.
+bool jointsTouched(StepContext& ctx);
 void preStabilize(StepContext& ctx, double h, int sweeps, bool first);
 void postStabilize(StepContext& ctx, double h);
 // Contacts and joints settled together after the second pre-stabilisation (WorldSettings::jointContactRounds).

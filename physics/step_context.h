@@ -422,6 +422,7 @@ struct StepContext {
   std::vector<BodyState> stepBefore;  // every body before the step (World::step undoes a non-finite one)
   std::vector<BodyState> jointSaved;  // the joined bodies before a pre-stabilisation call (joint_step.cpp)
   std::vector<char> jointJoined;      // per body: an end of a joint that acts (settleJoinedContacts)
+  std::vector<char> jointTouched;     // per body: in a pair with contact groups (jointsTouched)
   std::vector<BodyState> jointRoundsSaved;    // every body before settleJoinedContacts' turns
   std::vector<Joint> jointRoundsBooks;        // the joints at the same moment
   DisjointSets jointRoundsSets;               // the systems of bodies joined by contacts and joints to a joined body
@@ -532,6 +533,13 @@ struct StepContext {
     return {b.x + h * v, turnOf(b, w, h).q};
   }
 
+  // Resting contact's own energy scale for a body: its kinetic energy at the speed gravity (at least 1 m/s^2) adds
+  // in a substep of h. The energy guards (shock propagation, the resting solve, the joined contacts' turns) allow
+  // this much per body: their passes move resting bodies by that speed either way.
+  double restingSlack(const RigidBody& b, double h) const {
+    const double speed = std::max(glm::length(settings.gravity), 1.0) * h;
+    return 0.5 * b.mass * speed * speed;
+  }
   // v_B - v_A at the levers' point.
   glm::dvec3 relativeVelocity(int a, int b, const Levers& l) const {
     const RigidBody& A = bodies[static_cast<size_t>(a)];

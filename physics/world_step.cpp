@@ -172,9 +172,11 @@ void World::substep(double h) {
   detail::shockPropagation(ctx, h);
   detail::collisionsCarried(ctx, h);
   clock.lap(ms.shockPropagation);
-  // Joints again: the contacts and shock propagation moved the velocities.
-  detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);
-  detail::settleJoinedContacts(ctx, h);
+  // Joints again where the contacts and shock propagation touched a joined body (they moved its velocities).
+  if (detail::jointsTouched(ctx)) {
+    detail::preStabilize(ctx, h, ctx.settings.jointIterations, false);
+    detail::settleJoinedContacts(ctx, h);
+  }
   clock.lap(ms.joints);
   // 5. positions, then the positional projection
   ctx.stepStart.resize(ctx.bodies.size());

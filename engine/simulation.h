@@ -180,7 +180,7 @@ class Simulation {
   // fence follows them, and the next step takes the log in before its physics.
   static constexpr int kDentTile = 16;         // texels: the grain of a map's changed part
   static constexpr double kOnSurface = 0.02;   // m: a lookup point this near a triangle over the change is on it
-  static constexpr double kNearCell = 0.01;    // m: the cells the nearest-triangle lists are kept for
+  static constexpr double kNearCell = 0.0125;  // m: the cells the nearest-triangle lists are kept for
   static constexpr double kGridCell = 0.01;    // m: the finest cells of DentCopy::grid (coarser past kGridCells)
   static constexpr double kGridCells = 1 << 20;
   // What the bodies of one render mesh and map resolution share for their dents, made when the simulation is

@@ -6,6 +6,7 @@
 #include <limits>
 #include <array>
 #include <map>
+#include <memory>
 #include <numeric>
 
 namespace crumple {
@@ -141,16 +142,23 @@ TriangleBvh::Hit TriangleBvh::closest(const glm::dvec3& p, double within2) const
 void TriangleBvh::near(const glm::dvec3& p, double within2, std::vector<std::pair<double, int>>& out) const {
   out.clear();
   if (nodes_.empty()) return;
+  // (Written out per axis: a third of glm's vector form, and a list asks some fifty boxes.)
+  auto outside = [&](const Node& node) {
+    const double dx = std::max(std::max(node.lo.x - p.x, p.x - node.hi.x), 0.0);
+    const double dy = std::max(std::max(node.lo.y - p.y, p.y - node.hi.y), 0.0);
+    const double dz = std::max(std::max(node.lo.z - p.z, p.z - node.hi.z), 0.0);
+    return dx * dx + dy * dy + dz * dz > within2;
+  };
+  if (outside(nodes_[0])) return;
   int stack[128];
   int top = 0;
   stack[top++] = 0;
   while (top) {
     const Node& node = nodes_[stack[--top]];
-    if (boxDistance2(p, node.lo, node.hi) > within2) continue;
     if (node.left >= 0) {
       if (top + 2 > 128) continue;  // (as in closest)
-      stack[top++] = node.left;
-      stack[top++] = node.right;
+      if (!outside(nodes_[node.left])) stack[top++] = node.left;
+      if (!outside(nodes_[node.right])) stack[top++] = node.right;
       continue;
     }
     for (int i = node.first; i < node.first + node.count; ++i) {
@@ -164,7 +172,10 @@ void TriangleBvh::near(const glm::dvec3& p, double within2, std::vector<std::pai
 }
 
 NearTriangles::NearTriangles(const TriangleMesh& mesh, double cell, double reach)
-    : bvh_(mesh), cell_(cell), reach_(reach) {
+    : bvh_(mesh),
+      cell_(cell),
+      reach_(reach),
+      reachBound_(std::nextafter(reach * reach, std::numeric_limits<double>::max())) {
   static std::atomic<uint64_t> made{0};
   id_ = ++made;
   corners_.reserve(mesh.triangles.size());
@@ -173,25 +184,46 @@ NearTriangles::NearTriangles(const TriangleMesh& mesh, double cell, double reach
 }
 
 // Per thread, the cells' lists of the last few NearTriangles asked (a contact asks two bodies' in turn): an
-// open-addressed table of cells, each a range of `entries` (a triangle's corners beside its bound: one pass
-// over memory a query).
+// open-addressed table of cells, each a run of entries (a triangle's corners beside its bound: one pass over memory
+// a query). The entries lie in chunks that are never moved (a list is made once and read many times: a growing
+// array would copy every list made so far each time it grew) and are reused after a clear.
+struct NearTriangles::Entry {
+  double bound;  // the triangle's distance from the cell's centre
+  uint32_t triangle;
+  glm::vec3 a, b, c;
+};
+
 struct NearTriangles::Kept {
-  struct Entry {
-    double bound;  // the triangle's distance from the cell's centre
-    uint32_t triangle;
-    glm::vec3 a, b, c;
-  };
+  static constexpr size_t kChunk = 4096;  // entries
   uint64_t id = 0, used = 0;
   std::vector<uint64_t> keys;  // 0: empty
-  std::vector<uint32_t> first, last;
-  size_t cells = 0;
-  std::vector<Entry> entries;
+  std::vector<const Entry*> first;
+  std::vector<uint32_t> count;
+  size_t cells = 0, entries = 0;
+  std::vector<std::pair<std::unique_ptr<Entry[]>, size_t>> chunks;  // storage, its size
+  size_t chunk = 0, filled = 0;                                     // the chunk being filled, and how far
   void clear() {
     keys.assign(1024, 0);
-    first.assign(1024, 0);
-    last.assign(1024, 0);
-    cells = 0;
-    entries.clear();
+    first.assign(1024, nullptr);
+    count.assign(1024, 0);
+    cells = entries = 0;
+    chunk = filled = 0;
+  }
+  // Room for n entries side by side.
+  Entry* take(size_t n) {
+    if (chunk < chunks.size() && filled + n > chunks[chunk].second) {
+      ++chunk;
+      filled = 0;
+    }
+    if (chunk == chunks.size()) chunks.emplace_back();
+    if (n > chunks[chunk].second) {  // (new, or one kept from before a clear that is too small)
+      const size_t size = std::max(kChunk, n);
+      chunks[chunk] = {std::make_unique_for_overwrite<Entry[]>(size), size};
+    }
+    Entry* room = chunks[chunk].first.get() + filled;
+    filled += n;
+    entries += n;
+    return room;
   }
 };
 
@@ -209,11 +241,11 @@ NearTriangles::Kept& NearTriangles::kept() const {
   mine->used = ++clock;
   // (a bound on the memory a thread keeps: 2^16 entries of 48 bytes a slot, ~25 MB for the eight; a dent's cells
   // hold a few thousand lists of about eight)
-  if (mine->entries.size() > (size_t(1) << 16)) mine->clear();
+  if (mine->entries > (size_t(1) << 16)) mine->clear();
   return *mine;
 }
 
-std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64vec3& c) const {
+std::pair<const NearTriangles::Entry*, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64vec3& c) const {
   const uint64_t key = 1 + ((static_cast<uint64_t>(c.x) & 0x1fffff) | (static_cast<uint64_t>(c.y) & 0x1fffff) << 21 |
                             (static_cast<uint64_t>(c.z) & 0x1fffff) << 42);
   auto slotOf = [&](uint64_t k) {
@@ -223,20 +255,21 @@ std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64ve
     return s;
   };
   size_t s = slotOf(key);
-  if (kept.keys[s] == key) return {kept.first[s], kept.last[s]};
+  if (kept.keys[s] == key) return {kept.first[s], kept.count[s]};
   if (2 * (kept.cells + 1) > kept.keys.size()) {  // grow (at half full)
     std::vector<uint64_t> keys(2 * kept.keys.size(), 0);
-    std::vector<uint32_t> first(keys.size()), last(keys.size());
+    std::vector<const Entry*> first(keys.size());
+    std::vector<uint32_t> count(keys.size());
     std::swap(keys, kept.keys);
     for (size_t i = 0; i < keys.size(); ++i)
       if (keys[i]) {
         const size_t t = slotOf(keys[i]);
         kept.keys[t] = keys[i];
         first[t] = kept.first[i];
-        last[t] = kept.last[i];
+        count[t] = kept.count[i];
       }
     kept.first = std::move(first);
-    kept.last = std::move(last);
+    kept.count = std::move(count);
     s = slotOf(key);
   }
   // Every point of the cell lies within half its diagonal of its centre: a triangle within reach of one lies
@@ -246,35 +279,36 @@ std::pair<uint32_t, uint32_t> NearTriangles::listed(Kept& kept, const glm::i64ve
   const glm::dvec3 centre = centreOf(glm::dvec3(c));
   const double within = reach_ + half;
   bvh_.near(centre, within * within * (1 + 1e-9), found);
-  const uint32_t begin = static_cast<uint32_t>(kept.entries.size());
-  for (const auto& [d2, t] : found) {
+  Entry* list = kept.take(found.size());
+  for (size_t i = 0; i < found.size(); ++i) {
+    const auto [d2, t] = found[i];
     const Corners& k = corners_[static_cast<size_t>(t)];
-    kept.entries.push_back({std::sqrt(d2), static_cast<uint32_t>(t), k.a, k.b, k.c});
+    list[i] = {std::sqrt(d2), static_cast<uint32_t>(t), k.a, k.b, k.c};
   }
-  std::sort(kept.entries.begin() + begin, kept.entries.end(), [](const Kept::Entry& x, const Kept::Entry& y) {
+  std::sort(list, list + found.size(), [](const Entry& x, const Entry& y) {
     return x.bound != y.bound ? x.bound < y.bound : x.triangle < y.triangle;
   });
   kept.keys[s] = key;
-  kept.first[s] = begin;
-  kept.last[s] = static_cast<uint32_t>(kept.entries.size());
+  kept.first[s] = list;
+  kept.count[s] = static_cast<uint32_t>(found.size());
   ++kept.cells;
-  return {kept.first[s], kept.last[s]};
+  return {list, kept.count[s]};
 }
 
 TriangleBvh::Hit NearTriangles::closest(const glm::dvec3& p) const {
   TriangleBvh::Hit best;
   const double reach2 = reach_ * reach_;
-  best.distance2 = std::nextafter(reach2, std::numeric_limits<double>::max());
+  best.distance2 = reachBound_;
   const glm::dvec3 f = glm::floor(p / cell_);
   const double limit = double(1 << 20);  // (21 bits an axis in the key)
   if (!(std::abs(f.x) < limit && std::abs(f.y) < limit && std::abs(f.z) < limit))
     return bvh_.closest(p, reach2);  // (far out: the tree, whose ties may differ)
   Kept& kept = this->kept();
-  const auto [begin, end] = listed(kept, glm::i64vec3(f));
+  const auto [list, listed] = this->listed(kept, glm::i64vec3(f));
   // A triangle at distance d from the cell's centre is no nearer to p than d - |p - centre|.
   const double offCentre = glm::length(p - centreOf(f)) * (1 + 1e-9) + 1e-12;
-  for (uint32_t i = begin; i < end; ++i) {
-    const Kept::Entry& e = kept.entries[i];
+  for (uint32_t i = 0; i < listed; ++i) {
+    const Entry& e = list[i];
     const double bound = e.bound - offCentre;
     if (bound > 0 && bound * bound > best.distance2) break;
     const glm::dvec3 a(e.a), b(e.b), c(e.c);

@@ -56,9 +56,11 @@ class NearTriangles {
   double reach() const { return reach_; }
 
  private:
+  struct Entry;
   struct Kept;
   Kept& kept() const;
-  std::pair<uint32_t, uint32_t> listed(Kept& kept, const glm::i64vec3& cell) const;  // its range of kept.entries
+  // The cell's list: its first entry and its length.
+  std::pair<const Entry*, uint32_t> listed(Kept& kept, const glm::i64vec3& cell) const;
   glm::dvec3 centreOf(const glm::dvec3& cell) const { return (cell + 0.5) * cell_; }  // (cell: its integer index)
   struct Corners {
     glm::vec3 a, b, c;
@@ -66,6 +68,7 @@ class NearTriangles {
   TriangleBvh bvh_;
   std::vector<Corners> corners_;
   double cell_, reach_;
+  double reachBound_;  // the next double above reach^2: a triangle at exactly reach counts
   uint64_t id_;  // unique in the process: which lists a thread keeps are this one's
 };
 

@@ -185,8 +185,9 @@ struct JointSystem {
   std::vector<joints::Side> sides;                // [0] is the world
   std::vector<std::pair<int, int>> ends;  // per active joint: the slots of a and b
   // Joints that close a loop (through each other or through what cannot move,
-  // e.g. a second joint between the same two bodies): solved one by one
-  // (Gauss-Seidel) between the direct solves of the others, which form a forest.
+  // e.g. a second joint between the same two bodies): solved with the others,
+  // which form a forest, through their Schur complement (joint_solve.cpp's
+  // solveWithLoops), or one by one after them where they have too many rows.
   std::vector<int> loops;
   std::vector<std::pair<int, int>> loopEnds;
   // Per dynamic body slot: the joints (places in `joints`) on it, with +1 on B, -1 on A.
@@ -200,6 +201,8 @@ struct JointSystem {
   std::vector<std::array<double, 6>> scale;  // per position: the diagonal before elimination
   std::vector<std::vector<Block>> off;    // per position, along `later`
   std::vector<std::array<double, 6>> x;   // per position
+  std::vector<joints::JointRows> loopRows;                      // per loop joint (solvePass)
+  std::vector<std::vector<std::array<double, 6>>> loopColumns;  // per loop row: A^-1 of the forest's response
   std::vector<Block> scratch;
   std::vector<RowEnd> endScratch;  // per joint on the body being assembled
 };

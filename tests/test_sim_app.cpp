@@ -301,7 +301,16 @@ TEST_CASE(
   const json s = json::parse(slurp(out / "summary.json"));
   std::map<std::string, json> bodies;
   for (const json& b : s["bodies"]) bodies[b["name"]] = b;
-  CHECK(bodies["rail_left_09"]["position"][2].get<double>() < -5.2);                       // pushed outwards
+  // The torn segment lies across the rail's line (its length, along x when it stood, turned over 45 degrees), metres
+  // from where it stood (centred at x = 38).
+  const json& torn = bodies["rail_left_09"];
+  const glm::dvec3 at(torn["position"][0].get<double>(), torn["position"][1].get<double>(),
+                      torn["position"][2].get<double>());
+  const double qy = torn["orientation"][2].get<double>(), qz = torn["orientation"][3].get<double>();  // [w, x, y, z]
+  const double along = 1 - 2 * (qy * qy + qz * qz);  // x of the segment's length direction
+  MESSAGE("torn segment at " << at.x << ", " << at.y << ", " << at.z << "; its length along the rail's line " << along);
+  CHECK(std::abs(along) < std::cos(M_PI / 4));
+  CHECK(glm::length(glm::dvec2(at.x, at.z) - glm::dvec2(38.0, -5.0)) > 1.0);
   CHECK(bodies["rail_left_10"]["position"][2].get<double>() == doctest::Approx(-5.0));   // a static neighbour
   double segmentDent = deepest(crumple::gl::readPng((out / "heightmaps" / "rail_left_09.png").string())) * kRail;
   CHECK(segmentDent >= 0.01);

@@ -102,7 +102,7 @@ def scene():
             {"name": "chase", "follow": "car", "follow_heading": True, "position": [-8.5, 3.2, 2.5],
              "target": [2.5, 0.4, 0], "fov": 50},
             {"name": "impact", "position": [36.0, 1.25, -3.1], "target": [39.0, 0.55, -4.9], "fov": 45},
-            {"name": "torn", "position": [42.2, 2.2, -9.2], "target": [45.8, 0.2, -5.2], "fov": 45},
+            {"name": "torn", "position": [46.4, 2.4, -9.4], "target": [41.8, 0.2, -5.0], "fov": 45},
             {"name": "side", "follow": "car", "follow_heading": True, "position": [3.3, 0.7, -2.6],
              "target": [0.3, -0.05, -0.7], "fov": 45, "displace": True},
         ],

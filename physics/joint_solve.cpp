@@ -500,9 +500,10 @@ void applySolved(StepContext& ctx, JointSystem& s, bool pre) {
 }
 
 // The symmetric pseudo-inverse solve of the m x m positive semi-definite system a x = b (row-major; LDL^T without
-// pivoting): a pivot not above `drop` of its row's `scale` is dropped (that row's x is 0).
-void solveDenseDropping(std::vector<double>& a, const std::vector<double>& scale, int m, double drop,
+// pivoting): a pivot not above `drop` of its row's `scale` is dropped (that row's x is 0). True where one was.
+bool solveDenseDropping(std::vector<double>& a, const std::vector<double>& scale, int m, double drop,
                         std::vector<double>& x) {
+  bool dropped = false;
   std::vector<double> d(static_cast<size_t>(m), 0.0);
   auto at = [&](int i, int j) -> double& {
     return a[static_cast<size_t>(i) * static_cast<size_t>(m) + static_cast<size_t>(j)];
@@ -511,6 +512,7 @@ void solveDenseDropping(std::vector<double>& a, const std::vector<double>& scale
     double dk = at(k, k);
     for (int j = 0; j < k; ++j) dk -= at(k, j) * at(k, j) * d[static_cast<size_t>(j)];
     const bool dead = !(dk > drop * scale[static_cast<size_t>(k)]) || !(scale[static_cast<size_t>(k)] > 0);
+    dropped = dropped || dead;
     d[static_cast<size_t>(k)] = dead ? 0 : dk;
     for (int i = k + 1; i < m; ++i) {
       double v = at(i, k);
@@ -525,17 +527,22 @@ void solveDenseDropping(std::vector<double>& a, const std::vector<double>& scale
         d[static_cast<size_t>(i)] > 0 ? x[static_cast<size_t>(i)] / d[static_cast<size_t>(i)] : 0;
   for (int i = m - 1; i >= 0; --i)
     for (int j = i + 1; j < m; ++j) x[static_cast<size_t>(i)] -= at(j, i) * x[static_cast<size_t>(j)];
+  return dropped;
 }
 
 // The forest and the loops' rows solved as one system: the forest's factors, and the loops' rows through their
 // Schur complement [A B; B^T C] -> (C - B^T A^-1 B) lambda_loops = r_loops - B^T A^-1 r_forest (one solve with the
 // forest's factors per loop row). A loop row the forest nearly holds already (a ring of hinges nearly in a plane:
 // its turns out of the plane are held by every hinge) has less than a thousandth of its own pivot left and is
-// dropped: solved, such a row asked 13,000 N s of a 16-plank bridge to close a tenth of a millimetre out of its
-// plane. False where the loops have more than kMaxLoopRows rows (then they go one by one, after the forest:
-// the bridge's one loop solved so diverged, 0.5 mm open before a pass and 7 mm after).
+// dropped (`dropped`; the caller then sweeps the loop joints one by one over what is left): solved here, such a row
+// asked 13,000 N s of a 16-plank bridge to close a tenth of a millimetre out of its plane, and rows down to 1e-5
+// of their pivot left its hinges 4 mm open; left unsolved, two sliders 2 degrees apart (3e-4) let their body gain
+// speed along them while the projection held it in place. False where the loops have more than kMaxLoopRows rows
+// (then they go one by one, after the forest: the bridge's one loop solved so diverged, 0.5 mm open before a pass
+// and 7 mm after).
 constexpr int kMaxLoopRows = 24;
-bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
+bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& dropped) {
+  dropped = false;
   const double reach = ctx.settings.maxCorrectionSpeed * h;
   std::vector<JointRows>& lr = s.loopRows;
   lr.resize(s.loops.size());
@@ -626,7 +633,7 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
       }
       rhs[static_cast<size_t>(i)] -= across(columns[static_cast<size_t>(i)], s.x);
     }
-    solveDenseDropping(schur, scale, m, 1e-3, rhs);  // rhs: the loops' impulses
+    dropped = solveDenseDropping(schur, scale, m, 1e-3, rhs);  // rhs: the loops' impulses
     for (int j = 0; j < m; ++j)
       for (size_t p = 0; p < n; ++p)
         for (size_t c = 0; c < static_cast<size_t>(s.rows[static_cast<size_t>(s.order[p])].n); ++c)
@@ -656,10 +663,15 @@ void solveSystem(StepContext& ctx, JointSystem& s, double h, bool pre) {
   applySolved(ctx, s, pre);
 }
 
-// A pass (after a look at the joints): the forest and the loops at once; where the loops hold too many rows for
-// that, the forest at once, then the loops one by one (a loop joint takes only what the forest leaves to it).
+// A pass (after a look at the joints): the forest and the loops at once, then, where a loop row was dropped, the
+// loops one by one over what is left; where the loops hold too many rows for that, the forest at once, then the
+// loops one by one (a loop joint takes only what the forest leaves to it).
 void solvePass(StepContext& ctx, JointSystem& s, double h, bool pre) {
-  if (!s.loops.empty() && solveWithLoops(ctx, s, h, pre)) return;
+  bool dropped = false;
+  if (!s.loops.empty() && solveWithLoops(ctx, s, h, pre, dropped)) {
+    if (dropped) solveLoops(ctx, s, h, pre);
+    return;
+  }
   solveSystem(ctx, s, h, pre);
   solveLoops(ctx, s, h, pre);
 }

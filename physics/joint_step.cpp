@@ -32,8 +32,9 @@
 //   for chains and trees); the rows of the joints that close loops (a second
 //   joint between the same bodies, a ring, a second anchor to the world) are
 //   solved with them through their Schur complement, a loop row the forest
-//   already holds (a planar ring's turns out of its plane) dropped; past
-//   24 loop rows each loop joint is solved alone after the forest
+//   nearly holds already (a planar ring's turns out of its plane) dropped
+//   and the loop joints then swept one by one over what is left; past 24
+//   loop rows each loop joint is solved alone after the forest
 //   (Gauss-Seidel). Passes go on until every joint's predicted
 //   violation is under jointTolerance or `sweeps` passes are done. Limits are
 //   one-sided rows at the bound, acting only where the predicted angle (hinge),

@@ -143,10 +143,10 @@ struct StepStats {
   int contacts = 0;
   int awake = 0;
   int jointSweeps = 0;  // pre-stabilisation sweeps, summed over the substeps
-  // Joint solves undone for handing the joined bodies more energy than they may: pre-stabilisation calls past
-  // what closing the violations they started with (at most maxCorrectionSpeed) and the motors' work allow (their
-  // joints then only removed forbidden relative velocity), and direct velocity solves past what kinematic ends
-  // drive (their joints then solved one at a time).
+  // Joint solves that handed the joined bodies more energy than they may: pre-stabilisation calls past what
+  // closing the violations they started with (at most maxCorrectionSpeed) and the motors' work allow (scaled back
+  // to that where half of the call or more fits, else undone: their joints then only removed forbidden relative
+  // velocity), and direct velocity solves past what kinematic ends drive (their joints then solved one at a time).
   int jointFallbacks = 0;
   int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
   int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)

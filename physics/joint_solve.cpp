@@ -501,10 +501,11 @@ void applySolved(StepContext& ctx, JointSystem& s, bool pre) {
 
 // The symmetric pseudo-inverse solve of the m x m positive semi-definite system a x = b (row-major; LDL^T without
 // pivoting): a pivot not above `drop` of its row's `scale` is dropped (that row's x is 0). True where one was.
+// `d`: room for the pivots.
 bool solveDenseDropping(std::vector<double>& a, const std::vector<double>& scale, int m, double drop,
-                        std::vector<double>& x) {
+                        std::vector<double>& x, std::vector<double>& d) {
   bool dropped = false;
-  std::vector<double> d(static_cast<size_t>(m), 0.0);
+  d.assign(static_cast<size_t>(m), 0.0);
   auto at = [&](int i, int j) -> double& {
     return a[static_cast<size_t>(i) * static_cast<size_t>(m) + static_cast<size_t>(j)];
   };
@@ -559,13 +560,12 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
   substitute(s, h, pre);
   if (m > 0) {
     // Each loop row's direction on each of its dynamic ends, g and W g (as `assemble` makes them).
-    struct End {
-      int slot;
-      double g[6], wg[6];
-    };
-    std::vector<std::array<End, 2>> ends(static_cast<size_t>(m));
-    std::vector<int> endCount(static_cast<size_t>(m), 0);
-    std::vector<double> rhs(static_cast<size_t>(m));
+    std::vector<std::array<LoopRowEnd, 2>>& ends = s.loopRowEnds;
+    std::vector<int>& endCount = s.loopRowEndCount;
+    std::vector<double>& rhs = s.loopRhs;
+    ends.resize(static_cast<size_t>(m));
+    endCount.assign(static_cast<size_t>(m), 0);
+    rhs.resize(static_cast<size_t>(m));
     int row = 0;
     for (size_t k = 0; k < s.loops.size(); ++k) {
       const JointRows& jr = lr[k];
@@ -577,7 +577,7 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
           const glm::dvec3 r = sign > 0 ? jr.rb : jr.ra;
           const glm::dvec3 lin = sign * jr.rows[c].lin, ang = sign * (glm::cross(r, jr.rows[c].lin) + jr.rows[c].ang);
           const glm::dvec3 wl = body.invMass * lin, wa = body.invInertia * ang;
-          End& e = ends[static_cast<size_t>(row)][static_cast<size_t>(endCount[static_cast<size_t>(row)]++)];
+          LoopRowEnd& e = ends[static_cast<size_t>(row)][static_cast<size_t>(endCount[static_cast<size_t>(row)]++)];
           e = {slot, {lin.x, lin.y, lin.z, ang.x, ang.y, ang.z}, {wl.x, wl.y, wl.z, wa.x, wa.y, wa.z}};
         }
       }
@@ -587,13 +587,14 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
     };
     // B's columns (the forest's rows' response to each loop row, by position), then A^-1 B.
     std::vector<std::vector<std::array<double, 6>>>& solved = s.loopColumns;
+    std::vector<std::vector<std::array<double, 6>>>& columns = s.loopResponse;
     solved.resize(static_cast<size_t>(m));
-    std::vector<std::vector<std::array<double, 6>>> columns(static_cast<size_t>(m));
+    columns.resize(static_cast<size_t>(m));
     for (int j = 0; j < m; ++j) {
       std::vector<std::array<double, 6>>& b = columns[static_cast<size_t>(j)];
       b.assign(n, std::array<double, 6>{});
       for (int e = 0; e < endCount[static_cast<size_t>(j)]; ++e) {
-        const End& end = ends[static_cast<size_t>(j)][static_cast<size_t>(e)];
+        const LoopRowEnd& end = ends[static_cast<size_t>(j)][static_cast<size_t>(e)];
         for (const auto& [k, sign] : s.onBody[static_cast<size_t>(end.slot)]) {
           const JointRows& jt = s.rows[static_cast<size_t>(k)];
           const glm::dvec3 r = sign > 0 ? jt.rb : jt.ra;
@@ -617,14 +618,17 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
       return v;
     };
     // The Schur complement and its right-hand side.
-    std::vector<double> schur(static_cast<size_t>(m) * static_cast<size_t>(m)), scale(static_cast<size_t>(m));
+    std::vector<double>& schur = s.loopSchur;
+    std::vector<double>& scale = s.loopScale;
+    schur.resize(static_cast<size_t>(m) * static_cast<size_t>(m));
+    scale.resize(static_cast<size_t>(m));
     for (int i = 0; i < m; ++i) {
       for (int j = 0; j <= i; ++j) {
         double c = 0;
         for (int ei = 0; ei < endCount[static_cast<size_t>(i)]; ++ei)
           for (int ej = 0; ej < endCount[static_cast<size_t>(j)]; ++ej) {
-            const End& a = ends[static_cast<size_t>(i)][static_cast<size_t>(ei)];
-            const End& b = ends[static_cast<size_t>(j)][static_cast<size_t>(ej)];
+            const LoopRowEnd& a = ends[static_cast<size_t>(i)][static_cast<size_t>(ei)];
+            const LoopRowEnd& b = ends[static_cast<size_t>(j)][static_cast<size_t>(ej)];
             if (a.slot == b.slot) c += dot6(a.g, b.wg);
           }
         if (i == j) scale[static_cast<size_t>(i)] = c;
@@ -633,7 +637,7 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
       }
       rhs[static_cast<size_t>(i)] -= across(columns[static_cast<size_t>(i)], s.x);
     }
-    dropped = solveDenseDropping(schur, scale, m, 1e-3, rhs);  // rhs: the loops' impulses
+    dropped = solveDenseDropping(schur, scale, m, 1e-3, rhs, s.loopPivots);  // rhs: the loops' impulses
     for (int j = 0; j < m; ++j)
       for (size_t p = 0; p < n; ++p)
         for (size_t c = 0; c < static_cast<size_t>(s.rows[static_cast<size_t>(s.order[p])].n); ++c)

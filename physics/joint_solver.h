@@ -175,6 +175,12 @@ struct RowEnd {
   double g[6][6], wg[6][6];
 };
 
+// A loop joint's row on one of its dynamic ends (its slot): g and W g, as RowEnd's.
+struct LoopRowEnd {
+  int slot;
+  double g[6], wg[6];
+};
+
 // The joints of a call, the bodies they join and the elimination order (kept
 // in StepContext::jointSolver while `signature` stays the same), and what each
 // pass fills in.
@@ -201,8 +207,14 @@ struct JointSystem {
   std::vector<std::array<double, 6>> scale;  // per position: the diagonal before elimination
   std::vector<std::vector<Block>> off;    // per position, along `later`
   std::vector<std::array<double, 6>> x;   // per position
-  std::vector<joints::JointRows> loopRows;                      // per loop joint (solvePass)
-  std::vector<std::vector<std::array<double, 6>>> loopColumns;  // per loop row: A^-1 of the forest's response
+  // The loops' solve with the forest (solvePass), per pass: per loop joint its rows; per loop row its ends, the
+  // forest's response to it (by position) and that solved (A^-1 B's column); the Schur complement, its diagonal
+  // before elimination, the right-hand sides (then the loop rows' impulses) and the pivots.
+  std::vector<joints::JointRows> loopRows;
+  std::vector<std::array<LoopRowEnd, 2>> loopRowEnds;
+  std::vector<int> loopRowEndCount;
+  std::vector<std::vector<std::array<double, 6>>> loopResponse, loopColumns;
+  std::vector<double> loopSchur, loopScale, loopRhs, loopPivots;
   std::vector<Block> scratch;
   std::vector<RowEnd> endScratch;  // per joint on the body being assembled
 };

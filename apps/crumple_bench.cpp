@@ -334,6 +334,10 @@ void printPhysics(const std::vector<PhysicsCase>& cases, Collector& collector) {
           "        crumple stages, ms/step: broad phase %.3f  candidates %.3f  collide %.3f  contact %.3f  shock %.3f  "
           "positions %.3f  sleep %.3f  joints %.3f  (total %.3f)\n",
           p.broadPhase, p.candidates, p.collide, p.contact, p.shockPropagation, p.positions, p.sleep, p.joints, p.total);
+      // (Two builds that step the same bits end in the same hash: a change meant to leave the physics as it was is
+      // checked here.)
+      if (gEndHash.count(c.name))
+        std::printf("        crumple end state hash %016llx\n", static_cast<unsigned long long>(gEndHash[c.name]));
     }
   }
 }

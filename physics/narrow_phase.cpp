@@ -30,6 +30,7 @@
 //   (World::setDented), the dented surface and its normal.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <crumple/physics/step_context.h>
 #include <crumple/physics/world.h>
@@ -120,6 +121,9 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   }
   const double thin = so.halfThickness();
   const double tol = std::min(1e-4, 0.25 * thin);
+  // Where the gradient is needed: every sample of a swept test or near dents, else only a contact's (phi < 0:
+  // the owner's distance below r, exactly).
+  const double gradientBelow = swept || dents.owner || dents.other ? std::numeric_limits<double>::infinity() : r;
   for (size_t k = 0; k < n; ++k) {
     const size_t index = list ? (*list)[k] : k;
     const glm::dvec3& s = st.samples[index];
@@ -135,7 +139,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     glm::dvec3 sampleHint = hint;
     if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
       sampleHint = -(otherToOwner * st.sampleNormals[index]);
-    double phi = so.distance(local, &g, &sampleHint) - r;
+    double phi = so.distance(local, &g, &sampleHint, gradientBelow) - r;
     double otherSinks = 0;  // how far the other's surface lies below its undented one at this sample
     if ((dents.owner || dents.other) && phi < dents.rise) {
       glm::dvec3 bent = g;

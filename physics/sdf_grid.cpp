@@ -386,6 +386,7 @@ SdfGrid::SdfGrid(const TriangleMesh& mesh, int resolution) : bvh_(mesh) {
   const double pad = 2 * cell_;
   origin_ = lo - pad;
   dims_ = glm::ivec3(glm::ceil((ext + 2 * pad) / cell_)) + 1;
+  maxg_ = glm::dvec3(dims_ - 1) - 1e-9;
   values_.resize(static_cast<size_t>(dims_.x) * dims_.y * dims_.z);
   for (int k = 0; k < dims_.z; ++k)
     for (int j = 0; j < dims_.y; ++j)
@@ -417,33 +418,36 @@ double SdfGrid::exactDistance(const glm::dvec3& p) const {
   return glm::dot(p - hit.point, pseudo) < 0 ? -d : d;
 }
 
-double SdfGrid::distance(const glm::dvec3& p, glm::dvec3* gradient) const {
+double SdfGrid::distance(const glm::dvec3& p, glm::dvec3* gradient, double gradientBelow) const {
   const glm::dvec3 g = (p - origin_) / cell_;
   // A point that is not finite is nowhere: outside, touching nothing (never a grid index).
   if (!std::isfinite(g.x) || !std::isfinite(g.y) || !std::isfinite(g.z)) {
     if (gradient) *gradient = glm::dvec3(0, 1, 0);
     return std::numeric_limits<double>::infinity();
   }
-  const glm::dvec3 maxg = glm::dvec3(dims_ - 1) - 1e-9;
-  const glm::dvec3 gc = glm::clamp(g, glm::dvec3(0), maxg);
-  const double outside = glm::length((g - gc) * cell_);
-  const glm::ivec3 i0 = glm::ivec3(glm::floor(gc));
-  const glm::dvec3 f = gc - glm::dvec3(i0);
-  double c[2][2][2];
-  for (int dz = 0; dz < 2; ++dz)
-    for (int dy = 0; dy < 2; ++dy)
-      for (int dx = 0; dx < 2; ++dx) c[dz][dy][dx] = node(i0.x + dx, i0.y + dy, i0.z + dz);
-  const double c00 = c[0][0][0] * (1 - f.x) + c[0][0][1] * f.x;
-  const double c10 = c[0][1][0] * (1 - f.x) + c[0][1][1] * f.x;
-  const double c01 = c[1][0][0] * (1 - f.x) + c[1][0][1] * f.x;
-  const double c11 = c[1][1][0] * (1 - f.x) + c[1][1][1] * f.x;
+  const glm::dvec3 gc = glm::clamp(g, glm::dvec3(0), maxg_);
+  // (Inside the grid, the common case, the distance to its box is 0 without a square root.)
+  const bool inside = gc.x == g.x && gc.y == g.y && gc.z == g.z;
+  const double outside = inside ? 0.0 : glm::length((g - gc) * cell_);
+  // gc >= 0: truncation is the floor.
+  const int ix = static_cast<int>(gc.x), iy = static_cast<int>(gc.y), iz = static_cast<int>(gc.z);
+  const glm::dvec3 f = gc - glm::dvec3(ix, iy, iz);
+  // The cell's eight nodes: c[dz][dy][dx] at base + dx + dy * rowStride + dz * sliceStride.
+  const size_t row = static_cast<size_t>(dims_.x), slice = row * static_cast<size_t>(dims_.y);
+  const double* v = values_.data() + (static_cast<size_t>(iz) * dims_.y + iy) * row + ix;
+  const double c000 = v[0], c001 = v[1], c010 = v[row], c011 = v[row + 1];
+  const double c100 = v[slice], c101 = v[slice + 1], c110 = v[slice + row], c111 = v[slice + row + 1];
+  const double c00 = c000 * (1 - f.x) + c001 * f.x;
+  const double c10 = c010 * (1 - f.x) + c011 * f.x;
+  const double c01 = c100 * (1 - f.x) + c101 * f.x;
+  const double c11 = c110 * (1 - f.x) + c111 * f.x;
   const double c0 = c00 * (1 - f.y) + c10 * f.y;
   const double c1 = c01 * (1 - f.y) + c11 * f.y;
   const double value = c0 * (1 - f.z) + c1 * f.z;
-  if (gradient) {
+  if (gradient && value + outside < gradientBelow) {
     // Analytic gradient of the trilinear interpolant.
-    const double gx = ((c[0][0][1] - c[0][0][0]) * (1 - f.y) + (c[0][1][1] - c[0][1][0]) * f.y) * (1 - f.z) +
-                      ((c[1][0][1] - c[1][0][0]) * (1 - f.y) + (c[1][1][1] - c[1][1][0]) * f.y) * f.z;
+    const double gx = ((c001 - c000) * (1 - f.y) + (c011 - c010) * f.y) * (1 - f.z) +
+                      ((c101 - c100) * (1 - f.y) + (c111 - c110) * f.y) * f.z;
     const double gy = (c10 - c00) * (1 - f.z) + (c11 - c01) * f.z;
     const double gz = c1 - c0;
     glm::dvec3 grad(gx, gy, gz);

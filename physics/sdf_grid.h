@@ -5,6 +5,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -80,13 +81,14 @@ class SdfGrid {
   static constexpr double kMaxNodes = 1 << 19;
   // Signed distance (negative inside). Outside the grid, the distance to the
   // grid box is added to the clamped lookup, which keeps it an upper bound.
-  double distance(const glm::dvec3& p, glm::dvec3* gradient) const;
+  // The gradient is written only where the distance is below gradientBelow.
+  double distance(const glm::dvec3& p, glm::dvec3* gradient,
+                  double gradientBelow = std::numeric_limits<double>::infinity()) const;
   glm::ivec3 dims() const { return dims_; }
   // Exact signed distance through the BVH (used to build the grid and by tests).
   double exactDistance(const glm::dvec3& p) const;
 
  private:
-  double node(int i, int j, int k) const { return values_[(static_cast<size_t>(k) * dims_.y + j) * dims_.x + i]; }
   TriangleBvh bvh_;
   std::vector<glm::dvec3> faceNormal_, vertexNormal_;
   std::vector<glm::dvec3> edgeNormal_;  // 3 per triangle (edge i opposite vertex (i+2)%3 ... see cpp)
@@ -95,6 +97,7 @@ class SdfGrid {
   glm::dvec3 origin_{0};
   double cell_ = 1;
   glm::ivec3 dims_{0};
+  glm::dvec3 maxg_{0};  // the largest grid coordinate a lookup reads from: dims - 1, less a hair
   std::vector<double> values_;
 };
 

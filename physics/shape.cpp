@@ -103,7 +103,7 @@ void finishBounds(Shape& s) {
 
 }  // namespace
 
-double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dvec3* hint) const {
+double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dvec3* hint, double gradientBelow) const {
   switch (type) {
     case ShapeType::Box:
       return boxDistance(p, halfExtents, gradient, hint);
@@ -117,7 +117,7 @@ double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dve
     case ShapeType::Cylinder:
       return cylinderDistance(p, radius, halfHeight, gradient);
     case ShapeType::Mesh: {
-      if (!polytope) return grid->distance(p, gradient);
+      if (!polytope) return grid->distance(p, gradient, gradientBelow);
       // Convex: inside, the nearest face plane is the exact distance (the grid
       // rounds the edges off, by up to a cell); outside, the grid's value, never
       // below the plane distance (a lower bound there).

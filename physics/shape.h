@@ -6,6 +6,7 @@
 #pragma once
 #include <glm/glm.hpp>
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -49,8 +50,12 @@ struct Shape {
 
   // Signed distance at p (shape frame) and, if asked, its unit gradient. Where
   // the gradient is ambiguous inside (a box's edges), `hint`, a unit direction
-  // in the shape frame towards the other body, chooses the face.
-  double distance(const glm::dvec3& p, glm::dvec3* gradient = nullptr, const glm::dvec3* hint = nullptr) const;
+  // in the shape frame towards the other body, chooses the face. A nonconvex
+  // mesh's field writes the gradient only where the distance is below
+  // `gradientBelow` (a caller that needs it only near the surface spares the
+  // rest their gradient); every other shape always writes it.
+  double distance(const glm::dvec3& p, glm::dvec3* gradient = nullptr, const glm::dvec3* hint = nullptr,
+                  double gradientBelow = std::numeric_limits<double>::infinity()) const;
   // The distance from the shape's thinnest section centre to its surface: the
   // penetration a sample may reach before the field points it out the far side.
   // (The make functions keep it in `cachedHalfThickness`: the narrow phase asks for it per pair and look.)

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <ctime>
 #include <glm/gtc/constants.hpp>
 #include <memory>
 #include <string>
@@ -362,6 +364,68 @@ void bulletPhysics(benchmark::State& state, SceneSpec spec) {
   state.counters["bodies"] = static_cast<double>(w.bodies.size());
   state.counters["awake"] = awake;
   state.counters["top_m"] = top;
+}
+
+namespace {
+// CPU time of the calling thread, in ms.
+double threadMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
+}
+int bulletAwake(const BulletWorld& w) {
+  int awake = 0;
+  for (const auto& b : w.bodies) awake += b->getInvMass() != 0 && b->isActive();
+  return awake;
+}
+}  // namespace
+
+void physicsTimeline(const std::string& name, const SceneSpec& spec, int threads, int window) {
+  auto crumple = crumpleWorld(spec);
+  crumple->settings().threads = threads;
+  BulletWorld bullet(spec);
+  std::unique_ptr<PeerWorld> jolt = makeJoltWorld(spec);
+  joltLeaveClean();
+  std::printf(
+      "timeline %s: ms per step (CPU time of the stepping thread) over each %d steps, and the bodies awake "
+      "at its end; the engines take each window in turn\n",
+      name.c_str(), window);
+  if (jolt)
+    std::printf("  %-9s %-16s %-16s %-16s %s\n", "steps", "crumple", "bullet", "jolt", "crumple/jolt");
+  else
+    std::printf("  %-9s %-16s %s\n", "steps", "crumple", "bullet");
+  double total[3] = {0, 0, 0};
+  for (int first = 0; first < gSteps; first += window) {
+    const int n = std::min(window, gSteps - first);
+    double ms[3] = {0, 0, 0};
+    double start = threadMs();
+    for (int k = 0; k < n; ++k) crumple->step(kStep);
+    ms[0] = threadMs() - start;
+    start = threadMs();
+    for (int k = 0; k < n; ++k) bullet.world.stepSimulation(btScalar(kStep), 0);
+    ms[1] = threadMs() - start;
+    if (jolt) {
+      start = threadMs();
+      for (int k = 0; k < n; ++k) jolt->step(kStep);
+      ms[2] = threadMs() - start;
+      joltLeaveClean();
+    }
+    char range[32], cell[3][32];
+    std::snprintf(range, sizeof range, "%d-%d", first + 1, first + n);
+    std::snprintf(cell[0], sizeof cell[0], "%7.3f (%d)", ms[0] / n, crumple->lastStats().awake);
+    std::snprintf(cell[1], sizeof cell[1], "%7.3f (%d)", ms[1] / n, bulletAwake(bullet));
+    std::snprintf(cell[2], sizeof cell[2], "%7.3f (%d)", ms[2] / n, jolt ? jolt->awake() : 0);
+    if (jolt)
+      std::printf("  %-9s %-16s %-16s %-16s %6.2fx\n", range, cell[0], cell[1], cell[2], ms[0] / ms[2]);
+    else
+      std::printf("  %-9s %-16s %s\n", range, cell[0], cell[1]);
+    for (int e = 0; e < 3; ++e) total[e] += ms[e];
+  }
+  if (jolt)
+    std::printf("  %-9s %7.3f          %7.3f          %7.3f          %6.2fx\n", "all", total[0] / gSteps,
+                total[1] / gSteps, total[2] / gSteps, total[0] / total[2]);
+  else
+    std::printf("  %-9s %7.3f          %7.3f\n", "all", total[0] / gSteps, total[1] / gSteps);
 }
 
 void joltPhysics(benchmark::State& state, SceneSpec spec) {

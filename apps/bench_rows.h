@@ -29,6 +29,9 @@ SceneSpec chainScene(int chains, int links);
 void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, int threads);
 void bulletPhysics(benchmark::State& state, SceneSpec spec);
 void joltPhysics(benchmark::State& state, SceneSpec spec);
+// --timeline: the scene stepped gSteps times in each engine, a window of steps at a time in turn, printing each
+// window's CPU time per step and the bodies awake at its end (where in the run each engine spends its time).
+void physicsTimeline(const std::string& name, const SceneSpec& spec, int threads, int window);
 
 // ---- deformation and rendering (bench_gpu.cpp), with a GL context current
 extern double gWarmUp;  // seconds each GPU row runs untimed first (a GPU ramps its clock up under load)

@@ -136,7 +136,7 @@ class Collector : public benchmark::ConsoleReporter {
 
 // The command line.
 struct Options {
-  bool quick = false, noGl = false, deformPhases = false, renderParts = false, strictPeers = false;
+  bool quick = false, noGl = false, deformPhases = false, renderParts = false, strictPeers = false, timeline = false;
   std::string filter;
   int threads = 1, repetitions = 1;
   std::vector<int> threadCounts = {1, 2, 4, 8, 16};
@@ -149,6 +149,10 @@ void addOptions(CLI::App& app, Options& o) {
   app.add_flag("--deform-profile", o.deformPhases,
                "Also print the wall time of each phase of a deformation, every path");
   app.add_option("--filter", o.filter, "Only benchmarks whose name matches this regular expression");
+  app.add_flag("--timeline", o.timeline,
+               "Also print, for each physics scene whose crumple row ran, each engine's CPU time per step over every "
+               "20 steps and the bodies awake then (the engines step each window in turn): where in the run each "
+               "spends its time");
   app.add_flag("--strict-peers", o.strictPeers,
                "Refuse to run (exit 1) when a peer's build would slow its rows (a Jolt built with its profiler, debug "
                "renderer, asserts or without NDEBUG): figures meant for publishing (tools/bench-vs-jolt.sh)");
@@ -472,6 +476,10 @@ int main(int argc, char** argv) {
   std::printf("\n== ratios ==\n");
   printPhysics(cases, collector);
   printScaling(scaling, o.threadCounts, collector);
+  if (o.timeline)
+    for (const auto& c : cases)
+      if (!std::isnan(collector.fastest("physics/crumple/" + c.name)))
+        physicsTimeline(c.name, c.spec, o.threads, o.quick ? 6 : 20);
   printDeform(collector);
   printRender(collector);
   if (o.deformPhases && gpuRows) deformProfile(o.quick ? 3 : 20);

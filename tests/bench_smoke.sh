@@ -28,7 +28,14 @@ expect 1 '^render +1280x720 +simplified meshes +[0-9.]+ ms/frame +full +[0-9.]+ 
 expect 1 '^render +sandbox view 336x189 .* +[0-9.]+ ms/frame +\([0-9.]+ frames/s of rendering\)$' "sandbox view"
 expect 5 '^threads +pile_[0-9]+boxes +[0-9]+ threads +[0-9.]+ ms/step +speedup over 1 +[0-9.]+x$' "thread-count"
 expect 1 '^ +pile_[0-9]+boxes: every thread count ended in the same bits \(state hash\)$' "same-bits"
+expect 5 '^ +crumple end state hash [0-9a-f]{16}$' "end state hash"
 if echo "$out" | grep -qi nan; then echo "bench_smoke: a figure is NaN" >&2; exit 1; fi
+# --timeline: the pile's 24 steps in windows of 6, each engine's ms per step and bodies awake, then the whole run.
+out=$("$bench" --quick --no-gl --filter 'crumple/pile' --timeline)
+echo "$out" | sed -n '/^timeline/,$p'
+expect 1 '^timeline pile_[0-9]+boxes: ms per step ' "timeline"
+expect 4 '^  [0-9]+-[0-9]+ +[0-9.]+ \([0-9]+\) +[0-9.]+ \([0-9]+\)' "timeline window"
+expect 1 '^  all +[0-9.]+ +[0-9.]+' "timeline total"
 # A filter that matches nothing is an error (exit 2), not a table of NaN.
 set +e
 "$bench" --quick --no-gl --filter 'no-such-benchmark' >/dev/null 2>&1

@@ -4,7 +4,7 @@
 set -euo pipefail
 usage() {
   cat <<'USAGE'
-Usage: tools/bench-vs-jolt.sh [--jolt DIR] [--repetitions N] [--quick]
+Usage: tools/bench-vs-jolt.sh [--jolt DIR] [--repetitions N] [--quick] [--timeline]
 Builds Jolt Physics from the checkout DIR (default ../JoltPhysics, cloned from GitHub when absent) with
 tools/build-jolt.sh into ../jolt-install, configures crumple in build-bench-jolt/ (Release, with
 CRUMPLE_JOLT_DIR), builds crumple-bench and runs its physics rows on one thread:
@@ -12,13 +12,15 @@ CRUMPLE_JOLT_DIR), builds crumple-bench and runs its physics rows on one thread:
 crumple is built for x86-64-v3 (AVX2, as Jolt's build is) where the CPU has it, else for the default x86-64.
 It prints the machine, crumple's commit and each peer's configuration above the figures (Jolt's own configuration
 string); a Jolt built with its profiler, debug renderer, asserts or without NDEBUG stops it with its WARNING
-(exit 1: such figures must not be published). --quick: the smoke run.
+(exit 1: such figures must not be published). --quick: the smoke run. --timeline: crumple-bench's --timeline as
+well (each engine's time per step over every 20 steps of each scene: where in the run the ratios come from).
 Nothing is installed outside ../JoltPhysics, ../jolt-install and build-bench-jolt/.
 USAGE
 }
 jolt=
 repetitions=2
 quick=()
+timeline=()
 while [ $# -gt 0 ]; do
   case "$1" in
     -h | --help) usage; exit 0 ;;
@@ -28,6 +30,7 @@ while [ $# -gt 0 ]; do
       shift 2
       ;;
     --quick) quick=(--quick); shift ;;
+    --timeline) timeline=(--timeline); shift ;;
     *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
   esac
 done
@@ -65,4 +68,4 @@ quietly cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT
   -DCMAKE_CXX_FLAGS="$march"
 quietly cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench
 echo "== crumple $(git rev-parse --short HEAD), Jolt $(git -C "$jolt" rev-parse --short HEAD 2>/dev/null || echo '?')"
-build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}"
+build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}" "${timeline[@]}"

@@ -351,34 +351,31 @@ void crumplePhysics(benchmark::State& state, SceneSpec spec, std::string name, i
   state.counters["largest_island"] = largestIsland;
   state.counters["top_m"] = top;
 }
-void bulletPhysics(benchmark::State& state, SceneSpec spec) {
-  BulletWorld w(spec);
-  for (auto _ : state) w.world.stepSimulation(btScalar(kStep), 0);
-  double top = 0;
-  int awake = 0;
-  for (const auto& b : w.bodies) {
-    if (b->getInvMass() == 0) continue;
-    top = std::max(top, static_cast<double>(b->getWorldTransform().getOrigin().y()));
-    awake += b->isActive();
-  }
-  state.counters["bodies"] = static_cast<double>(w.bodies.size());
-  state.counters["awake"] = awake;
-  state.counters["top_m"] = top;
-}
-
 namespace {
+// Bullet's dynamic bodies still awake.
+int bulletAwake(const BulletWorld& w) {
+  int awake = 0;
+  for (const auto& b : w.bodies) awake += b->getInvMass() != 0 && b->isActive();
+  return awake;
+}
 // CPU time of the calling thread, in ms.
 double threadMs() {
   timespec t{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
   return 1e3 * static_cast<double>(t.tv_sec) + 1e-6 * static_cast<double>(t.tv_nsec);
 }
-int bulletAwake(const BulletWorld& w) {
-  int awake = 0;
-  for (const auto& b : w.bodies) awake += b->getInvMass() != 0 && b->isActive();
-  return awake;
-}
 }  // namespace
+
+void bulletPhysics(benchmark::State& state, SceneSpec spec) {
+  BulletWorld w(spec);
+  for (auto _ : state) w.world.stepSimulation(btScalar(kStep), 0);
+  double top = 0;
+  for (const auto& b : w.bodies)
+    if (b->getInvMass() != 0) top = std::max(top, static_cast<double>(b->getWorldTransform().getOrigin().y()));
+  state.counters["bodies"] = static_cast<double>(w.bodies.size());
+  state.counters["awake"] = bulletAwake(w);
+  state.counters["top_m"] = top;
+}
 
 void physicsTimeline(const std::string& name, const SceneSpec& spec, int threads, int window) {
   auto crumple = crumpleWorld(spec);

@@ -344,6 +344,17 @@ void solveLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
 }
 
 namespace {
+// Row k of a joint's end on a body (sign +1 on B, -1 on A) moves the body's (v, omega) along
+// g = sign (lin_k, r x lin_k + ang_k); with the body given, also W g (W = diag(1/m, I^-1)).
+void rowOnEnd(const JointRows& jr, int k, double sign, double* g, const Side* body = nullptr, double* wg = nullptr) {
+  const glm::dvec3 r = sign > 0 ? jr.rb : jr.ra;
+  const glm::dvec3 lin = sign * jr.rows[k].lin, ang = sign * (glm::cross(r, jr.rows[k].lin) + jr.rows[k].ang);
+  g[0] = lin.x, g[1] = lin.y, g[2] = lin.z, g[3] = ang.x, g[4] = ang.y, g[5] = ang.z;
+  if (!body) return;
+  const glm::dvec3 wl = body->invMass * lin, wa = body->invInertia * ang;
+  wg[0] = wl.x, wg[1] = wl.y, wg[2] = wl.z, wg[3] = wa.x, wg[4] = wa.y, wg[5] = wa.z;
+}
+
 // The system's matrix, block by block (s.diag, s.off), from the rows of each body's joints.
 void assemble(JointSystem& s) {
   const size_t n = s.joints.size();
@@ -351,9 +362,8 @@ void assemble(JointSystem& s) {
     s.diag[p] = {};
     for (Block& b : s.off[p]) b = {};
   }
-  // A: per body, the effect of each of its joints' rows on each of its joints' rows. A row k of a joint's end
-  // on the body (sign +1 on B, -1 on A) moves the body's (v, omega) along sign (lin_k, r x lin_k + ang_k) =: g_k;
-  // the block entry of rows a of p and b of q is g_a . W g_b, W = diag(1/m, I^-1).
+  // A: per body, the effect of each of its joints' rows on each of its joints' rows (rowOnEnd's g_k): the block
+  // entry of rows a of p and b of q is g_a . W g_b.
   std::vector<RowEnd>& ends = s.endScratch;
   for (size_t slot = 1; slot < s.onBody.size(); ++slot) {
     const auto& list = s.onBody[slot];
@@ -362,17 +372,7 @@ void assemble(JointSystem& s) {
     ends.resize(list.size());
     for (size_t i = 0; i < list.size(); ++i) {
       const JointRows& jr = s.rows[static_cast<size_t>(list[i].first)];
-      const glm::dvec3 r = list[i].second > 0 ? jr.rb : jr.ra;
-      const double sign = list[i].second;
-      for (int k = 0; k < jr.n; ++k) {
-        const glm::dvec3 lin = sign * jr.rows[k].lin;
-        const glm::dvec3 ang = sign * (glm::cross(r, jr.rows[k].lin) + jr.rows[k].ang);
-        const glm::dvec3 wl = body.invMass * lin, wa = body.invInertia * ang;
-        double* g = ends[i].g[k];
-        double* wg = ends[i].wg[k];
-        g[0] = lin.x, g[1] = lin.y, g[2] = lin.z, g[3] = ang.x, g[4] = ang.y, g[5] = ang.z;
-        wg[0] = wl.x, wg[1] = wl.y, wg[2] = wl.z, wg[3] = wa.x, wg[4] = wa.y, wg[5] = wa.z;
-      }
+      for (int k = 0; k < jr.n; ++k) rowOnEnd(jr, k, list[i].second, ends[i].g[k], &body, ends[i].wg[k]);
     }
     for (size_t i = 0; i < list.size(); ++i) {
       const int p = s.place[static_cast<size_t>(list[i].first)];
@@ -574,11 +574,9 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
         for (const auto& [slot, sign] : {std::pair{s.loopEnds[k].first, -1.0}, std::pair{s.loopEnds[k].second, 1.0}}) {
           const Side& body = s.sides[static_cast<size_t>(slot)];
           if (!(body.invMass > 0)) continue;
-          const glm::dvec3 r = sign > 0 ? jr.rb : jr.ra;
-          const glm::dvec3 lin = sign * jr.rows[c].lin, ang = sign * (glm::cross(r, jr.rows[c].lin) + jr.rows[c].ang);
-          const glm::dvec3 wl = body.invMass * lin, wa = body.invInertia * ang;
           LoopRowEnd& e = ends[static_cast<size_t>(row)][static_cast<size_t>(endCount[static_cast<size_t>(row)]++)];
-          e = {slot, {lin.x, lin.y, lin.z, ang.x, ang.y, ang.z}, {wl.x, wl.y, wl.z, wa.x, wa.y, wa.z}};
+          e.slot = slot;
+          rowOnEnd(jr, c, sign, e.g, &body, e.wg);
         }
       }
     }
@@ -597,12 +595,10 @@ bool solveWithLoops(StepContext& ctx, JointSystem& s, double h, bool pre, bool& 
         const LoopRowEnd& end = ends[static_cast<size_t>(j)][static_cast<size_t>(e)];
         for (const auto& [k, sign] : s.onBody[static_cast<size_t>(end.slot)]) {
           const JointRows& jt = s.rows[static_cast<size_t>(k)];
-          const glm::dvec3 r = sign > 0 ? jt.rb : jt.ra;
           const size_t p = static_cast<size_t>(s.place[static_cast<size_t>(k)]);
           for (int c = 0; c < jt.n; ++c) {
-            const glm::dvec3 lin = double(sign) * jt.rows[c].lin;
-            const glm::dvec3 ang = double(sign) * (glm::cross(r, jt.rows[c].lin) + jt.rows[c].ang);
-            const double g[6] = {lin.x, lin.y, lin.z, ang.x, ang.y, ang.z};
+            double g[6];
+            rowOnEnd(jt, c, double(sign), g);
             b[p][static_cast<size_t>(c)] += dot6(g, end.wg);
           }
         }

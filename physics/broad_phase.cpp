@@ -618,6 +618,7 @@ void findCandidates(StepContext& ctx, double h) {
     pair.builtA = {A.x, A.q};
     pair.builtB = {B.x, B.q};
     pair.builtMargin = built;
+    pair.nearBInA.within = pair.nearAInB.within = -1;  // (a subset of the lists: made again from the new ones)
   }
   });
 }

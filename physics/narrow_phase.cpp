@@ -8,7 +8,9 @@
 //   centre in the other's field (sampleSides), the one deepest point exactly;
 //   a capsule: its core samples and its segment's deepest point there.
 //   pairContacts tests only the pair's candidate samples (broad_phase.cpp
-//   guarantees they hold every sample that can touch).
+//   guarantees they hold every sample that can touch), and of a long list
+//   only its near samples while the bodies stay close to the poses of the
+//   look that made them (Pair::NearSamples): the same contacts either way.
 //   Two convex polytopes (boxes, convex meshes) that neither sweep nor bend
 //   their normals give instead the penetrating corners of their contact
 //   manifold (polytope.h), on the incident body's surface, normal out of the
@@ -53,6 +55,67 @@ struct Dents {
   const detail::StepContext::SampleDents* otherSamples = nullptr;
 };
 
+// A look that makes a side's near samples (Pair::NearSamples): every sample within `box2` (squared) of the owner's
+// bounds box, and of those inside it every one whose distance less the sample radius is below `phi`.
+struct NearBuild {
+  std::vector<uint32_t>* samples = nullptr;
+  double phi = 0, box2 = 0;
+};
+
+// How fast a shape's distance() can change with the point, at most (0: no bound known): the analytic shapes' are
+// exact distances; a nonconvex mesh's grid has its bound (SdfGrid::lipschitz); a convex mesh takes its face planes
+// inside and the grid outside, which jump where they meet.
+double distanceSlope(const Shape& s) {
+  switch (s.type) {
+    case ShapeType::Box:
+    case ShapeType::Sphere:
+    case ShapeType::Capsule:
+    case ShapeType::Cylinder:
+      return 1.0;
+    case ShapeType::Mesh:
+      return s.polytope || !s.grid ? 0.0 : s.grid->lipschitz();
+  }
+  return 0.0;
+}
+
+// Where one side's look may test its near samples (Pair::NearSamples) instead of its whole list: `list` is set to
+// them and false returned; true where this look makes them (`make` says how). A sample not near when they were made
+// lay at least `phi` = slope * within from the owner's surface (or `within` outside its bounds box): at poses that
+// have moved its points by at most `within` since, it cannot touch (a distance changes by at most slope times the
+// distance moved), so the look finds the same contacts in the same order (the near samples are the list's, in its
+// order). Where the look sweeps or dents are near, a sample's depth is not its distance: no near samples. The bound
+// on the points' travel counts the owner's turn at the farthest corner of its bounds box (sample radius added)
+// from its centre of mass, where a touching sample lies, and the other's turn at its reach.
+constexpr size_t kNearMinSamples = 8;  // (shorter lists are tested whole)
+constexpr double kNearWithin = 0.125;  // of the lists' skin (broad_phase.cpp)
+bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other, const Pose& pother,
+                 detail::Pair::NearSamples& near, bool usable, const std::vector<uint32_t>*& list, NearBuild& make) {
+  const Shape& so = *owner.shape;
+  const double slope = distanceSlope(so);
+  if (!usable || !(slope > 0) || !std::isfinite(slope)) {
+    near.within = -1;
+    return false;
+  }
+  const double r = other.shape->sampleRadius;
+  const glm::dvec3 corner =
+      glm::max(glm::abs(so.boundsMin - r - owner.localCom), glm::abs(so.boundsMax + r - owner.localCom));
+  const double ra = glm::length(corner), rb = detail::reachAboutCom(other);
+  if (near.within > 0 && !detail::displacementExceeds(near.owner, po, ra, near.other, pother, rb,
+                                                      [&](double moved) { return moved > near.within; })) {
+    list = &near.samples;
+    return false;
+  }
+  const double within = kNearWithin * 0.2 * std::min(so.halfThickness(), other.shape->halfThickness());
+  near.samples.clear();
+  near.owner = po;
+  near.other = pother;
+  near.within = within;
+  // (A hair wider than the bound: the distances' and the travel's rounding.)
+  const double wide = within * (1 + 1e-9) + 1e-12;
+  make = {&near.samples, slope * wide, wide * wide};
+  return true;
+}
+
 // Whether sample k of s is a point of its surface with its outward normal (not a core sample a radius inside).
 bool surfaceSample(const Shape& s, size_t k) {
   return s.sampleRadius == 0 && k < s.sampleNormals.size() && glm::dot(s.sampleNormals[k], s.sampleNormals[k]) > 0.5;
@@ -89,7 +152,8 @@ double sampleDepth(const detail::StepContext::SampleDents& kept, const SurfaceDe
 void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
                     const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
                     const NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
-                    const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {}) {
+                    const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {},
+                    const NearBuild* near = nullptr) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
   const size_t n = list ? list->size() : st.samples.size();
@@ -129,6 +193,10 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     const glm::dvec3& s = st.samples[index];
     const glm::dvec3 local = otherToOwner * s + offset;
     if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z) {
+      if (near) {
+        const glm::dvec3 out = glm::max(glm::max(lo - local, local - hi), glm::dvec3(0));
+        if (glm::dot(out, out) <= near->box2) near->samples->push_back(static_cast<uint32_t>(index));
+      }
       if (!swept) continue;
       // Outside the owner's bounds at the end: the path may still have crossed it.
       const glm::dvec3 local0 = otherToOwner0 * s + offset0;
@@ -140,6 +208,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
     if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
       sampleHint = -(otherToOwner * st.sampleNormals[index]);
     double phi = so.distance(local, &g, &sampleHint, gradientBelow) - r;
+    if (near && !(phi >= near->phi)) near->samples->push_back(static_cast<uint32_t>(index));
     double otherSinks = 0;  // how far the other's surface lies below its undented one at this sample
     if ((dents.owner || dents.other) && phi < dents.rise) {
       glm::dvec3 bent = g;
@@ -414,7 +483,7 @@ SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) 
   return sides;
 }
 
-bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
+bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
   out.clear();
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
@@ -439,10 +508,20 @@ bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, cons
   const double rise = (dentA ? ctx.rise(pair.a) : 0.0) + (dentB ? ctx.rise(pair.b) : 0.0);
   const Dents dentsA{&ctx.surfaceDepth, dentA, dentB, rise, keptAnswers(ctx, pair.b, dentB)},
       dentsB{&ctx.surfaceDepth, dentB, dentA, rise, keptAnswers(ctx, pair.a, dentA)};
-  contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
-                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA);
-  contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out, ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
-                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB);
+  // (A list is made again with its near samples: a short one has none kept.)
+  const std::vector<uint32_t>* listA = &pair.bInA;
+  const std::vector<uint32_t>* listB = &pair.aInB;
+  NearBuild makeA, makeB;
+  const bool nearA = pair.bInA.size() >= kNearMinSamples &&
+                     nearSamples(A, pa, B, pb, pair.nearBInA, !sweepA && !dentA && !dentB, listA, makeA);
+  const bool nearB = pair.aInB.size() >= kNearMinSamples &&
+                     nearSamples(B, pb, A, pa, pair.nearAInB, !sweepB && !dentA && !dentB, listB, makeB);
+  contactsOneWay(pair.a, A, pa, pair.b, B, pb, listA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
+                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA,
+                 nearA ? &makeA : nullptr);
+  contactsOneWay(pair.b, B, pb, pair.a, A, pa, listB, out, ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
+                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB,
+                 nearB ? &makeB : nullptr);
   sortContacts(out);
   return false;
 }

@@ -393,6 +393,19 @@ SdfGrid::SdfGrid(const TriangleMesh& mesh, int resolution) : bvh_(mesh) {
       for (int i = 0; i < dims_.x; ++i)
         values_[(static_cast<size_t>(k) * dims_.y + j) * dims_.x + i] =
             exactDistance(origin_ + cell_ * glm::dvec3(i, j, k));
+  // The largest node difference along each axis, per metre.
+  glm::dvec3 slope(0);
+  auto at = [&](int i, int j, int k) { return values_[(static_cast<size_t>(k) * dims_.y + j) * dims_.x + i]; };
+  for (int k = 0; k < dims_.z; ++k)
+    for (int j = 0; j < dims_.y; ++j)
+      for (int i = 0; i < dims_.x; ++i) {
+        const double v = at(i, j, k);
+        if (i + 1 < dims_.x) slope.x = std::max(slope.x, std::abs(at(i + 1, j, k) - v));
+        if (j + 1 < dims_.y) slope.y = std::max(slope.y, std::abs(at(i, j + 1, k) - v));
+        if (k + 1 < dims_.z) slope.z = std::max(slope.z, std::abs(at(i, j, k + 1) - v));
+      }
+  slope /= cell_;
+  lipschitz_ = std::sqrt(glm::dot(slope, slope) + 1.0);
 }
 
 double SdfGrid::exactDistance(const glm::dvec3& p) const {

@@ -85,6 +85,10 @@ class SdfGrid {
   double distance(const glm::dvec3& p, glm::dvec3* gradient,
                   double gradientBelow = std::numeric_limits<double>::infinity()) const;
   glm::ivec3 dims() const { return dims_; }
+  // A bound on how fast distance() changes: |distance(p) - distance(q)| <= lipschitz() |p - q| everywhere (its
+  // rounding aside). Inside the grid the trilinear lookup's gradient is at most the largest node difference per
+  // axis over the cell; outside, the distance to the grid box adds at most a unit orthogonal to the clamp's.
+  double lipschitz() const { return lipschitz_; }
   // Exact signed distance through the BVH (used to build the grid and by tests).
   double exactDistance(const glm::dvec3& p) const;
 
@@ -98,6 +102,7 @@ class SdfGrid {
   double cell_ = 1;
   glm::ivec3 dims_{0};
   glm::dvec3 maxg_{0};  // the largest grid coordinate a lookup reads from: dims - 1, less a hair
+  double lipschitz_ = 0;
   std::vector<double> values_;
 };
 

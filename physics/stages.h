@@ -40,7 +40,7 @@ namespace crumple::detail {
 // narrow_phase.cpp: the contacts of a pair at the given poses, testing only its
 // candidate samples (both directions), deepest first.
 // Returns whether they came from the two convex polytopes' manifold (polytope.h) rather than the samples.
-bool pairContacts(const StepContext& ctx, const Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
 // Whether the pair can touch at all this substep: two polytopes (their manifold needs no lists), or a candidate
 // sample on either side, or a capsule segment in reach (findCandidates). Else every look finds nothing: the
 // collision and contact passes do not look (pairContacts would find nothing, at the cost of its setup).

@@ -76,6 +76,15 @@ struct Pair {
   std::vector<uint32_t> bInA, aInB;
   Pose builtA, builtB;
   double builtMargin = -1;  // < 0: no lists yet
+  // Per side, the listed samples that a look can find touching while the bodies stay within `within` of the poses
+  // of the look that made it (narrow_phase.cpp nearSamples): the same contacts for a fraction of the samples, look
+  // after look (the collision step's passes look at a pair after each impulse near it). Made again with the lists.
+  struct NearSamples {
+    std::vector<uint32_t> samples;
+    Pose owner, other;
+    double within = -1;  // < 0: none
+  };
+  NearSamples nearBInA, nearAInB;
   // Whether b's (a's) capsule segment may reach a (b) while the lists hold: a core sample came within the lists'
   // reach plus half the core samples' spacing when they were built. (Only for the side sampleSides gives one.)
   bool bSegmentNear = true, aSegmentNear = true;

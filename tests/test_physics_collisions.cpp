@@ -527,6 +527,36 @@ TEST_CASE("a long thin mesh's distance field resolves its profile: a 4 m guard-r
   CHECK(worst < 0.005);
 }
 
+TEST_CASE("a mesh's distance grid changes no faster than its bound (SdfGrid::lipschitz)") {
+  // The narrow phase skips a sample whose distance, less the bound times how far it can have moved, stays
+  // above zero: a bound that is too small would miss contacts.
+  const SdfGrid torus(torusMesh(0.3f, 0.1f, 16, 8), 32);
+  const SdfGrid block(test::voussoirMesh(1.0, 0.25, 0.3, 0.3 * 3.141592653589793, 0.4 * 3.141592653589793), 24);
+  for (const SdfGrid* grid : {&torus, &block}) {
+    const double L = grid->lipschitz();
+    // Exact distances at the nodes change by at most a cell per cell along an axis: at most sqrt(3 + 1) in all.
+    CHECK(L >= 1);
+    CHECK(L <= 2 + 1e-9);
+    uint64_t state = 7;
+    auto u = [&] {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      return static_cast<double>(state >> 11) / 9007199254740992.0;
+    };
+    double steepest = 0;
+    for (int k = 0; k < 20000; ++k) {
+      // Points in and around the body (some outside the grid), and a second one near it or far from it.
+      const glm::dvec3 p(2 * u() - 1, 2 * u() - 1, 2 * u() - 1);
+      const double reach = k % 2 ? 1e-4 + 0.01 * u() : 0.5 * u();
+      const glm::dvec3 d = glm::normalize(glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) + 1e-9) * reach;
+      const double change = std::abs(grid->distance(p + d, nullptr) - grid->distance(p, nullptr));
+      REQUIRE(change <= L * reach * (1 + 1e-9) + 1e-12);
+      steepest = std::max(steepest, change / reach);
+    }
+    MESSAGE("bound " << L << ", steepest change seen " << steepest);
+    CHECK(steepest > 0.9);  // (near the surface a distance changes as fast as the point moves)
+  }
+}
+
 TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take none, one closing on a plate does") {
   // apart: the plate in a group set apart from the boxes', or (joined) each box joined to it: pairs that never
   // collide ask for no substeps.

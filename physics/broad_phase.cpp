@@ -555,9 +555,10 @@ void findCandidates(StepContext& ctx, double h) {
     // Twice the bound on the relative motion this step, plus a little.
     const double margin = 2 * h * (glm::length(vb - va) + spin(A) + spin(B)) + 0.005 + (dentsA ? ctx.rise(pair.a) : 0.0) +
                           (dentsB ? ctx.rise(pair.b) : 0.0);
-    // The skin: a fifth of the smaller body's thinnest half thickness (a tenth rebuilt a tumbling heap's lists
-    // nearly every substep; more made the narrow phase test too many samples).
-    const double skin = 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
+    // The skin: 0.3 of the smaller body's thinnest half thickness (a tenth rebuilt a tumbling heap's lists
+    // nearly every substep; 0.6 made the first look of a substep test too many samples: the looks after it test
+    // the near samples only, narrow_phase.cpp).
+    const double skin = 0.3 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
     if (pair.builtMargin >= 0) {
       const double ra = reachAboutCom(A) + pair.builtMargin;
       const double rb = reachAboutCom(B) + pair.builtMargin;

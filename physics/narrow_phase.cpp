@@ -62,22 +62,6 @@ struct NearBuild {
   double phi = 0, box2 = 0;
 };
 
-// How fast a shape's distance() can change with the point, at most (0: no bound known): the analytic shapes' are
-// exact distances; a nonconvex mesh's grid has its bound (SdfGrid::lipschitz); a convex mesh takes its face planes
-// inside and the grid outside, which jump where they meet.
-double distanceSlope(const Shape& s) {
-  switch (s.type) {
-    case ShapeType::Box:
-    case ShapeType::Sphere:
-    case ShapeType::Capsule:
-    case ShapeType::Cylinder:
-      return 1.0;
-    case ShapeType::Mesh:
-      return s.polytope || !s.grid ? 0.0 : s.grid->lipschitz();
-  }
-  return 0.0;
-}
-
 // Where one side's look may test its near samples (Pair::NearSamples) instead of its whole list: `list` is set to
 // them and false returned; true where this look makes them (`make` says how). A sample not near when they were made
 // lay at least `phi` = slope * within from the owner's surface (or `within` outside its bounds box): at poses that
@@ -87,11 +71,11 @@ double distanceSlope(const Shape& s) {
 // on the points' travel counts the owner's turn at the farthest corner of its bounds box (sample radius added)
 // from its centre of mass, where a touching sample lies, and the other's turn at its reach.
 constexpr size_t kNearMinSamples = 8;  // (shorter lists are tested whole)
-constexpr double kNearWithin = 0.125;  // of the lists' skin (broad_phase.cpp)
+constexpr double kNearWithin = 0.025;  // of the thinner body's half thickness
 bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other, const Pose& pother,
                  detail::Pair::NearSamples& near, bool usable, const std::vector<uint32_t>*& list, NearBuild& make) {
   const Shape& so = *owner.shape;
-  const double slope = distanceSlope(so);
+  const double slope = so.distanceSlope();
   if (!usable || !(slope > 0) || !std::isfinite(slope)) {
     near.within = -1;
     return false;
@@ -105,7 +89,7 @@ bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other,
     list = &near.samples;
     return false;
   }
-  const double within = kNearWithin * 0.2 * std::min(so.halfThickness(), other.shape->halfThickness());
+  const double within = kNearWithin * std::min(so.halfThickness(), other.shape->halfThickness());
   near.samples.clear();
   near.owner = po;
   near.other = pother;

@@ -103,6 +103,19 @@ void finishBounds(Shape& s) {
 
 }  // namespace
 
+double Shape::distanceSlope() const {
+  switch (type) {
+    case ShapeType::Box:
+    case ShapeType::Sphere:
+    case ShapeType::Capsule:
+    case ShapeType::Cylinder:
+      return 1.0;
+    case ShapeType::Mesh:
+      return polytope || !grid ? 0.0 : grid->lipschitz();
+  }
+  return 0.0;
+}
+
 double Shape::distance(const glm::dvec3& p, glm::dvec3* gradient, const glm::dvec3* hint, double gradientBelow) const {
   switch (type) {
     case ShapeType::Box:

@@ -56,6 +56,11 @@ struct Shape {
   // rest their gradient); every other shape always writes it.
   double distance(const glm::dvec3& p, glm::dvec3* gradient = nullptr, const glm::dvec3* hint = nullptr,
                   double gradientBelow = std::numeric_limits<double>::infinity()) const;
+  // How fast distance() can change with the point, at most (0: no bound known): |distance(p) - distance(q)| <=
+  // distanceSlope() |p - q|. The analytic shapes' are exact distances (1); a nonconvex mesh's grid has its bound
+  // (SdfGrid::lipschitz); a convex mesh takes its face planes inside and the grid outside, which jump where they
+  // meet (0).
+  double distanceSlope() const;
   // The distance from the shape's thinnest section centre to its surface: the
   // penetration a sample may reach before the field points it out the far side.
   // (The make functions keep it in `cachedHalfThickness`: the narrow phase asks for it per pair and look.)

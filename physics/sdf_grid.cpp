@@ -433,15 +433,19 @@ double SdfGrid::exactDistance(const glm::dvec3& p) const {
 
 double SdfGrid::distance(const glm::dvec3& p, glm::dvec3* gradient, double gradientBelow) const {
   const glm::dvec3 g = (p - origin_) / cell_;
-  // A point that is not finite is nowhere: outside, touching nothing (never a grid index).
-  if (!std::isfinite(g.x) || !std::isfinite(g.y) || !std::isfinite(g.z)) {
-    if (gradient) *gradient = glm::dvec3(0, 1, 0);
-    return std::numeric_limits<double>::infinity();
+  // Inside the grid, the common case: the distance to its box is 0 (no square root), and the point is finite.
+  const bool inside = g.x >= 0 && g.y >= 0 && g.z >= 0 && g.x <= maxg_.x && g.y <= maxg_.y && g.z <= maxg_.z;
+  glm::dvec3 gc = g;
+  double outside = 0;
+  if (!inside) {
+    // A point that is not finite is nowhere: outside, touching nothing (never a grid index).
+    if (!std::isfinite(g.x) || !std::isfinite(g.y) || !std::isfinite(g.z)) {
+      if (gradient) *gradient = glm::dvec3(0, 1, 0);
+      return std::numeric_limits<double>::infinity();
+    }
+    gc = glm::clamp(g, glm::dvec3(0), maxg_);
+    outside = glm::length((g - gc) * cell_);
   }
-  const glm::dvec3 gc = glm::clamp(g, glm::dvec3(0), maxg_);
-  // (Inside the grid, the common case, the distance to its box is 0 without a square root.)
-  const bool inside = gc.x == g.x && gc.y == g.y && gc.z == g.z;
-  const double outside = inside ? 0.0 : glm::length((g - gc) * cell_);
   // gc >= 0: truncation is the floor.
   const int ix = static_cast<int>(gc.x), iy = static_cast<int>(gc.y), iz = static_cast<int>(gc.z);
   const glm::dvec3 f = gc - glm::dvec3(ix, iy, iz);

@@ -147,11 +147,15 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   const glm::dmat3 ro = glm::mat3_cast(po.orientation);
   const glm::dmat3 rot = glm::transpose(ro);
   const glm::dmat3 rt = glm::mat3_cast(pother.orientation);
-  glm::dvec3 hint = rot * (pother.position - po.position);
-  const double hintLen = glm::length(hint);
-  hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
   // (Only a box and a convex mesh read the hint; the other shapes' gradients are unique where they are asked.)
-  const bool normals = !st.sampleNormals.empty() && (so.type == ShapeType::Box || so.polytope);
+  const bool hinted = so.type == ShapeType::Box || so.polytope;
+  glm::dvec3 hint(0, 1, 0);
+  if (hinted) {
+    hint = rot * (pother.position - po.position);
+    const double hintLen = glm::length(hint);
+    hint = hintLen > 1e-12 ? hint / hintLen : glm::dvec3(0, 1, 0);
+  }
+  const bool normals = !st.sampleNormals.empty() && hinted;
   const size_t first = out.size();
   // One rigid map from the other's shape frame to the owner's: local = M s + t.
   const glm::dmat3 otherToOwner = rot * rt;

@@ -389,14 +389,22 @@ void carryPairs(StepContext& ctx) {
         p.builtMargin = old->builtMargin;
         p.bSegmentNear = old->bSegmentNear;
         p.aSegmentNear = old->aSegmentNear;
+        p.listGeneration = old->listGeneration;
+        p.dentsA = old->dentsA;
+        p.dentsB = old->dentsB;
+        std::swap(p.nearBInA, old->nearBInA);
+        std::swap(p.nearAInB, old->nearAInB);
         std::swap(p.kept, old->kept);
         p.keptA = old->keptA;
         p.keptB = old->keptB;
         p.hasKept = old->hasKept;
       } else {
+        // (A slot of the vector two substeps old: nothing in it is this pair's.)
         p.bInA.clear();
         p.aInB.clear();
         p.builtMargin = -1;
+        p.dentsA = p.dentsB = false;
+        p.nearBInA.within = p.nearAInB.within = -1;
         p.hasKept = false;
       }
     }
@@ -619,7 +627,7 @@ void findCandidates(StepContext& ctx, double h) {
     pair.builtA = {A.x, A.q};
     pair.builtB = {B.x, B.q};
     pair.builtMargin = built;
-    pair.nearBInA.within = pair.nearAInB.within = -1;  // (a subset of the lists: made again from the new ones)
+    ++pair.listGeneration;  // (the near samples of the old lists are not the new ones')
   }
   });
 }

@@ -73,7 +73,8 @@ struct NearBuild {
 constexpr size_t kNearMinSamples = 8;  // (shorter lists are tested whole)
 constexpr double kNearWithin = 0.025;  // of the thinner body's half thickness
 bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other, const Pose& pother,
-                 detail::Pair::NearSamples& near, bool usable, const std::vector<uint32_t>*& list, NearBuild& make) {
+                 const detail::Pair& pair, detail::Pair::NearSamples& near, bool usable,
+                 const std::vector<uint32_t>*& list, NearBuild& make) {
   const Shape& so = *owner.shape;
   const double slope = so.distanceSlope();
   if (!usable || !(slope > 0) || !std::isfinite(slope)) {
@@ -84,8 +85,9 @@ bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other,
   const glm::dvec3 corner =
       glm::max(glm::abs(so.boundsMin - r - owner.localCom), glm::abs(so.boundsMax + r - owner.localCom));
   const double ra = glm::length(corner), rb = detail::reachAboutCom(other);
-  if (near.within > 0 && !detail::displacementExceeds(near.owner, po, ra, near.other, pother, rb,
-                                                      [&](double moved) { return moved > near.within; })) {
+  if (near.within > 0 && near.lists == pair.listGeneration &&
+      !detail::displacementExceeds(near.owner, po, ra, near.other, pother, rb,
+                                   [&](double moved) { return moved > near.within; })) {
     list = &near.samples;
     return false;
   }
@@ -94,6 +96,7 @@ bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other,
   near.owner = po;
   near.other = pother;
   near.within = within;
+  near.lists = pair.listGeneration;
   // (A hair wider than the bound: the distances' and the travel's rounding.)
   const double wide = within * (1 + 1e-9) + 1e-12;
   make = {&near.samples, slope * wide, wide * wide};
@@ -501,9 +504,9 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose
   const std::vector<uint32_t>* listB = &pair.aInB;
   NearBuild makeA, makeB;
   const bool nearA = pair.bInA.size() >= kNearMinSamples &&
-                     nearSamples(A, pa, B, pb, pair.nearBInA, !sweepA && !dentA && !dentB, listA, makeA);
+                     nearSamples(A, pa, B, pb, pair, pair.nearBInA, !sweepA && !dentA && !dentB, listA, makeA);
   const bool nearB = pair.aInB.size() >= kNearMinSamples &&
-                     nearSamples(B, pb, A, pa, pair.nearAInB, !sweepB && !dentA && !dentB, listB, makeB);
+                     nearSamples(B, pb, A, pa, pair, pair.nearAInB, !sweepB && !dentA && !dentB, listB, makeB);
   contactsOneWay(pair.a, A, pa, pair.b, B, pb, listA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
                  sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA,
                  nearA ? &makeA : nullptr);

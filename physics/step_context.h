@@ -83,7 +83,9 @@ struct Pair {
     std::vector<uint32_t> samples;
     Pose owner, other;
     double within = -1;  // < 0: none
+    uint32_t lists = 0;  // the lists' generation they were made from (another: not these lists' near samples)
   };
+  uint32_t listGeneration = 0;  // counts the lists' builds (findCandidates)
   NearSamples nearBInA, nearAInB;
   // Whether b's (a's) capsule segment may reach a (b) while the lists hold: a core sample came within the lists'
   // reach plus half the core samples' spacing when they were built. (Only for the side sampleSides gives one.)

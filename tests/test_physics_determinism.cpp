@@ -79,8 +79,8 @@ TEST_CASE("golden state hash: a pyramid with a mixed pile dropped on it, 3 s at 
 }
 
 namespace {
-// Tori (nonconvex meshes: sample tests against distance grids) linked and stacked as they fall, with capsules and
-// spheres among them: the narrow phase's candidate lists and their near samples, kept over many looks.
+// Tori (nonconvex meshes: sample tests against distance grids) tumbling onto one another as they fall, with
+// capsules and spheres among them: the narrow phase's candidate lists and their near samples, kept over many looks.
 World& meshScene(PhysicsTestContext& c) {
   c.addGround(0.6, 0.1);
   const auto torus = makeMeshShape(torusMesh(0.3f, 0.1f, 16, 8), 32);

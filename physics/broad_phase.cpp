@@ -392,8 +392,15 @@ void carryPairs(StepContext& ctx) {
         p.listGeneration = old->listGeneration;
         p.dentsA = old->dentsA;
         p.dentsB = old->dentsB;
-        std::swap(p.nearBInA, old->nearBInA);
-        std::swap(p.nearAInB, old->nearAInB);
+        // (Most pairs have no near samples: nothing to move then.)
+        if (old->nearBInA.within > 0)
+          std::swap(p.nearBInA, old->nearBInA);
+        else
+          p.nearBInA.within = -1;
+        if (old->nearAInB.within > 0)
+          std::swap(p.nearAInB, old->nearAInB);
+        else
+          p.nearAInB.within = -1;
         std::swap(p.kept, old->kept);
         p.keptA = old->keptA;
         p.keptB = old->keptB;

@@ -75,6 +75,13 @@ constexpr double kNearWithin = 0.025;  // of the thinner body's half thickness
 bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other, const Pose& pother,
                  const detail::Pair& pair, detail::Pair::NearSamples& near, bool usable,
                  const std::vector<uint32_t>*& list, NearBuild& make) {
+  // (The reaches, like the lists' generation, stay what they were when the near samples were made.)
+  if (usable && near.within > 0 && near.lists == pair.listGeneration &&
+      !detail::displacementExceeds(near.owner, po, near.reachOwner, near.other, pother, near.reachOther,
+                                   [&](double moved) { return moved > near.within; })) {
+    list = &near.samples;
+    return false;
+  }
   const Shape& so = *owner.shape;
   const double slope = so.distanceSlope();
   if (!usable || !(slope > 0) || !std::isfinite(slope)) {
@@ -84,13 +91,8 @@ bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other,
   const double r = other.shape->sampleRadius;
   const glm::dvec3 corner =
       glm::max(glm::abs(so.boundsMin - r - owner.localCom), glm::abs(so.boundsMax + r - owner.localCom));
-  const double ra = glm::length(corner), rb = detail::reachAboutCom(other);
-  if (near.within > 0 && near.lists == pair.listGeneration &&
-      !detail::displacementExceeds(near.owner, po, ra, near.other, pother, rb,
-                                   [&](double moved) { return moved > near.within; })) {
-    list = &near.samples;
-    return false;
-  }
+  near.reachOwner = glm::length(corner);
+  near.reachOther = detail::reachAboutCom(other);
   const double within = kNearWithin * std::min(so.halfThickness(), other.shape->halfThickness());
   near.samples.clear();
   near.owner = po;

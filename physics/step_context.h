@@ -84,6 +84,7 @@ struct Pair {
     Pose owner, other;
     double within = -1;  // < 0: none
     uint32_t lists = 0;  // the lists' generation they were made from (another: not these lists' near samples)
+    double reachOwner = 0, reachOther = 0;  // the points' reaches about the centres of mass (nearSamples)
   };
   uint32_t listGeneration = 0;  // counts the lists' builds (findCandidates)
   NearSamples nearBInA, nearAInB;

@@ -537,11 +537,7 @@ TEST_CASE("a mesh's distance grid changes no faster than its bound (SdfGrid::lip
     // Exact distances at the nodes change by at most a cell per cell along an axis: at most sqrt(3 + 1) in all.
     CHECK(L >= 1);
     CHECK(L <= 2 + 1e-9);
-    uint64_t state = 7;
-    auto u = [&] {
-      state = state * 6364136223846793005ull + 1442695040888963407ull;
-      return static_cast<double>(state >> 11) / 9007199254740992.0;
-    };
+    test::Uniform u(7);
     double steepest = 0;
     for (int k = 0; k < 20000; ++k) {
       // Points in and around the body (some outside the grid), and a second one near it or far from it.

@@ -440,11 +440,11 @@ void findPairs(StepContext& ctx, double h) {
 double stepTravel(StepContext& ctx, double h) {
   const std::vector<RigidBody>& bodies = ctx.bodies;
   const size_t n = bodies.size();
-  // Per body: bounds swept over the step (the pose now and moved by h v + h^2 a, widened by how far a turn at
-  // |omega| moves its points) and the bound of its own travel's parts.
+  // Per body: bounds swept over the step (the pose now and moved by h v + h^2 a, widened by how far its turn
+  // moves its shape's points: StepContext::turnRate) and the bound of its own travel's parts.
   struct Swept {
     glm::dvec3 v{0}, a{0};
-    double turn = 0;  // |omega| R h
+    double turn = 0;  // turnRate R h
   };
   std::vector<Swept> swept(n);
   std::vector<Aabb>& boxes = ctx.boxes;  // (findPairs makes them again for the substeps)
@@ -456,7 +456,7 @@ double stepTravel(StepContext& ctx, double h) {
     if (b.movable()) {
       s.v = b.v;
       s.a = ctx.acceleration(static_cast<int>(i));
-      s.turn = glm::length(b.w) * b.shape->boundingRadius * h;
+      s.turn = ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius * h;
       const glm::dvec3 d = h * s.v + h * h * s.a;
       boxes[i].lo = glm::min(boxes[i].lo, boxes[i].lo + d) - s.turn - 0.005;
       boxes[i].hi = glm::max(boxes[i].hi, boxes[i].hi + d) + s.turn + 0.005;

@@ -477,6 +477,22 @@ struct StepContext {
     return surfaceDepth && static_cast<size_t>(i) < dentRise.size() && dentRise[static_cast<size_t>(i)] >= 0;
   }
   double rise(int i) const { return dented(i) ? dentRise[static_cast<size_t>(i)] : 0.0; }
+  // How fast turning at body i's angular velocity moves its shape, per metre from its centre of mass: |omega|,
+  // less the part about an axis through that centre about which the shape is the same all round (a sphere: every
+  // axis; a capsule: its own), where no map on its surface turns with it. Such a turn moves no point of the
+  // shape, none of its samples (a sphere's centre, a capsule's axis) and not its distance field: it asks for no
+  // substeps (a capsule rolling on its side spins fast about its axis).
+  double turnRate(int i) const {
+    const RigidBody& b = body(i);
+    const Shape& s = *b.shape;
+    const bool plain = !bentNormals(i) && !dented(i);
+    if (plain && s.type == ShapeType::Sphere && b.localCom == glm::dvec3(0)) return 0.0;
+    if (plain && s.type == ShapeType::Capsule && b.localCom.x == 0 && b.localCom.z == 0) {
+      const glm::dvec3 axis = b.rotation()[1];  // (the capsule's axis is its shape's y)
+      return glm::length(b.w - glm::dot(b.w, axis) * axis);
+    }
+    return glm::length(b.w);
+  }
   // Whether body `owner`'s dents can reach body `other` (its bounds, grown by `margin`, meet the dented part of
   // the owner's surface): pairs far from every dent keep the undented shapes' contacts, bit for bit.
   bool dentsReach(int owner, int other, double margin) const {

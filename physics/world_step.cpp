@@ -233,7 +233,7 @@ StepStatus World::step(double h) {
       const RigidBody& b = ctx.bodies[i];
       if (!b.movable()) continue;
       const double speed =
-          glm::length(b.v) + glm::length(ctx.settings.gravity) * h + glm::length(b.w) * b.shape->boundingRadius;
+          glm::length(b.v) + glm::length(ctx.settings.gravity) * h + ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius;
       most = std::max(most, speed * h);
     }
     travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);

@@ -603,6 +603,59 @@ TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take 
   CHECK(substeps(true, Apart::Joined) == 1);
 }
 
+TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
+  // A body 5 mm over a static plate 0.1 m thick (half thickness 0.05: a substep may move a body 2.5 cm), turning
+  // fast and not moving. A ball spinning and a capsule rolling on its side (spinning about its own axis) move no
+  // point of their shapes: one substep. The capsule tumbling end over end at the same rate, a box spinning, and
+  // a ball whose normals a map bends (the map turns with it) move theirs: more.
+  enum class Body { Ball, CapsuleRolling, CapsuleTumbling, Box, BumpedBall };
+  auto substeps = [](Body kind) {
+    World w;
+    w.settings().gravity = {0, 0, 0};
+    BodyDef plate;
+    plate.shape = makeBox({4, 0.1, 4});
+    plate.origin = {0, -0.05, 0};
+    plate.isStatic = true;
+    w.addBody(plate);
+    BodyDef d;
+    d.density = 1000;
+    glm::dvec3 spin(0);
+    switch (kind) {
+      case Body::Ball:
+      case Body::BumpedBall:
+        d.shape = makeSphere(0.1);  // reach (its bounds' corner) 0.17: 80 rad/s turns a point 5.8 cm a step
+        spin = {0, 0, 80};
+        break;
+      case Body::CapsuleRolling:
+      case Body::CapsuleTumbling:
+        d.shape = makeCapsule(0.1, 0.4);  // lying along x, reach 0.3: 30 rad/s turns a point 3.75 cm a step
+        d.orientation = glm::angleAxis(glm::half_pi<double>(), glm::dvec3(0, 0, 1));
+        spin = kind == Body::CapsuleRolling ? glm::dvec3(30, 0, 0) : glm::dvec3(0, 30, 0);
+        break;
+      case Body::Box:
+        d.shape = makeBox({0.2, 0.2, 0.2});
+        spin = {0, 40, 0};
+        break;
+    }
+    d.origin = {0, 0.105, 0};
+    d.angularVelocity = spin;
+    const int i = w.addBody(d);
+    if (kind == Body::BumpedBall) {
+      w.setNormalModifier([](int, const glm::dvec3&, const glm::dvec3& n) { return n; });
+      w.setBumpNormals(i, true);
+    }
+    w.step(1.0 / 240);
+    CHECK(std::isfinite(w.body(i).x.y));
+    CHECK(w.body(i).x.y > 0.09);  // on the plate, not through it
+    return w.lastStats().substeps;
+  };
+  CHECK(substeps(Body::Ball) == 1);
+  CHECK(substeps(Body::CapsuleRolling) == 1);
+  CHECK(substeps(Body::CapsuleTumbling) == 2);  // 0.0375 m / 0.025 m
+  CHECK(substeps(Body::Box) > 1);
+  CHECK(substeps(Body::BumpedBall) == 3);  // 0.058 m / 0.025 m
+}
+
 TEST_CASE("substeps: a world that keeps its fat boxes asks for as many substeps as a fresh one at the same state") {
   // The substep count comes from the fat boxes' pairs where few bodies left their fat boxes, from a grid of its
   // own otherwise (a world just made has no fat boxes). Small fast spheres in a cloud, made again as they are in

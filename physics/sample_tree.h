@@ -40,8 +40,8 @@ class SampleTree {
     while (top > 0) {
       const uint32_t at = stack[--top];
       const Node& node = nodes_[at];
-      const glm::dvec3 nc = (node.lo + node.hi) * 0.5, ne = (node.hi - node.lo) * 0.5;
-      const glm::dvec3 d = centre - nc;
+      const glm::dvec3& ne = node.extent;
+      const glm::dvec3 d = centre - node.centre;
       if (std::abs(d.x) > ne.x + reach.x || std::abs(d.y) > ne.y + reach.y || std::abs(d.z) > ne.z + reach.z) continue;
       bool apart = false;
       for (int c = 0; c < 3 && !apart; ++c)
@@ -57,9 +57,9 @@ class SampleTree {
   }
 
  private:
-  static constexpr uint32_t kLeaf = 8;
+  static constexpr uint32_t kLeaf = 16;
   struct Node {
-    glm::dvec3 lo, hi;
+    glm::dvec3 centre, extent;  // its samples' bounding box: centre and half extents
     uint32_t first = 0, count = 0;
     uint32_t right = 0;  // 0: a leaf
   };
@@ -73,8 +73,8 @@ class SampleTree {
       lo = glm::min(lo, samples[order_[k]]);
       hi = glm::max(hi, samples[order_[k]]);
     }
-    nodes_[at].lo = lo;
-    nodes_[at].hi = hi;
+    nodes_[at].centre = (lo + hi) * 0.5;
+    nodes_[at].extent = (hi - lo) * 0.5;
     nodes_[at].first = first;
     nodes_[at].count = count;
     if (count <= kLeaf) return;

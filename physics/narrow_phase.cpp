@@ -549,8 +549,15 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
       return;
     }
   }
-  // (Not a manifold with no points: two bodies a hair apart would close that gap unseen.)
-  pair.hasKept = pairContacts(ctx, pair, pa, pb, out) && tolerance > 0 && !out.empty();
+  // (Not a look with no points: two bodies a hair apart would close that gap unseen.) The samples' contacts are
+  // kept as a manifold's points are where such a look could use them (no sweep, no bent normals, no dents), but
+  // not with a ball: its one sample is cheap to look at again, and its contact's normal through both centres
+  // (two frictionless balls that hit stay without spin) would not stay so as the kept points move with the bodies.
+  const bool manifold = pairContacts(ctx, pair, pa, pb, out);
+  const bool samplesKept = !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b) &&
+                           !pair.dentsA && !pair.dentsB && A.shape->type != ShapeType::Sphere &&
+                           B.shape->type != ShapeType::Sphere;
+  pair.hasKept = (manifold || samplesKept) && tolerance > 0 && !out.empty();
   if (!pair.hasKept) return;
   pair.keptA = pa;
   pair.keptB = pb;

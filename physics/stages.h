@@ -48,10 +48,12 @@ inline bool mayTouch(const StepContext& ctx, const Pair& pair) {
   return !pair.bInA.empty() || !pair.aInB.empty() || pair.bSegmentNear || pair.aSegmentNear ||
          (ctx.body(pair.a).shape->polytope && ctx.body(pair.b).shape->polytope);
 }
-// The same contacts, where the pair's last manifold (Pair::kept) was made at poses from which the bodies have
-// moved less than contactRefreshTolerance: its points carried along with the two bodies and their depths measured
-// again (the incident point from the reference face's plane, as the manifold's clipping finds them; those no
-// longer below it dropped). Resting contact needs no new look until it moves. Else a new look, kept.
+// The same contacts, where the pair's last look (Pair::kept: a manifold, or the samples' contacts of a pair with
+// no ball in it, no sweep, no bent normals and no dents) was made at poses from which the bodies have moved less
+// than contactRefreshTolerance: its points carried along with the two bodies and their depths measured again
+// along their normals (the incident point from the reference face's plane, as the manifold's clipping finds
+// them; a sample's point from its owner's surface point; those no longer below it dropped). Resting contact
+// needs no new look until it moves. Else a new look, kept.
 void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
 // narrow_phase.cpp: forgets the kept answers at the surface samples (StepContext::sampleDents) of each body
 // whose dents changed since (World::setDented, setSurfaceDepth).

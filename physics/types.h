@@ -19,10 +19,12 @@ struct WorldSettings {
   int contactRefresh = 5;  // passes between re-finding contact geometry
   // m: at a refresh, a pair whose predicted relative pose has moved less than
   // this since its last look keeps its geometry (resting contact); 0 re-finds all.
-  // Two convex polytopes (boxes, convex meshes) keep their manifold from one step
-  // to the next on the same terms: its points move with the bodies and their
-  // depths are measured again (StepStats::keptLooks), until the bodies have moved
-  // this much from where it was found.
+  // A look's contacts are kept from one look (and step) to the next on the same
+  // terms: two convex polytopes' manifold, and the samples' contacts of a pair
+  // with no ball in it that neither sweeps, bends its normals nor feels dents.
+  // The points move with the bodies and their depths are measured again
+  // (StepStats::keptLooks), until the bodies have moved this much from where
+  // they were found.
   double contactRefreshTolerance = 0.0005;
   // Shock propagation passes per contact-graph level at most (Jacobi: each body
   // takes the mean of its groups' impulses against the frozen level below, on
@@ -150,8 +152,9 @@ struct StepStats {
   int jointFallbacks = 0;
   int droppedPairs = 0;  // pairs over WorldSettings::maxPairs, summed over the substeps
   int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)
-  // Narrow-phase looks at pairs (collision and contact steps), and those a kept manifold of two convex
-  // polytopes answered: its points carried along, the pair having moved less than contactRefreshTolerance.
+  // Narrow-phase looks at pairs (collision and contact steps), and those a kept look answered (a manifold, or
+  // the samples' contacts: WorldSettings::contactRefreshTolerance): its points carried along, the pair having
+  // moved less than contactRefreshTolerance.
   int looks = 0, keptLooks = 0;
   // Islands of pairs (no movable body in common: the units the threads share out), most in a substep,
   // and the pairs of the largest (a step cannot go faster than that island alone).

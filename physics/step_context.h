@@ -91,9 +91,10 @@ struct Pair {
   // Whether b's (a's) capsule segment may reach a (b) while the lists hold: a core sample came within the lists'
   // reach plus half the core samples' spacing when they were built. (Only for the side sampleSides gives one.)
   bool bSegmentNear = true, aSegmentNear = true;
-  // The last full look at a pair of convex polytopes (a manifold, narrow_phase.cpp lookAtPair), kept from one
-  // look, substep and step to the next while the bodies move less than contactRefreshTolerance from where it
-  // was made (keptA, keptB): each point in the frames of the body that owns its normal and of the other.
+  // The last full look at a pair (a manifold of two convex polytopes, or the samples' contacts: narrow_phase.cpp
+  // lookAtPair), kept from one look, substep and step to the next while the bodies move less than
+  // contactRefreshTolerance from where it was made (keptA, keptB): each point in the frames of the body that
+  // owns its normal and of the other.
   struct KeptContact {
     bool ownerIsA = true;
     glm::dvec3 onOwner{0}, onOther{0}, normal{0};  // the reference face's point and normal; the incident point

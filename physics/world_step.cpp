@@ -232,8 +232,8 @@ StepStatus World::step(double h) {
     for (size_t i = begin; i < end; ++i) {
       const RigidBody& b = ctx.bodies[i];
       if (!b.movable()) continue;
-      const double speed =
-          glm::length(b.v) + glm::length(ctx.settings.gravity) * h + ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius;
+      const double speed = glm::length(b.v) + glm::length(ctx.settings.gravity) * h +
+                           ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius;
       most = std::max(most, speed * h);
     }
     travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);

@@ -912,6 +912,18 @@ TEST_CASE(
   CHECK(beside.w == alone.w);
 }
 
+namespace {
+// 2 s to settle, then the looks and kept looks of the next second (240 steps).
+void settleThenCountLooks(PhysicsTestContext& c, int& kept, int& looks) {
+  c.simulate(2.0);
+  for (int s = 0; s < 240; ++s) {
+    c.simulateSteps(1);
+    kept += c.world().lastStats().keptLooks;
+    looks += c.world().lastStats().looks;
+  }
+}
+}  // namespace
+
 TEST_CASE(
     "kept manifolds: resting boxes are answered by their carried contacts, a sliding box looks afresh, and "
     "both behave as when every look is new") {
@@ -931,12 +943,7 @@ TEST_CASE(
     std::vector<int> tower;
     for (int k = 0; k < 4; ++k) tower.push_back(c.addBox({0.5, 0.5, 0.5}, {0, 0.25 + 0.5 * k, 0}, 0.6, 0.0));
     Run r;
-    c.simulate(2.0);
-    for (int s = 0; s < 240; ++s) {
-      c.simulateSteps(1);
-      r.kept += c.world().lastStats().keptLooks;
-      r.looks += c.world().lastStats().looks;
-    }
+    settleThenCountLooks(c, r.kept, r.looks);
     for (int i : tower) r.tower.push_back(c.body(i).x);
     // A box sent sliding at 2 m/s on friction 0.3 (the ground's 0.6 with its own 0.15: sqrt of the product).
     PhysicsTestContext d;
@@ -981,7 +988,8 @@ TEST_CASE(
   CHECK(std::abs(kept.slid - fresh.slid) < 0.002);
 }
 
-TEST_CASE("kept sample contacts: a capsule on a box and a torus on the ground rest on carried contacts as on fresh ones") {
+TEST_CASE(
+    "kept sample contacts: a capsule on a box and a torus on the ground rest on carried contacts as on fresh ones") {
   // Pairs that touch by samples keep their contacts as a manifold does (no ball in the pair, no sweep, no bent
   // normals, no dents): a capsule lying across a static box and a torus lying on the ground, each on its own and
   // settled, are answered mostly by carried contacts and rest where every look new puts them.
@@ -1014,12 +1022,7 @@ TEST_CASE("kept sample contacts: a capsule on a box and a torus on the ground re
     }
     const int i = c.add(d);
     Run r;
-    c.simulate(2.0);
-    for (int s = 0; s < 240; ++s) {
-      c.simulateSteps(1);
-      r.kept += c.world().lastStats().keptLooks;
-      r.looks += c.world().lastStats().looks;
-    }
+    settleThenCountLooks(c, r.kept, r.looks);
     r.at = c.body(i).x;
     r.q = c.body(i).q;
     return r;
@@ -1027,9 +1030,9 @@ TEST_CASE("kept sample contacts: a capsule on a box and a torus on the ground re
   for (bool torus : {false, true}) {
     CAPTURE(torus);
     const Run fresh = run(0, torus), kept = run(0.0005, torus);
-    MESSAGE(std::string(torus ? "torus" : "capsule") << ": kept looks " << kept.kept << " of " << kept.looks << ", "
-                                          << glm::length(kept.at - fresh.at) * 1000 << " mm from where fresh looks "
-                                          << "rest it");
+    MESSAGE(std::string(torus ? "torus" : "capsule")
+            << ": kept looks " << kept.kept << " of " << kept.looks << ", " << glm::length(kept.at - fresh.at) * 1000
+            << " mm from where fresh looks rest it");
     CHECK(fresh.kept == 0);
     CHECK(kept.looks > 0);
     CHECK(kept.kept >= 0.8 * kept.looks);

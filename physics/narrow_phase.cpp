@@ -524,9 +524,11 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   ++pair.looks;
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
-  // (Capped substeps may sweep (pairContacts), bent normals are the samples' own: both look afresh.)
-  if (pair.hasKept && tolerance > 0 && !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b) &&
-      !pair.dentsA && !pair.dentsB) {
+  // (Capped substeps may sweep (pairContacts), bent normals are the samples' own, dents change depths: all look
+  // afresh.)
+  const bool keepable = !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b) &&
+                        !pair.dentsA && !pair.dentsB;
+  if (pair.hasKept && tolerance > 0 && keepable) {
     if (!displacementExceeds(pair.keptA, pa, reachAboutCom(A), pair.keptB, pb, reachAboutCom(B),
                              [&](double m) { return m > tolerance; })) {
       const glm::dmat3 rotA = glm::mat3_cast(pa.orientation), rotB = glm::mat3_cast(pb.orientation);
@@ -554,9 +556,7 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   // not with a ball: its one sample is cheap to look at again, and its contact's normal through both centres
   // (two frictionless balls that hit stay without spin) would not stay so as the kept points move with the bodies.
   const bool manifold = pairContacts(ctx, pair, pa, pb, out);
-  const bool samplesKept = !ctx.substepsCapped && !ctx.bentNormals(pair.a) && !ctx.bentNormals(pair.b) &&
-                           !pair.dentsA && !pair.dentsB && A.shape->type != ShapeType::Sphere &&
-                           B.shape->type != ShapeType::Sphere;
+  const bool samplesKept = keepable && A.shape->type != ShapeType::Sphere && B.shape->type != ShapeType::Sphere;
   pair.hasKept = (manifold || samplesKept) && tolerance > 0 && !out.empty();
   if (!pair.hasKept) return;
   pair.keptA = pa;

@@ -162,13 +162,14 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
   // joint's force over the substep, and with the end's levers the Newton step's matrix is the derivative of
   // the end-of-substep gap (with the start's levers it was off by the turn over the substep, and chains of
   // light links under a heavy body diverged unless their substeps kept each turn small). Post: now.
-  const glm::dvec3 e = b.point(jt.rB, pre) - a.point(jt.rA, pre);  // anchor gap
+  // The anchors' levers turned into the world (the world's anchor: itself), and the anchor gap.
+  const glm::dvec3 turnedA = a.dir(jt.rA, pre), rb = b.dir(jt.rB, pre);
+  const glm::dvec3 e = b.at(rb, pre) - a.at(turnedA, pre);  // anchor gap
   // A slider's B anchor runs along A's axis: its rows hold B's anchor to the point of A's axis it is at, so A's
   // side acts at that point (A's anchor + the gap), not at A's anchor. The rows' rates are then the exact
   // derivatives of their errors (A turning carries the axis, and a bead far along a turning rod with it), and the
   // impulses turn A as the bead pushes it there.
-  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : a.dir(jt.rA, pre) + (d.type == JointType::Slider ? e : glm::dvec3(0));
-  const glm::dvec3 rb = b.dir(jt.rB, pre);
+  const glm::dvec3 ra = d.a < 0 ? glm::dvec3(0) : turnedA + (d.type == JointType::Slider ? e : glm::dvec3(0));
   out.ra = ra;
   out.rb = rb;
   const glm::dvec3 eNow = bounded ? b.point(jt.rB, false) - a.point(jt.rA, false) : glm::dvec3(0);

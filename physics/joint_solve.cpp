@@ -27,7 +27,7 @@ namespace {
 // The symmetric (pseudo-)inverse of the n x n positive semi-definite matrix a
 // (LDL^T without pivoting). A pivot that is not above 1e-9 of the row's own
 // diagonal before any elimination (`scale`: what is left of it is rounding, the
-// row repeats others) is dropped: that row gets lambda 0.
+// row repeats others) is dropped: that row gets lambda 0. Reads a's lower triangle only.
 template <int n>
 void pseudoInverseN(const Block& a, const double* scale, Block& inv) {
   double L[n][n] = {}, d[n] = {}, invd[n] = {};
@@ -88,11 +88,11 @@ void leftMultiply(const Block& inv, const Block& off, int nq, Block& out) {
     }
 }
 
-// target (nq x nr) -= a^T b, a: np x nq, b: np x nr.
+// target (nq x nr) -= a^T b, a: np x nq, b: np x nr; where `lower`, only its lower triangle (c <= i).
 template <int np>
-void subtractProduct(const Block& a, const Block& b, int nq, int nr, Block& target) {
+void subtractProduct(const Block& a, const Block& b, int nq, int nr, Block& target, bool lower) {
   for (int i = 0; i < nq; ++i)
-    for (int c = 0; c < nr; ++c) {
+    for (int c = 0; c < (lower ? i + 1 : nr); ++c) {
       double v = 0;
       for (int k = 0; k < np; ++k) v += a.m[k][i] * b.m[k][c];
       target.m[i][c] -= v;
@@ -388,10 +388,12 @@ void assemble(JointSystem& s) {
         }
         const RowEnd& ei = ends[i];
         const RowEnd& ej = ends[j];
+        // (A diagonal block's lower triangle only: the factorisation reads no more of it.)
+        const bool lower = q == p;
         withSize(np, [&](auto NP) {
           withSize(nq, [&](auto NQ) {
             for (int a = 0; a < NP(); ++a)
-              for (int c = 0; c < NQ(); ++c) {
+              for (int c = 0; c < (lower ? a + 1 : NQ()); ++c) {
                 const double* x = ei.g[a];
                 const double* y = ej.wg[c];
                 blk->m[a][c] += x[0] * y[0] + x[1] * y[1] + x[2] * y[2] + x[3] * y[3] + x[4] * y[4] + x[5] * y[5];
@@ -430,7 +432,7 @@ void factor(JointSystem& s) {
             target = &s.off[static_cast<size_t>(q)]
                            [static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
           }
-          subtractProduct<kNp>(off[e1], scaled[e2], nq, nr, *target);
+          subtractProduct<kNp>(off[e1], scaled[e2], nq, nr, *target, r == q);
         }
       }
     });

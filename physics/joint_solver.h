@@ -55,6 +55,11 @@ struct Side {
     if (index < 0) return local;
     return (pred ? Rp : R) * local;
   }
+  // point(local, pred) from dir(local, pred).
+  glm::dvec3 at(const glm::dvec3& turned, bool pred) const {
+    if (index < 0) return turned;
+    return (pred ? predicted.position : pose.position) + turned;
+  }
   glm::dquat rot(bool pred) const {
     if (index < 0) return glm::dquat(1, 0, 0, 0);
     return pred ? predicted.orientation : pose.orientation;

@@ -273,29 +273,78 @@ bool fatBoxesHold(StepContext& ctx) {
   return std::find(inside.begin(), inside.end(), 0) == inside.end();
 }
 
-// New fat boxes (the skin: a tenth of the body's smallest side, at most 5 cm, and four substeps' travel ahead)
-// and their pairs, from a hashed grid (gridPairs).
+// A body's new fat box: its bounds with a skin (a tenth of the body's smallest side, at most 5 cm) and four
+// substeps' travel ahead.
+Aabb fatBox(const StepContext& ctx, size_t i, double h) {
+  const RigidBody& b = ctx.bodies[i];
+  Aabb f = ctx.boxes[i];
+  if (b.movable()) {
+    const glm::dvec3 e = b.shape->boundsMax - b.shape->boundsMin;
+    const double skin = std::min(0.1 * std::min({e.x, e.y, e.z}), 0.05);
+    const glm::dvec3 ahead = 4 * h * b.v;
+    f.lo += glm::min(ahead, glm::dvec3(0)) - skin;
+    f.hi += glm::max(ahead, glm::dvec3(0)) + skin;
+  }
+  return f;
+}
+
+// New fat boxes for every body, and their pairs, from a hashed grid (gridPairs).
 void refreshFatPairs(StepContext& ctx, double h) {
-  const std::vector<RigidBody>& bodies = ctx.bodies;
-  const size_t n = bodies.size();
+  const size_t n = ctx.bodies.size();
   BroadGrid& grid = ctx.grid;
   grid.fat.resize(n);
   ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) {
-      const RigidBody& b = bodies[i];
-      Aabb f = ctx.boxes[i];
-      if (b.movable()) {
-        const glm::dvec3 e = b.shape->boundsMax - b.shape->boundsMin;
-        const double skin = std::min(0.1 * std::min({e.x, e.y, e.z}), 0.05);
-        const glm::dvec3 ahead = 4 * h * b.v;
-        f.lo += glm::min(ahead, glm::dvec3(0)) - skin;
-        f.hi += glm::max(ahead, glm::dvec3(0)) + skin;
-      }
-      grid.fat[i] = f;
-    }
+    for (size_t i = begin; i < end; ++i) grid.fat[i] = fatBox(ctx, i, h);
   });
   grid.fatActive = grid.active;
   gridPairs(ctx, grid, grid.fat, &grid.active, [](int, int) { return true; }, false, grid.fatKeys);
+}
+
+// Where at most kFewOutside bodies left their fat boxes (or became active since): new fat boxes for those alone,
+// their pairs dropped and found again against every fat box (each pair with a body active when its fat box was
+// made, as gridPairs finds them). The other bodies' fat boxes still hold their bounds, so the fat pairs still hold
+// every pair whose bounds overlap: the same pairs as after refreshFatPairs. False (nothing changed) where more
+// left: a grid then costs less than testing each against every body.
+constexpr size_t kFewOutside = 32;
+bool refreshFewFatBoxes(StepContext& ctx, double h) {
+  const size_t n = ctx.bodies.size();
+  BroadGrid& grid = ctx.grid;
+  if (grid.fat.size() != n || grid.fatActive.size() != n) return false;
+  std::vector<int>& out = grid.outside;
+  out.clear();
+  for (size_t i = 0; i < n; ++i)
+    if (!within(ctx.boxes[i], grid.fat[i]) || (grid.active[i] && !grid.fatActive[i])) {
+      if (out.size() == kFewOutside) return false;
+      out.push_back(static_cast<int>(i));
+    }
+  std::vector<char>& isOut = grid.isOutside;
+  isOut.assign(n, 0);
+  for (int i : out) {
+    isOut[static_cast<size_t>(i)] = 1;
+    grid.fat[static_cast<size_t>(i)] = fatBox(ctx, static_cast<size_t>(i), h);
+    grid.fatActive[static_cast<size_t>(i)] = grid.active[static_cast<size_t>(i)];
+  }
+  std::vector<uint64_t>& keys = grid.fatKeys;
+  keys.erase(std::remove_if(keys.begin(), keys.end(),
+                            [&](uint64_t key) { return isOut[key >> 32] || isOut[key & 0xffffffffu]; }),
+             keys.end());
+  std::vector<uint64_t>& found = grid.outsideKeys;
+  found.clear();
+  for (int i : out) {
+    const Aabb& fi = grid.fat[static_cast<size_t>(i)];
+    const bool iOn = grid.fatActive[static_cast<size_t>(i)] != 0;
+    for (size_t j = 0; j < n; ++j) {
+      if (static_cast<int>(j) == i || (isOut[j] && static_cast<int>(j) < i)) continue;  // (a pair of two: once)
+      if ((iOn || grid.fatActive[j]) && overlap(fi, grid.fat[j]))
+        found.push_back(static_cast<int>(j) < i ? static_cast<uint64_t>(j) << 32 | static_cast<uint64_t>(i)
+                                                : static_cast<uint64_t>(i) << 32 | static_cast<uint64_t>(j));
+    }
+  }
+  std::sort(found.begin(), found.end());
+  const size_t kept = keys.size();
+  keys.insert(keys.end(), found.begin(), found.end());
+  std::inplace_merge(keys.begin(), keys.begin() + static_cast<std::ptrdiff_t>(kept), keys.end());
+  return true;
 }
 
 // The fat boxes' pairs whose bounds overlap and that the filters keep (ctx.pairKeys, in the same sorted order):
@@ -425,7 +474,7 @@ void carryPairs(StepContext& ctx) {
 void findPairs(StepContext& ctx, double h) {
   bodyBounds(ctx, h);
   refreshJointExclusions(ctx);
-  if (!fatBoxesHold(ctx)) refreshFatPairs(ctx, h);
+  if (!fatBoxesHold(ctx) && !refreshFewFatBoxes(ctx, h)) refreshFatPairs(ctx, h);
   keepOverlapping(ctx);
   // Sleepers in a pair wake (after every pair is known: the filter above saw the bodies as they were).
   for (uint64_t key : ctx.pairKeys) {

@@ -45,10 +45,15 @@ struct BroadGrid {
   // of those boxes that overlap with a body active then. Valid while each body's bounds stay in its fat box
   // and no body inactive then is active now (a body added into a removed one's slot is held to the same test):
   // the pairs are those of the fat list whose bounds overlap.
+  // A few bodies out of their fat boxes get new ones alone, their pairs found against every fat box (the others'
+  // fat boxes and pairs stay: still a superset).
   std::vector<Aabb> fat;
   std::vector<char> fatActive;
   std::vector<uint64_t> fatKeys;
   std::vector<char> rangeInside;  // per range of bodies: all still in their fat boxes
+  std::vector<int> outside;       // the bodies out of their fat boxes (a few)
+  std::vector<char> isOutside;    // per body
+  std::vector<uint64_t> outsideKeys;
 };
 
 // A body's state (World::step keeps every body's from before the step).

@@ -10,13 +10,24 @@ namespace crumple::detail::joints {
 // A side now: the pose, the inverse masses, the velocities (predicted = now).
 Side sideAt(const StepContext& ctx, int i) {
   Side s;
+  setSide(s, ctx, i);
+  return s;
+}
+
+void setSide(Side& s, const StepContext& ctx, int i) {
+  if (i < 0) {
+    s = Side{};
+    return;
+  }
   s.index = i;
-  if (i < 0) return s;
   const RigidBody& b = ctx.body(i);
   s.pose = {b.x, b.q};
   s.predicted = s.pose;
   s.R = s.Rp = b.rotation();
-  if (!b.movable()) return s;
+  s.invMass = 0;
+  s.invInertia = glm::dmat3(0);
+  s.v = s.w = glm::dvec3(0);
+  if (!b.movable()) return;
   if (b.dynamic()) {
     s.invMass = b.invMass;
     // At the pose now: the substep's until the position update turns the bodies, then made again
@@ -25,7 +36,6 @@ Side sideAt(const StepContext& ctx, int i) {
   }
   s.v = b.v;
   s.w = b.w;
-  return s;
 }
 
 // Solves M lambda = rhs for up to 6 rows (Gaussian elimination, partial
@@ -173,8 +183,9 @@ void fillJointRows(JointRows& out, const Joint& jt, const Side& a, const Side& b
   out.ra = ra;
   out.rb = rb;
   const glm::dvec3 eNow = bounded ? b.point(jt.rB, false) - a.point(jt.rA, false) : glm::dvec3(0);
-  const glm::dvec3 u = (b.v + glm::cross(b.w, rb)) - (a.v + glm::cross(a.w, ra));
-  const glm::dvec3 omega = b.w - a.w;
+  // The relative velocities (post's errors; pre asks none of them).
+  const glm::dvec3 u = pre ? glm::dvec3(0) : (b.v + glm::cross(b.w, rb)) - (a.v + glm::cross(a.w, ra));
+  const glm::dvec3 omega = pre ? glm::dvec3(0) : b.w - a.w;
   Row* rows = out.rows;
   double* err = out.err;
   int& n = out.n;

@@ -254,7 +254,7 @@ JointSystem& buildSystem(StepContext& ctx) {
   if (!ctx.jointSolver.system) ctx.jointSolver.system = std::make_unique<JointSystem>();
   JointSystem& s = *ctx.jointSolver.system;
   if (sameSystem(ctx, s)) {
-    for (size_t k = 1; k < s.sides.size(); ++k) s.sides[k] = sideAt(ctx, s.sides[k].index);
+    for (size_t k = 1; k < s.sides.size(); ++k) setSide(s.sides[k], ctx, s.sides[k].index);
     return s;
   }
   std::vector<int> ids;
@@ -344,15 +344,23 @@ void solveLoops(StepContext& ctx, JointSystem& s, double h, bool pre) {
 }
 
 namespace {
-// Row k of a joint's end on a body (sign +1 on B, -1 on A) moves the body's (v, omega) along
-// g = sign (lin_k, r x lin_k + ang_k); with the body given, also W g (W = diag(1/m, I^-1)).
-void rowOnEnd(const JointRows& jr, int k, double sign, double* g, const Side* body = nullptr, double* wg = nullptr) {
-  const glm::dvec3 r = sign > 0 ? jr.rb : jr.ra;
-  const glm::dvec3 lin = sign * jr.rows[k].lin, ang = sign * (glm::cross(r, jr.rows[k].lin) + jr.rows[k].ang);
+// A row (its lever r) on a joint's end on a body (sign +1 on B, -1 on A) moves the body's (v, omega) along
+// g = sign (lin, r x lin + ang); with the body given, also W g (W = diag(1/m, I^-1)).
+inline void rowTerms(const Row& row, const glm::dvec3& r, double sign, double* g, const Side* body, double* wg) {
+  const glm::dvec3 lin = sign * row.lin, ang = sign * (glm::cross(r, row.lin) + row.ang);
   g[0] = lin.x, g[1] = lin.y, g[2] = lin.z, g[3] = ang.x, g[4] = ang.y, g[5] = ang.z;
   if (!body) return;
   const glm::dvec3 wl = body->invMass * lin, wa = body->invInertia * ang;
   wg[0] = wl.x, wg[1] = wl.y, wg[2] = wl.z, wg[3] = wa.x, wg[4] = wa.y, wg[5] = wa.z;
+}
+// Row k of a joint's end: rowTerms with the end's lever.
+void rowOnEnd(const JointRows& jr, int k, double sign, double* g, const Side* body = nullptr, double* wg = nullptr) {
+  rowTerms(jr.rows[k], sign > 0 ? jr.rb : jr.ra, sign, g, body, wg);
+}
+// Every row of a joint's end on `body`, into e.
+void endRows(const JointRows& jr, double sign, const Side& body, RowEnd& e) {
+  const glm::dvec3& r = sign > 0 ? jr.rb : jr.ra;
+  for (int k = 0; k < jr.n; ++k) rowTerms(jr.rows[k], r, sign, e.g[k], &body, e.wg[k]);
 }
 
 // The system's matrix, block by block (s.diag, s.off), from the rows of each body's joints.
@@ -372,7 +380,7 @@ void assemble(JointSystem& s) {
     ends.resize(list.size());
     for (size_t i = 0; i < list.size(); ++i) {
       const JointRows& jr = s.rows[static_cast<size_t>(list[i].first)];
-      for (int k = 0; k < jr.n; ++k) rowOnEnd(jr, k, list[i].second, ends[i].g[k], &body, ends[i].wg[k]);
+      endRows(jr, list[i].second, body, ends[i]);
     }
     for (size_t i = 0; i < list.size(); ++i) {
       const int p = s.place[static_cast<size_t>(list[i].first)];

@@ -81,8 +81,9 @@ struct Side {
   }
 };
 
-// A side now: the pose, the inverse masses, the velocities (predicted = now).
+// A side now: the pose, the inverse masses, the velocities (predicted = now); setSide makes s so in place.
 Side sideAt(const StepContext& ctx, int i);
+void setSide(Side& s, const StepContext& ctx, int i);
 
 // The 6x6 map from (linear impulse at the anchors, torque impulse) on B to the
 // change of (relative anchor velocity, relative angular velocity).

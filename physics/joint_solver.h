@@ -209,7 +209,7 @@ struct JointSystem {
   std::vector<std::vector<int>> later;    // per position: the later positions L couples it to (sorted)
   // Per pass.
   std::vector<joints::JointRows> rows;            // per joint
-  std::vector<Block> diag, inv;           // per position (diag: its lower triangle only)
+  std::vector<Block> diag, inv;                   // per position (diag: its lower triangle only)
   std::vector<std::array<double, 6>> scale;  // per position: the diagonal before elimination
   std::vector<std::vector<Block>> off;    // per position, along `later`
   std::vector<std::array<double, 6>> x;   // per position

@@ -254,8 +254,14 @@ void bodyBounds(StepContext& ctx, double h) {
   });
 }
 
-// Whether every body is still in its fat box (and no body became active outside it): the fat boxes' pairs
-// then still hold every pair. In ranges on the World's threads, each its own flag.
+// Whether body i's bounds are still in its fat box and it was active when the box was made, if it is now.
+bool inFatBox(const StepContext& ctx, size_t i) {
+  const BroadGrid& grid = ctx.grid;
+  return within(ctx.boxes[i], grid.fat[i]) && (!grid.active[i] || grid.fatActive[i]);
+}
+
+// Whether every body is still in its fat box (inFatBox): the fat boxes' pairs then still hold every pair. In
+// ranges on the World's threads, each its own flag.
 bool fatBoxesHold(StepContext& ctx) {
   const size_t n = ctx.bodies.size();
   BroadGrid& grid = ctx.grid;
@@ -265,9 +271,7 @@ bool fatBoxesHold(StepContext& ctx) {
   inside.assign((n + kBodiesPerRange - 1) / kBodiesPerRange, 1);
   ctx.parallelRange(n, kBodiesPerRange, [&](size_t begin, size_t end, int) {
     char ok = 1;
-    for (size_t i = begin; i < end && ok; ++i) {
-      ok = within(ctx.boxes[i], grid.fat[i]) && (!grid.active[i] || grid.fatActive[i]);
-    }
+    for (size_t i = begin; i < end && ok; ++i) ok = inFatBox(ctx, i);
     inside[begin / kBodiesPerRange] = ok;
   });
   return std::find(inside.begin(), inside.end(), 0) == inside.end();
@@ -313,7 +317,7 @@ bool refreshFewFatBoxes(StepContext& ctx, double h) {
   std::vector<int>& out = grid.outside;
   out.clear();
   for (size_t i = 0; i < n; ++i)
-    if (!within(ctx.boxes[i], grid.fat[i]) || (grid.active[i] && !grid.fatActive[i])) {
+    if (!inFatBox(ctx, i)) {
       if (out.size() == kFewOutside) return false;
       out.push_back(static_cast<int>(i));
     }

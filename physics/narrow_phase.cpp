@@ -386,9 +386,6 @@ bool manifoldContacts(int ia, const RigidBody& A, const Pose& pa, int ib, const 
   return true;
 }
 
-// Whether a shape is convex (every analytic shape; a mesh with its polytope).
-bool convexShape(const Shape& s) { return s.type != ShapeType::Mesh || s.polytope != nullptr; }
-
 // Deepest first; equal depths keep the order they were found in (a stable
 // insertion sort: the lists are short, and it allocates nothing).
 void sortContacts(std::vector<Contact>& out) {
@@ -461,7 +458,7 @@ void forgetSurfaceAnswers(StepContext& ctx) {
 }
 
 SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) {
-  const auto convex = convexShape;
+  auto convex = [](const Shape& s) { return s.type != ShapeType::Mesh || s.polytope != nullptr; };
   SampleSides sides;
   // A sphere first (its centre is exact alone), then a capsule (its core samples and its segment's deepest point).
   for (ShapeType rounded : {ShapeType::Sphere, ShapeType::Capsule}) {
@@ -557,9 +554,10 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   // A ball against a convex shape where nothing sweeps, bends normals or feels dents: pairContacts would test the
   // ball's one core sample (its centre, when listed) in the other's field and nothing else; it is tested so here,
   // without what the general look prepares first (the same contact, bit for bit).
-  if (keepable) {
-    const bool ballB = B.shape->type == ShapeType::Sphere && convexShape(*A.shape);
-    const bool ballA = !ballB && A.shape->type == ShapeType::Sphere && convexShape(*B.shape);
+  if (keepable && (A.shape->type == ShapeType::Sphere || B.shape->type == ShapeType::Sphere)) {
+    // (sampleSides' choice, as pairContacts makes it here: one side left out and no segment is a ball's centre.)
+    const SampleSides sides = sampleSides(*A.shape, false, *B.shape, false);
+    const bool ballB = !sides.aInB && !sides.segmentB, ballA = !sides.bInA && !sides.segmentA;
     if (ballA || ballB) {
       out.clear();
       if (ballB)

@@ -241,11 +241,11 @@ void bodyBounds(StepContext& ctx, double h) {
     for (size_t i = begin; i < end; ++i) {
       const RigidBody& b = bodies[i];
       active[i] = b.dynamic() || (b.kinematic && moving(b));
-      ctx.predicted[i] = ctx.predict(b, h, true);
+      ctx.predicted[i] = PoseFrame(ctx.predict(b, h, true));
       boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
       if (b.movable()) {
         Aabb& box = boxes[i];
-        box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i]));
+        box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i].pose.position, ctx.predicted[i].rotation));
         const double margin = 0.005 + 2 * h * glm::length(b.v) + ctx.rise(static_cast<int>(i));
         box.lo -= margin;
         box.hi += margin;

@@ -56,10 +56,10 @@ void CollisionRun::island(size_t island, int worker) {
   std::vector<std::pair<uint32_t, uint32_t>>& seen = ctx.foundVersion;
   // Each body's predicted pose (findPairs made the first), kept while no
   // impulse has changed its velocity.
-  auto predicted = [&](int i) -> const Pose& {
+  auto predicted = [&](int i) -> const PoseFrame& {
     const size_t k = static_cast<size_t>(i);
     if (ctx.predictedVersion[k] != version[k]) {
-      ctx.predicted[k] = ctx.predict(ctx.bodies[k], h, true);
+      ctx.predicted[k] = PoseFrame(ctx.predict(ctx.bodies[k], h, true));
       ctx.predictedVersion[k] = version[k];
     }
     return ctx.predicted[k];
@@ -82,9 +82,12 @@ void CollisionRun::island(size_t island, int worker) {
       for (int it = 0; it < settings.collisionIterations; ++it) {
         const RigidBody& A = ctx.body(ia);
         const RigidBody& B = ctx.body(ib);
-        const Pose pa = predicted(ia), pb = predicted(ib);
+        const PoseFrame& frameA = predicted(ia);
+        const PoseFrame& frameB = predicted(ib);
+        const Pose& pa = frameA.pose;
+        const Pose& pb = frameB.pose;
         std::vector<Contact>& contacts = ctx.found[pi];
-        lookAtPair(ctx, ctx.pairs[pi], pa, pb, contacts);
+        lookAtPair(ctx, ctx.pairs[pi], frameA, frameB, contacts);
         seen[pi] = {version[static_cast<size_t>(ia)], version[static_cast<size_t>(ib)]};
         const Contact* hit = nullptr;
         double approach = 0;

@@ -73,14 +73,17 @@ void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGrou
 
 // A new look at pair pi's geometry at poses pa, pb: its groups (inheriting the
 // old groups' totals), their levers, matrices, patch matrices and normal speeds.
-void refreshGroups(StepContext& ctx, size_t pi, const Pose& pa, const Pose& pb, bool reuse, ContactScratch& s) {
+void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const PoseFrame& frameB, bool reuse,
+                   ContactScratch& s) {
   const Pair& pair = ctx.pairs[pi];
+  const Pose& pa = frameA.pose;
+  const Pose& pb = frameB.pose;
   const std::vector<Contact>* contacts = &s.fresh;
   ctx.lookPoses[pi] = {pa, pb};
   if (reuse) {
     contacts = &ctx.found[pi];
   } else {
-    lookAtPair(ctx, ctx.pairs[pi], pa, pb, s.fresh);
+    lookAtPair(ctx, ctx.pairs[pi], frameA, frameB, s.fresh);
   }
   ctx.lookCount[pi] = static_cast<int>(contacts->size());  // this look's points (StepStats::contacts)
   std::vector<ContactGroup>& groups = ctx.groups[pi];
@@ -161,13 +164,15 @@ ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(
 }
 
 // ctx.predict(body, h, false), kept while the body's velocities stay the same bits.
-Pose ContactRun::predict(size_t i) {
+const PoseFrame& ContactRun::predict(size_t i) {
   const RigidBody& b = ctx_.bodies[i];
-  if (!b.movable()) return {b.x, b.q};  // (a static body is in many islands: nothing kept for it)
+  // (A static body is in many islands: nothing is kept for it here. findPairs' prediction of this substep is
+  // where it is, {x, q}.)
+  if (!b.movable()) return ctx_.predicted[i];
   Predicted& p = predicted_[i];
-  if (p.made && std::memcmp(&p.v, &b.v, sizeof p.v) == 0 && std::memcmp(&p.w, &b.w, sizeof p.w) == 0) return p.pose;
-  p = {b.v, b.w, ctx_.predict(b, h_, false), true};
-  return p.pose;
+  if (p.made && std::memcmp(&p.v, &b.v, sizeof p.v) == 0 && std::memcmp(&p.w, &b.w, sizeof p.w) == 0) return p.frame;
+  p = {b.v, b.w, PoseFrame(ctx_.predict(b, h_, false)), true};
+  return p.frame;
 }
 
 void ContactRun::start() {
@@ -222,8 +227,10 @@ void ContactRun::island(size_t island, int worker) {
         const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
                                                 ctx.version[static_cast<size_t>(pair.b)]};
         const bool reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-        const Pose pa = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
-        const Pose pb = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
+        const PoseFrame& frameA = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
+        const PoseFrame& frameB = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
+        const Pose& pa = frameA.pose;
+        const Pose& pb = frameB.pose;
         bool look = true;
         if (pass > 1) {
           // A refresh re-finds the geometry only where the predicted poses have
@@ -235,7 +242,7 @@ void ContactRun::island(size_t island, int worker) {
           look = displacementExceeds(ctx.lookPoses[pi].first, pa, reachAboutCom(A), ctx.lookPoses[pi].second, pb,
                                      reachAboutCom(B), [&](double moved) { return moved > tolerance; });
         }
-        if (look) refreshGroups(ctx, pi, pa, pb, reuse, s);
+        if (look) refreshGroups(ctx, pi, frameA, frameB, reuse, s);
         if (ctx.groups[pi].empty()) continue;
         if (pass == 1)
           for (const ContactGroup& g : ctx.groups[pi]) ctx.pairApproach[pi] = std::max(ctx.pairApproach[pi], -g.speed);

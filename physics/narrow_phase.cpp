@@ -40,6 +40,7 @@
 namespace crumple {
 
 namespace {
+using detail::PoseFrame;
 // Tests samples of `other` (all, or the listed ones) against the field of `owner`.
 // With `segment` (other is a capsule, owner convex: detail::sampleSides), also the point of the capsule's core
 // segment deepest in the owner's field, where it is deeper than every sample: the samples stand a radius apart,
@@ -138,8 +139,8 @@ double sampleDepth(const detail::StepContext::SampleDents& kept, const SurfaceDe
   return d;
 }
 
-void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOther, const RigidBody& other,
-                    const Pose& pother, const std::vector<uint32_t>* list, std::vector<Contact>& out,
+void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOwner, int iOther, const RigidBody& other,
+                    const PoseFrame& frameOther, const std::vector<uint32_t>* list, std::vector<Contact>& out,
                     const NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
                     const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {},
                     const NearBuild* near = nullptr) {
@@ -149,9 +150,11 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
   if (n == 0 && !segment) return;  // (before any turning: most looks at a pair have one side with nothing listed)
   const double r = st.sampleRadius;
   const glm::dvec3 lo = so.boundsMin - r - dents.rise, hi = so.boundsMax + r + dents.rise;
-  const glm::dmat3 ro = glm::mat3_cast(po.orientation);
+  const Pose& po = frameOwner.pose;
+  const Pose& pother = frameOther.pose;
+  const glm::dmat3& ro = frameOwner.rotation;
   const glm::dmat3 rot = glm::transpose(ro);
-  const glm::dmat3 rt = glm::mat3_cast(pother.orientation);
+  const glm::dmat3& rt = frameOther.rotation;
   // (Only a box and a convex mesh read the hint; the other shapes' gradients are unique where they are asked.)
   const bool hinted = so.type == ShapeType::Box || so.polytope;
   glm::dvec3 hint(0, 1, 0);
@@ -357,14 +360,16 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const Pose& po, int iOth
 // instead of the samples, which cannot hold a face lying on a face of the same
 // size (an arch's joints) and give a box resting on a box 26 points where its
 // overlap has 4 corners. Box on box by boxContacts. False when the pair is not such a pair.
-bool manifoldContacts(int ia, const RigidBody& A, const Pose& pa, int ib, const RigidBody& B, const Pose& pb,
-                      std::vector<Contact>& out) {
+bool manifoldContacts(int ia, const RigidBody& A, const PoseFrame& frameA, int ib, const RigidBody& B,
+                      const PoseFrame& frameB, std::vector<Contact>& out) {
   const Shape& sa = *A.shape;
   const Shape& sb = *B.shape;
   if (!sa.polytope || !sb.polytope) return false;
-  const glm::dmat3 ra = glm::mat3_cast(pa.orientation);
+  const Pose& pa = frameA.pose;
+  const Pose& pb = frameB.pose;
+  const glm::dmat3& ra = frameA.rotation;
   const glm::dmat3 rat = glm::transpose(ra);
-  const glm::dmat3 rb = glm::mat3_cast(pb.orientation);
+  const glm::dmat3& rb = frameB.rotation;
   // B's shape frame into A's: x_A = rat (pb + rb (x_B - comB) - pa) + comA.
   RigidMap map;
   map.rotation = rat * rb;
@@ -476,8 +481,11 @@ SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) 
   return sides;
 }
 
-bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
+bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, const PoseFrame& frameB,
+                  std::vector<Contact>& out) {
   out.clear();
+  const Pose& pa = frameA.pose;
+  const Pose& pb = frameB.pose;
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
   const bool bumpA = ctx.bentNormals(pair.a), bumpB = ctx.bentNormals(pair.b);
@@ -489,7 +497,7 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose
                                                                       B.shape->boundingRadius)
                                           : 0.0;
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
-  if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, pa, pair.b, B, pb, out)) {
+  if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, frameA, pair.b, B, frameB, out)) {
     if (pair.dentsA || pair.dentsB)
       dentManifold(ctx.surfaceDepth, pair.a, A, pa, pair.dentsA, B, pb, pair.dentsB, out);
     sortContacts(out);
@@ -509,18 +517,23 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose
                      nearSamples(A, pa, B, pb, pair, pair.nearBInA, !sweepA && !dentA && !dentB, listA, makeA);
   const bool nearB = pair.aInB.size() >= kNearMinSamples &&
                      nearSamples(B, pb, A, pa, pair, pair.nearAInB, !sweepB && !dentA && !dentB, listB, makeB);
-  contactsOneWay(pair.a, A, pa, pair.b, B, pb, listA, out, ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
+  contactsOneWay(pair.a, A, frameA, pair.b, B, frameB, listA, out,
+                 ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
                  sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA,
                  nearA ? &makeA : nullptr);
-  contactsOneWay(pair.b, B, pb, pair.a, A, pa, listB, out, ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
+  contactsOneWay(pair.b, B, frameB, pair.a, A, frameA, listB, out,
+                 ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
                  sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB,
                  nearB ? &makeB : nullptr);
   sortContacts(out);
   return false;
 }
 
-void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out) {
+void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, const PoseFrame& frameB,
+                std::vector<Contact>& out) {
   const double tolerance = ctx.settings.contactRefreshTolerance;
+  const Pose& pa = frameA.pose;
+  const Pose& pb = frameB.pose;
   ++pair.looks;
   const RigidBody& A = ctx.body(pair.a);
   const RigidBody& B = ctx.body(pair.b);
@@ -531,7 +544,8 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   if (pair.hasKept && tolerance > 0 && keepable) {
     if (!displacementExceeds(pair.keptA, pa, reachAboutCom(A), pair.keptB, pb, reachAboutCom(B),
                              [&](double m) { return m > tolerance; })) {
-      const glm::dmat3 rotA = glm::mat3_cast(pa.orientation), rotB = glm::mat3_cast(pb.orientation);
+      const glm::dmat3& rotA = frameA.rotation;
+      const glm::dmat3& rotB = frameB.rotation;
       out.clear();
       for (const Pair::KeptContact& k : pair.kept) {
         const glm::dmat3& ro = k.ownerIsA ? rotA : rotB;
@@ -561,9 +575,9 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
     if (ballA || ballB) {
       out.clear();
       if (ballB)
-        contactsOneWay(pair.a, A, pa, pair.b, B, pb, &pair.bInA, out);
+        contactsOneWay(pair.a, A, frameA, pair.b, B, frameB, &pair.bInA, out);
       else
-        contactsOneWay(pair.b, B, pb, pair.a, A, pa, &pair.aInB, out);
+        contactsOneWay(pair.b, B, frameB, pair.a, A, frameA, &pair.aInB, out);
       sortContacts(out);
       pair.hasKept = false;
       return;
@@ -573,15 +587,15 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& 
   // kept as a manifold's points are where such a look could use them (no sweep, no bent normals, no dents), but
   // not with a ball: its one sample is cheap to look at again, and its contact's normal through both centres
   // (two frictionless balls that hit stay without spin) would not stay so as the kept points move with the bodies.
-  const bool manifold = pairContacts(ctx, pair, pa, pb, out);
+  const bool manifold = pairContacts(ctx, pair, frameA, frameB, out);
   const bool samplesKept = keepable && A.shape->type != ShapeType::Sphere && B.shape->type != ShapeType::Sphere;
   pair.hasKept = (manifold || samplesKept) && tolerance > 0 && !out.empty();
   if (!pair.hasKept) return;
   pair.keptA = pa;
   pair.keptB = pb;
   pair.kept.resize(out.size());
-  const glm::dmat3 toA = glm::transpose(glm::mat3_cast(pa.orientation));
-  const glm::dmat3 toB = glm::transpose(glm::mat3_cast(pb.orientation));
+  const glm::dmat3 toA = glm::transpose(frameA.rotation);
+  const glm::dmat3 toB = glm::transpose(frameB.rotation);
   for (size_t i = 0; i < out.size(); ++i) {
     const Contact& c = out[i];
     Pair::KeptContact& k = pair.kept[i];
@@ -602,7 +616,8 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   const RigidBody& A = ctx_->body(ia);
   const RigidBody& B = ctx_->body(ib);
   const bool dentA = ctx_->dentsReach(ia, ib, 0.005), dentB = ctx_->dentsReach(ib, ia, 0.005);
-  if (manifoldContacts(ia, A, pa, ib, B, pb, out)) {
+  const detail::PoseFrame frameA(pa), frameB(pb);
+  if (manifoldContacts(ia, A, frameA, ib, B, frameB, out)) {
     if (dentA || dentB) dentManifold(ctx_->surfaceDepth, ia, A, pa, dentA, B, pb, dentB, out);
     sortContacts(out);
     return;
@@ -613,9 +628,9 @@ void World::findContacts(int ia, int ib, const Pose& pa, const Pose& pb, std::ve
   const Dents dentsA{&ctx_->surfaceDepth, dentA, dentB, rise, keptAnswers(*ctx_, ib, dentB)},
       dentsB{&ctx_->surfaceDepth, dentB, dentA, rise, keptAnswers(*ctx_, ia, dentA)};
   if (sides.bInA)
-    contactsOneWay(ia, A, pa, ib, B, pb, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB, dentsA);
+    contactsOneWay(ia, A, frameA, ib, B, frameB, nullptr, out, nullptr, nullptr, nullptr, sides.segmentB, dentsA);
   if (sides.aInB)
-    contactsOneWay(ib, B, pb, ia, A, pa, nullptr, out, nullptr, nullptr, nullptr, sides.segmentA, dentsB);
+    contactsOneWay(ib, B, frameB, ia, A, frameA, nullptr, out, nullptr, nullptr, nullptr, sides.segmentA, dentsB);
   sortContacts(out);
 }
 

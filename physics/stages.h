@@ -40,7 +40,8 @@ namespace crumple::detail {
 // narrow_phase.cpp: the contacts of a pair at the given poses, testing only its
 // candidate samples (both directions), deepest first.
 // Returns whether they came from the two convex polytopes' manifold (polytope.h) rather than the samples.
-bool pairContacts(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& pa, const PoseFrame& pb,
+                  std::vector<Contact>& out);
 // Whether the pair can touch at all this substep: two polytopes (their manifold needs no lists), or a candidate
 // sample on either side, or a capsule segment in reach (findCandidates). Else every look finds nothing: the
 // collision and contact passes do not look (pairContacts would find nothing, at the cost of its setup).
@@ -54,7 +55,7 @@ inline bool mayTouch(const StepContext& ctx, const Pair& pair) {
 // along their normals (the incident point from the reference face's plane, as the manifold's clipping finds
 // them; a sample's point from its owner's surface point; those no longer below it dropped). Resting contact
 // needs no new look until it moves. Else a new look, kept.
-void lookAtPair(const StepContext& ctx, Pair& pair, const Pose& pa, const Pose& pb, std::vector<Contact>& out);
+void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& pa, const PoseFrame& pb, std::vector<Contact>& out);
 // narrow_phase.cpp: forgets the kept answers at the surface samples (StepContext::sampleDents) of each body
 // whose dents changed since (World::setDented, setSurfaceDepth).
 void forgetSurfaceAnswers(StepContext& ctx);
@@ -149,11 +150,11 @@ class ContactRun {
   // changed since is not turned again (the poses stay put through the passes; an island's bodies are its own).
   struct Predicted {
     glm::dvec3 v{0}, w{0};
-    Pose pose;
+    PoseFrame frame;
     bool made = false;
   };
   std::vector<Predicted> predicted_;
-  Pose predict(size_t body);
+  const PoseFrame& predict(size_t body);
 };
 // resting_solve.cpp (called by contactStep with the velocities it began with)
 void restingSolve(StepContext& ctx, const std::vector<glm::dvec3>& v0, const std::vector<glm::dvec3>& w0, double h);

@@ -163,13 +163,24 @@ inline bool finite(const glm::dquat& q) {
   return std::isfinite(q.w) && std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z);
 }
 
-inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& pose) {
+// A pose with its rotation matrix, made once where many pairs look at the same pose (the collision and contact
+// passes' predicted poses): the narrow phase turns points by the matrix, never by the quaternion again.
+struct PoseFrame {
+  Pose pose;
+  glm::dmat3 rotation{1};
+  PoseFrame() = default;
+  explicit PoseFrame(const Pose& p) : pose(p), rotation(glm::mat3_cast(p.orientation)) {}
+};
+
+inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const glm::dvec3& position, const glm::dmat3& r) {
   const glm::dvec3 c = (s.boundsMin + s.boundsMax) * 0.5, e = (s.boundsMax - s.boundsMin) * 0.5;
-  const glm::dmat3 r = glm::mat3_cast(pose.orientation);
-  const glm::dvec3 wc = pose.position + r * (c - localCom);
+  const glm::dvec3 wc = position + r * (c - localCom);
   glm::dvec3 we(0);
   for (int col = 0; col < 3; ++col) we += glm::abs(r[col]) * e[col];
   return {wc - we, wc + we};
+}
+inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const Pose& pose) {
+  return worldBounds(s, localCom, pose.position, glm::mat3_cast(pose.orientation));
 }
 
 // The part of the translation `step` that keeps a body's projection so far (`moved`) within `reach` of where it
@@ -433,8 +444,8 @@ struct StepContext {
   std::vector<int> level;              // contact graph level (shock propagation)
   // Impulse counts: every impulse the collision step applies bumps both bodies'.
   std::vector<uint32_t> version;
-  // The collision step's predicted poses, valid while predictedVersion == version.
-  std::vector<Pose> predicted;
+  // The collision step's predicted poses (and their rotations), valid while predictedVersion == version.
+  std::vector<PoseFrame> predicted;
   std::vector<uint32_t> predictedVersion;
   std::vector<Pose> stepStart;  // poses before the position update (sleep test)
   std::vector<BodyState> stepBefore;  // every body before the step (World::step undoes a non-finite one)

@@ -242,7 +242,7 @@ void bodyBounds(StepContext& ctx, double h) {
       const RigidBody& b = bodies[i];
       active[i] = b.dynamic() || (b.kinematic && moving(b));
       ctx.predicted[i] = PoseFrame(ctx.predict(b, h, true));
-      boxes[i] = worldBounds(*b.shape, b.localCom, {b.x, b.q});
+      boxes[i] = worldBounds(*b.shape, b.localCom, b.x, ctx.rotation[i]);
       if (b.movable()) {
         Aabb& box = boxes[i];
         box = merge(box, worldBounds(*b.shape, b.localCom, ctx.predicted[i].pose.position, ctx.predicted[i].rotation));
@@ -638,8 +638,9 @@ void findCandidates(StepContext& ctx, double h) {
     const double built = margin + skin;
     // A capsule's segment (its deepest point between two core samples) can reach only where a core sample comes
     // within half their spacing of reaching: `near` tells whether one does, at the lists' reach plus that.
-    auto collect = [&](const RigidBody& owner, const RigidBody& other, std::vector<uint32_t>& list, bool segment,
-                       bool& near) {
+    auto collect = [&](int iOwner, int iOther, std::vector<uint32_t>& list, bool segment, bool& near) {
+      const RigidBody& owner = ctx.body(iOwner);
+      const RigidBody& other = ctx.body(iOther);
       list.clear();
       const Shape& so = *owner.shape;
       const Shape& st = *other.shape;
@@ -648,8 +649,8 @@ void findCandidates(StepContext& ctx, double h) {
           built + (segment && st.samples.size() > 1 ? st.halfHeight / static_cast<double>(st.samples.size() - 1) : 0.0);
       near = false;
       const glm::dvec3 lo = so.boundsMin - r - reach, hi = so.boundsMax + r + reach;
-      const glm::dmat3 rot = glm::transpose(owner.rotation());
-      const glm::dmat3 rt = other.rotation();
+      const glm::dmat3 rot = glm::transpose(ctx.rotation[static_cast<size_t>(iOwner)]);
+      const glm::dmat3& rt = ctx.rotation[static_cast<size_t>(iOther)];
       const glm::dmat3 m = rot * rt;
       const glm::dvec3 offset = rot * (other.x - owner.x - rt * other.localCom) + owner.localCom;
       auto test = [&](uint32_t k) {
@@ -677,11 +678,11 @@ void findCandidates(StepContext& ctx, double h) {
     const SampleSides sides = sampleSides(*A.shape, bumpA || dentsA, *B.shape, bumpB || dentsB);
     pair.bSegmentNear = pair.aSegmentNear = false;
     if (sides.bInA)
-      collect(A, B, pair.bInA, sides.segmentB, pair.bSegmentNear);
+      collect(pair.a, pair.b, pair.bInA, sides.segmentB, pair.bSegmentNear);
     else
       pair.bInA.clear();
     if (sides.aInB)
-      collect(B, A, pair.aInB, sides.segmentA, pair.aSegmentNear);
+      collect(pair.b, pair.a, pair.aInB, sides.segmentA, pair.aSegmentNear);
     else
       pair.aInB.clear();
     pair.builtA = {A.x, A.q};

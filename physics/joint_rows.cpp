@@ -23,7 +23,7 @@ void setSide(Side& s, const StepContext& ctx, int i) {
   const RigidBody& b = ctx.body(i);
   s.pose = {b.x, b.q};
   s.predicted = s.pose;
-  s.R = s.Rp = b.rotation();
+  s.R = s.Rp = ctx.invInertiaNow ? ctx.rotation[static_cast<size_t>(i)] : b.rotation();
   s.invMass = 0;
   s.invInertia = glm::dmat3(0);
   s.v = s.w = glm::dvec3(0);

@@ -87,7 +87,7 @@ struct alignas(64) IslandSolver {  // (a cache line of its own per worker)
   double slack = 0;
   double islandEnergy() const {
     double e = 0;
-    for (int i : islandBodies) e += ctx->body(i).kineticEnergy();
+    for (int i : islandBodies) e += ctx->kineticEnergy(i);
     return e;
   }
   void apply(const Row& row, double d) {

@@ -467,7 +467,7 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
   for (size_t k = 0; k < w.bodies.size(); ++k) {
     const RigidBody& b = ctx.body(w.bodies[k]);
     w.velocities[k] = {b.v, b.w};
-    w.energyBefore[static_cast<size_t>(w.bodyIsland[k])] += b.kineticEnergy();
+    w.energyBefore[static_cast<size_t>(w.bodyIsland[k])] += ctx.kineticEnergy(w.bodies[k]);
     w.slack[static_cast<size_t>(w.bodyIsland[k])] += ctx.restingSlack(b, h);
   }
   for (int l = 1; l <= top; ++l) {
@@ -489,7 +489,7 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
   // source of energy here: where the passes raised its bodies' kinetic energy, they are undone.
   w.energyAfter.assign(k1 - k0, 0.0);
   for (size_t k = 0; k < w.bodies.size(); ++k)
-    w.energyAfter[static_cast<size_t>(w.bodyIsland[k])] += ctx.body(w.bodies[k]).kineticEnergy();
+    w.energyAfter[static_cast<size_t>(w.bodyIsland[k])] += ctx.kineticEnergy(w.bodies[k]);
   bool undone = false;
   for (size_t k = 0; k < w.bodies.size(); ++k) {
     const size_t island = static_cast<size_t>(w.bodyIsland[k]);

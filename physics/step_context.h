@@ -438,6 +438,7 @@ struct StepContext {
   }
 
   // Per body, this substep.
+  std::vector<glm::dmat3> rotation;    // R(q), at the orientations invInertia is at (while invInertiaNow)
   std::vector<glm::dmat3> invInertia;  // world inverse inertias: orientations stay put until the position update
   bool invInertiaNow = false;          // invInertia is at the bodies' orientations (cleared by the position update)
   std::vector<char> frozen;            // infinite mass for the impulses (shock propagation's lower levels)
@@ -578,6 +579,13 @@ struct StepContext {
     return {b.x + h * v, turnOf(b, w, h).q};
   }
 
+  // RigidBody::kineticEnergy (the same bits), turned by the substep's rotation while it holds.
+  double kineticEnergy(int i) const {
+    const RigidBody& b = body(i);
+    if (!invInertiaNow) return b.kineticEnergy();
+    const glm::dmat3& r = rotation[static_cast<size_t>(i)];
+    return 0.5 * b.mass * glm::dot(b.v, b.v) + 0.5 * glm::dot(b.w, r * (b.inertiaBody * (glm::transpose(r) * b.w)));
+  }
   // Resting contact's own energy scale for a body: its kinetic energy at the speed gravity (at least 1 m/s^2) adds
   // in a substep of h. The energy guards (shock propagation, the resting solve, the joined contacts' turns) allow
   // this much per body: their passes move resting bodies by that speed either way.

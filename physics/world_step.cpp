@@ -133,10 +133,16 @@ void World::substep(double h) {
   detail::StepContext& ctx = *ctx_;
   StepProfile& ms = ctx.stats.ms;
   StageClock clock;
-  // World inverse inertias: orientations stay fixed until the position update.
+  // Rotations and world inverse inertias: orientations stay fixed until the position update.
+  ctx.rotation.resize(ctx.bodies.size());
   ctx.invInertia.resize(ctx.bodies.size());
   ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) ctx.invInertia[i] = ctx.bodies[i].invInertiaWorld();
+    for (size_t i = begin; i < end; ++i) {
+      const RigidBody& b = ctx.bodies[i];
+      const glm::dmat3 r = b.rotation();
+      ctx.rotation[i] = r;
+      ctx.invInertia[i] = r * b.invInertiaBody * glm::transpose(r);  // (RigidBody::invInertiaWorld)
+    }
   });
   ctx.invInertiaNow = true;
   detail::findPairs(ctx, h);

@@ -600,10 +600,14 @@ void findCandidates(StepContext& ctx, double h) {
     // Two polytopes meet by their manifold (narrow_phase.cpp) unless the step sweeps or a normal modifier
     // bends their normals: no samples are looked at, no lists needed.
     // Dents that can reach the other body within the lists' reach (a change remakes the lists).
-    const double reachDents = 2 * h * (glm::length(B.v - A.v) + glm::length(A.w) * A.shape->boundingRadius +
-                                       glm::length(B.w) * B.shape->boundingRadius + 2 * g * h) +
-                              0.005 + 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
-    const bool dentsA = ctx.dentsReach(pair.a, pair.b, reachDents), dentsB = ctx.dentsReach(pair.b, pair.a, reachDents);
+    bool dentsA = false, dentsB = false;
+    if (ctx.dented(pair.a) || ctx.dented(pair.b)) {
+      const double reachDents = 2 * h * (glm::length(B.v - A.v) + glm::length(A.w) * A.shape->boundingRadius +
+                                         glm::length(B.w) * B.shape->boundingRadius + 2 * g * h) +
+                                0.005 + 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
+      dentsA = ctx.dentsReach(pair.a, pair.b, reachDents);
+      dentsB = ctx.dentsReach(pair.b, pair.a, reachDents);
+    }
     if (dentsA != pair.dentsA || dentsB != pair.dentsB) pair.builtMargin = -1;
     pair.dentsA = dentsA;
     pair.dentsB = dentsB;

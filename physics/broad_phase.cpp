@@ -661,7 +661,7 @@ void findCandidates(StepContext& ctx, double h) {
         const glm::dvec3 local = m * st.samples[k] + offset;
         if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
           return;
-        const double d = so.distance(local) - r;
+        const double d = fieldDistance(so, local) - r;
         if (d > reach) return;
         near = true;
         if (d <= built) list.push_back(k);

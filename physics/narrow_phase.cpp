@@ -203,7 +203,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
     glm::dvec3 sampleHint = hint;
     if (normals && glm::dot(st.sampleNormals[index], st.sampleNormals[index]) > 0.5)
       sampleHint = -(otherToOwner * st.sampleNormals[index]);
-    double phi = so.distance(local, &g, &sampleHint, gradientBelow) - r;
+    double phi = detail::fieldDistance(so, local, &g, &sampleHint, gradientBelow) - r;
     if (near && !(phi >= near->phi)) near->samples->push_back(static_cast<uint32_t>(index));
     double otherSinks = 0;  // how far the other's surface lies below its undented one at this sample
     if ((dents.owner || dents.other) && phi < dents.rise) {

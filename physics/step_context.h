@@ -172,6 +172,15 @@ struct PoseFrame {
   explicit PoseFrame(const Pose& p) : pose(p), rotation(glm::mat3_cast(p.orientation)) {}
 };
 
+// Shape::distance, a nonconvex mesh's grid asked directly (the samples' tests against a mesh's field: most of the
+// lookups a pile of meshes makes).
+inline double fieldDistance(const Shape& s, const glm::dvec3& p, glm::dvec3* gradient = nullptr,
+                            const glm::dvec3* hint = nullptr,
+                            double gradientBelow = std::numeric_limits<double>::infinity()) {
+  if (s.type == ShapeType::Mesh && !s.polytope) return s.grid->distance(p, gradient, gradientBelow);
+  return s.distance(p, gradient, hint, gradientBelow);
+}
+
 inline Aabb worldBounds(const Shape& s, const glm::dvec3& localCom, const glm::dvec3& position, const glm::dmat3& r) {
   const glm::dvec3 c = (s.boundsMin + s.boundsMax) * 0.5, e = (s.boundsMax - s.boundsMin) * 0.5;
   const glm::dvec3 wc = position + r * (c - localCom);

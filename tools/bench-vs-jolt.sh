@@ -4,7 +4,7 @@
 set -euo pipefail
 usage() {
   cat <<'USAGE'
-Usage: tools/bench-vs-jolt.sh [--jolt DIR] [--repetitions N] [--quick] [--timeline]
+Usage: tools/bench-vs-jolt.sh [--jolt DIR] [--repetitions N] [--quick] [--timeline] [--instructions]
 Builds Jolt Physics from the checkout DIR (default ../JoltPhysics, cloned from GitHub when absent) with
 tools/build-jolt.sh into ../jolt-install, configures crumple in build-bench-jolt/ (Release, with
 CRUMPLE_JOLT_DIR), builds crumple-bench and runs its physics rows on one thread:
@@ -14,6 +14,9 @@ It prints the machine, crumple's commit and each peer's configuration above the 
 string); a Jolt built with its profiler, debug renderer, asserts or without NDEBUG stops it with its WARNING
 (exit 1: such figures must not be published). --quick: the smoke run. --timeline: crumple-bench's --timeline as
 well (each engine's time per step over every 20 steps of each scene: where in the run the ratios come from).
+--instructions: instead of timing, count each engine's instructions under valgrind's callgrind (crumple's
+World::step, Jolt's PhysicsSystem::Update, the same binary, one thread) on the pyramid, the pile of 1000, the
+heap, the tori and the chains: figures a busy machine does not move (needs valgrind; about ten minutes).
 Nothing is installed outside ../JoltPhysics, ../jolt-install and build-bench-jolt/.
 USAGE
 }
@@ -21,6 +24,7 @@ jolt=
 repetitions=2
 quick=()
 timeline=()
+instructions=false
 while [ $# -gt 0 ]; do
   case "$1" in
     -h | --help) usage; exit 0 ;;
@@ -31,10 +35,15 @@ while [ $# -gt 0 ]; do
       ;;
     --quick) quick=(--quick); shift ;;
     --timeline) timeline=(--timeline); shift ;;
+    --instructions) instructions=true; shift ;;
     *) echo "$(basename "$0"): unknown argument '$1'" >&2; usage >&2; exit 2 ;;
   esac
 done
 [[ "$repetitions" =~ ^[1-9][0-9]?$ ]] || { echo "$(basename "$0"): --repetitions takes 1 to 99" >&2; exit 2; }
+if $instructions && ! command -v valgrind >/dev/null; then
+  echo "$(basename "$0"): --instructions needs valgrind (Debian: apt-get install valgrind)" >&2
+  exit 1
+fi
 cd "$(dirname "$0")/.."
 root=$(pwd)
 jolt=${jolt:-$(dirname "$root")/JoltPhysics}
@@ -68,4 +77,27 @@ quietly cmake -S . -B build-bench-jolt -DCMAKE_BUILD_TYPE=Release -DCRUMPLE_JOLT
   -DCMAKE_CXX_FLAGS="$march"
 quietly cmake --build build-bench-jolt -j"$(nproc)" --target crumple-bench
 echo "== crumple $(git rev-parse --short HEAD), Jolt $(git -C "$jolt" rev-parse --short HEAD 2>/dev/null || echo '?')"
-build-bench-jolt/apps/crumple-bench --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}" "${timeline[@]}"
+bench=build-bench-jolt/apps/crumple-bench
+if $instructions; then
+  echo "== instructions: callgrind, one thread, each row's full run (crumple: World::step; Jolt: PhysicsSystem::Update)"
+  out=$(mktemp -d)
+  trap 'rm -f "$log"; rm -rf "$out"' EXIT
+  # The instructions one engine's steps take on one row (filter: the row's benchmark name).
+  count() {
+    valgrind --tool=callgrind --callgrind-out-file="$out/cg" --toggle-collect="$1" \
+      "$bench" --no-gl --threads 1 --thread-counts 1 --repetitions 1 --filter "$2" 2>&1 |
+      sed -n 's/.*Collected : \([0-9]*\).*/\1/p' | tail -1
+  }
+  printf '%-28s %16s %16s %14s\n' scene crumple Jolt crumple/Jolt
+  for row in pyramid20_210boxes pile_1000boxes heap_500mixed tori_200meshes chains_10x20links; do
+    c=$(count 'crumple::World::step*' "crumple/$row")
+    j=$(count 'JPH::PhysicsSystem::Update*' "jolt/$row")
+    if [ -z "$c" ] || [ -z "$j" ] || [ "$j" = 0 ]; then
+      echo "$(basename "$0"): no count for $row (crumple '${c}', Jolt '${j}')" >&2
+      exit 1
+    fi
+    printf '%-28s %16s %16s %13sx\n' "$row" "$c" "$j" "$(awk -v c="$c" -v j="$j" 'BEGIN { printf "%.2f", c / j }')"
+  done
+  exit 0
+fi
+"$bench" --no-gl --threads 1 --thread-counts 1 --repetitions "$repetitions" --strict-peers "${quick[@]}" "${timeline[@]}"

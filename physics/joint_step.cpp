@@ -728,20 +728,6 @@ void refreshJointExclusions(StepContext& ctx) {
   ctx.jointExcludedDirty = false;
 }
 
-bool mayCollide(StepContext& ctx, int a, int b, bool askFilter) {
-  const RigidBody& A = ctx.body(a);
-  const RigidBody& B = ctx.body(b);
-  if (A.removed || B.removed) return false;
-  if (!(ctx.groupMasks[static_cast<size_t>(A.group)] >> B.group & 1ull)) return false;
-  refreshJointExclusions(ctx);
-  if (!ctx.jointExcluded.empty()) {
-    const uint64_t key = static_cast<uint64_t>(std::min(a, b)) << 32 | static_cast<uint64_t>(std::max(a, b));
-    if (std::binary_search(ctx.jointExcluded.begin(), ctx.jointExcluded.end(), key)) return false;
-  }
-  if (askFilter && ctx.filter && !ctx.filter(std::min(a, b), std::max(a, b))) return false;
-  return true;
-}
-
 bool anyJointActive(const StepContext& ctx) {
   return std::any_of(ctx.joints.begin(), ctx.joints.end(), [&](const Joint& jt) { return active(ctx, jt); });
 }

@@ -29,6 +29,8 @@
 //     step is undone (world_step.cpp, checkFinite) and its StepStatus names the body.
 // Each file opens with what its stage guarantees.
 #pragma once
+#include <algorithm>
+#include <cstdint>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -179,8 +181,21 @@ void findAnchored(StepContext& ctx);
 // Whether bodies a and b may collide (groups, joints, and unless askFilter is false the user's filter). Safe on
 // several threads at once after refreshJointExclusions (which rebuilds the joined pairs' list when joints
 // changed), unless a user's filter is asked (ctx.filter: called as the user gave it).
-bool mayCollide(StepContext& ctx, int a, int b, bool askFilter = true);
 void refreshJointExclusions(StepContext& ctx);
+// (Inline: the broad phase asks it of every overlapping pair every substep.)
+inline bool mayCollide(StepContext& ctx, int a, int b, bool askFilter = true) {
+  const RigidBody& A = ctx.body(a);
+  const RigidBody& B = ctx.body(b);
+  if (A.removed || B.removed) return false;
+  if (!(ctx.groupMasks[static_cast<size_t>(A.group)] >> B.group & 1ull)) return false;
+  if (ctx.jointExcludedDirty) refreshJointExclusions(ctx);
+  if (!ctx.jointExcluded.empty()) {
+    const uint64_t key = static_cast<uint64_t>(std::min(a, b)) << 32 | static_cast<uint64_t>(std::max(a, b));
+    if (std::binary_search(ctx.jointExcluded.begin(), ctx.jointExcluded.end(), key)) return false;
+  }
+  if (askFilter && ctx.filter && !ctx.filter(std::min(a, b), std::max(a, b))) return false;
+  return true;
+}
 // position_step.cpp
 void endOfStepDepths(StepContext& ctx, double h);
 void integratePositions(StepContext& ctx, double h);

@@ -602,8 +602,9 @@ void findCandidates(StepContext& ctx, double h) {
     // Dents that can reach the other body within the lists' reach (a change remakes the lists).
     bool dentsA = false, dentsB = false;
     if (ctx.dented(pair.a) || ctx.dented(pair.b)) {
-      const double reachDents = 2 * h * (glm::length(B.v - A.v) + glm::length(A.w) * A.shape->boundingRadius +
-                                         glm::length(B.w) * B.shape->boundingRadius + 2 * g * h) +
+      const double reachDents = 2 * h *
+                                    (glm::length(B.v - A.v) + glm::length(A.w) * A.shape->boundingRadius +
+                                     glm::length(B.w) * B.shape->boundingRadius + 2 * g * h) +
                                 0.005 + 0.2 * std::min(A.shape->halfThickness(), B.shape->halfThickness());
       dentsA = ctx.dentsReach(pair.a, pair.b, reachDents);
       dentsB = ctx.dentsReach(pair.b, pair.a, reachDents);

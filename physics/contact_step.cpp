@@ -227,8 +227,10 @@ void ContactRun::island(size_t island, int worker) {
         const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
                                                 ctx.version[static_cast<size_t>(pair.b)]};
         const bool reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-        const PoseFrame& frameA = reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
-        const PoseFrame& frameB = reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
+        const PoseFrame& frameA =
+            reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
+        const PoseFrame& frameB =
+            reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
         const Pose& pa = frameA.pose;
         const Pose& pb = frameB.pose;
         bool look = true;

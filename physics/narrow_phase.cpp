@@ -518,13 +518,11 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, c
   const bool nearB = pair.aInB.size() >= kNearMinSamples &&
                      nearSamples(B, pb, A, pa, pair, pair.nearAInB, !sweepB && !dentA && !dentB, listB, makeB);
   contactsOneWay(pair.a, A, frameA, pair.b, B, frameB, listA, out,
-                 ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr,
-                 sweepA ? &sa : nullptr, sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA,
-                 nearA ? &makeA : nullptr);
+                 ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr, sweepA ? &sa : nullptr,
+                 sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA, nearA ? &makeA : nullptr);
   contactsOneWay(pair.b, B, frameB, pair.a, A, frameA, listB, out,
-                 ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr,
-                 sweepB ? &sb : nullptr, sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB,
-                 nearB ? &makeB : nullptr);
+                 ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr, sweepB ? &sb : nullptr,
+                 sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB, nearB ? &makeB : nullptr);
   sortContacts(out);
   return false;
 }

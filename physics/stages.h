@@ -57,7 +57,8 @@ inline bool mayTouch(const StepContext& ctx, const Pair& pair) {
 // along their normals (the incident point from the reference face's plane, as the manifold's clipping finds
 // them; a sample's point from its owner's surface point; those no longer below it dropped). Resting contact
 // needs no new look until it moves. Else a new look, kept.
-void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& pa, const PoseFrame& pb, std::vector<Contact>& out);
+void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& pa, const PoseFrame& pb,
+                std::vector<Contact>& out);
 // narrow_phase.cpp: forgets the kept answers at the surface samples (StepContext::sampleDents) of each body
 // whose dents changed since (World::setDented, setSurfaceDepth).
 void forgetSurfaceAnswers(StepContext& ctx);

@@ -70,18 +70,20 @@ struct RigidBody {
 
   glm::dmat3 rotation() const { return glm::mat3_cast(q); }
   glm::dvec3 origin() const { return x - rotation() * localCom; }
-  glm::dmat3 invInertiaWorld() const {
-    const glm::dmat3 r = rotation();
-    return r * invInertiaBody * glm::transpose(r);
-  }
+  // The *At forms take the rotation R(q) made already (the same bits as the others).
+  glm::dmat3 invInertiaWorld() const { return invInertiaAt(rotation()); }
+  glm::dmat3 invInertiaAt(const glm::dmat3& r) const { return r * invInertiaBody * glm::transpose(r); }
   // World angular momentum about the centre of mass, and kinetic energy (translation and turn).
   glm::dvec3 angularMomentum() const { return angularMomentumOf(w); }
   // ... of the body turning at `turn` instead (world inertia times it).
-  glm::dvec3 angularMomentumOf(const glm::dvec3& turn) const {
-    const glm::dmat3 r = rotation();
+  glm::dvec3 angularMomentumOf(const glm::dvec3& turn) const { return angularMomentumAt(rotation(), turn); }
+  glm::dvec3 angularMomentumAt(const glm::dmat3& r, const glm::dvec3& turn) const {
     return r * (inertiaBody * (glm::transpose(r) * turn));
   }
-  double kineticEnergy() const { return 0.5 * mass * glm::dot(v, v) + 0.5 * glm::dot(w, angularMomentum()); }
+  double kineticEnergy() const { return kineticEnergyAt(rotation()); }
+  double kineticEnergyAt(const glm::dmat3& r) const {
+    return 0.5 * mass * glm::dot(v, v) + 0.5 * glm::dot(w, angularMomentumAt(r, w));
+  }
   glm::dvec3 velocityAt(const glm::dvec3& p) const { return v + glm::cross(w, p - x); }
   bool movable() const { return !isStatic && !asleep; }
   // Moved by impulses (not static, kinematic or asleep).

@@ -537,9 +537,8 @@ double stepTravel(StepContext& ctx, double h) {
   };
   // The fat boxes' pairs (findPairs) hold every pair whose swept boxes overlap among bodies whose swept box lies
   // in their fat box and which were active when the fat boxes were made (a pair of bodies neither of which moves
-  // travels nothing); the few others (at most kOutside) are tested against every body. The largest ratio is the
+  // travels nothing); the few others (at most kFewOutside) are tested against every body. The largest ratio is the
   // same whatever the order: only where more left their fat boxes is a grid built.
-  constexpr size_t kOutside = 32;
   const BroadGrid& grid = ctx.grid;
   std::vector<char> out;
   size_t outside = SIZE_MAX;  // (no fat boxes yet: a grid)
@@ -554,7 +553,7 @@ double stepTravel(StepContext& ctx, double h) {
       outside += !in;
     }
   }
-  if (outside <= kOutside) {
+  if (outside <= kFewOutside) {
     for (uint64_t key : grid.fatKeys) {
       const int ia = static_cast<int>(key >> 32), ib = static_cast<int>(key & 0xffffffffu);
       if (!out[static_cast<size_t>(ia)] && !out[static_cast<size_t>(ib)] &&

@@ -588,12 +588,10 @@ struct StepContext {
     return {b.x + h * v, turnOf(b, w, h).q};
   }
 
-  // RigidBody::kineticEnergy (the same bits), turned by the substep's rotation while it holds.
+  // RigidBody::kineticEnergy, with the substep's rotation while it holds.
   double kineticEnergy(int i) const {
     const RigidBody& b = body(i);
-    if (!invInertiaNow) return b.kineticEnergy();
-    const glm::dmat3& r = rotation[static_cast<size_t>(i)];
-    return 0.5 * b.mass * glm::dot(b.v, b.v) + 0.5 * glm::dot(b.w, r * (b.inertiaBody * (glm::transpose(r) * b.w)));
+    return invInertiaNow ? b.kineticEnergyAt(rotation[static_cast<size_t>(i)]) : b.kineticEnergy();
   }
   // Resting contact's own energy scale for a body: its kinetic energy at the speed gravity (at least 1 m/s^2) adds
   // in a substep of h. The energy guards (shock propagation, the resting solve, the joined contacts' turns) allow

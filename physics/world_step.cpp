@@ -141,7 +141,7 @@ void World::substep(double h) {
       const RigidBody& b = ctx.bodies[i];
       const glm::dmat3 r = b.rotation();
       ctx.rotation[i] = r;
-      ctx.invInertia[i] = r * b.invInertiaBody * glm::transpose(r);  // (RigidBody::invInertiaWorld)
+      ctx.invInertia[i] = b.invInertiaAt(r);
     }
   });
   ctx.invInertiaNow = true;

@@ -458,6 +458,8 @@ void carryPairs(StepContext& ctx) {
         p.keptA = old->keptA;
         p.keptB = old->keptB;
         p.hasKept = old->hasKept;
+        p.clearance = old->clearance;
+        p.clearLists = old->clearLists;
       } else {
         // (A slot of the vector two substeps old: nothing in it is this pair's.)
         p.bInA.clear();
@@ -466,6 +468,7 @@ void carryPairs(StepContext& ctx) {
         p.dentsA = p.dentsB = false;
         p.nearBInA.within = p.nearAInB.within = -1;
         p.hasKept = false;
+        p.clearance = -1;
       }
     }
   });

@@ -73,13 +73,18 @@ struct NearBuild {
 // from its centre of mass, where a touching sample lies, and the other's turn at its reach.
 constexpr size_t kNearMinSamples = 8;  // (shorter lists are tested whole)
 constexpr double kNearWithin = 0.025;  // of the thinner body's half thickness
+// Whether a side's near samples still hold at poses po (owner) and pother: made from these lists, the bodies
+// within `within` of where they were made. (The reaches, like the lists' generation, stay what they were then.)
+bool nearHolds(const detail::Pair::NearSamples& near, const detail::Pair& pair, const Pose& po, const Pose& pother) {
+  return near.within > 0 && near.lists == pair.listGeneration &&
+         !detail::displacementExceeds(near.owner, po, near.reachOwner, near.other, pother, near.reachOther,
+                                      [&](double moved) { return moved > near.within; });
+}
+
 bool nearSamples(const RigidBody& owner, const Pose& po, const RigidBody& other, const Pose& pother,
                  const detail::Pair& pair, detail::Pair::NearSamples& near, bool usable,
                  const std::vector<uint32_t>*& list, NearBuild& make) {
-  // (The reaches, like the lists' generation, stay what they were when the near samples were made.)
-  if (usable && near.within > 0 && near.lists == pair.listGeneration &&
-      !detail::displacementExceeds(near.owner, po, near.reachOwner, near.other, pother, near.reachOther,
-                                   [&](double moved) { return moved > near.within; })) {
+  if (usable && nearHolds(near, pair, po, pother)) {
     list = &near.samples;
     return false;
   }
@@ -143,11 +148,23 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
                     const PoseFrame& frameOther, const std::vector<uint32_t>* list, std::vector<Contact>& out,
                     const NormalModifier* modifier = nullptr, const Pose* startOwner = nullptr,
                     const Pose* startOther = nullptr, bool segment = false, const Dents& dents = {},
-                    const NearBuild* near = nullptr) {
+                    const NearBuild* near = nullptr, double* clear = nullptr) {
   const Shape& so = *owner.shape;
   const Shape& st = *other.shape;
   const size_t n = list ? list->size() : st.samples.size();
+  // `clear` (asked where nothing sweeps, bends normals or feels dents): how far, in the owner's frame, each tested
+  // point may move before it can make a contact: a sample outside the owner's box by its distance to the box, one
+  // inside by its phi over the field's slope, the segment by its least bound less half the samples' spacing (< 0:
+  // no such bound).
+  if (clear) *clear = std::numeric_limits<double>::infinity();
   if (n == 0 && !segment) return;  // (before any turning: most looks at a pair have one side with nothing listed)
+  const double fieldSlope = clear ? so.distanceSlope() : 0.0;
+  if (clear && !(fieldSlope > 0 && std::isfinite(fieldSlope))) {
+    *clear = -1;
+    clear = nullptr;
+  }
+  double leastPhi = std::numeric_limits<double>::infinity();  // the tested samples' least phi
+  double outside2 = std::numeric_limits<double>::infinity();  // the least squared distance to the box, outside it
   const double r = st.sampleRadius;
   const glm::dvec3 lo = so.boundsMin - r - dents.rise, hi = so.boundsMax + r + dents.rise;
   const Pose& po = frameOwner.pose;
@@ -193,6 +210,10 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
         const glm::dvec3 out = glm::max(glm::max(lo - local, local - hi), glm::dvec3(0));
         if (glm::dot(out, out) <= near->box2) near->samples->push_back(static_cast<uint32_t>(index));
       }
+      if (clear) {
+        const glm::dvec3 out = glm::max(glm::max(lo - local, local - hi), glm::dvec3(0));
+        outside2 = std::min(outside2, glm::dot(out, out));
+      }
       if (!swept) continue;
       // Outside the owner's bounds at the end: the path may still have crossed it.
       const glm::dvec3 local0 = otherToOwner0 * s + offset0;
@@ -205,6 +226,7 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
       sampleHint = -(otherToOwner * st.sampleNormals[index]);
     double phi = detail::fieldDistance(so, local, &g, &sampleHint, gradientBelow) - r;
     if (near && !(phi >= near->phi)) near->samples->push_back(static_cast<uint32_t>(index));
+    if (clear) leastPhi = std::min(leastPhi, phi);
     double otherSinks = 0;  // how far the other's surface lies below its undented one at this sample
     if ((dents.owner || dents.other) && phi < dents.rise) {
       glm::dvec3 bent = g;
@@ -272,7 +294,10 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
     c.phi = phi;
     out.push_back(c);
   }
+  const double clearance = clear ? std::min(leastPhi / fieldSlope, std::sqrt(outside2)) : 0.0;
+  if (clear) *clear = clearance;
   if (!segment) return;
+  if (clear) *clear = -1;  // (the segment's points: unbounded, but where a bound below is found)
   // The distance to a convex shape along a segment is convex: its least lies between the neighbours of the
   // nearest core sample (the samples split the segment evenly), where a golden-section search finds it. The
   // distance changes by at most the distance moved: where the nearest sample is farther than r plus half the
@@ -301,7 +326,10 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
     }
     const double bestD = value[best];
     const double spacing = 2 * st.halfHeight / static_cast<double>(ns - 1);
-    if (bestD - 0.5 * spacing >= r) return;
+    if (bestD - 0.5 * spacing >= r) {
+      if (clear) *clear = std::min(clearance, (bestD - r) / fieldSlope - 0.5 * spacing);
+      return;
+    }
     const size_t k0 = best == 0 ? 0 : best - 1, k1 = std::min(best + 1, ns - 1);
     t0 = static_cast<double>(k0) / static_cast<double>(ns - 1);
     t1 = static_cast<double>(k1) / static_cast<double>(ns - 1);
@@ -325,7 +353,10 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
           const double t = (value[j] - slope[j] * tj - value[i] + slope[i] * ti) / ds;
           if (t > t0 && t < t1) least = std::min(least, bound(t));
         }
-      if (least - r >= beat) return;
+      if (least - r >= beat) {
+        if (clear && beat == 0) *clear = std::min(clearance, (least - r) / fieldSlope);
+        return;
+      }
     }
   }
   const double golden = 0.5 * (std::sqrt(5.0) - 1);
@@ -361,7 +392,8 @@ void contactsOneWay(int iOwner, const RigidBody& owner, const PoseFrame& frameOw
 // size (an arch's joints) and give a box resting on a box 26 points where its
 // overlap has 4 corners. Box on box by boxContacts. False when the pair is not such a pair.
 bool manifoldContacts(int ia, const RigidBody& A, const PoseFrame& frameA, int ib, const RigidBody& B,
-                      const PoseFrame& frameB, std::vector<Contact>& out) {
+                      const PoseFrame& frameB, std::vector<Contact>& out, double* separation = nullptr) {
+  if (separation) *separation = -1;
   const Shape& sa = *A.shape;
   const Shape& sb = *B.shape;
   if (!sa.polytope || !sb.polytope) return false;
@@ -376,7 +408,7 @@ bool manifoldContacts(int ia, const RigidBody& A, const PoseFrame& frameA, int i
   map.translation = rat * (pb.position - pa.position - rb * B.localCom) + A.localCom;
   thread_local std::vector<PolytopeContact> found;
   if (sa.type == ShapeType::Box && sb.type == ShapeType::Box)
-    boxContacts(sa.halfExtents, sb.halfExtents, map, found);
+    boxContacts(sa.halfExtents, sb.halfExtents, map, found, separation);
   else
     polytopeContacts(*sa.polytope, *sb.polytope, map, found);
   for (const PolytopeContact& f : found) {
@@ -482,8 +514,9 @@ SampleSides sampleSides(const Shape& a, bool bumpA, const Shape& b, bool bumpB) 
 }
 
 bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, const PoseFrame& frameB,
-                  std::vector<Contact>& out) {
+                  std::vector<Contact>& out, double* clear) {
   out.clear();
+  if (clear) *clear = -1;
   const Pose& pa = frameA.pose;
   const Pose& pb = frameB.pose;
   const RigidBody& A = ctx.body(pair.a);
@@ -497,7 +530,7 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, c
                                                                       B.shape->boundingRadius)
                                           : 0.0;
   const bool sweepA = moved > A.shape->halfThickness(), sweepB = moved > B.shape->halfThickness();
-  if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, frameA, pair.b, B, frameB, out)) {
+  if (!sweepA && !sweepB && !bumpA && !bumpB && manifoldContacts(pair.a, A, frameA, pair.b, B, frameB, out, clear)) {
     if (pair.dentsA || pair.dentsB)
       dentManifold(ctx.surfaceDepth, pair.a, A, pa, pair.dentsA, B, pb, pair.dentsB, out);
     sortContacts(out);
@@ -517,12 +550,26 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, c
                      nearSamples(A, pa, B, pb, pair, pair.nearBInA, !sweepA && !dentA && !dentB, listA, makeA);
   const bool nearB = pair.aInB.size() >= kNearMinSamples &&
                      nearSamples(B, pb, A, pa, pair, pair.nearAInB, !sweepB && !dentA && !dentB, listB, makeB);
+  // (Only where each side tests few samples, its whole short list or its near samples: a long list's every sample
+  // would pay for the bound. A side that tested only its near samples has the others out of reach only while its
+  // near samples hold: lookAtPair asks that too before it answers by the clearance.)
+  double clearA = -1, clearB = -1;
+  const bool clearing = clear && (nearA ? pair.bInA.size() : listA->size()) < kNearMinSamples &&
+                        (nearB ? pair.aInB.size() : listB->size()) < kNearMinSamples;
   contactsOneWay(pair.a, A, frameA, pair.b, B, frameB, listA, out,
                  ctx.bentNormals(pair.a) ? &ctx.normalModifier : nullptr, sweepA ? &sa : nullptr,
-                 sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA, nearA ? &makeA : nullptr);
+                 sweepA ? &sb : nullptr, sides.segmentB && pair.bSegmentNear, dentsA, nearA ? &makeA : nullptr,
+                 clearing && sides.bInA ? &clearA : nullptr);
   contactsOneWay(pair.b, B, frameB, pair.a, A, frameA, listB, out,
                  ctx.bentNormals(pair.b) ? &ctx.normalModifier : nullptr, sweepB ? &sb : nullptr,
-                 sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB, nearB ? &makeB : nullptr);
+                 sweepB ? &sa : nullptr, sides.segmentA && pair.aSegmentNear, dentsB, nearB ? &makeB : nullptr,
+                 clearing && sides.aInB ? &clearB : nullptr);
+  if (clearing) {
+    const double inf = std::numeric_limits<double>::infinity();
+    clearA = sides.bInA ? clearA : inf;
+    clearB = sides.aInB ? clearB : inf;
+    *clear = clearA < 0 || clearB < 0 ? -1.0 : std::min(clearA, clearB);
+  }
   sortContacts(out);
   return false;
 }
@@ -563,6 +610,36 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, con
       return;
     }
   }
+  // A look that found nothing, at poses from which the bodies' points have moved less than its clearance: nothing
+  // again (each tested point's distance changes by no more than it moves, over the field's slope; the samples
+  // left out of the lists stay out of reach while the lists hold).
+  const bool clearing = keepable && ctx.settings.keepClearLooks;
+  if (clearing && pair.clearance > 0 && pair.clearLists == pair.listGeneration &&
+      (pair.bInA.size() < kNearMinSamples || nearHolds(pair.nearBInA, pair, pa, pb)) &&
+      (pair.aInB.size() < kNearMinSamples || nearHolds(pair.nearAInB, pair, pb, pa))) {
+    // (A point of B within B's reach of its centre lies within |xB - xA| + that of A's, at the look's poses, and
+    // likewise the other way: A's turn moves it in A's frame by no more than that reach times the angle.)
+    const double ra = reachAboutCom(A), rb = reachAboutCom(B);
+    const double apart = glm::length(pair.keptB.position - pair.keptA.position);
+    if (!displacementExceeds(pair.keptA, pa, std::max(ra, apart + rb), pair.keptB, pb, std::max(rb, apart + ra),
+                             [&](double moved) { return !(moved < pair.clearance); })) {
+      out.clear();
+      ++pair.clearLooks;
+      return;
+    }
+  }
+  pair.clearance = -1;
+  // What a look that finds nothing keeps: its clearance less a hair (the distances' and the bound's rounding).
+  auto keepClear = [&](double clear) {
+    if (!clearing || !out.empty() || !(clear > 0) || !std::isfinite(clear)) return;
+    const double kept = clear * (1 - 1e-6) - 1e-9;
+    if (!(kept > 0)) return;
+    pair.hasKept = false;
+    pair.keptA = pa;
+    pair.keptB = pb;
+    pair.clearance = kept;
+    pair.clearLists = pair.listGeneration;
+  };
   // A ball against a convex shape where nothing sweeps, bends normals or feels dents: pairContacts would test the
   // ball's one core sample (its centre, when listed) in the other's field and nothing else; it is tested so here,
   // without what the general look prepares first (the same contact, bit for bit).
@@ -572,12 +649,16 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, con
     const bool ballB = !sides.aInB && !sides.segmentB, ballA = !sides.bInA && !sides.segmentA;
     if (ballA || ballB) {
       out.clear();
+      double clear = -1;
       if (ballB)
-        contactsOneWay(pair.a, A, frameA, pair.b, B, frameB, &pair.bInA, out);
+        contactsOneWay(pair.a, A, frameA, pair.b, B, frameB, &pair.bInA, out, nullptr, nullptr, nullptr, false, {},
+                       nullptr, clearing ? &clear : nullptr);
       else
-        contactsOneWay(pair.b, B, frameB, pair.a, A, frameA, &pair.aInB, out);
+        contactsOneWay(pair.b, B, frameB, pair.a, A, frameA, &pair.aInB, out, nullptr, nullptr, nullptr, false, {},
+                       nullptr, clearing ? &clear : nullptr);
       sortContacts(out);
       pair.hasKept = false;
+      keepClear(clear);
       return;
     }
   }
@@ -585,7 +666,9 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, con
   // kept as a manifold's points are where such a look could use them (no sweep, no bent normals, no dents), but
   // not with a ball: its one sample is cheap to look at again, and its contact's normal through both centres
   // (two frictionless balls that hit stay without spin) would not stay so as the kept points move with the bodies.
-  const bool manifold = pairContacts(ctx, pair, frameA, frameB, out);
+  double clear = -1;
+  const bool manifold = pairContacts(ctx, pair, frameA, frameB, out, clearing ? &clear : nullptr);
+  keepClear(clear);
   const bool samplesKept = keepable && A.shape->type != ShapeType::Sphere && B.shape->type != ShapeType::Sphere;
   pair.hasKept = (manifold || samplesKept) && tolerance > 0 && !out.empty();
   if (!pair.hasKept) return;

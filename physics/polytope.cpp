@@ -408,8 +408,10 @@ void clipBoxFace(const glm::dvec3& hr, const glm::dvec3& hi, const glm::dmat3& r
 
 }  // namespace
 
-void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bToA, std::vector<PolytopeContact>& out) {
+void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bToA, std::vector<PolytopeContact>& out,
+                 double* separation) {
   out.clear();
+  if (separation) *separation = -1;
   const glm::dmat3& r = bToA.rotation;  // r[j]: B's axis j in A's frame; r[j][i] its i-th component
   const glm::dvec3& t = bToA.translation;
   glm::dmat3 absR;
@@ -419,7 +421,10 @@ void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bTo
   int faceA = 0;
   for (int i = 0; i < 3; ++i) {
     const double sep = std::abs(t[i]) - ha[i] - (hb.x * absR[0][i] + hb.y * absR[1][i] + hb.z * absR[2][i]);
-    if (sep > 0) return;
+    if (sep > 0) {
+      if (separation) *separation = sep;
+      return;
+    }
     if (sep > sepA) {
       sepA = sep;
       faceA = i;
@@ -429,7 +434,10 @@ void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bTo
   int faceB = 0;
   for (int j = 0; j < 3; ++j) {
     const double sep = std::abs(glm::dot(t, r[j])) - hb[j] - glm::dot(ha, absR[j]);
-    if (sep > 0) return;
+    if (sep > 0) {
+      if (separation) *separation = sep;
+      return;
+    }
     if (sep > sepB) {
       sepB = sep;
       faceB = j;
@@ -454,7 +462,10 @@ void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bTo
       const double reachA = ha[i1] * absR[j][i2] + ha[i2] * absR[j][i1];
       const double reachB = hb[j1] * absR[j2][i] + hb[j2] * absR[j1][i];
       const double num = along - reachA - reachB;
-      if (num > 0) return;  // a separating axis
+      if (num > 0) {  // a separating axis
+        if (separation) *separation = num / std::sqrt(len2);
+        return;
+      }
       // num / len > edgeMargin needs edgeMargin < 0 and num^2 < edgeMargin^2 len^2 (both negative); a little
       // slack, and the exact test decides.
       if (!(edgeMargin < 0) || num * num > edgeMargin * edgeMargin * len2 * (1 + 1e-9)) continue;

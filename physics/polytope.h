@@ -75,7 +75,9 @@ void polytopeContacts(const ConvexPolytope& a, const ConvexPolytope& b, const Ri
 // origins): the 15 separating axes from the boxes' extents, and the incident
 // face clipped against the reference rectangle, without the polytopes' vertex
 // and edge lists (a pile's pairs are nearly all box on box). The same choices
-// and tolerances as polytopeContacts; the points may come in another order.
-void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bToA, std::vector<PolytopeContact>& out);
+// and tolerances as polytopeContacts; the points may come in another order. `separation`, where given: the gap
+// along the separating axis that ended the test (a lower bound on the boxes' distance), -1 where none did.
+void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bToA, std::vector<PolytopeContact>& out,
+                 double* separation = nullptr);
 
 }  // namespace crumple

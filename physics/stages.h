@@ -42,8 +42,10 @@ namespace crumple::detail {
 // narrow_phase.cpp: the contacts of a pair at the given poses, testing only its
 // candidate samples (both directions), deepest first.
 // Returns whether they came from the two convex polytopes' manifold (polytope.h) rather than the samples.
+// With `clear`: how far the bodies' points may move, relative to each other, before a look can find a contact
+// (< 0: no such bound; lookAtPair keeps a look that found nothing by it).
 bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& pa, const PoseFrame& pb,
-                  std::vector<Contact>& out);
+                  std::vector<Contact>& out, double* clear = nullptr);
 // Whether the pair can touch at all this substep: two polytopes (their manifold needs no lists), or a candidate
 // sample on either side, or a capsule segment in reach (findCandidates). Else every look finds nothing: the
 // collision and contact passes do not look (pairContacts would find nothing, at the cost of its setup).

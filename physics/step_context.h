@@ -107,7 +107,12 @@ struct Pair {
   std::vector<KeptContact> kept;
   Pose keptA, keptB;
   bool hasKept = false;
-  int looks = 0, keptLooks = 0;  // this substep's (StepStats)
+  // The last look, where it found nothing (narrow_phase.cpp lookAtPair): how far the bodies' points may move
+  // relative to each other from its poses (keptA, keptB: a pair keeps contacts or a clearance, never both) before
+  // a look can find a contact (< 0: none kept), and the lists' generation it holds for.
+  double clearance = -1;
+  uint32_t clearLists = 0;
+  int looks = 0, keptLooks = 0, clearLooks = 0;  // this substep's (StepStats)
   // Whether a's (b's) dents reach b (a) this substep: set with the lists (findCandidates), used by the narrow phase.
   bool dentsA = false, dentsB = false;
 };

@@ -26,6 +26,12 @@ struct WorldSettings {
   // (StepStats::keptLooks), until the bodies have moved this much from where
   // they were found.
   double contactRefreshTolerance = 0.0005;
+  // A look at a pair that found nothing answers the pair's next looks while the bodies' points move less than its
+  // clearance: how far they could move before a contact (a box pair's gap along the axis that separates them; the
+  // least distance of the samples it tested, where each side tests a short list or its near samples: each point's
+  // distance changes by no more than it moves; StepStats::clearLooks). Exact: the same bits as looking again.
+  // false: every such look is made again.
+  bool keepClearLooks = true;
   // Shock propagation passes per contact-graph level at most (Jacobi: each body
   // takes the mean of its groups' impulses against the frozen level below, on
   // the contact step's last geometry), each island's level until a pass changes
@@ -154,8 +160,10 @@ struct StepStats {
   int restingSolves = 0;  // islands the contact step solved at once (WorldSettings::restingSolveRows)
   // Narrow-phase looks at pairs (collision and contact steps), and those a kept look answered (a manifold, or
   // the samples' contacts: WorldSettings::contactRefreshTolerance): its points carried along, the pair having
-  // moved less than contactRefreshTolerance.
-  int looks = 0, keptLooks = 0;
+  // moved less than contactRefreshTolerance. clearLooks: those a look that found nothing answered, the bodies'
+  // points having moved less than its clearance (how far they could move before a look finds a contact): nothing
+  // again (WorldSettings::keepClearLooks).
+  int looks = 0, keptLooks = 0, clearLooks = 0;
   // Islands of pairs (no movable body in common: the units the threads share out), most in a substep,
   // and the pairs of the largest (a step cannot go faster than that island alone).
   int islands = 0, largestIsland = 0;

@@ -147,7 +147,7 @@ void World::substep(double h) {
   ctx.invInertiaNow = true;
   detail::findPairs(ctx, h);
   ctx.stats.pairs += static_cast<int>(ctx.pairs.size());
-  for (detail::Pair& p : ctx.pairs) p.looks = p.keptLooks = 0;
+  for (detail::Pair& p : ctx.pairs) p.looks = p.keptLooks = p.clearLooks = 0;
   detail::findIslands(ctx);
   clock.lap(ms.broadPhase);
   detail::findCandidates(ctx, h);
@@ -173,6 +173,7 @@ void World::substep(double h) {
   for (const detail::Pair& p : ctx.pairs) {
     ctx.stats.looks += p.looks;
     ctx.stats.keptLooks += p.keptLooks;
+    ctx.stats.clearLooks += p.clearLooks;
   }
   // 4. shock propagation
   detail::shockPropagation(ctx, h);

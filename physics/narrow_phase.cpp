@@ -617,12 +617,15 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, con
   if (clearing && pair.clearance > 0 && pair.clearLists == pair.listGeneration &&
       (pair.bInA.size() < kNearMinSamples || nearHolds(pair.nearBInA, pair, pa, pb)) &&
       (pair.aInB.size() < kNearMinSamples || nearHolds(pair.nearAInB, pair, pb, pa))) {
-    // (A point of B within B's reach of its centre lies within |xB - xA| + that of A's, at the look's poses, and
-    // likewise the other way: A's turn moves it in A's frame by no more than that reach times the angle.)
-    const double ra = reachAboutCom(A), rb = reachAboutCom(B);
-    const double apart = glm::length(pair.keptB.position - pair.keptA.position);
-    if (!displacementExceeds(pair.keptA, pa, std::max(ra, apart + rb), pair.keptB, pb, std::max(rb, apart + ra),
-                             [&](double moved) { return !(moved < pair.clearance); })) {
+    // (The reaches: a tested point of B (a sample's centre, radius r) whose gap to A is D >= clearance c lies within
+    // ra + r + D of A's centre, so A's turn by a chord factor k moves it in A's frame by at most k (ra + r + c) +
+    // k (D - c); where the bound below keeps the whole move under c with the reach ra + r + c, this one stays under
+    // c + k (D - c) <= D. Likewise the other way; each body's own points lie within its reach.)
+    const double c = pair.clearance;
+    const double reachA = reachAboutCom(A) + B.shape->sampleRadius + c;
+    const double reachB = reachAboutCom(B) + A.shape->sampleRadius + c;
+    if (!displacementExceeds(pair.keptA, pa, reachA, pair.keptB, pb, reachB,
+                             [&](double moved) { return !(moved < c); })) {
       out.clear();
       ++pair.clearLooks;
       return;

@@ -574,6 +574,19 @@ bool pairContacts(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, c
   return false;
 }
 
+namespace {
+// R in lookAtPair's reaches: a point (a sample's centre, radius r) whose gap to body b a look measured as D lies
+// within R + D of b's centre of mass. A primitive's distance is the true one, and its surface lies within its
+// reach: R = reach + r. A mesh's field only bounds it (its grid's slope), and inside its bounds box a point may be
+// anywhere in it: R is also at least the corner of that box widened by r (outside it, D is the distance to it).
+double clearReach(const RigidBody& b, double r) {
+  const Shape& s = *b.shape;
+  if (s.type != ShapeType::Mesh) return reachAboutCom(b) + r;
+  const glm::dvec3 corner = glm::max(glm::abs(s.boundsMin - r - b.localCom), glm::abs(s.boundsMax + r - b.localCom));
+  return std::max(reachAboutCom(b) + r, glm::length(corner));
+}
+}  // namespace
+
 void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, const PoseFrame& frameB,
                 std::vector<Contact>& out) {
   const double tolerance = ctx.settings.contactRefreshTolerance;
@@ -617,13 +630,13 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, con
   if (clearing && pair.clearance > 0 && pair.clearLists == pair.listGeneration &&
       (pair.bInA.size() < kNearMinSamples || nearHolds(pair.nearBInA, pair, pa, pb)) &&
       (pair.aInB.size() < kNearMinSamples || nearHolds(pair.nearAInB, pair, pb, pa))) {
-    // (The reaches: a tested point of B (a sample's centre, radius r) whose gap to A is D >= clearance c lies within
-    // ra + r + D of A's centre, so A's turn by a chord factor k moves it in A's frame by at most k (ra + r + c) +
-    // k (D - c); where the bound below keeps the whole move under c with the reach ra + r + c, this one stays under
-    // c + k (D - c) <= D. Likewise the other way; each body's own points lie within its reach.)
+    // (The reaches: a tested point of B whose gap to A is D >= clearance c lies within R + D of A's centre
+    // (clearReach), so A's turn by a chord factor k moves it in A's frame by at most k (R + c) + k (D - c); where
+    // the bound below keeps the whole move under c with the reach R + c, this one stays under c + k (D - c) <= D.
+    // Likewise the other way; each body's own points lie within its reach.)
     const double c = pair.clearance;
-    const double reachA = reachAboutCom(A) + B.shape->sampleRadius + c;
-    const double reachB = reachAboutCom(B) + A.shape->sampleRadius + c;
+    const double reachA = clearReach(A, B.shape->sampleRadius) + c;
+    const double reachB = clearReach(B, A.shape->sampleRadius) + c;
     if (!displacementExceeds(pair.keptA, pa, reachA, pair.keptB, pb, reachB,
                              [&](double moved) { return !(moved < c); })) {
       out.clear();
@@ -632,10 +645,11 @@ void lookAtPair(const StepContext& ctx, Pair& pair, const PoseFrame& frameA, con
     }
   }
   pair.clearance = -1;
-  // What a look that finds nothing keeps: its clearance less a hair (the distances' and the bound's rounding).
+  // What a look that finds nothing keeps: its clearance less a hair (the distances' and the bound's rounding; a
+  // turn under about 3e-8 rad rounds to none in displacementExceeds).
   auto keepClear = [&](double clear) {
     if (!clearing || !out.empty() || !(clear > 0) || !std::isfinite(clear)) return;
-    const double kept = clear * (1 - 1e-6) - 1e-9;
+    const double kept = clear * (1 - 1e-6) - 1e-9 - 1e-7 * (reachAboutCom(A) + reachAboutCom(B));
     if (!(kept > 0)) return;
     pair.hasKept = false;
     pair.keptA = pa;

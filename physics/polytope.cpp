@@ -462,8 +462,8 @@ void boxContacts(const glm::dvec3& ha, const glm::dvec3& hb, const RigidMap& bTo
       const double reachA = ha[i1] * absR[j][i2] + ha[i2] * absR[j][i1];
       const double reachB = hb[j1] * absR[j2][i] + hb[j2] * absR[j1][i];
       const double num = along - reachA - reachB;
-      if (num > 0) {  // a separating axis
-        if (separation) *separation = num / std::sqrt(len2);
+      if (num > 0) {  // a separating axis (its gap reported only where the division keeps it exact enough)
+        if (separation) *separation = len2 >= 1e-6 ? num / std::sqrt(len2) : -1.0;
         return;
       }
       // num / len > edgeMargin needs edgeMargin < 0 and num^2 < edgeMargin^2 len^2 (both negative); a little

@@ -54,9 +54,9 @@ PrincipalInertia principalInertia(const glm::dmat3& inertia) {
 }
 
 namespace {
-// sin x and cos x: for |x| <= 1/2 (every turn of a substep but the fastest) their Taylor polynomials to within a
-// fraction of an ulp, by Horner's rule (no fused multiply-add: the same bits from every machine and build, and
-// about a third of the instructions of the C library's); std::sin and std::cos beyond.
+// sin x and cos x: for |x| <= 1/2 (every turn of a substep but the fastest) their Taylor polynomials (truncated
+// far below an ulp, rounded within about one) by Horner's rule (no fused multiply-add: the same bits from every
+// machine and build, and about half the instructions of the C library's); std::sin and std::cos beyond.
 void sinCos(double x, double& s, double& c) {
   if (!(std::abs(x) <= 0.5)) {
     s = std::sin(x);
@@ -109,7 +109,7 @@ FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, 
   // |L|^2 / (2 I_m): a turn about L itself; L in the principal axes stays.
   frame = rotateBy(frame, momentum / middle, h);
   // 1/2 c_k L_k^2: a turn about principal axis k by h c_k L_k (L_k stays during it).
-  // (frame r and conj(r) l written out for r = (cos a/2, sin a/2 e_k): a turn about a principal axis.)
+  // (frame r and conj(r) l written out for r = (cos a/2, sin a/2 e_k): a turn about principal axis k, 0 or 2.)
   auto turn = [&](int k, double dt) {
     const double angle = dt * (inverse[k] - inverse.y) * l[k];
     if (angle == 0) return;
@@ -120,7 +120,7 @@ FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, 
     if (k == 0) {
       frame = glm::dquat(f.w * c - f.x * s, f.x * c + f.w * s, f.y * c + f.z * s, f.z * c - f.y * s);
       l = glm::dvec3(l.x, l.y * ca + l.z * sa, l.z * ca - l.y * sa);
-    } else {
+    } else {  // k == 2
       frame = glm::dquat(f.w * c - f.z * s, f.x * c + f.y * s, f.y * c - f.x * s, f.z * c + f.w * s);
       l = glm::dvec3(l.x * ca + l.y * sa, l.y * ca - l.x * sa, l.z);
     }

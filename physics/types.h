@@ -26,11 +26,11 @@ struct WorldSettings {
   // (StepStats::keptLooks), until the bodies have moved this much from where
   // they were found.
   double contactRefreshTolerance = 0.0005;
-  // A look at a pair that found nothing answers the pair's next looks while the bodies' points move less than its
-  // clearance: how far they could move before a contact (a box pair's gap along the axis that separates them; the
-  // least distance of the samples it tested, where each side tests a short list or its near samples: each point's
-  // distance changes by no more than it moves; StepStats::clearLooks). Exact: the same bits as looking again.
-  // false: every such look is made again.
+  // A look at a pair that found nothing (where nothing sweeps, bends normals or feels dents) answers the pair's
+  // next looks while the bodies' points move less than its clearance: how far they could move before a contact
+  // (two boxes: their gap along the axis that separates them; the least distance of the samples it tested, over
+  // the field's slope, where each side tests a short list or its near samples; StepStats::clearLooks). Exact:
+  // the same bits as looking again. false: every such look is made again.
   bool keepClearLooks = true;
   // Shock propagation passes per contact-graph level at most (Jacobi: each body
   // takes the mean of its groups' impulses against the frozen level below, on

@@ -529,12 +529,18 @@ double stepTravel(StepContext& ctx, double h) {
     // asked here (it is called once a substep, in findPairs).
     return (A.movable() || B.movable()) && mayCollide(ctx, ia, ib, false);
   };
+  // A body's reach about its centre of mass, a dented one's with its dents' rise.
+  auto reachOf = [&](int i) { return reachAboutCom(bodies[static_cast<size_t>(i)]) + ctx.rise(i); };
   auto pairTravel = [&](int ia, int ib) {
     const RigidBody& A = bodies[static_cast<size_t>(ia)];
     const RigidBody& B = bodies[static_cast<size_t>(ib)];
     const Swept& si = swept[static_cast<size_t>(ia)];
     const Swept& sj = swept[static_cast<size_t>(ib)];
-    const double travel = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a) + si.turn + sj.turn;
+    const double moved = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a);
+    // Bodies whose spheres about their centres of mass (each turn keeps its own) stay apart over the step by
+    // their centres' relative travel cannot meet in it.
+    if (glm::length(B.x - A.x) - reachOf(ia) - reachOf(ib) > moved) return;
+    const double travel = moved + si.turn + sj.turn;
     const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
     worst = std::max(worst, travel / allowed);
   };

@@ -605,6 +605,40 @@ TEST_CASE("substeps go by pairs that can meet: bodies falling side by side take 
   CHECK(substeps(true, Apart::Joined) == 1);
 }
 
+TEST_CASE("substeps: bodies whose spheres stay apart over the step ask for none, however their boxes overlap") {
+  // Two rods 1 m long and 4 cm thick (half thickness 0.02: a substep may move 1 cm) on one diagonal line, their
+  // centres `apart` m apart, B closing on A along the line at 9 m/s: 0.15 m in a 60 Hz step. Tilted, their bounds
+  // boxes reach 0.71 m from the centres along x and y, so the swept boxes overlap at 1.2 m; each rod reaches 0.5 m
+  // from its centre, so at 1.2 m they stay 0.2 m apart over the step, at 1.1 m they may meet (0.1 m apart).
+  auto run = [](double apart, int steps, int* firstSubsteps) {
+    World w;
+    w.settings().gravity = {0, 0, 0};
+    const glm::dvec3 along = glm::normalize(glm::dvec3(1, 1, 0));
+    const glm::dquat tilt = glm::angleAxis(0.25 * 3.14159265358979323846, glm::dvec3(0, 0, 1));
+    int ids[2];
+    for (int k = 0; k < 2; ++k) {
+      BodyDef d;
+      d.shape = makeBox({1, 0.04, 0.04});
+      d.origin = glm::dvec3(0, 5, 0) + (k * apart) * along;
+      d.orientation = tilt;
+      d.restitution = 0;
+      ids[k] = w.addBody(d);
+    }
+    w.setVelocity(ids[1], -9.0 * along);
+    for (int s = 0; s < steps; ++s) {
+      w.step(1.0 / 60);
+      if (s == 0) *firstSubsteps = w.lastStats().substeps;
+    }
+    return glm::dot(w.body(ids[1]).x - w.body(ids[0]).x, along);  // B's centre ahead of A's along the line
+  };
+  int far = 0, near = 0;
+  run(1.2, 1, &far);
+  CHECK(far == 1);
+  const double gap = run(1.1, 3, &near);
+  CHECK(near == 15);  // 0.15 m / 1 cm
+  CHECK(gap > 0.99);  // the rods met end to end and did not pass through each other
+}
+
 TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
   // A body 5 mm over a static plate 0.1 m thick (half thickness 0.05: a substep may move a body 2.5 cm), turning
   // fast and not moving. A ball spinning and a capsule rolling on its side (spinning about its own axis) move no

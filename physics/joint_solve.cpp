@@ -78,8 +78,8 @@ void withSize(int n, F&& f) {
 }
 
 // out (np x nq) = inv (np x np) * off (np x nq).
-template <int np>
-void leftMultiply(const Block& inv, const Block& off, int nq, Block& out) {
+template <int np, int nq>
+void leftMultiply(const Block& inv, const Block& off, Block& out) {
   for (int i = 0; i < np; ++i)
     for (int c = 0; c < nq; ++c) {
       double v = 0;
@@ -89,8 +89,8 @@ void leftMultiply(const Block& inv, const Block& off, int nq, Block& out) {
 }
 
 // target (nq x nr) -= a^T b, a: np x nq, b: np x nr; where `lower`, only its lower triangle (c <= i).
-template <int np>
-void subtractProduct(const Block& a, const Block& b, int nq, int nr, Block& target, bool lower) {
+template <int np, int nq, int nr>
+void subtractProduct(const Block& a, const Block& b, Block& target, bool lower) {
   for (int i = 0; i < nq; ++i)
     for (int c = 0; c < (lower ? i + 1 : nr); ++c) {
       double v = 0;
@@ -429,7 +429,8 @@ void factor(JointSystem& s) {
     withSize(np, [&](auto NP) {
       constexpr int kNp = NP();
       pseudoInverseN<kNp>(s.diag[p], s.scale[p].data(), s.inv[p]);
-      for (size_t e = 0; e < later.size(); ++e) leftMultiply<kNp>(s.inv[p], off[e], size(later[e]), scaled[e]);
+      for (size_t e = 0; e < later.size(); ++e)
+        withSize(size(later[e]), [&](auto NQ) { leftMultiply<kNp, NQ()>(s.inv[p], off[e], scaled[e]); });
       for (size_t e1 = 0; e1 < later.size(); ++e1) {
         const int q = later[e1], nq = size(q);
         for (size_t e2 = e1; e2 < later.size(); ++e2) {
@@ -440,7 +441,9 @@ void factor(JointSystem& s) {
             target = &s.off[static_cast<size_t>(q)]
                            [static_cast<size_t>(std::lower_bound(l.begin(), l.end(), r) - l.begin())];
           }
-          subtractProduct<kNp>(off[e1], scaled[e2], nq, nr, *target, r == q);
+          withSize(nq, [&](auto NQ) {
+            withSize(nr, [&](auto NR) { subtractProduct<kNp, NQ(), NR()>(off[e1], scaled[e2], *target, r == q); });
+          });
         }
       }
     });
@@ -452,37 +455,52 @@ void factor(JointSystem& s) {
 void solveFactored(const JointSystem& s, std::vector<std::array<double, 6>>& x) {
   const size_t n = s.joints.size();
   auto size = [&](int pos) { return s.rows[static_cast<size_t>(s.order[static_cast<size_t>(pos)])].n; };
-  std::array<double, 6> y{};
+  // (Each block's loops unrolled for its row counts: withSize.)
   for (size_t p = 0; p < n; ++p) {
-    const int np = size(static_cast<int>(p));
-    for (size_t e = 0; e < s.later[p].size(); ++e) {
-      const int q = s.later[p][e], nq = size(q);
-      for (int c = 0; c < nq; ++c) {
-        double v = 0;
-        for (int k = 0; k < np; ++k) v += s.off[p][e].m[k][c] * x[p][static_cast<size_t>(k)];
-        x[static_cast<size_t>(q)][static_cast<size_t>(c)] -= v;
+    withSize(size(static_cast<int>(p)), [&](auto NP) {
+      const std::array<double, 6>& xp = x[p];
+      for (size_t e = 0; e < s.later[p].size(); ++e) {
+        const int q = s.later[p][e];
+        const Block& off = s.off[p][e];
+        std::array<double, 6>& xq = x[static_cast<size_t>(q)];
+        withSize(size(q), [&](auto NQ) {
+          for (int c = 0; c < NQ(); ++c) {
+            double v = 0;
+            for (int k = 0; k < NP(); ++k) v += off.m[k][c] * xp[static_cast<size_t>(k)];
+            xq[static_cast<size_t>(c)] -= v;
+          }
+        });
       }
-    }
+    });
   }
   for (size_t p = 0; p < n; ++p) {
-    const int np = size(static_cast<int>(p));
-    for (int i = 0; i < np; ++i) {
-      double v = 0;
-      for (int k = 0; k < np; ++k) v += s.inv[p].m[i][k] * x[p][static_cast<size_t>(k)];
-      y[static_cast<size_t>(i)] = v;
-    }
-    for (int i = 0; i < np; ++i) x[p][static_cast<size_t>(i)] = y[static_cast<size_t>(i)];
+    withSize(size(static_cast<int>(p)), [&](auto NP) {
+      std::array<double, 6> y{};
+      std::array<double, 6>& xp = x[p];
+      for (int i = 0; i < NP(); ++i) {
+        double v = 0;
+        for (int k = 0; k < NP(); ++k) v += s.inv[p].m[i][k] * xp[static_cast<size_t>(k)];
+        y[static_cast<size_t>(i)] = v;
+      }
+      for (int i = 0; i < NP(); ++i) xp[static_cast<size_t>(i)] = y[static_cast<size_t>(i)];
+    });
   }
   for (size_t p = n; p-- > 0;) {
-    const int np = size(static_cast<int>(p));
-    for (size_t e = 0; e < s.later[p].size(); ++e) {
-      const int q = s.later[p][e], nq = size(q);
-      for (int i = 0; i < np; ++i) {
-        double v = 0;
-        for (int c = 0; c < nq; ++c) v += s.off[p][e].m[i][c] * x[static_cast<size_t>(q)][static_cast<size_t>(c)];
-        x[p][static_cast<size_t>(i)] -= v;
+    withSize(size(static_cast<int>(p)), [&](auto NP) {
+      std::array<double, 6>& xp = x[p];
+      for (size_t e = 0; e < s.later[p].size(); ++e) {
+        const int q = s.later[p][e];
+        const Block& off = s.off[p][e];
+        const std::array<double, 6>& xq = x[static_cast<size_t>(q)];
+        withSize(size(q), [&](auto NQ) {
+          for (int i = 0; i < NP(); ++i) {
+            double v = 0;
+            for (int c = 0; c < NQ(); ++c) v += off.m[i][c] * xq[static_cast<size_t>(c)];
+            xp[static_cast<size_t>(i)] -= v;
+          }
+        });
       }
-    }
+    });
   }
 }
 

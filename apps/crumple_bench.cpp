@@ -292,8 +292,13 @@ void printMachine() {
   std::printf("cpu: %s, %u hardware threads\n", model.c_str(), std::thread::hardware_concurrency());
   std::string sets;
   for (const std::string& set : crumpleInstructionSets()) sets += (sets.empty() ? "" : " ") + set;
-  std::printf("crumple %s: its physics library at -O3 (CMake build type %s), instructions: %s (never FMA)\n",
-              crumple::versionString(), CRUMPLE_BENCH_BUILD_TYPE, sets.c_str());
+#ifdef CRUMPLE_BENCH_LTO
+  const char* lto = " with link-time optimisation";
+#else
+  const char* lto = "";
+#endif
+  std::printf("crumple %s: its physics library at -O3%s (CMake build type %s), instructions: %s (never FMA)\n",
+              crumple::versionString(), lto, CRUMPLE_BENCH_BUILD_TYPE, sets.c_str());
   std::printf("bullet: Debian's libbullet-dev, btSequentialImpulseConstraintSolver, one thread\n");
   if (joltBuilt()) {
     std::printf("jolt: %s, one thread\n", joltConfiguration().c_str());

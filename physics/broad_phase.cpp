@@ -537,12 +537,13 @@ double stepTravel(StepContext& ctx, double h) {
     const Swept& si = swept[static_cast<size_t>(ia)];
     const Swept& sj = swept[static_cast<size_t>(ib)];
     const double moved = h * glm::length(sj.v - si.v) + h * h * glm::length(sj.a - si.a);
+    const double travel = moved + si.turn + sj.turn;
+    const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
+    if (!(travel / allowed > worst)) return;  // (asks no more than the worst so far)
     // Bodies whose spheres about their centres of mass (each turn keeps its own) stay apart over the step by
     // their centres' relative travel cannot meet in it.
     if (glm::length(B.x - A.x) - reachOf(ia) - reachOf(ib) > moved) return;
-    const double travel = moved + si.turn + sj.turn;
-    const double allowed = fraction * std::max(std::min(A.shape->halfThickness(), B.shape->halfThickness()), 1e-4);
-    worst = std::max(worst, travel / allowed);
+    worst = travel / allowed;
   };
   // The fat boxes' pairs (findPairs) hold every pair whose swept boxes overlap among bodies whose swept box lies
   // in their fat box and which were active when the fat boxes were made (a pair of bodies neither of which moves

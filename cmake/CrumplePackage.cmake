@@ -50,12 +50,24 @@ install(TARGETS ${CRUMPLE_ENGINE_TARGETS} EXPORT crumpleEngineTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # The installed libraries carry no debug info unless asked (a program linking crumple::physics stays small
-# whatever build type made them).
+# whatever build type made them), and no link-time optimisation sections (CRUMPLE_LTO builds fat objects: what
+# is installed is their plain code, which links with any compiler and any GCC version, with LTO or without).
 option(CRUMPLE_INSTALL_DEBUG_INFO "Keep debug info in the installed libraries" OFF)
-if(NOT CRUMPLE_INSTALL_DEBUG_INFO AND CMAKE_STRIP)
+if(CMAKE_STRIP)
   foreach(target ${CRUMPLE_LIBRARY_TARGETS})
-    install(CODE "execute_process(COMMAND \"${CMAKE_STRIP}\" --strip-debug
-      \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR}/$<TARGET_FILE_NAME:${target}>\")")
+    get_target_property(lto ${target} INTERPROCEDURAL_OPTIMIZATION)
+    set(strip_args)
+    if(NOT CRUMPLE_INSTALL_DEBUG_INFO)
+      list(APPEND strip_args --strip-debug)
+    endif()
+    if(lto)
+      list(APPEND strip_args "--remove-section=.gnu.lto_*" "--remove-section=.gnu.debuglto_*")
+    endif()
+    if(strip_args)
+      list(JOIN strip_args "\" \"" strip_joined)
+      install(CODE "execute_process(COMMAND \"${CMAKE_STRIP}\" \"${strip_joined}\"
+        \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_LIBDIR}/$<TARGET_FILE_NAME:${target}>\")")
+    endif()
   endforeach()
 endif()
 

@@ -12,7 +12,7 @@ expect() {  # count regex what
   if [ "$n" -ne "$1" ]; then echo "bench_smoke: expected $1 $3 lines, found $n" >&2; exit 1; fi
 }
 expect 1 '^cpu: .+, [0-9]+ hardware threads$' "machine"
-expect 1 '^crumple [0-9]+\.[0-9]+\.[0-9]+: its physics library at -O3 \(CMake build type [^)]*\), instructions: SSE2( [A-Z0-9.]+)* \(never FMA\)$' "crumple build"
+expect 1 '^crumple [0-9]+\.[0-9]+\.[0-9]+: its physics library at -O3( with link-time optimisation)? \(CMake build type [^)]*\), instructions: SSE2( [A-Z0-9.]+)* \(never FMA\)$' "crumple build"
 expect 1 '^bullet: ' "bullet build"
 expect 5 '^physics .* crumple/bullet +[0-9]+\.[0-9]+x$' "physics ratio"
 expect 5 '^ +at the end: crumple +[0-9]+ awake, top centre [0-9.]+ m; bullet +[0-9]+ awake, top centre [0-9.]+ m$' "end-state"

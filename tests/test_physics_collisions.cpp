@@ -1291,13 +1291,7 @@ TEST_CASE(
   for (int run = 0; run < 2; ++run) {
     World w;
     w.settings().keepClearLooks = run == 0;
-    BodyDef ground;
-    ground.shape = makeBox({8, 1, 8});
-    ground.origin = {0, -0.5, 0};
-    ground.isStatic = true;
-    ground.friction = 0.5;
-    ground.restitution = 0.2;
-    w.addBody(ground);
+    addGround(w, 0.5, 0.2);
     Uniform u(29);
     for (int k = 0; k < 64; ++k) {
       BodyDef d;

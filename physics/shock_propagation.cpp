@@ -13,8 +13,10 @@
 // - Level by level from 1 up, with every lower level frozen (infinite mass):
 //   Jacobi passes over the level's groups, each group's impulse computed from
 //   the same velocities and each body taking the mean of its groups'
-//   (restitution 0, friction), island by island until a pass changes no
-//   group's relative velocity by more than `shockTolerance` (at most `shockPasses`). A body resting on one patch of the
+//   (restitution 0, friction), part by part (the level's groups joined through
+//   the bodies they move: a part shares no moving body with another) until a pass
+//   changes no group's relative velocity by more than `shockTolerance` (at most
+//   `shockPasses`). A body resting on one patch of the
 //   frozen level below is held against tilting by that patch; on two, the
 //   patches hold only the tilt about the line through them.
 // - An island no kinematic body drives gains no kinetic energy here beyond
@@ -49,7 +51,6 @@ struct LevelContact {
   double mu = 0;
   ImpulseSide sa, sb;
   const PatchExtent* extent = nullptr;
-  int island = 0;     // its pair's (the passes run island by island)
   size_t pair = 0;
   PatchMatrix patch;  // valid only for a body's one or two support patches
 };
@@ -61,6 +62,7 @@ struct alignas(64) IslandScratch {  // (a cache line of its own: see ContactScra
   std::vector<int> bodies, byLevel;  // its levelled dynamic bodies, and the same by level (bodyStart)
   std::vector<uint32_t> bodyStart, fill;
   std::vector<LevelContact> lc;
+  std::vector<uint32_t> order, partStart, key;  // levelParts: lc's indices by part (partStart), each part's in lc order
   std::vector<std::pair<int, size_t>> supports;
   std::vector<glm::dvec3> dj, dt;
   std::vector<uint32_t> adjStart, adj;  // islandLevels: the dynamic bodies' neighbours, compressed rows
@@ -80,6 +82,7 @@ struct Scratch {
   std::vector<std::vector<int>> joined;
   std::vector<uint32_t> fill;
   std::vector<int> share;              // per body: its groups on the level under way
+  std::vector<int> root, part;         // per body on the level under way: levelParts' sets and their parts
   std::vector<uint32_t> stamp;          // per body: the island (+1) that last counted it
   std::vector<uint32_t> local, seen;    // per dynamic body: its index among its run's, and the run (+1) (islandLevels)
   std::vector<IslandScratch> islands;  // per worker
@@ -306,7 +309,6 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
       LevelContact& x = count < lc.size() ? lc[count] : lc.emplace_back();
       ++count;
       x.patch.valid = false;
-      x.island = ctx.islandOfPair[pi];
       x.pair = pi;
       x.c = c;
       x.l = g.levers;
@@ -355,25 +357,70 @@ void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::
   }
 }
 
+// The level's parts: its groups joined through the bodies they move (this level's; the levels below are
+// frozen), in lc's indices, part by part (partStart), each part's in lc order. Parts share no moving body, so
+// each converges on its own: a pyramid's level is one island, but each box on its two frozen supports is a part
+// of its own, and a slow one no longer keeps the others passing.
+void levelParts(const StepContext& ctx, const std::vector<LevelContact>& lc, std::vector<int>& root,
+                std::vector<int>& part, IslandScratch& w) {
+  auto moving = [&](int b) { return ctx.frozen[static_cast<size_t>(b)] == 0; };
+  auto find = [&](int b) {
+    while (root[static_cast<size_t>(b)] != b) {
+      root[static_cast<size_t>(b)] = root[static_cast<size_t>(root[static_cast<size_t>(b)])];
+      b = root[static_cast<size_t>(b)];
+    }
+    return b;
+  };
+  for (const LevelContact& x : lc)
+    for (int b : {x.c.a, x.c.b})
+      if (moving(b)) {
+        root[static_cast<size_t>(b)] = b;
+        part[static_cast<size_t>(b)] = -1;
+      }
+  for (const LevelContact& x : lc) {
+    if (!moving(x.c.a) || !moving(x.c.b)) continue;
+    const int ra = find(x.c.a), rb = find(x.c.b);
+    if (ra != rb) root[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
+  }
+  // Parts numbered by their first group; counted, then filled in lc order.
+  w.key.resize(lc.size());
+  w.partStart.assign(1, 0);
+  for (size_t k = 0; k < lc.size(); ++k) {
+    const int r = find(moving(lc[k].c.a) ? lc[k].c.a : lc[k].c.b);
+    int& p = part[static_cast<size_t>(r)];
+    if (p < 0) {
+      p = static_cast<int>(w.partStart.size()) - 1;
+      w.partStart.push_back(0);
+    }
+    w.key[k] = static_cast<uint32_t>(p);
+    ++w.partStart[static_cast<size_t>(p) + 1];
+  }
+  for (size_t p = 1; p < w.partStart.size(); ++p) w.partStart[p] += w.partStart[p - 1];
+  w.fill.assign(w.partStart.begin(), w.partStart.end() - 1);
+  w.order.resize(lc.size());
+  for (size_t k = 0; k < lc.size(); ++k) w.order[w.fill[w.key[k]]++] = static_cast<uint32_t>(k);
+}
+
 // Jacobi passes: every group's impulse from the same velocities, each body
 // taking the mean of its groups' (a body on two supports follows neither
-// alone: in order, the last one processed would win). Island by island (their
-// groups lie side by side in lc and share no body that moves), each until a
+// alone: in order, the last one processed would win). Part by part (levelParts:
+// they share no body that moves), each until a
 // pass changes no group's relative velocity by more than shockTolerance, at
 // most shockPasses: a box on the box below settles in one pass (the second
 // confirms it), two cards leaning on each other need a few dozen (the mean
 // halves what each gets).
 void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const std::vector<int>& share,
-                  std::vector<glm::dvec3>& dj, std::vector<glm::dvec3>& dt) {
+                  const IslandScratch& w, std::vector<glm::dvec3>& dj, std::vector<glm::dvec3>& dt) {
   dj.resize(lc.size());
   dt.resize(lc.size());
   const double tolerance = ctx.settings.shockTolerance;
-  for (size_t begin = 0, end; begin < lc.size(); begin = end) {
-    for (end = begin + 1; end < lc.size() && lc[end].island == lc[begin].island; ++end) {
-    }
+  for (size_t p = 0; p + 1 < w.partStart.size(); ++p) {
+    const uint32_t* begin = w.order.data() + w.partStart[p];
+    const uint32_t* end = w.order.data() + w.partStart[p + 1];
     for (int pass = 0; pass < ctx.settings.shockPasses; ++pass) {
       double change = 0;
-      for (size_t k = begin; k < end; ++k) {
+      for (const uint32_t* i = begin; i != end; ++i) {
+        const size_t k = *i;
         const Contact& c = lc[k].c;
         const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, lc[k].l);
         if (!patchImpulse(lc[k].patch, lc[k].m, u, ctx.relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr,
@@ -383,7 +430,8 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
         }
         change = std::max(change, glm::length(lc[k].m.K * dj[k]));
       }
-      for (size_t k = begin; k < end; ++k) {
+      for (const uint32_t* i = begin; i != end; ++i) {
+        const size_t k = *i;
         const Contact& c = lc[k].c;
         const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});
         if (glm::dot(dj[k], dj[k]) > 0) {
@@ -477,7 +525,8 @@ void shockIslands(StepContext& ctx, double h, size_t k0, size_t k1, uint32_t mar
     levelContacts(ctx, w.pairs.data() + w.levelStart[static_cast<size_t>(l)],
                   w.pairs.data() + w.levelStart[static_cast<size_t>(l) + 1], w.lc, share);
     supportPatches(ctx, share, w.lc, w.supports);
-    jacobiPasses(ctx, w.lc, share, w.dj, w.dt);
+    levelParts(ctx, w.lc, s.root, s.part, w);
+    jacobiPasses(ctx, w.lc, share, w, w.dj, w.dt);
     // (Level 0 bodies are shared by the islands and never counted: only this island's are written.)
     for (const LevelContact& x : w.lc)
       for (int b : {x.c.a, x.c.b})
@@ -528,6 +577,8 @@ void shockPropagation(StepContext& ctx, double h, bool flat) {
   }
   s.share.resize(n);
   s.stamp.resize(n);
+  s.root.resize(n);
+  s.part.resize(n);
   // Level 0 (static, kinematic and sleeping bodies, shared by islands) is frozen before the islands start.
   ctx.parallelRange(n, ctx.grainFor(n, 1024), [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {

@@ -34,8 +34,9 @@ struct WorldSettings {
   bool keepClearLooks = true;
   // Shock propagation passes per contact-graph level at most (Jacobi: each body
   // takes the mean of its groups' impulses against the frozen level below, on
-  // the contact step's last geometry), each island's level until a pass changes
-  // no group's relative velocity by more than shockTolerance (m/s). With it the
+  // the contact step's last geometry), each part of a level (its groups joined
+  // through the bodies they move) until a pass changes no group's relative
+  // velocity by more than shockTolerance (m/s). With it the
   // 10-level pyramid stands with 10 contact passes, sleeping or not, and an
   // A-frame of cards on a light card (tests/test_physics_stacks.cpp); 0 turns it off.
   int shockPasses = 12;

@@ -244,7 +244,8 @@ void limitScale(double& s, double alpha, double beta) {
 
 bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
                   const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& jOut,
-                  glm::dvec3& tOut) {
+                  glm::dvec3& tOut, bool* whole) {
+  if (whole) *whole = false;
   if (!p.valid || !m.invertible) return false;
   const double un = glm::dot(u, n);
   if (un >= 0) return false;
@@ -328,7 +329,9 @@ bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3
   const glm::dvec3 T = y[0] * e.t1 + y[1] * e.t2 + y[2] * n;
   // x.M x is the right-hand side (dv, r) dotted with x when nothing was clamped.
   const double quad = exact ? glm::dot(J, dv) + y[0] * r[0] + y[1] * r[1] + y[2] * r[2] : std::nan("");
-  return finishPatch(p, m, u, omega, n, mu, totals, J, T, quad, jOut, tOut);
+  if (!finishPatch(p, m, u, omega, n, mu, totals, J, T, quad, jOut, tOut)) return false;
+  if (whole) *whole = exact;
+  return true;
 }
 
 }  // namespace crumple

@@ -105,8 +105,12 @@ PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impulse
 // velocity omega (B's minus A's) with the restitution and Coulomb cone of
 // frictionImpulse (the cone over `totals`, which it updates). False when the
 // patch cannot act as one (a slide, a pull, no patch): use frictionImpulse;
-// J and T are then left as they were.
+// J and T are then left as they were. `whole`, when given, says whether the
+// impulse met every target (a full patch: the point's velocity, no relative
+// tilt, no relative twist) with nothing clamped: applied whole, it leaves the
+// pair no relative motion but rounding.
 bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
-                  const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& J, glm::dvec3& T);
+                  const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& J, glm::dvec3& T,
+                  bool* whole = nullptr);
 
 }  // namespace crumple

@@ -406,9 +406,10 @@ void levelParts(const StepContext& ctx, const std::vector<LevelContact>& lc, std
 // alone: in order, the last one processed would win). Part by part (levelParts:
 // they share no body that moves), each until a
 // pass changes no group's relative velocity by more than shockTolerance, at
-// most shockPasses: a box on the box below settles in one pass (the second
-// confirms it), two cards leaning on each other need a few dozen (the mean
-// halves what each gets).
+// most shockPasses: a box on the box below settles in one pass (where its
+// support's patch impulse holds it whole, nothing is left for a second to
+// confirm), two cards leaning on each other need a few dozen (the mean halves
+// what each gets).
 void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const std::vector<int>& share,
                   const IslandScratch& w, std::vector<glm::dvec3>& dj, std::vector<glm::dvec3>& dt) {
   dj.resize(lc.size());
@@ -417,14 +418,17 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
   for (size_t p = 0; p + 1 < w.partStart.size(); ++p) {
     const uint32_t* begin = w.order.data() + w.partStart[p];
     const uint32_t* end = w.order.data() + w.partStart[p + 1];
-    for (int pass = 0; pass < ctx.settings.shockPasses; ++pass) {
+    // A part of one group whose first impulse met every target whole (m is 1) is settled: a second pass would
+    // see only rounding.
+    bool settled = false;
+    for (int pass = 0; pass < ctx.settings.shockPasses && !settled; ++pass) {
       double change = 0;
       for (const uint32_t* i = begin; i != end; ++i) {
         const size_t k = *i;
         const Contact& c = lc[k].c;
         const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, lc[k].l);
-        if (!patchImpulse(lc[k].patch, lc[k].m, u, ctx.relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr,
-                          dj[k], dt[k])) {
+        if (!patchImpulse(lc[k].patch, lc[k].m, u, ctx.relativeSpin(c.a, c.b), c.normal, 0.0, lc[k].mu, nullptr, dj[k],
+                          dt[k], end - begin == 1 ? &settled : nullptr)) {
           dj[k] = frictionImpulse(lc[k].m, u, c.normal, 0.0, lc[k].mu);
           dt[k] = glm::dvec3(0);
         }

@@ -52,7 +52,8 @@ struct LevelContact {
   ImpulseSide sa, sb;
   const PatchExtent* extent = nullptr;
   size_t pair = 0;
-  PatchMatrix patch;  // valid only for a body's one or two support patches
+  PatchMatrix patch;     // valid only for a body's one or two support patches
+  bool follows = false;  // a body's one support: followSupport first, its patch matrix made only if that fails
 };
 
 // One island's work, on one worker: its pairs and bodies by level.
@@ -310,6 +311,7 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
       ++count;
       x.patch.valid = false;
       x.pair = pi;
+      x.follows = false;
       x.c = c;
       x.l = g.levers;
       x.mu = mu;
@@ -348,7 +350,7 @@ void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::
     if (count == 1) {
       LevelContact& x = lc[supports[first].second];
       x.patch.patch = *x.extent;
-      setPatchMatrix(x.patch, x.sa, x.sb, x.m);
+      x.follows = true;  // (its matrix: jacobiPasses, where followSupport cannot do)
     } else if (count == 2) {
       const size_t k0 = supports[first].second, k1 = supports[first + 1].second;
       const glm::dvec3 line = lc[k1].c.point - lc[k0].c.point;
@@ -401,6 +403,52 @@ void levelParts(const StepContext& ctx, const std::vector<LevelContact>& lc, std
   for (size_t k = 0; k < lc.size(); ++k) w.order[w.fill[w.key[k]]++] = static_cast<uint32_t>(k);
 }
 
+// A body on one frozen support, its only group on the level: the support's patch impulse, where it can act
+// whole, leaves the body no motion relative to the support (the patch solve's six targets: the point's
+// velocity, no relative tilt, no relative twist). Here that impulse is found from the body's own mass and
+// inertia (its velocities set to follow the support rigidly) instead of the patch's Schur complement, and
+// checked as patchImpulse checks its own: a push (jn > 0), friction within mu jn, the twist within torsional
+// friction, the centre of pressure inside the patch, no energy gained. False where any fails, or where the
+// patch is flat: the patch solve decides then. Where the pair does not approach, no impulse (as the patch
+// solve's). (J, T) in the pair's convention: J and T on b, -J and -T on a.
+bool followSupport(const StepContext& ctx, const LevelContact& x, glm::dvec3& J, glm::dvec3& T) {
+  const PatchExtent& e = x.patch.patch;
+  if (e.flat()) return false;
+  const Contact& c = x.c;
+  const glm::dvec3 u = ctx.relativeVelocity(c.a, c.b, x.l), omega = ctx.relativeSpin(c.a, c.b);
+  if (!(glm::dot(u, c.normal) < 0)) {
+    J = T = glm::dvec3(0);
+    return true;
+  }
+  const bool movesB = ctx.frozen[static_cast<size_t>(c.b)] == 0;
+  const int mi = movesB ? c.b : c.a, fi = movesB ? c.a : c.b;
+  const RigidBody& m = ctx.body(mi);
+  const RigidBody& f = ctx.body(fi);
+  const glm::dvec3& rm = movesB ? x.l.rb : x.l.ra;
+  const glm::dvec3& rf = movesB ? x.l.ra : x.l.rb;
+  // The body's velocities following the support: the same spin, the same velocity at the point.
+  const glm::dvec3 dv = f.v + glm::cross(f.w, rf - rm) - m.v, dw = f.w - m.w;
+  const glm::dmat3 R = ctx.invInertiaNow ? ctx.rotation[static_cast<size_t>(mi)] : m.rotation();
+  const glm::dvec3 onM = m.mass * dv,
+                   angular = m.angularMomentumAt(R, dw);  // the impulse on the body, about its centre
+  J = movesB ? onM : -onM;
+  T = movesB ? angular - glm::cross(rm, J) : -angular - glm::cross(rm, J);
+  const glm::dvec3& n = c.normal;
+  const double jn = glm::dot(J, n);
+  if (!(jn > 0) || !(glm::length(J - jn * n) <= x.mu * jn)) return false;
+  const double y0 = glm::dot(T, e.t1), y1 = glm::dot(T, e.t2), y2 = glm::dot(T, n);
+  if (!(std::abs(y2) <= x.mu * jn * e.twistRadius())) return false;
+  // The centre of pressure's offset, n x T / jn = (-y1 t1 + y0 t2) / jn, inside the patch.
+  const double num[2] = {-y1, y0}, lo[2] = {e.lo1, e.lo2}, hi[2] = {e.hi1, e.hi2};
+  for (int k = 0; k < 2; ++k) {
+    const double bound = num[k] > 0 ? hi[k] : lo[k];
+    if (num[k] != 0 && !(std::abs(num[k]) <= std::abs(bound) * jn)) return false;
+  }
+  // The kinetic energy of the relative motion changes by half of J.u + T.omega (the targets met exactly).
+  const double ju = glm::dot(J, u), tw = glm::dot(T, omega);
+  return 0.5 * (ju + tw) <= 1e-12 * (std::abs(ju) + std::abs(tw)) + 1e-15;
+}
+
 // Jacobi passes: every group's impulse from the same velocities, each body
 // taking the mean of its groups' (a body on two supports follows neither
 // alone: in order, the last one processed would win). Part by part (levelParts:
@@ -410,14 +458,35 @@ void levelParts(const StepContext& ctx, const std::vector<LevelContact>& lc, std
 // support's patch impulse holds it whole, nothing is left for a second to
 // confirm), two cards leaning on each other need a few dozen (the mean halves
 // what each gets).
-void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const std::vector<int>& share,
+void jacobiPasses(StepContext& ctx, std::vector<LevelContact>& lc, const std::vector<int>& share,
                   const IslandScratch& w, std::vector<glm::dvec3>& dj, std::vector<glm::dvec3>& dt) {
   dj.resize(lc.size());
   dt.resize(lc.size());
   const double tolerance = ctx.settings.shockTolerance;
+  auto apply = [&](size_t k, int m) {
+    const Contact& c = lc[k].c;
+    if (glm::dot(dj[k], dj[k]) > 0) {
+      ctx.applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
+      const double push = glm::dot(dj[k], c.normal) / double(m);
+      ctx.shockPush[lc[k].pair] += push;
+      // A frozen dynamic body (of this island: level 0 is shared and never written) takes it whole.
+      for (int f : {c.a, c.b})
+        if (ctx.frozen[static_cast<size_t>(f)] && ctx.level[static_cast<size_t>(f)] >= 1)
+          ctx.shockAbsorbed[static_cast<size_t>(f)] += push;
+    }
+    if (glm::dot(dt[k], dt[k]) > 0) ctx.applyTorqueImpulse(c.a, c.b, dt[k] / double(m));
+  };
   for (size_t p = 0; p + 1 < w.partStart.size(); ++p) {
     const uint32_t* begin = w.order.data() + w.partStart[p];
     const uint32_t* end = w.order.data() + w.partStart[p + 1];
+    if (lc[*begin].follows) {  // (a part of its own: one group, m is 1)
+      LevelContact& x = lc[*begin];
+      if (followSupport(ctx, x, dj[*begin], dt[*begin])) {
+        apply(*begin, 1);
+        continue;
+      }
+      setPatchMatrix(x.patch, x.sa, x.sb, x.m);
+    }
     // A part of one group whose first impulse met every target whole (m is 1) is settled: a second pass would
     // see only rounding.
     bool settled = false;
@@ -435,19 +504,8 @@ void jacobiPasses(StepContext& ctx, const std::vector<LevelContact>& lc, const s
         change = std::max(change, glm::length(lc[k].m.K * dj[k]));
       }
       for (const uint32_t* i = begin; i != end; ++i) {
-        const size_t k = *i;
-        const Contact& c = lc[k].c;
-        const int m = std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]});
-        if (glm::dot(dj[k], dj[k]) > 0) {
-          ctx.applyImpulse(c.a, c.b, lc[k].l, dj[k] / double(m));
-          const double push = glm::dot(dj[k], c.normal) / double(m);
-          ctx.shockPush[lc[k].pair] += push;
-          // A frozen dynamic body (of this island: level 0 is shared and never written) takes it whole.
-          for (int f : {c.a, c.b})
-            if (ctx.frozen[static_cast<size_t>(f)] && ctx.level[static_cast<size_t>(f)] >= 1)
-              ctx.shockAbsorbed[static_cast<size_t>(f)] += push;
-        }
-        if (glm::dot(dt[k], dt[k]) > 0) ctx.applyTorqueImpulse(c.a, c.b, dt[k] / double(m));
+        const Contact& c = lc[*i].c;
+        apply(*i, std::max({1, share[static_cast<size_t>(c.a)], share[static_cast<size_t>(c.b)]}));
       }
       if (!(change > tolerance)) break;
     }

@@ -47,7 +47,8 @@ namespace {
 struct LevelContact {
   Contact c;
   Levers l;
-  ImpulseMatrix m;  // K with this level's frozen bodies
+  ImpulseMatrix m;  // K with this level's frozen bodies (made by withMatrix where a solve needs it)
+  bool hasMatrix = false;
   double mu = 0;
   ImpulseSide sa, sb;
   const PatchExtent* extent = nullptr;
@@ -317,12 +318,19 @@ void levelContacts(const StepContext& ctx, const size_t* first, const size_t* la
       x.mu = mu;
       x.extent = &g.patchMatrix.patch;
       ctx.sidesAt(c.a, c.b, g.levers, fa, fb, x.sa, x.sb);
-      x.m = ImpulseMatrix(collisionMatrix(x.sa, x.sb));
+      x.hasMatrix = false;
       if (!fa) ++share[static_cast<size_t>(c.a)];  // frozen bodies do not move
       if (!fb) ++share[static_cast<size_t>(c.b)];
     }
   }
   lc.resize(count);
+}
+
+// x with its K (a body on one support that follows it needs none).
+LevelContact& withMatrix(LevelContact& x) {
+  if (!x.hasMatrix) x.m = ImpulseMatrix(collisionMatrix(x.sa, x.sb));
+  x.hasMatrix = true;
+  return x;
 }
 
 // A body resting on one patch of the level below is held against tilting by
@@ -354,7 +362,7 @@ void supportPatches(const StepContext& ctx, const std::vector<int>& share, std::
     } else if (count == 2) {
       const size_t k0 = supports[first].second, k1 = supports[first + 1].second;
       const glm::dvec3 line = lc[k1].c.point - lc[k0].c.point;
-      for (size_t k : {k0, k1}) lc[k].patch = lineMatrix(lc[k].sa, lc[k].sb, lc[k].m, *lc[k].extent, line);
+      for (size_t k : {k0, k1}) lc[k].patch = lineMatrix(lc[k].sa, lc[k].sb, withMatrix(lc[k]).m, *lc[k].extent, line);
     }
   }
 }
@@ -485,8 +493,9 @@ void jacobiPasses(StepContext& ctx, std::vector<LevelContact>& lc, const std::ve
         apply(*begin, 1);
         continue;
       }
-      setPatchMatrix(x.patch, x.sa, x.sb, x.m);
+      setPatchMatrix(x.patch, x.sa, x.sb, withMatrix(x).m);
     }
+    for (const uint32_t* i = begin; i != end; ++i) withMatrix(lc[*i]);
     // A part of one group whose first impulse met every target whole (m is 1) is settled: a second pass would
     // see only rounding.
     bool settled = false;

@@ -108,7 +108,7 @@ PatchMatrix lineMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impulse
 // J and T are then left as they were. `whole`, when given, says whether the
 // impulse met every target (a full patch: the point's velocity, no relative
 // tilt, no relative twist) with nothing clamped: applied whole, it leaves the
-// pair no relative motion but rounding.
+// pair at those targets but for rounding (with restitution 0: no relative motion).
 bool patchImpulse(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
                   const glm::dvec3& n, double eps, double mu, FrictionTotals* totals, glm::dvec3& J, glm::dvec3& T,
                   bool* whole = nullptr);

@@ -67,9 +67,25 @@ quietly() {
 quietly tools/build-jolt.sh "$jolt" "$prefix"
 # Jolt's build uses the CPU's AVX2 generation (its CMake defaults); crumple gets the same instruction sets where
 # the CPU has them (x86-64-v3; crumple never fuses multiply-adds, whatever the level: the same bits either way).
+# The compiler's own CPU check decides (GCC and Clang: __builtin_cpu_supports); /proc/cpuinfo's flags only where
+# no probe builds: a virtual machine may run LZCNT yet hide its flag ("abm"), which a grep would take as no AVX2
+# generation at all (crumple then built for the baseline against an AVX2 Jolt).
+has_v3() {
+  local probe
+  probe=$(mktemp -d)
+  if printf '%s\n' 'int main() { __builtin_cpu_init(); return __builtin_cpu_supports("x86-64-v3") ? 0 : 1; }' \
+    >"$probe/v3.cpp" && "${CXX:-c++}" -o "$probe/v3" "$probe/v3.cpp" 2>/dev/null; then
+    "$probe/v3"
+    local rc=$?
+    rm -rf "$probe"
+    return $rc
+  fi
+  rm -rf "$probe"
+  local f
+  for f in avx2 bmi2 f16c fma movbe abm; do grep -qw "$f" /proc/cpuinfo 2>/dev/null || return 1; done
+}
 march=
-if grep -qw avx2 /proc/cpuinfo 2>/dev/null && grep -qw bmi2 /proc/cpuinfo && grep -qw f16c /proc/cpuinfo &&
-  grep -qw fma /proc/cpuinfo && grep -qw movbe /proc/cpuinfo && grep -qw abm /proc/cpuinfo; then
+if has_v3; then
   march=-march=x86-64-v3
 fi
 echo "== building crumple-bench (commit $(git rev-parse --short HEAD)${march:+, $march}) against it"

@@ -71,16 +71,14 @@ quietly tools/build-jolt.sh "$jolt" "$prefix"
 # no probe builds: a virtual machine may run LZCNT yet hide its flag ("abm"), which a grep would take as no AVX2
 # generation at all (crumple then built for the baseline against an AVX2 Jolt).
 has_v3() {
-  local probe
+  local probe rc=2
   probe=$(mktemp -d)
-  if printf '%s\n' 'int main() { __builtin_cpu_init(); return __builtin_cpu_supports("x86-64-v3") ? 0 : 1; }' \
-    >"$probe/v3.cpp" && "${CXX:-c++}" -o "$probe/v3" "$probe/v3.cpp" 2>/dev/null; then
-    "$probe/v3"
-    local rc=$?
-    rm -rf "$probe"
-    return $rc
+  printf '%s\n' 'int main() { __builtin_cpu_init(); return __builtin_cpu_supports("x86-64-v3") ? 0 : 1; }' >"$probe/v3.cpp"
+  if "${CXX:-c++}" -o "$probe/v3" "$probe/v3.cpp" 2>/dev/null; then
+    "$probe/v3" && rc=0 || rc=1
   fi
   rm -rf "$probe"
+  [ "$rc" = 2 ] || return "$rc"
   local f
   for f in avx2 bmi2 f16c fma movbe abm; do grep -qw "$f" /proc/cpuinfo 2>/dev/null || return 1; done
 }

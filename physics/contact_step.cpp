@@ -71,9 +71,9 @@ void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGrou
   }
 }
 
-// A new look at pair pi's geometry at poses pa, pb: its groups (inheriting the
+// A new look at pair pi's geometry at poses pa, pb: its groups (after the step's first look, inheriting the
 // old groups' totals), their levers, matrices, patch matrices and normal speeds.
-void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const PoseFrame& frameB, bool reuse,
+void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const PoseFrame& frameB, bool reuse, bool first,
                    ContactScratch& s) {
   const Pair& pair = ctx.pairs[pi];
   const Pose& pa = frameA.pose;
@@ -87,9 +87,15 @@ void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const P
   }
   ctx.lookCount[pi] = static_cast<int>(contacts->size());  // this look's points (StepStats::contacts)
   std::vector<ContactGroup>& groups = ctx.groups[pi];
-  s.old.swap(groups);
-  groupContacts(*contacts, groups);
-  inheritTotals(s.old, groups, s.inherited);
+  if (first) {
+    // The step's first look: nothing to inherit. The vector's elements (a pair's of an earlier step) are written
+    // over in place: a new group is nearly a kilobyte to zero.
+    groupContacts(*contacts, groups);
+  } else {
+    s.old.swap(groups);
+    groupContacts(*contacts, groups);
+    inheritTotals(s.old, groups, s.inherited);
+  }
   for (ContactGroup& g : groups) {
     const Contact& c = g.contact;
     // The levers at the poses the geometry was found at: measured from the
@@ -98,8 +104,9 @@ void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const P
     g.levers = levers(c, c.a == pair.a ? pa : pb, c.b == pair.b ? pb : pa);
     ImpulseSide sa, sb;
     ctx.sidesAt(c.a, c.b, g.levers, false, false, sa, sb);
-    g.matrix = ImpulseMatrix(collisionMatrix(sa, sb));
-    setPatchMatrix(g.patchMatrix, sa, sb, g.matrix);
+    glm::dmat3 coupling;
+    g.matrix = ImpulseMatrix(collisionMatrix(sa, sb, &coupling));
+    setPatchMatrix(g.patchMatrix, sa, sb, g.matrix, coupling);
     g.speed = glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal);
   }
 }
@@ -149,8 +156,9 @@ ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(
   // velocities).
   const size_t pairs = ctx.pairs.size();
   ctx.pairApproach.assign(pairs, 0.0);
+  // Every pair is in one island, and an island's first pass looks at each of its pairs (or clears its groups):
+  // the groups of an earlier step are not read, only their storage reused.
   ctx.groups.resize(pairs);
-  for (auto& g : ctx.groups) g.clear();
   ctx.lookPoses.resize(pairs);
   ctx.lookCount.assign(pairs, 0);
   reporting_ = !ctx.reportContacts.empty();
@@ -244,7 +252,7 @@ void ContactRun::island(size_t island, int worker) {
           look = displacementExceeds(ctx.lookPoses[pi].first, pa, reachAboutCom(A), ctx.lookPoses[pi].second, pb,
                                      reachAboutCom(B), [&](double moved) { return moved > tolerance; });
         }
-        if (look) refreshGroups(ctx, pi, frameA, frameB, reuse, s);
+        if (look) refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1, s);
         if (ctx.groups[pi].empty()) continue;
         if (pass == 1)
           for (const ContactGroup& g : ctx.groups[pi]) ctx.pairApproach[pi] = std::max(ctx.pairApproach[pi], -g.speed);

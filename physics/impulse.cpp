@@ -20,10 +20,12 @@ double energyChange(const glm::dmat3& K, const glm::dvec3& u, const glm::dvec3& 
 }
 }  // namespace
 
-glm::dmat3 collisionMatrix(const ImpulseSide& a, const ImpulseSide& b) {
+glm::dmat3 collisionMatrix(const ImpulseSide& a, const ImpulseSide& b, glm::dmat3* coupling) {
+  const glm::dmat3 ta = timesCross(a.invInertia, a.r), tb = timesCross(b.invInertia, b.r);
   glm::dmat3 k((a.invMass + b.invMass));
-  k -= crossTimes(a.r, timesCross(a.invInertia, a.r));
-  k -= crossTimes(b.r, timesCross(b.invInertia, b.r));
+  k -= crossTimes(a.r, ta);
+  k -= crossTimes(b.r, tb);
+  if (coupling) *coupling = tb + ta;
   return k;
 }
 
@@ -137,12 +139,21 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
 }
 
 void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k) {
+  if (p.patch.flat() || !k.invertible) {
+    setPatchMatrix(p, a, b, k, glm::dmat3(0));
+    return;
+  }
+  setPatchMatrix(p, a, b, k, timesCross(b.invInertia, b.r) + timesCross(a.invInertia, a.r));
+}
+
+void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k,
+                    const glm::dmat3& coupling) {
   p.valid = false;
   p.hinge = false;
   p.s1 = 0;
   const PatchExtent& patch = p.patch;
   if (patch.flat() || !k.invertible) return;
-  p.C = timesCross(b.invInertia, b.r) + timesCross(a.invInertia, a.r);
+  p.C = coupling;
   p.W = a.invInertia + b.invInertia;
   // The system in (J, y), T = y1 t1 + y2 t2 + y3 n, is [K, B; B^T, D] with
   // B = C^T [t1 t2 n], D = [e_i.W e_k]; it is solved through the Schur
@@ -215,7 +226,7 @@ namespace {
 // of kinetic energy (of the relative motion, with the wrench mobility M:
 // dE = x.v + x.M x / 2; `quad` is x.M x where known, NaN to compute it), the
 // totals, the result.
-bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
+[[gnu::always_inline]] inline bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
                  const glm::dvec3& n, double mu, FrictionTotals* totals, const glm::dvec3& J, const glm::dvec3& T,
                  double quad, glm::dvec3& jOut, glm::dvec3& tOut) {
   if (!Earlier(totals, n).holds(J, n, mu)) return false;

@@ -15,7 +15,8 @@ struct ImpulseSide {
 
 // K = sum over sides of (1/m) Id - r* I^-1 r*   (r* the cross-product matrix).
 // An impulse j applied to B (and -j to A) changes the relative velocity u = v_B - v_A by K j.
-glm::dmat3 collisionMatrix(const ImpulseSide& a, const ImpulseSide& b);
+// With `coupling`: also C = I_B^-1 [r_B]x + I_A^-1 [r_A]x (PatchMatrix::C), from the products K is made of.
+glm::dmat3 collisionMatrix(const ImpulseSide& a, const ImpulseSide& b, glm::dmat3* coupling = nullptr);
 
 // Eq. (4) of Wrotek et al. for two free point masses, normal N owned by A:
 // j = -N (1 + eps) N.(v_B - v_A) / (1/m_A + 1/m_B), the impulse on B.
@@ -95,6 +96,9 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
 // The same, in place: p.patch is the extent; every field a valid matrix uses is written (the contact step
 // keeps one per group and refreshes it at each look, without a 600-byte temporary).
 void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k);
+// The same with C given (collisionMatrix's `coupling` for the same sides).
+void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k,
+                    const glm::dmat3& coupling);
 // For one of a body's two supports: the patch holds only the tilt about the
 // line through the two (`axis`, any direction along it), which the couple of
 // the two supports' point impulses cannot; tilt across the line and twist are

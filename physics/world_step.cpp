@@ -221,7 +221,7 @@ StepStatus World::step(double h) {
   ctx.contactReports.clear();
   ctx.jointBreaks.clear();
   for (detail::Joint& jt : ctx.joints) jt.stepImpulse = glm::dvec3(0);
-  ctx.reportContacts.resize(ctx.bodies.size(), 0);
+  if (!ctx.reportContacts.empty()) ctx.reportContacts.resize(ctx.bodies.size(), 0);
   if (!ctx.bumpNormals.empty()) ctx.bumpNormals.resize(ctx.bodies.size(), 0);
   if (!ctx.dentRise.empty()) ctx.dentRise.resize(ctx.bodies.size(), -1.0);
   if (!ctx.dentBox.empty()) ctx.dentBox.resize(ctx.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});

@@ -46,6 +46,14 @@ void integrateVelocities(StepContext& ctx, double h) {
 
 namespace {
 
+// A body's pose predicted over h from its velocities turns it by exp(h w) where it turns as a sphere (equal
+// principal moments: freeRotation's own test; a kinematic body), or not at all (static, asleep): two predictions
+// from the same orientation differ by at most h |w1 - w2| in angle.
+bool turnsAsSphere(const RigidBody& b) {
+  const glm::dvec3& m = b.principal.moments;
+  return !b.movable() || b.kinematic || m.z - m.x <= 1e-12 * m.z;
+}
+
 // A group found again inherits the totals of the old group whose normal agrees
 // best (within kSameGroup; each old group passes its totals on once).
 void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGroup>& groups,
@@ -73,9 +81,17 @@ void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGrou
 
 // A new look at pair pi's geometry at poses pa, pb: its groups (after the step's first look, inheriting the
 // old groups' totals), their levers, matrices, patch matrices and normal speeds.
-void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const PoseFrame& frameB, bool reuse, bool first,
-                   ContactScratch& s) {
+// `from`: the velocities the poses were predicted from (kKept: the bodies' current ones, kept for stillAtLook).
+void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const PoseFrame& frameB, bool reuse,
+                   bool first, StepContext::LookVelocities::Kind from, ContactScratch& s) {
   const Pair& pair = ctx.pairs[pi];
+  StepContext::LookVelocities& look = ctx.lookVelocities[pi];
+  look.kind = from;
+  if (from == StepContext::LookVelocities::kKept) {
+    const RigidBody& A = ctx.body(pair.a);
+    const RigidBody& B = ctx.body(pair.b);
+    look = {A.v, A.w, B.v, B.w, from};
+  }
   const Pose& pa = frameA.pose;
   const Pose& pb = frameB.pose;
   const std::vector<Contact>* contacts = &s.fresh;
@@ -110,6 +126,42 @@ void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const P
     g.speed = glm::dot(ctx.relativeVelocity(c.a, c.b, g.levers), c.normal);
   }
 }
+
+}  // namespace
+
+// Whether pair pi's predicted poses are, by a bound from the velocities alone, within half the refresh tolerance
+// of its last look's (the relative offset moved by h |dv_B - dv_A|, each body's points near the other by its
+// turn's angle times its reach): then the exact test (displacementExceeds, at most pi/(2 sqrt 2) ~ 1.11 times
+// the angle per reach) would not look either, and neither pose is predicted. Positions and orientations stay
+// put through the contact step; only velocities change. Only where both bodies turn as spheres.
+
+bool ContactRun::stillAtLook(size_t pi) const {
+  const StepContext& ctx = ctx_;
+  const StepContext::LookVelocities& look = ctx.lookVelocities[pi];
+  if (look.kind == StepContext::LookVelocities::kUnknown) return false;
+  const bool atStart = look.kind == StepContext::LookVelocities::kAtStart;
+  const Pair& pair = ctx.pairs[pi];
+  glm::dvec3 offset(0);
+  double swing = 0, reaches = 0;
+  for (int side = 0; side < 2; ++side) {
+    const int i = side ? pair.b : pair.a;
+    const RigidBody& b = ctx.body(i);
+    if (!b.movable()) continue;  // (its pose is where it is, both times)
+    if (!turnsAsSphere(b)) return false;
+    const glm::dvec3& v = atStart ? v0_[static_cast<size_t>(i)] : (side ? look.vb : look.va);
+    const glm::dvec3& w = atStart ? w0_[static_cast<size_t>(i)] : (side ? look.wb : look.wa);
+    const glm::dvec3 dv = b.v - v, dw = b.w - w;
+    offset += side ? dv : -dv;
+    const double reach = reachAboutCom(b);
+    reaches += reach;
+    swing += glm::length(dw) * reach;
+  }
+  // (The exact test's own rounding: an angle from 1 - |q1.q2| reads ~1e-8 rad where there is none.)
+  const double bound = h_ * (glm::length(offset) + 1.2 * swing) + 1e-6 * (1 + reaches);
+  return bound <= 0.5 * ctx.settings.contactRefreshTolerance;
+}
+
+namespace {
 
 // One pass's impulses on pair pi's groups, with restitution eps and friction mu. Adds the
 // normal impulse at the deepest group to `pushed` when asked.
@@ -160,15 +212,14 @@ ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(
   // the groups of an earlier step are not read, only their storage reused.
   ctx.groups.resize(pairs);
   ctx.lookPoses.resize(pairs);
+  ctx.lookVelocities.resize(pairs);
   ctx.lookCount.assign(pairs, 0);
   reporting_ = !ctx.reportContacts.empty();
   pushed_.assign(reporting_ ? pairs : 0, 0.0);
   predicted_.assign(ctx.bodies.size(), Predicted{});
   resting_ = ctx.settings.restingSolveRows > 0;
-  if (resting_) {
-    v0_.resize(ctx.bodies.size());
-    w0_.resize(ctx.bodies.size());
-  }
+  v0_.resize(ctx.bodies.size());
+  w0_.resize(ctx.bodies.size());
 }
 
 // ctx.predict(body, h, false), kept while the body's velocities stay the same bits.
@@ -188,7 +239,6 @@ void ContactRun::start() {
 }
 
 void ContactRun::startBody(size_t i) {
-  if (!resting_) return;
   v0_[i] = ctx_.bodies[i].v;
   w0_[i] = ctx_.bodies[i].w;
 }
@@ -235,24 +285,28 @@ void ContactRun::island(size_t island, int worker) {
         const std::pair<uint32_t, uint32_t> now{ctx.version[static_cast<size_t>(pair.a)],
                                                 ctx.version[static_cast<size_t>(pair.b)]};
         const bool reuse = pass == 1 && pi < ctx.foundVersion.size() && ctx.foundVersion[pi] == now;
-        const PoseFrame& frameA =
-            reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
-        const PoseFrame& frameB =
-            reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
-        const Pose& pa = frameA.pose;
-        const Pose& pb = frameB.pose;
-        bool look = true;
-        if (pass > 1) {
-          // A refresh re-finds the geometry only where the predicted poses have
-          // moved since the last look; resting contact keeps its groups (their
-          // depths follow to first order, endOfStepDepths).
-          const RigidBody& A = ctx.body(pair.a);
-          const RigidBody& B = ctx.body(pair.b);
-          const double tolerance = ctx.settings.contactRefreshTolerance;
-          look = displacementExceeds(ctx.lookPoses[pi].first, pa, reachAboutCom(A), ctx.lookPoses[pi].second, pb,
-                                     reachAboutCom(B), [&](double moved) { return moved > tolerance; });
+        // A refresh re-finds the geometry only where the predicted poses have moved since the last look;
+        // resting contact keeps its groups (their depths follow to first order, endOfStepDepths). Most pairs
+        // are told so by their velocities (stillAtLook) before any pose is predicted.
+        if (pass == 1 || !stillAtLook(pi)) {
+          const PoseFrame& frameA =
+              reuse ? ctx.predicted[static_cast<size_t>(pair.a)] : predict(static_cast<size_t>(pair.a));
+          const PoseFrame& frameB =
+              reuse ? ctx.predicted[static_cast<size_t>(pair.b)] : predict(static_cast<size_t>(pair.b));
+          bool look = true;
+          if (pass > 1) {
+            const double tolerance = ctx.settings.contactRefreshTolerance;
+            look = displacementExceeds(ctx.lookPoses[pi].first, frameA.pose, reachAboutCom(ctx.body(pair.a)),
+                                       ctx.lookPoses[pi].second, frameB.pose, reachAboutCom(ctx.body(pair.b)),
+                                       [&](double moved) { return moved > tolerance; });
+          }
+          if (look)
+            refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1,
+                          !reuse ? StepContext::LookVelocities::kKept
+                                 : (reusedKnown_ ? StepContext::LookVelocities::kAtStart
+                                                 : StepContext::LookVelocities::kUnknown),
+                          s);
         }
-        if (look) refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1, s);
         if (ctx.groups[pi].empty()) continue;
         if (pass == 1)
           for (const ContactGroup& g : ctx.groups[pi]) ctx.pairApproach[pi] = std::max(ctx.pairApproach[pi], -g.speed);

@@ -143,14 +143,20 @@ class ContactRun {
   void startBody(size_t i);         // one body's (the bodies of an island before it runs)
   void island(size_t island, int worker);
   void finish();                    // the island solve, counts and reports
+  // Said by a caller that integrates each island's velocities right after its collision step (startBody) and
+  // changes no velocity between the two: the first pass's reused contacts were then found at the poses the
+  // velocities the island starts with predict, and a refresh may judge them by velocities alone (stillAtLook).
+  void reusedPosesAtVelocities() { reusedKnown_ = true; }
 
  private:
   StepContext& ctx_;
   double h_;
+  bool reusedKnown_ = false;
+  bool stillAtLook(size_t pair) const;
   std::vector<ContactScratch> scratch_;  // per worker
   bool reporting_ = false, resting_ = false;
   std::vector<double> pushed_;    // per pair, when reporting
-  std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's)
+  std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's; stillAtLook's)
   // Per body, the pose its velocities last predicted and those velocities: a body whose velocities no impulse
   // changed since is not turned again (the poses stay put through the passes; an island's bodies are its own).
   struct Predicted {

@@ -493,6 +493,15 @@ struct StepContext {
   // projection work on them), the poses of its last look and the points it found.
   std::vector<std::vector<ContactGroup>> groups;
   std::vector<std::pair<Pose, Pose>> lookPoses;
+  // Per pair: which velocities the poses of its last look were predicted from (contact_step.cpp, stillAtLook):
+  // kUnknown, kAtStart (the contact step's first velocities: the collision step's poses, reused) or kKept (va,
+  // wa, vb, wb: the bodies' velocities when the look predicted its poses).
+  struct LookVelocities {
+    enum Kind : uint8_t { kUnknown, kAtStart, kKept };
+    glm::dvec3 va{0}, wa{0}, vb{0}, wb{0};
+    Kind kind = kUnknown;
+  };
+  std::vector<LookVelocities> lookVelocities;
   std::vector<int> lookCount;
   // The island solve's totals per group (resting_solve.cpp), kept for the next substep's warm start.
   std::vector<RestingWarm> restingWarm;

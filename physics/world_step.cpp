@@ -80,6 +80,7 @@ void World::collideAndContact(double h) {
   const auto start = std::chrono::steady_clock::now();
   detail::CollisionRun collision(ctx, h);
   detail::ContactRun contact(ctx, h);
+  contact.reusedPosesAtVelocities();  // (each island's velocities are integrated between its two steps, below)
   // A movable body is in one island at most (islands.cpp): its velocities are integrated there, once.
   std::vector<char>& done = ctx.integrated;
   done.assign(ctx.bodies.size(), 0);

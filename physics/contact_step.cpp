@@ -134,7 +134,6 @@ void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const P
 // turn's angle times its reach): then the exact test (displacementExceeds, at most pi/(2 sqrt 2) ~ 1.11 times
 // the angle per reach) would not look either, and neither pose is predicted. Positions and orientations stay
 // put through the contact step; only velocities change. Only where both bodies turn as spheres.
-
 bool ContactRun::stillAtLook(size_t pi) const {
   const StepContext& ctx = ctx_;
   const StepContext::LookVelocities& look = ctx.lookVelocities[pi];
@@ -300,12 +299,11 @@ void ContactRun::island(size_t island, int worker) {
                                        ctx.lookPoses[pi].second, frameB.pose, reachAboutCom(ctx.body(pair.b)),
                                        [&](double moved) { return moved > tolerance; });
           }
-          if (look)
-            refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1,
-                          !reuse ? StepContext::LookVelocities::kKept
-                                 : (reusedKnown_ ? StepContext::LookVelocities::kAtStart
-                                                 : StepContext::LookVelocities::kUnknown),
-                          s);
+          using Velocities = StepContext::LookVelocities;
+          const Velocities::Kind from = !reuse         ? Velocities::kKept
+                                        : reusedKnown_ ? Velocities::kAtStart
+                                                       : Velocities::kUnknown;
+          if (look) refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1, from, s);
         }
         if (ctx.groups[pi].empty()) continue;
         if (pass == 1)

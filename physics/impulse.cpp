@@ -226,9 +226,11 @@ namespace {
 // of kinetic energy (of the relative motion, with the wrench mobility M:
 // dE = x.v + x.M x / 2; `quad` is x.M x where known, NaN to compute it), the
 // totals, the result.
-[[gnu::always_inline]] inline bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u, const glm::dvec3& omega,
-                 const glm::dvec3& n, double mu, FrictionTotals* totals, const glm::dvec3& J, const glm::dvec3& T,
-                 double quad, glm::dvec3& jOut, glm::dvec3& tOut) {
+// (Always inlined: a call cost the pile of 1000 boxes 1.4 million calls of ~120 instructions.)
+[[gnu::always_inline]] inline bool finishPatch(const PatchMatrix& p, const ImpulseMatrix& m, const glm::dvec3& u,
+                                               const glm::dvec3& omega, const glm::dvec3& n, double mu,
+                                               FrictionTotals* totals, const glm::dvec3& J, const glm::dvec3& T,
+                                               double quad, glm::dvec3& jOut, glm::dvec3& tOut) {
   if (!Earlier(totals, n).holds(J, n, mu)) return false;
   if (std::isnan(quad)) {
     const glm::dvec3 du = m.K * J + glm::transpose(p.C) * T, dw = p.C * J + p.W * T;

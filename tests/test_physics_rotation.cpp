@@ -195,8 +195,7 @@ TEST_CASE("two turns of one orientation by rotateBy differ by at most h |w1 - w2
     const double dscale = std::pow(10.0, 3 * u() - 3);  // changes of 1e-6 to 1 of the speed
     const glm::dvec3 w2 = w1 + dscale * scale * glm::dvec3(u(), u(), u());
     const double h = k % 2 ? 1.0 / 60 : 1.0 / 240;
-    const double angle =
-        2 * std::acos(std::min(1.0, std::abs(glm::dot(rotateBy(q, w1, h), rotateBy(q, w2, h)))));
+    const double angle = 2 * std::acos(std::min(1.0, std::abs(glm::dot(rotateBy(q, w1, h), rotateBy(q, w2, h)))));
     const double bound = h * glm::length(w2 - w1);
     // (an angle from acos near 1 reads ~1e-8 rad where there is none: the step's test allows 1e-6 per metre)
     REQUIRE(angle <= bound + 1e-7);

@@ -299,11 +299,13 @@ void ContactRun::island(size_t island, int worker) {
                                        ctx.lookPoses[pi].second, frameB.pose, reachAboutCom(ctx.body(pair.b)),
                                        [&](double moved) { return moved > tolerance; });
           }
-          using Velocities = StepContext::LookVelocities;
-          const Velocities::Kind from = !reuse         ? Velocities::kKept
-                                        : reusedKnown_ ? Velocities::kAtStart
-                                                       : Velocities::kUnknown;
-          if (look) refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1, from, s);
+          if (look) {
+            using Velocities = StepContext::LookVelocities;
+            const Velocities::Kind from = !reuse         ? Velocities::kKept
+                                          : reusedKnown_ ? Velocities::kAtStart
+                                                         : Velocities::kUnknown;
+            refreshGroups(ctx, pi, frameA, frameB, reuse, pass == 1, from, s);
+          }
         }
         if (ctx.groups[pi].empty()) continue;
         if (pass == 1)

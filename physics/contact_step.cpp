@@ -46,14 +46,6 @@ void integrateVelocities(StepContext& ctx, double h) {
 
 namespace {
 
-// A body's pose predicted over h from its velocities turns it by exp(h w) where it turns as a sphere (equal
-// principal moments: freeRotation's own test; a kinematic body), or not at all (static, asleep): two predictions
-// from the same orientation differ by at most h |w1 - w2| in angle.
-bool turnsAsSphere(const RigidBody& b) {
-  const glm::dvec3& m = b.principal.moments;
-  return !b.movable() || b.kinematic || m.z - m.x <= 1e-12 * m.z;
-}
-
 // A group found again inherits the totals of the old group whose normal agrees
 // best (within kSameGroup; each old group passes its totals on once).
 void inheritTotals(const std::vector<ContactGroup>& old, std::vector<ContactGroup>& groups,

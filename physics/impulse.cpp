@@ -139,11 +139,8 @@ PatchMatrix patchMatrix(const ImpulseSide& a, const ImpulseSide& b, const Impuls
 }
 
 void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k) {
-  if (p.patch.flat() || !k.invertible) {
-    setPatchMatrix(p, a, b, k, glm::dmat3(0));
-    return;
-  }
-  setPatchMatrix(p, a, b, k, timesCross(b.invInertia, b.r) + timesCross(a.invInertia, a.r));
+  const bool needed = !p.patch.flat() && k.invertible;  // (else the matrix stays invalid: C is not read)
+  setPatchMatrix(p, a, b, k, needed ? timesCross(b.invInertia, b.r) + timesCross(a.invInertia, a.r) : glm::dmat3(0));
 }
 
 void setPatchMatrix(PatchMatrix& p, const ImpulseSide& a, const ImpulseSide& b, const ImpulseMatrix& k,

@@ -234,6 +234,11 @@ inline FreeRotation turn(const RigidBody& b, const glm::dvec3& w, double h) {
   if (b.kinematic) return {rotateBy(b.q, w, h), w};
   return freeRotation(b.principal, b.q, w, h);
 }
+// Whether a prediction turns b as a sphere, by exp(h w) (turn's rotateBy), or not at all (static, asleep: predict
+// keeps {x, q}): two predictions from the same orientation are then at most h |w1 - w2| apart in angle.
+inline bool turnsAsSphere(const RigidBody& b) {
+  return !b.movable() || b.kinematic || turnsAsSphere(b.principal);
+}
 
 // The angle of the rotation from one orientation to another.
 inline double rotationAngle(const glm::dquat& from, const glm::dquat& to) {

@@ -270,3 +270,27 @@ TEST_CASE("a dented body's answers at its surface samples are kept until its den
     CHECK(changed == Approx(0.15 - 0.02).epsilon(0.01));
   }
 }
+
+// Contact reports (World::setReportContacts, the contact deformation of the paper's figure 8): none until a body
+// asks; then one per step for each pair of a flagged body that the contact step pushed apart, and none for a pair
+// of bodies that did not ask, also for a body added after the flag was set.
+TEST_CASE("contact reports come only for bodies that ask for them, bodies added later included") {
+  World w;
+  test::addGround(w);
+  const int a = test::addBox(w, {0.5, 0.5, 0.5}, {0, 0.25, 0}, 0.5, 0.0);
+  w.step(1.0 / 60);
+  CHECK(w.contactReports().empty());  // (resting on the ground, but nobody asked)
+  w.setReportContacts(a, true);
+  const int b = test::addBox(w, {0.5, 0.5, 0.5}, {3, 0.25, 0}, 0.5, 0.0);  // after the flag: not flagged
+  for (int k = 0; k < 10; ++k) {
+    w.step(1.0 / 60);
+    REQUIRE(w.contactReports().size() == 1);
+    const CollisionEvent& e = w.contactReports().front();
+    CHECK((e.a == a || e.b == a));
+    CHECK((e.a != b && e.b != b));
+    CHECK(e.impulse > 0);
+  }
+  w.setReportContacts(a, false);
+  w.step(1.0 / 60);
+  CHECK(w.contactReports().empty());
+}

@@ -125,7 +125,8 @@ void refreshGroups(StepContext& ctx, size_t pi, const PoseFrame& frameA, const P
 // of its last look's (the relative offset moved by h |dv_B - dv_A|, each body's points near the other by its
 // turn's angle times its reach): then the exact test (displacementExceeds, at most pi/(2 sqrt 2) ~ 1.11 times
 // the angle per reach) would not look either, and neither pose is predicted. Positions and orientations stay
-// put through the contact step; only velocities change. Only where both bodies turn as spheres.
+// put through the contact step; only velocities change, and a prediction turns every body by exp(h w)
+// (StepContext::predict).
 bool ContactRun::stillAtLook(size_t pi) const {
   const StepContext& ctx = ctx_;
   const StepContext::LookVelocities& look = ctx.lookVelocities[pi];
@@ -138,7 +139,6 @@ bool ContactRun::stillAtLook(size_t pi) const {
     const int i = side ? pair.b : pair.a;
     const RigidBody& b = ctx.body(i);
     if (!b.movable()) continue;  // (its pose is where it is, both times)
-    if (!turnsAsSphere(b)) return false;
     const glm::dvec3& v = atStart ? v0_[static_cast<size_t>(i)] : (side ? look.vb : look.va);
     const glm::dvec3& w = atStart ? w0_[static_cast<size_t>(i)] : (side ? look.wb : look.wa);
     const glm::dvec3 dv = b.v - v, dw = b.w - w;

@@ -393,19 +393,24 @@ SdfGrid::SdfGrid(const TriangleMesh& mesh, int resolution) : bvh_(mesh) {
       for (int i = 0; i < dims_.x; ++i)
         values_[(static_cast<size_t>(k) * dims_.y + j) * dims_.x + i] =
             exactDistance(origin_ + cell_ * glm::dvec3(i, j, k));
-  // The largest node difference along each axis, per metre.
-  glm::dvec3 slope(0);
+  // Within a cell the lookup's derivative along an axis is a weighted mean of the cell's four node differences
+  // along that axis: at most the largest of them, per metre. The bound on the gradient is the largest, over the
+  // cells, of the length of those three.
   auto at = [&](int i, int j, int k) { return values_[(static_cast<size_t>(k) * dims_.y + j) * dims_.x + i]; };
-  for (int k = 0; k < dims_.z; ++k)
-    for (int j = 0; j < dims_.y; ++j)
-      for (int i = 0; i < dims_.x; ++i) {
-        const double v = at(i, j, k);
-        if (i + 1 < dims_.x) slope.x = std::max(slope.x, std::abs(at(i + 1, j, k) - v));
-        if (j + 1 < dims_.y) slope.y = std::max(slope.y, std::abs(at(i, j + 1, k) - v));
-        if (k + 1 < dims_.z) slope.z = std::max(slope.z, std::abs(at(i, j, k + 1) - v));
+  double steepest = 0;
+  for (int k = 0; k + 1 < dims_.z; ++k)
+    for (int j = 0; j + 1 < dims_.y; ++j)
+      for (int i = 0; i + 1 < dims_.x; ++i) {
+        glm::dvec3 d(0);
+        for (int b = 0; b < 2; ++b)
+          for (int a = 0; a < 2; ++a) {
+            d.x = std::max(d.x, std::abs(at(i + 1, j + a, k + b) - at(i, j + a, k + b)));
+            d.y = std::max(d.y, std::abs(at(i + a, j + 1, k + b) - at(i + a, j, k + b)));
+            d.z = std::max(d.z, std::abs(at(i + a, j + b, k + 1) - at(i + a, j + b, k)));
+          }
+        steepest = std::max(steepest, glm::dot(d, d));
       }
-  slope /= cell_;
-  lipschitz_ = std::sqrt(glm::dot(slope, slope) + 1.0);
+  lipschitz_ = std::sqrt(steepest / (cell_ * cell_) + 1.0);
 }
 
 double SdfGrid::exactDistance(const glm::dvec3& p) const {

@@ -86,8 +86,9 @@ class SdfGrid {
                   double gradientBelow = std::numeric_limits<double>::infinity()) const;
   glm::ivec3 dims() const { return dims_; }
   // A bound on how fast distance() changes: |distance(p) - distance(q)| <= lipschitz() |p - q| everywhere (its
-  // rounding aside). Inside the grid the trilinear lookup's gradient is at most the largest node difference per
-  // axis over the cell; outside, the distance to the grid box adds at most a unit orthogonal to the clamp's.
+  // rounding aside). Inside a cell the trilinear lookup's gradient is at most the length of the cell's largest
+  // node difference per axis, over the cell (the bound is the largest of these over the cells); outside, the
+  // distance to the grid box adds at most a unit orthogonal to the clamp's.
   double lipschitz() const { return lipschitz_; }
   // Exact signed distance through the BVH (used to build the grid and by tests).
   double exactDistance(const glm::dvec3& p) const;

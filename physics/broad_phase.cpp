@@ -668,9 +668,15 @@ void findCandidates(StepContext& ctx, double h) {
       const glm::dmat3 m = rot * rt;
       const glm::dvec3 offset = rot * (other.x - owner.x - rt * other.localCom) + owner.localCom;
       auto test = [&](uint32_t k) {
-        const glm::dvec3 local = m * st.samples[k] + offset;
-        if (local.x < lo.x || local.y < lo.y || local.z < lo.z || local.x > hi.x || local.y > hi.y || local.z > hi.z)
-          return;
+        // (m * s + offset, a coordinate at a time: most samples the box leaves out are out by the first one)
+        const glm::dvec3& sample = st.samples[k];
+        glm::dvec3 local;
+        local.x = m[0][0] * sample.x + m[1][0] * sample.y + m[2][0] * sample.z + offset.x;
+        if (local.x < lo.x || local.x > hi.x) return;
+        local.y = m[0][1] * sample.x + m[1][1] * sample.y + m[2][1] * sample.z + offset.y;
+        if (local.y < lo.y || local.y > hi.y) return;
+        local.z = m[0][2] * sample.x + m[1][2] * sample.y + m[2][2] * sample.z + offset.z;
+        if (local.z < lo.z || local.z > hi.z) return;
         const double d = fieldDistance(so, local) - r;
         if (d > reach) return;
         near = true;

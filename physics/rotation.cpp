@@ -99,7 +99,7 @@ FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, 
   const glm::dvec3& moments = inertia.moments;
   if (w.x == 0 && w.y == 0 && w.z == 0) return {q, w};
   // Equal moments: w stays, the body turns about it.
-  if (turnsAsSphere(inertia)) return {rotateBy(q, w, h), w};
+  if (moments.z - moments.x <= 1e-12 * moments.z) return {rotateBy(q, w, h), w};
   glm::dquat frame = q * inertia.frame;  // principal axes -> world
   glm::dvec3 l = moments * (glm::conjugate(frame) * w);  // angular momentum, principal axes
   const glm::dvec3 momentum = frame * l;                  // and world: kept

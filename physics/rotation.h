@@ -49,10 +49,5 @@ struct FreeRotation {
   glm::dvec3 w{0};
 };
 FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, const glm::dvec3& w, double h);
-// Whether freeRotation turns a body of these moments as a sphere: rotateBy(q, w, h), exp(h w), with w kept.
-inline bool turnsAsSphere(const PrincipalInertia& inertia) {
-  const glm::dvec3& m = inertia.moments;
-  return m.z - m.x <= 1e-12 * m.z;
-}
 
 }  // namespace crumple

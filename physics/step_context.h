@@ -569,8 +569,9 @@ struct StepContext {
   }
   // turn(b, w, h), kept per dynamic body for the last (orientation, w, h) it was asked with within this step
   // (the same bits in, the same bits out): the joint passes' predicted poses and the position update ask the same
-  // turn again where no impulse changed w between them. A dynamic body is in one island, so
-  // one thread asks for it at a time; a kinematic one (in several islands) turns at constant w: not kept.
+  // turn again where no impulse changed w between them (kept only in a world with joints: elsewhere the position
+  // update alone asks). A dynamic body is in one island, so one thread asks for it at a time; a kinematic one (in
+  // several islands) turns at constant w: not kept.
   struct TurnMemo {
     glm::dquat q{1, 0, 0, 0};
     glm::dvec3 w{0};

@@ -228,7 +228,7 @@ StepStatus World::step(double h) {
   if (!ctx.dentBox.empty()) ctx.dentBox.resize(ctx.bodies.size(), Aabb{glm::dvec3(0), glm::dvec3(-1)});
   detail::forgetSurfaceAnswers(ctx);
   ++ctx.turnStep;
-  ctx.turnMemo.resize(ctx.bodies.size());
+  ctx.turnMemo.resize(ctx.joints.empty() ? 0 : ctx.bodies.size());  // (only the joint passes ask a turn twice)
   ctx.stats = {};
   ctx.frozen.assign(ctx.bodies.size(), 0);
   // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for

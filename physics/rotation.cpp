@@ -125,6 +125,14 @@ FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, 
       l = glm::dvec3(l.x * ca + l.y * sa, l.y * ca - l.x * sa, l.z);
     }
   };
+  // A symmetric top (two moments equal): one of the two parts vanishes and the other's flow is exact, whole in one
+  // turn; the energy stays as it was (the turn keeps L_k and |L|), so it needs no correction.
+  const double tolerance = 1e-12 * moments.z;
+  if (moments.y - moments.x <= tolerance || moments.z - moments.y <= tolerance) {
+    turn(moments.y - moments.x <= tolerance ? 2 : 0, h);
+    frame = glm::normalize(frame);
+    return {glm::normalize(frame * glm::conjugate(inertia.frame)), frame * (l * inverse)};
+  }
   turn(0, 0.5 * h);
   turn(2, h);
   turn(0, 0.5 * h);

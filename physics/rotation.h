@@ -16,11 +16,12 @@
 // - L (world) is kept exactly (to rounding): every part's flow rotates the
 //   body about a direction that keeps it;
 // - a body with two equal principal moments (a symmetric top) and a sphere or
-//   cube turn exactly (the remaining part vanishes or commutes);
-// - the kinetic energy is then brought back to its value at the start (the
-//   body turned by the small rotation that puts its angular momentum back on
-//   the level set of the energy, on the same sphere): no drift, no gain, and
-//   the intermediate-axis flip keeps its analytic period to second order in h.
+//   cube turn exactly (the remaining part vanishes: one turn of each part);
+// - with three distinct moments, the kinetic energy is then brought back to
+//   its value at the start (the body turned by the small rotation that puts
+//   its angular momentum back on the level set of the energy, on the same
+//   sphere): no drift, no gain, and the intermediate-axis flip keeps its
+//   analytic period to second order in h.
 #pragma once
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>

@@ -34,6 +34,14 @@ class StageClock {
 }  // namespace
 
 namespace {
+// Whether no body can move (each static or asleep: kinematic bodies move, and one at rest still makes pairs with
+// what is awake), no joint is left (a joint's stabilisation reads its bodies every substep) and the last step
+// ended with no pair (its Verlet lists and kept contacts wait in ctx.previousPairs for the bodies to wake).
+bool stillWorld(const detail::StepContext& ctx) {
+  if (!ctx.pairs.empty() || !ctx.joints.empty()) return false;
+  return std::none_of(ctx.bodies.begin(), ctx.bodies.end(), [](const RigidBody& b) { return b.movable(); });
+}
+
 bool finiteState(const RigidBody& b) {
   return finite(b.x) && finite(b.v) && finite(b.w) && finite(b.q);
 }
@@ -231,6 +239,20 @@ StepStatus World::step(double h) {
   ctx.turnMemo.resize(ctx.joints.empty() ? 0 : ctx.bodies.size());  // (only the joint passes ask a turn twice)
   ctx.stats = {};
   ctx.frozen.assign(ctx.bodies.size(), 0);
+  if (stillWorld(ctx)) {
+    // Nothing can move, and the last step left no pair: a substep would find none and move no body (it would
+    // make again the same bounds, fat boxes and predictions of bodies that stay where they are). Only the time
+    // passes; the forces are dropped, as after any step (an asleep body's are not applied: it does not move).
+    for (size_t i = 0; i < ctx.bodies.size(); ++i) {
+      ctx.force[i] = glm::dvec3(0);
+      ctx.torque[i] = glm::dvec3(0);
+    }
+    ctx.substepsCapped = false;
+    ctx.stats.substeps = 1;
+    ctx.time += h;
+    ctx.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return {};
+  }
   // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
   // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
   // the thinner one's half thickness (stepTravel).

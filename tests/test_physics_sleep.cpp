@@ -6,6 +6,7 @@
 #include <glm/gtc/quaternion.hpp>
 
 #include "physics_fixture.h"
+#include "test_meshes.h"
 
 using namespace crumple;
 using namespace crumple::test;
@@ -74,4 +75,37 @@ TEST_CASE("a sleeping stack is still met: a box dropped on it wakes it and rests
   c.simulateSteps(240);  // 1 s: the paddle's face travels from 2.3 m to 3.3 m, 0.55 m past the box's near face
   CHECK_FALSE(c.body(lone).asleep);
   CHECK(c.body(lone).x.x > 3.45);
+}
+
+TEST_CASE("a world all asleep is left as it was: the same motion when woken, after 3 steps asleep or 300") {
+  // Boxes, a ball, a capsule and a torus come to rest and fall asleep; the world then steps on asleep for a
+  // while, and a box dropped onto it wakes it. Each pair's candidate lists and kept contacts wait out the asleep
+  // steps: what the woken world does may not depend on how long it slept (the state hash leaves out the time).
+  auto run = [](int asleepSteps, int& lastPairs) {
+    PhysicsTestContext c(240);
+    c.addGround(0.6, 0.0);
+    for (int k = 0; k < 3; ++k) c.addBox({0.5, 0.5, 0.5}, {0.6 * k - 0.6, 0.25, 0}, 0.5, 0.0);
+    c.addBox({0.5, 0.5, 0.5}, {-0.3, 0.75, 0}, 0.5, 0.0);
+    c.addSphere(0.2, {0.6, 0.7, 0}, 0.5, 0.0);
+    addShape(c.world(), makeCapsule(0.1, 0.4), {0, 0.12, 0.8}, 0.5, 0.0);
+    addShape(c.world(), makeMeshShape(torusMesh(0.3f, 0.1f, 16, 8), 32), {0, 0.11, -0.9}, 0.5, 0.0);
+    for (int s = 0; s < 4 * 240 && (s == 0 || c.world().lastStats().awake > 0); ++s) c.world().step(c.stepSize());
+    REQUIRE(c.world().lastStats().awake == 0);
+    const uint64_t resting = c.world().stateHash();
+    c.simulateSteps(asleepSteps);
+    CHECK(c.world().stateHash() == resting);
+    CHECK(c.world().lastStats().pairs == 0);
+    CHECK(c.world().lastStats().awake == 0);
+    c.addBox({0.3, 0.3, 0.3}, {-0.25, 1.6, 0.05}, 0.5, 0.0);
+    c.simulateSteps(150);  // (it lands after about 0.45 s; the world is still awake at 0.63 s)
+    lastPairs = c.world().lastStats().pairs;
+    CHECK(c.world().lastStats().awake > 0);
+    return c.world().stateHash();
+  };
+  int pairsShort = 0, pairsLong = 0;
+  const uint64_t woken = run(3, pairsShort);
+  MESSAGE("woken state hash " << woken);
+  CHECK(run(300, pairsLong) == woken);
+  CHECK(pairsShort == pairsLong);
+  CHECK(pairsShort > 0);
 }

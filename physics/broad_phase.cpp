@@ -32,6 +32,8 @@
 // every body), else from a grid of their own: the same pairs either way.
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <numeric>
 
 #include <crumple/physics/sample_tree.h>
@@ -237,11 +239,22 @@ void bodyBounds(StepContext& ctx, double h) {
   ctx.predictedVersion.assign(n, 0);
   std::vector<char>& active = ctx.grid.active;
   active.resize(n);
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  ctx.boundsAt.resize(n, Pose{glm::dvec3(none), glm::dquat(none, none, none, none)});
   ctx.parallelRange(n, 256, [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       const RigidBody& b = bodies[i];
       active[i] = b.dynamic() || (b.kinematic && moving(b));
-      ctx.predicted[i] = PoseFrame(ctx.predict(b, h, true));
+      // A body that does not move is predicted where it is, turned as the substep's rotation has it; one that
+      // stayed where its bounds and prediction were made keeps them.
+      // (Only a body that does not move keeps a pose there; waking clears it: StepContext::wake.)
+      if (!b.movable()) {
+        Pose& at = ctx.boundsAt[i];
+        if (std::memcmp(&at.position, &b.x, sizeof b.x) == 0 && std::memcmp(&at.orientation, &b.q, sizeof b.q) == 0)
+          continue;
+        at = {b.x, b.q};
+      }
+      ctx.predicted[i] = b.movable() ? PoseFrame(ctx.predict(b, h, true)) : PoseFrame({b.x, b.q}, ctx.rotation[i]);
       boxes[i] = worldBounds(*b.shape, b.localCom, b.x, ctx.rotation[i]);
       if (b.movable()) {
         Aabb& box = boxes[i];
@@ -505,6 +518,7 @@ double stepTravel(StepContext& ctx, double h) {
   std::vector<Swept> swept(n);
   std::vector<Aabb>& boxes = ctx.boxes;  // (findPairs makes them again for the substeps)
   boxes.resize(n);
+  ctx.boundsAt.clear();  // (every box made here is the step's swept one)
   for (size_t i = 0; i < n; ++i) {
     const RigidBody& b = bodies[i];
     Swept& s = swept[i];

@@ -175,6 +175,7 @@ struct PoseFrame {
   glm::dmat3 rotation{1};
   PoseFrame() = default;
   explicit PoseFrame(const Pose& p) : pose(p), rotation(glm::mat3_cast(p.orientation)) {}
+  PoseFrame(const Pose& p, const glm::dmat3& r) : pose(p), rotation(r) {}  // (r: mat3_cast(p.orientation), made)
 };
 
 // Shape::distance, a nonconvex mesh's grid asked directly (the samples' tests against a mesh's field: most of the
@@ -454,6 +455,13 @@ struct StepContext {
   // Per body, this substep.
   std::vector<glm::dmat3> rotation;    // R(q), at the orientations invInertia is at (while invInertiaNow)
   std::vector<glm::dmat3> invInertia;  // world inverse inertias: orientations stay put until the position update
+  // The orientation (bits) a static or sleeping body's rotation and invInertia were last made at: kept while it
+  // stays turned so (they depend on nothing else: a body's inertia never changes; a removed one turns static).
+  // NaN: none yet.
+  std::vector<glm::dquat> rotationAt;
+  // The pose (bits) a static or sleeping body's bounds (boxes) and prediction (predicted) were last made at by the
+  // broad phase: kept while it stays there and does not move. NaN: none (a body that moves, or was woken since).
+  std::vector<Pose> boundsAt;
   bool invInertiaNow = false;          // invInertia is at the bodies' orientations (cleared by the position update)
   std::vector<char> frozen;            // infinite mass for the impulses (shock propagation's lower levels)
   std::vector<int> level;              // contact graph level (shock propagation)
@@ -552,6 +560,8 @@ struct StepContext {
     if (b.isStatic) return;
     b.asleep = false;
     b.stillTime = 0;
+    if (static_cast<size_t>(i) < boundsAt.size())
+      boundsAt[static_cast<size_t>(i)].position.x = std::numeric_limits<double>::quiet_NaN();
   }
 
   glm::dvec3 acceleration(int i) const {

@@ -7,6 +7,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 
 #include <crumple/physics/step_context.h>
 #include <crumple/physics/thread_pool.h>
@@ -143,14 +145,20 @@ void World::substep(double h) {
   StepProfile& ms = ctx.stats.ms;
   StageClock clock;
   // Rotations and world inverse inertias: orientations stay fixed until the position update.
+  // A static or sleeping body keeps those it has while its orientation stays the same bits (it moves only once it
+  // wakes, in a later substep's position update).
+  const double none = std::numeric_limits<double>::quiet_NaN();
   ctx.rotation.resize(ctx.bodies.size());
   ctx.invInertia.resize(ctx.bodies.size());
+  ctx.rotationAt.resize(ctx.bodies.size(), glm::dquat(none, none, none, none));
   ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
     for (size_t i = begin; i < end; ++i) {
       const RigidBody& b = ctx.bodies[i];
+      if (!b.movable() && std::memcmp(&ctx.rotationAt[i], &b.q, sizeof b.q) == 0) continue;
       const glm::dmat3 r = b.rotation();
       ctx.rotation[i] = r;
       ctx.invInertia[i] = b.invInertiaAt(r);
+      if (!b.movable()) ctx.rotationAt[i] = b.q;  // (a body that moves turns: no key kept)
     }
   });
   ctx.invInertiaNow = true;

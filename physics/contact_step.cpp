@@ -207,7 +207,8 @@ ContactRun::ContactRun(StepContext& ctx, double h) : ctx_(ctx), h_(h), scratch_(
   ctx.lookCount.assign(pairs, 0);
   reporting_ = !ctx.reportContacts.empty();
   pushed_.assign(reporting_ ? pairs : 0, 0.0);
-  predicted_.assign(ctx.bodies.size(), Predicted{});
+  run_ = ++ctx.contactRuns;
+  ctx.contactPredicted.resize(ctx.bodies.size());
   resting_ = ctx.settings.restingSolveRows > 0;
   v0_.resize(ctx.bodies.size());
   w0_.resize(ctx.bodies.size());
@@ -219,9 +220,10 @@ const PoseFrame& ContactRun::predict(size_t i) {
   // (A static body is in many islands: nothing is kept for it here. findPairs' prediction of this substep is
   // where it is, {x, q}.)
   if (!b.movable()) return ctx_.predicted[i];
-  Predicted& p = predicted_[i];
-  if (p.made && std::memcmp(&p.v, &b.v, sizeof p.v) == 0 && std::memcmp(&p.w, &b.w, sizeof p.w) == 0) return p.frame;
-  p = {b.v, b.w, PoseFrame(ctx_.predict(b, h_, false)), true};
+  StepContext::ContactPrediction& p = ctx_.contactPredicted[i];
+  if (p.run == run_ && std::memcmp(&p.v, &b.v, sizeof p.v) == 0 && std::memcmp(&p.w, &b.w, sizeof p.w) == 0)
+    return p.frame;
+  p = {b.v, b.w, PoseFrame(ctx_.predict(b, h_, false)), run_};
   return p.frame;
 }
 

@@ -157,14 +157,7 @@ class ContactRun {
   bool reporting_ = false, resting_ = false;
   std::vector<double> pushed_;    // per pair, when reporting
   std::vector<glm::dvec3> v0_, w0_;  // the velocities the step began with (the island solve's; stillAtLook's)
-  // Per body, the pose its velocities last predicted and those velocities: a body whose velocities no impulse
-  // changed since is not turned again (the poses stay put through the passes; an island's bodies are its own).
-  struct Predicted {
-    glm::dvec3 v{0}, w{0};
-    PoseFrame frame;
-    bool made = false;
-  };
-  std::vector<Predicted> predicted_;
+  uint64_t run_ = 0;                 // this run's StepContext::contactRuns (its ContactPrediction stamps)
   const PoseFrame& predict(size_t body);
 };
 // resting_solve.cpp (called by contactStep with the velocities it began with)

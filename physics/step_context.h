@@ -459,6 +459,17 @@ struct StepContext {
   // stays turned so (they depend on nothing else: a body's inertia never changes; a removed one turns static).
   // NaN: none yet.
   std::vector<glm::dquat> rotationAt;
+  // The contact step's predictions (ContactRun::predict), per body: the pose its velocities last predicted and
+  // those velocities; a body whose velocities no impulse changed since is not turned again (the poses stay put
+  // through the passes; an island's bodies are its own). Made in this run where `run` is contactRuns (kept from
+  // one run to the next: nothing is cleared per body).
+  struct ContactPrediction {
+    glm::dvec3 v{0}, w{0};
+    PoseFrame frame;
+    uint64_t run = 0;
+  };
+  std::vector<ContactPrediction> contactPredicted;
+  uint64_t contactRuns = 0;
   // The pose (bits) a static or sleeping body's bounds (boxes) and prediction (predicted) were last made at by the
   // broad phase: kept while it stays there and does not move. NaN: none (a body that moves, or was woken since).
   std::vector<Pose> boundsAt;

@@ -53,8 +53,10 @@ StepStatus checkFinite(detail::StepContext& ctx, const std::vector<detail::BodyS
   std::vector<int> first(static_cast<size_t>(ctx.workers()), -1);  // per worker: its lowest non-finite body
   ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
     int& f = first[static_cast<size_t>(worker)];
+    // (A static or sleeping body did not move: it is as finite as it was at the last step's end.)
     for (size_t i = begin; i < end; ++i)
-      if (!finiteState(ctx.bodies[i]) && (f < 0 || static_cast<int>(i) < f)) f = static_cast<int>(i);
+      if (ctx.bodies[i].movable() && !finiteState(ctx.bodies[i]) && (f < 0 || static_cast<int>(i) < f))
+        f = static_cast<int>(i);
   });
   int bad = -1;
   for (int f : first)

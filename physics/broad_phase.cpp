@@ -245,9 +245,9 @@ void bodyBounds(StepContext& ctx, double h) {
     for (size_t i = begin; i < end; ++i) {
       const RigidBody& b = bodies[i];
       active[i] = b.dynamic() || (b.kinematic && moving(b));
-      // A body that does not move is predicted where it is, turned as the substep's rotation has it; one that
-      // stayed where its bounds and prediction were made keeps them.
-      // (Only a body that does not move keeps a pose there; waking clears it: StepContext::wake.)
+      // A body that does not move is predicted where it is, turned as the substep's rotation has it, and keeps its
+      // bounds and prediction while it stays where they were made (boundsAt: only such a body's pose is kept there;
+      // StepContext::wake clears it).
       if (!b.movable()) {
         Pose& at = ctx.boundsAt[i];
         if (std::memcmp(&at.position, &b.x, sizeof b.x) == 0 && std::memcmp(&at.orientation, &b.q, sizeof b.q) == 0)

@@ -13,6 +13,18 @@ using namespace crumple;
 using namespace crumple::test;
 using doctest::Approx;
 
+namespace {
+// A kinematic box sliding at a constant velocity (it never sleeps).
+int addSliding(World& w, const glm::dvec3& size, const glm::dvec3& origin, const glm::dvec3& velocity) {
+  BodyDef k;
+  k.shape = makeBox(size);
+  k.origin = origin;
+  k.kinematic = true;
+  k.linearVelocity = velocity;
+  return w.addBody(k);
+}
+}  // namespace
+
 TEST_CASE("a stack of boxes falls asleep at 60 Hz as at 240 Hz (stillness by motion, not velocity)") {
   for (double hz : {60.0, 240.0}) {
     CAPTURE(hz);
@@ -67,12 +79,7 @@ TEST_CASE("a sleeping stack is still met: a box dropped on it wakes it and rests
   CHECK(c.body(dropped).x.y == Approx(1.75).epsilon(0.01));
   CHECK(std::abs(c.body(dropped).x.x) < 0.05);
   // A kinematic paddle sliding into the lone sleeping box wakes it and pushes it along.
-  BodyDef k;
-  k.shape = makeBox({0.2, 0.5, 0.5});
-  k.origin = {2.2, 0.3, 0};
-  k.kinematic = true;
-  k.linearVelocity = {1, 0, 0};
-  c.world().addBody(k);
+  addSliding(c.world(), {0.2, 0.5, 0.5}, {2.2, 0.3, 0}, {1, 0, 0});
   c.simulateSteps(240);  // 1 s: the paddle's face travels from 2.3 m to 3.3 m, 0.55 m past the box's near face
   CHECK_FALSE(c.body(lone).asleep);
   CHECK(c.body(lone).x.x > 3.45);
@@ -92,14 +99,7 @@ TEST_CASE("a world asleep is left as it was: the same motion when woken, after 3
     addShape(c.world(), makeCapsule(0.1, 0.4), {0, 0.12, 0.8}, 0.5, 0.0);
     addShape(c.world(), makeMeshShape(torusMesh(0.3f, 0.1f, 16, 8), 32), {0, 0.11, -0.9}, 0.5, 0.0);
     const int resting = static_cast<int>(c.world().size());
-    if (far) {
-      BodyDef k;
-      k.shape = makeBox({0.5, 0.5, 0.5});
-      k.origin = {40, 0.5, 40};
-      k.kinematic = true;
-      k.linearVelocity = {0.05, 0, 0};
-      c.world().addBody(k);
-    }
+    if (far) addSliding(c.world(), {0.5, 0.5, 0.5}, {40, 0.5, 40}, {0.05, 0, 0});
     const int awakeAtRest = far ? 1 : 0;
     // The state of the bodies that rest (the far one moves on).
     auto restingHash = [&] {

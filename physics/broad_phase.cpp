@@ -253,8 +253,10 @@ void bodyBounds(StepContext& ctx, double h) {
         if (std::memcmp(&at.position, &b.x, sizeof b.x) == 0 && std::memcmp(&at.orientation, &b.q, sizeof b.q) == 0)
           continue;
         at = {b.x, b.q};
+        ctx.predicted[i] = PoseFrame(at, ctx.rotation[i]);
+      } else {
+        ctx.predicted[i] = PoseFrame(ctx.predict(b, h, true));
       }
-      ctx.predicted[i] = b.movable() ? PoseFrame(ctx.predict(b, h, true)) : PoseFrame({b.x, b.q}, ctx.rotation[i]);
       boxes[i] = worldBounds(*b.shape, b.localCom, b.x, ctx.rotation[i]);
       if (b.movable()) {
         Aabb& box = boxes[i];

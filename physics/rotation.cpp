@@ -99,12 +99,12 @@ FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, 
   const glm::dvec3& moments = inertia.moments;
   if (w.x == 0 && w.y == 0 && w.z == 0) return {q, w};
   // Equal moments: w stays, the body turns about it.
-  if (moments.z - moments.x <= 1e-12 * moments.z) return {rotateBy(q, w, h), w};
+  const double tolerance = 1e-12 * moments.z;
+  if (moments.z - moments.x <= tolerance) return {rotateBy(q, w, h), w};
   glm::dquat frame = q * inertia.frame;  // principal axes -> world
   glm::dvec3 l = moments * (glm::conjugate(frame) * w);  // angular momentum, principal axes
   const glm::dvec3 momentum = frame * l;                  // and world: kept
   const glm::dvec3 inverse = 1.0 / moments;
-  const double energy = 0.5 * glm::dot(l, l * inverse);
   const double middle = moments.y;
   // |L|^2 / (2 I_m): a turn about L itself; L in the principal axes stays.
   frame = rotateBy(frame, momentum / middle, h);
@@ -127,12 +127,12 @@ FreeRotation freeRotation(const PrincipalInertia& inertia, const glm::dquat& q, 
   };
   // A symmetric top (two moments equal): one of the two parts vanishes and the other's flow is exact, whole in one
   // turn; the energy stays as it was (the turn keeps L_k and |L|), so it needs no correction.
-  const double tolerance = 1e-12 * moments.z;
   if (moments.y - moments.x <= tolerance || moments.z - moments.y <= tolerance) {
     turn(moments.y - moments.x <= tolerance ? 2 : 0, h);
     frame = glm::normalize(frame);
     return {glm::normalize(frame * glm::conjugate(inertia.frame)), frame * (l * inverse)};
   }
+  const double energy = 0.5 * glm::dot(l, l * inverse);  // (before the turns: what the correction brings back)
   turn(0, 0.5 * h);
   turn(2, h);
   turn(0, 0.5 * h);

@@ -249,50 +249,47 @@ StepStatus World::step(double h) {
   ctx.turnMemo.resize(ctx.joints.empty() ? 0 : ctx.bodies.size());  // (only the joint passes ask a turn twice)
   ctx.stats = {};
   ctx.frozen.assign(ctx.bodies.size(), 0);
+  // Nothing can move, and the last step left no pair: a substep would find none and move no body (it would make
+  // again the same bounds, fat boxes and predictions of bodies that stay where they are). Only the time passes; the
+  // forces are dropped below, as after any step (an asleep body's are not applied: it does not move).
+  StepStatus status;
   if (stillWorld(ctx)) {
-    // Nothing can move, and the last step left no pair: a substep would find none and move no body (it would
-    // make again the same bounds, fat boxes and predictions of bodies that stay where they are). Only the time
-    // passes; the forces are dropped, as after any step (an asleep body's are not applied: it does not move).
-    for (size_t i = 0; i < ctx.bodies.size(); ++i) {
-      ctx.force[i] = glm::dvec3(0);
-      ctx.torque[i] = glm::dvec3(0);
-    }
     ctx.substepsCapped = false;
     ctx.stats.substeps = 1;
     ctx.time += h;
-    ctx.stats.ms.total = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    return {};
+  } else {
+    // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
+    // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
+    // the thinner one's half thickness (stepTravel).
+    std::vector<double> travel(static_cast<size_t>(ctx.workers()), 0.0);  // the largest per worker
+    ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
+      double most = 0;
+      for (size_t i = begin; i < end; ++i) {
+        const RigidBody& b = ctx.bodies[i];
+        if (!b.movable()) continue;
+        const double speed = glm::length(b.v) + glm::length(ctx.settings.gravity) * h +
+                             ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius;
+        most = std::max(most, speed * h);
+      }
+      travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);
+    });
+    const double maxTravel = *std::max_element(travel.begin(), travel.end());
+    double ratio = maxTravel / (ctx.settings.substepFraction * std::max(ctx.minHalfThickness, 1e-4));
+    if (ratio > 1) ratio = detail::stepTravel(ctx, h);
+    const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, ctx.settings.maxSubsteps));
+    ctx.substepsCapped = ratio > n;
+    // Each body's state before the step: what a step that goes non-finite is undone to.
+    std::vector<detail::BodyState>& before = ctx.stepBefore;
+    before.resize(ctx.bodies.size());
+    ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
+      for (size_t i = begin; i < end; ++i)
+        before[i] = {ctx.bodies[i].x, ctx.bodies[i].q, ctx.bodies[i].v, ctx.bodies[i].w};
+    });
+    const double timeBefore = ctx.time;
+    for (int s = 0; s < n; ++s) substep(h / n);
+    ctx.stats.substeps = n;
+    status = checkFinite(ctx, before, timeBefore);
   }
-  // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
-  // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
-  // the thinner one's half thickness (stepTravel).
-  std::vector<double> travel(static_cast<size_t>(ctx.workers()), 0.0);  // the largest per worker
-  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
-    double most = 0;
-    for (size_t i = begin; i < end; ++i) {
-      const RigidBody& b = ctx.bodies[i];
-      if (!b.movable()) continue;
-      const double speed = glm::length(b.v) + glm::length(ctx.settings.gravity) * h +
-                           ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius;
-      most = std::max(most, speed * h);
-    }
-    travel[static_cast<size_t>(worker)] = std::max(travel[static_cast<size_t>(worker)], most);
-  });
-  const double maxTravel = *std::max_element(travel.begin(), travel.end());
-  double ratio = maxTravel / (ctx.settings.substepFraction * std::max(ctx.minHalfThickness, 1e-4));
-  if (ratio > 1) ratio = detail::stepTravel(ctx, h);
-  const int n = std::clamp(static_cast<int>(std::ceil(ratio)), 1, std::max(1, ctx.settings.maxSubsteps));
-  ctx.substepsCapped = ratio > n;
-  // Each body's state before the step: what a step that goes non-finite is undone to.
-  std::vector<detail::BodyState>& before = ctx.stepBefore;
-  before.resize(ctx.bodies.size());
-  ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int) {
-    for (size_t i = begin; i < end; ++i) before[i] = {ctx.bodies[i].x, ctx.bodies[i].q, ctx.bodies[i].v, ctx.bodies[i].w};
-  });
-  const double timeBefore = ctx.time;
-  for (int s = 0; s < n; ++s) substep(h / n);
-  ctx.stats.substeps = n;
-  const StepStatus status = checkFinite(ctx, before, timeBefore);
   std::vector<int> awake(static_cast<size_t>(ctx.workers()), 0);
   ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
     int count = 0;

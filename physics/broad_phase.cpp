@@ -512,10 +512,11 @@ double stepTravel(StepContext& ctx, double h) {
   const std::vector<RigidBody>& bodies = ctx.bodies;
   const size_t n = bodies.size();
   // Per body: bounds swept over the step (the pose now and moved by h v + h^2 a, widened by how far its turn
-  // moves its shape's points: StepContext::turnRate) and the bound of its own travel's parts.
+  // moves its shape's points: StepContext::turnSpeed) and the bound of its own travel's parts.
   struct Swept {
     glm::dvec3 v{0}, a{0};
-    double turn = 0;  // turnRate R h
+    double turn = 0;   // turnSpeed h: how far the turn moves the shape
+    double reach = 0;  // |omega| h times the reach about the centre of mass: how far it moves any point of the body
   };
   std::vector<Swept> swept(n);
   std::vector<Aabb>& boxes = ctx.boxes;  // (findPairs makes them again for the substeps)
@@ -528,7 +529,8 @@ double stepTravel(StepContext& ctx, double h) {
     if (b.movable()) {
       s.v = b.v;
       s.a = ctx.acceleration(static_cast<int>(i));
-      s.turn = ctx.turnRate(static_cast<int>(i)) * b.shape->boundingRadius * h;
+      s.turn = ctx.turnSpeed(static_cast<int>(i)) * h;
+      s.reach = glm::length(b.w) * reachAboutCom(b) * h;
       const glm::dvec3 d = h * s.v + h * h * s.a;
       boxes[i].lo = glm::min(boxes[i].lo, boxes[i].lo + d) - s.turn - 0.005;
       boxes[i].hi = glm::max(boxes[i].hi, boxes[i].hi + d) + s.turn + 0.005;
@@ -597,10 +599,12 @@ double stepTravel(StepContext& ctx, double h) {
     gridPairs(ctx, ctx.grid, boxes, nullptr, accept, false, keys);
     for (uint64_t key : keys) pairTravel(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu));
   }
-  // Joined bodies, wherever they are, by each one's own turn: the joint solve's Newton passes are linearised
+  // Joined bodies, wherever they are, by how far each one's turn moves any of its points (an anchor may lie anywhere on it): the joint solve's Newton passes are linearised
   // in the turn over the substep (a translation is linear in the impulse; joint_step.cpp takes the levers at
   // the substep's end, and a 100 kg body on 1 kg links holds even in one substep a step).
-  auto own = [&](int i) { return bodies[static_cast<size_t>(i)].movable() ? swept[static_cast<size_t>(i)].turn : 0.0; };
+  auto own = [&](int i) {
+    return bodies[static_cast<size_t>(i)].movable() ? swept[static_cast<size_t>(i)].reach : 0.0;
+  };
   for (const Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.b < 0) continue;
     const RigidBody& B = bodies[static_cast<size_t>(jt.def.b)];

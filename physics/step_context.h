@@ -537,21 +537,44 @@ struct StepContext {
     return surfaceDepth && static_cast<size_t>(i) < dentRise.size() && dentRise[static_cast<size_t>(i)] >= 0;
   }
   double rise(int i) const { return dented(i) ? dentRise[static_cast<size_t>(i)] : 0.0; }
-  // How fast turning at body i's angular velocity moves its shape, per metre from its centre of mass: |omega|,
-  // less the part about an axis through that centre about which the shape is the same all round (a sphere: every
-  // axis; a capsule: its own), where no map on its surface turns with it. Such a turn moves no point of the
-  // shape, none of its samples (a sphere's centre, a capsule's axis) and not its distance field: it asks for no
-  // substeps (a capsule rolling on its side spins fast about its axis).
-  double turnRate(int i) const {
+  // How fast turning at body i's angular velocity can move a point of its shape, at most: the angular speed times
+  // the farthest point's distance from the turn's axis through the centre of mass. A box's farthest point is one
+  // of its corners (the speed |omega x r| is convex in r), found exactly; a capsule moves only as its axis does (it
+  // is the same all round that axis: a spin about it moves no point of the shape, none of its samples and not its
+  // distance field), and a sphere turning about its centre not at all. Where a map on the surface turns with the
+  // shape (bent normals, dents), and for every other shape: |omega| times the shape's bounding radius.
+  // The substeps ask this (a capsule rolling on its side spins fast about its axis, a tumbling box's corners move
+  // slower than its half diagonal turning at right angles to the turn).
+  double turnSpeed(int i) const {
     const RigidBody& b = body(i);
     const Shape& s = *b.shape;
-    const bool plain = !bentNormals(i) && !dented(i);
-    if (plain && s.type == ShapeType::Sphere && b.localCom == glm::dvec3(0)) return 0.0;
-    if (plain && s.type == ShapeType::Capsule && b.localCom.x == 0 && b.localCom.z == 0) {
-      const glm::dvec3 axis = b.rotation()[1];  // (the capsule's axis is its shape's y)
-      return glm::length(b.w - glm::dot(b.w, axis) * axis);
+    if (!bentNormals(i) && !dented(i)) {
+      const glm::dvec3& c = b.localCom;
+      if (s.type == ShapeType::Sphere && c == glm::dvec3(0)) return 0.0;
+      if (s.type == ShapeType::Capsule && c.x == 0 && c.z == 0) {
+        const glm::dvec3 axis = b.rotation()[1];  // (the capsule's axis is its shape's y)
+        return glm::length(b.w - glm::dot(b.w, axis) * axis) * (s.halfHeight + std::abs(c.y));
+      }
+      if (s.type == ShapeType::Box) {
+        const glm::dvec3 w = glm::conjugate(b.q) * b.w;  // (in the box's frame)
+        const glm::dvec3& e = s.halfExtents;
+        if (c == glm::dvec3(0)) {
+          // |omega x r|^2 = |omega|^2 |e|^2 - (omega . r)^2 at every corner r: the farthest is the one whose
+          // (omega . r)^2 is least, +-x +-y +-z over the signs of x = |omega_x e_x| >= 0 and the others.
+          const double x = std::abs(w.x * e.x), y = std::abs(w.y * e.y), z = std::abs(w.z * e.z);
+          const double least = std::min({x + y + z, std::abs(x + y - z), std::abs(x - y + z), std::abs(x - y - z)});
+          return std::sqrt(std::max(glm::dot(w, w) * glm::dot(e, e) - least * least, 0.0));
+        }
+        double most = 0;
+        for (int k = 0; k < 8; ++k) {
+          const glm::dvec3 r = glm::dvec3(k & 1 ? e.x : -e.x, k & 2 ? e.y : -e.y, k & 4 ? e.z : -e.z) - c;
+          const glm::dvec3 u = glm::cross(w, r);
+          most = std::max(most, glm::dot(u, u));
+        }
+        return std::sqrt(most);
+      }
     }
-    return glm::length(b.w);
+    return glm::length(b.w) * s.boundingRadius;
   }
   // Whether body `owner`'s dents can reach body `other` (its bounds, grown by `margin`, meet the dented part of
   // the owner's surface): pairs far from every dent keep the undented shapes' contacts, bit for bit.

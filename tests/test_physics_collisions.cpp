@@ -642,9 +642,10 @@ TEST_CASE("substeps: bodies whose spheres stay apart over the step ask for none,
 TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
   // A body 5 mm over a static plate 0.1 m thick (half thickness 0.05: a substep may move a body 2.5 cm), turning
   // fast and not moving. A ball spinning and a capsule rolling on its side (spinning about its own axis) move no
-  // point of their shapes: one substep. The capsule tumbling end over end at the same rate, a box spinning, and
-  // a ball whose normals a map bends (the map turns with it) move theirs: more.
-  enum class Body { Ball, CapsuleRolling, CapsuleTumbling, Box, BumpedBall };
+  // point of their shapes: one substep. The capsule tumbling end over end (its axis' ends move, its round part
+  // with them), a box spinning fast, and a ball whose normals a map bends (the map turns with it) move theirs:
+  // more. A box moves its corners at their distance from the turn's axis, not at its half diagonal.
+  enum class Body { Ball, CapsuleRolling, CapsuleTumbling, Box, BoxFast, BumpedBall };
   auto substeps = [](Body kind) {
     World w;
     w.settings().gravity = {0, 0, 0};
@@ -664,13 +665,17 @@ TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
         break;
       case Body::CapsuleRolling:
       case Body::CapsuleTumbling:
-        d.shape = makeCapsule(0.1, 0.4);  // lying along x, reach 0.3: 30 rad/s turns a point 3.75 cm a step
+        // Lying along x, its axis' ends 0.2 from its centre: tumbling at 45 rad/s moves them 3.75 cm a step.
+        d.shape = makeCapsule(0.1, 0.4);
         d.orientation = glm::angleAxis(glm::half_pi<double>(), glm::dvec3(0, 0, 1));
-        spin = kind == Body::CapsuleRolling ? glm::dvec3(30, 0, 0) : glm::dvec3(0, 30, 0);
+        spin = kind == Body::CapsuleRolling ? glm::dvec3(45, 0, 0) : glm::dvec3(0, 45, 0);
         break;
       case Body::Box:
+      case Body::BoxFast:
+        // Corners 0.141 from the vertical axis (the half diagonal is 0.173): 40 rad/s moves them 2.36 cm a step
+        // (at the half diagonal, 2.89), 60 rad/s 3.54 cm.
         d.shape = makeBox({0.2, 0.2, 0.2});
-        spin = {0, 40, 0};
+        spin = {0, kind == Body::Box ? 40 : 60, 0};
         break;
     }
     d.origin = {0, 0.105, 0};
@@ -688,8 +693,64 @@ TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
   CHECK(substeps(Body::Ball) == 1);
   CHECK(substeps(Body::CapsuleRolling) == 1);
   CHECK(substeps(Body::CapsuleTumbling) == 2);  // 0.0375 m / 0.025 m
-  CHECK(substeps(Body::Box) > 1);
+  CHECK(substeps(Body::Box) == 1);              // 0.0236 m / 0.025 m
+  CHECK(substeps(Body::BoxFast) == 2);          // 0.0354 m / 0.025 m
   CHECK(substeps(Body::BumpedBall) == 3);  // 0.058 m / 0.025 m
+}
+
+TEST_CASE("substeps: a turning box or capsule asks for what its fastest sample moves, over random turns") {
+  // Boxes and capsules of random sizes, orientations and spins, 2 mm over a static plate 0.1 m thick, not moving
+  // and without gravity: the step splits into as many substeps as the fastest of the body's samples (a box's
+  // corners are among them; a capsule's lie on its axis) needs to move no more than half the thinner half
+  // thickness in one. The bound is the samples' own speed: no fewer substeps (a sample would move too far), and
+  // no more (a box's half diagonal turning at right angles to the turn, a capsule's whole length, ask for more).
+  uint64_t state = 7;
+  auto u = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  const double h = 1.0 / 240;
+  int split = 0, tried = 0;
+  for (int k = 0; k < 60; ++k) {
+    World w;
+    w.settings().gravity = {0, 0, 0};
+    BodyDef plate;
+    plate.shape = makeBox({4, 0.1, 4});
+    plate.origin = {0, -0.05, 0};
+    plate.isStatic = true;
+    w.addBody(plate);
+    BodyDef d;
+    d.density = 1000;
+    const bool box = k % 2 == 0;
+    d.shape = box ? makeBox({0.1 + 0.3 * u(), 0.1 + 0.3 * u(), 0.1 + 0.3 * u()})
+                  : makeCapsule(0.05 + 0.1 * u(), 0.1 + 0.4 * u());
+    d.orientation = glm::angleAxis(
+        6.283 * u(), glm::normalize(glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) + glm::dvec3(1e-3, 0, 0)));
+    d.angularVelocity =
+        (20 + 60 * u()) * glm::normalize(glm::dvec3(u() - 0.5, u() - 0.5, u() - 0.5) + glm::dvec3(0, 1e-3, 0));
+    const glm::dmat3 R = glm::mat3_cast(d.orientation);
+    double lowest = 0, fastest = 0;
+    for (const glm::dvec3& p : d.shape->samples) {
+      lowest = std::min(lowest, (R * p).y - d.shape->sampleRadius);
+      fastest = std::max(fastest, glm::length(glm::cross(d.angularVelocity, R * p)));
+    }
+    d.origin = {0, 0.002 - lowest, 0};
+    const int i = w.addBody(d);
+    const double allowed = 0.5 * std::min(0.05, d.shape->halfThickness());
+    const double ratio = fastest * h / allowed;
+    if (std::abs(ratio - std::round(ratio)) < 1e-6) continue;  // (a tie: rounding decides)
+    ++tried;
+    w.step(h);
+    CAPTURE(k);
+    CAPTURE(ratio);
+    CHECK(w.lastStats().substeps == std::max(1, static_cast<int>(std::ceil(ratio))));
+    CHECK(w.body(i).x.y > d.origin.y - 0.003);  // (nothing pushed it into the plate)
+    split += w.lastStats().substeps > 1;
+  }
+  MESSAGE(split << " of " << tried << " turning bodies split their step");
+  CHECK(tried > 50);
+  CHECK(split > 10);
+  CHECK(split < tried);
 }
 
 TEST_CASE("substeps: a world that keeps its fat boxes asks for as many substeps as a fresh one at the same state") {

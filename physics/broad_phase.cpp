@@ -599,9 +599,10 @@ double stepTravel(StepContext& ctx, double h) {
     gridPairs(ctx, ctx.grid, boxes, nullptr, accept, false, keys);
     for (uint64_t key : keys) pairTravel(static_cast<int>(key >> 32), static_cast<int>(key & 0xffffffffu));
   }
-  // Joined bodies, wherever they are, by how far each one's turn moves any of its points (an anchor may lie anywhere on it): the joint solve's Newton passes are linearised
-  // in the turn over the substep (a translation is linear in the impulse; joint_step.cpp takes the levers at
-  // the substep's end, and a 100 kg body on 1 kg links holds even in one substep a step).
+  // Joined bodies, wherever they are, by how far each one's turn moves any of its points (an anchor may lie
+  // anywhere on it): the joint solve's Newton passes are linearised in the turn over the substep (a translation
+  // is linear in the impulse; joint_step.cpp takes the levers at the substep's end, and a 100 kg body on 1 kg
+  // links holds even in one substep a step).
   auto own = [&](int i) {
     return bodies[static_cast<size_t>(i)].movable() ? swept[static_cast<size_t>(i)].reach : 0.0;
   };

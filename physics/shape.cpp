@@ -93,10 +93,28 @@ double cylinderDistance(const glm::dvec3& p, double r, double hh, glm::dvec3* gr
   return outLen + inside;
 }
 
-// The radius about the shape origin of a sphere holding the bounding box.
-// Also the samples' tree, where there are enough of them.
+// The radius about the shape origin of the least sphere there holding the shape: its farthest point's distance (a
+// box's corner; a mesh's farthest vertex: its triangles lie within their vertices' sphere). Also the samples'
+// tree, where there are enough of them.
 void finishBounds(Shape& s) {
-  s.boundingRadius = glm::length(glm::max(glm::abs(s.boundsMin), glm::abs(s.boundsMax)));
+  switch (s.type) {
+    case ShapeType::Box:
+      s.boundingRadius = glm::length(s.halfExtents);
+      break;
+    case ShapeType::Sphere:
+      s.boundingRadius = s.radius;
+      break;
+    case ShapeType::Capsule:
+      s.boundingRadius = s.halfHeight + s.radius;
+      break;
+    case ShapeType::Cylinder:
+      s.boundingRadius = std::sqrt(s.radius * s.radius + s.halfHeight * s.halfHeight);
+      break;
+    case ShapeType::Mesh:
+      s.boundingRadius = 0;
+      for (const glm::dvec3& p : s.samples) s.boundingRadius = std::max(s.boundingRadius, glm::length(p));
+      break;
+  }
   s.cachedHalfThickness = s.computeHalfThickness();
   if (s.samples.size() > SampleTree::kMinSamples) s.sampleTree = std::make_shared<const SampleTree>(s.samples);
 }

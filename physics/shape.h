@@ -37,7 +37,7 @@ struct Shape {
   double sampleRadius = 0.0;
 
   glm::dvec3 boundsMin{0}, boundsMax{0};  // shape frame
-  double boundingRadius = 0;              // about the shape origin
+  double boundingRadius = 0;              // the farthest point's distance from the shape origin
   MassProperties unitMass;                // density 1
   std::shared_ptr<const SdfGrid> grid;    // meshes only
   // Boxes and convex meshes (of at most 64 faces): vertices, faces and edges.

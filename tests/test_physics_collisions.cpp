@@ -660,7 +660,7 @@ TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
     switch (kind) {
       case Body::Ball:
       case Body::BumpedBall:
-        d.shape = makeSphere(0.1);  // reach (its bounds' corner) 0.17: 80 rad/s turns a point 5.8 cm a step
+        d.shape = makeSphere(0.1);  // 80 rad/s turns a point of its surface 3.3 cm a step
         spin = {0, 0, 80};
         break;
       case Body::CapsuleRolling:
@@ -695,7 +695,39 @@ TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
   CHECK(substeps(Body::CapsuleTumbling) == 2);  // 0.0375 m / 0.025 m
   CHECK(substeps(Body::Box) == 1);              // 0.0236 m / 0.025 m
   CHECK(substeps(Body::BoxFast) == 2);          // 0.0354 m / 0.025 m
-  CHECK(substeps(Body::BumpedBall) == 3);  // 0.058 m / 0.025 m
+  CHECK(substeps(Body::BumpedBall) == 2);       // 0.033 m / 0.025 m
+}
+
+TEST_CASE("a shape's bounding radius is its farthest point's distance from its origin") {
+  // Every point the shape's distance says is inside (random points in its bounds box) and every sample (with its
+  // radius) lies within the bounding radius, and the farthest sample reaches it: the least sphere about the
+  // origin (a sphere's radius, not its bounds box's corner; a mesh's farthest vertex).
+  uint64_t state = 5;
+  auto u = [&]() {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  const std::vector<std::shared_ptr<Shape>> shapes = {makeBox({0.3, 0.5, 0.7}), makeSphere(0.2), makeCapsule(0.1, 0.6),
+                                                      makeCylinder(0.2, 0.5),
+                                                      makeMeshShape(torusMesh(0.3f, 0.1f, 16, 8), 32)};
+  for (const std::shared_ptr<Shape>& shape : shapes) {
+    CAPTURE(shapeTypeName(shape->type));
+    double farthest = 0;
+    for (const glm::dvec3& p : shape->samples) farthest = std::max(farthest, glm::length(p) + shape->sampleRadius);
+    CHECK(farthest == Approx(shape->boundingRadius).epsilon(1e-12));
+    double inside = 0;
+    int found = 0;
+    for (int k = 0; k < 20000; ++k) {
+      const glm::dvec3 t(u(), u(), u());
+      const glm::dvec3 p = shape->boundsMin + t * (shape->boundsMax - shape->boundsMin);
+      if (shape->distance(p) > 0) continue;
+      ++found;
+      inside = std::max(inside, glm::length(p));
+    }
+    CHECK(found > 1000);
+    CHECK(inside <= shape->boundingRadius * (1 + 1e-9));
+    CHECK(inside > 0.8 * shape->boundingRadius);  // (points inside do come near it)
+  }
 }
 
 TEST_CASE("substeps: a turning box or capsule asks for what its fastest sample moves, over random turns") {

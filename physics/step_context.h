@@ -542,7 +542,8 @@ struct StepContext {
   // of its corners (the speed |omega x r| is convex in r), found exactly; a capsule moves only as its axis does (it
   // is the same all round that axis: a spin about it moves no point of the shape, none of its samples and not its
   // distance field), and a sphere turning about its centre not at all. Where a map on the surface turns with the
-  // shape (bent normals, dents), and for every other shape: |omega| times the shape's bounding radius.
+  // shape (bent normals, dents), and for every other shape: |omega| times its reach about the centre of mass (and
+  // the most its dents rise).
   // The substeps ask this (a capsule rolling on its side spins fast about its axis, a tumbling box's corners move
   // slower than its half diagonal turning at right angles to the turn).
   double turnSpeed(int i) const {
@@ -574,7 +575,7 @@ struct StepContext {
         return std::sqrt(most);
       }
     }
-    return glm::length(b.w) * s.boundingRadius;
+    return glm::length(b.w) * (reachAboutCom(b) + rise(i));
   }
   // Whether body `owner`'s dents can reach body `other` (its bounds, grown by `margin`, meet the dented part of
   // the owner's surface): pairs far from every dent keep the undented shapes' contacts, bit for bit.

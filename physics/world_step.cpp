@@ -261,9 +261,10 @@ StepStatus World::step(double h) {
     // Substeps: no body may move more than a fraction of the thinnest half thickness. Where that asks for
     // more than one, only pairs of bodies that can meet within the step count, by their relative travel and
     // the thinner one's half thickness (stepTravel).
-    // A body's travel is first bounded by its turn at its reach about its centre of mass; only a body that this
-    // bound would let move too far asks its shape how fast its turn moves it (StepContext::turnSpeed). With
-    // joints the first bound stands: stepTravel holds joined bodies to their turn at their reach.
+    // A body's travel is first bounded by its turn at its reach about its centre of mass (and its dents' rise),
+    // never less than its shape's own bound; only a body that this bound would let move too far asks its shape
+    // how fast its turn moves it (StepContext::turnSpeed). With joints the first bound stands: stepTravel holds
+    // joined bodies to their turn at their reach.
     const double allowed = ctx.settings.substepFraction * std::max(ctx.minHalfThickness, 1e-4);
     std::vector<double> travel(static_cast<size_t>(ctx.workers()), 0.0);  // the largest per worker
     ctx.parallelRange(ctx.bodies.size(), kBodyGrain, [&](size_t begin, size_t end, int worker) {
@@ -272,7 +273,7 @@ StepStatus World::step(double h) {
         const RigidBody& b = ctx.bodies[i];
         if (!b.movable()) continue;
         const double fast = glm::length(b.v) + glm::length(ctx.settings.gravity) * h;
-        double moved = (fast + glm::length(b.w) * detail::reachAboutCom(b)) * h;
+        double moved = (fast + glm::length(b.w) * (detail::reachAboutCom(b) + ctx.rise(static_cast<int>(i)))) * h;
         if (moved > allowed && ctx.joints.empty()) moved = (fast + ctx.turnSpeed(static_cast<int>(i))) * h;
         most = std::max(most, moved);
       }

@@ -515,8 +515,7 @@ double stepTravel(StepContext& ctx, double h) {
   // moves its shape's points: StepContext::turnSpeed) and the bound of its own travel's parts.
   struct Swept {
     glm::dvec3 v{0}, a{0};
-    double turn = 0;   // turnSpeed h: how far the turn moves the shape
-    double reach = 0;  // |omega| h times the reach about the centre of mass: how far it moves any point of the body
+    double turn = 0;  // turnSpeed h: how far the turn moves the shape
   };
   std::vector<Swept> swept(n);
   std::vector<Aabb>& boxes = ctx.boxes;  // (findPairs makes them again for the substeps)
@@ -530,7 +529,6 @@ double stepTravel(StepContext& ctx, double h) {
       s.v = b.v;
       s.a = ctx.acceleration(static_cast<int>(i));
       s.turn = ctx.turnSpeed(static_cast<int>(i)) * h;
-      s.reach = glm::length(b.w) * reachAboutCom(b) * h;
       const glm::dvec3 d = h * s.v + h * h * s.a;
       boxes[i].lo = glm::min(boxes[i].lo, boxes[i].lo + d) - s.turn - 0.005;
       boxes[i].hi = glm::max(boxes[i].hi, boxes[i].hi + d) + s.turn + 0.005;
@@ -604,7 +602,8 @@ double stepTravel(StepContext& ctx, double h) {
   // is linear in the impulse; joint_step.cpp takes the levers at the substep's end, and a 100 kg body on 1 kg
   // links holds even in one substep a step).
   auto own = [&](int i) {
-    return bodies[static_cast<size_t>(i)].movable() ? swept[static_cast<size_t>(i)].reach : 0.0;
+    const RigidBody& b = bodies[static_cast<size_t>(i)];
+    return b.movable() ? glm::length(b.w) * reachAboutCom(b) * h : 0.0;
   };
   for (const Joint& jt : ctx.joints) {
     if (jt.removed || jt.broken || jt.def.b < 0) continue;

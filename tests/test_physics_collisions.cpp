@@ -639,6 +639,18 @@ TEST_CASE("substeps: bodies whose spheres stay apart over the step ask for none,
   CHECK(gap > 0.99);  // the rods met end to end and did not pass through each other
 }
 
+namespace {
+// A static plate 4 x 0.1 x 4 m whose top face is the plane y = 0 (half thickness 0.05: a substep may move a body
+// 2.5 cm against it).
+void addPlate(World& w) {
+  BodyDef plate;
+  plate.shape = makeBox({4, 0.1, 4});
+  plate.origin = {0, -0.05, 0};
+  plate.isStatic = true;
+  w.addBody(plate);
+}
+}  // namespace
+
 TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
   // A body 5 mm over a static plate 0.1 m thick (half thickness 0.05: a substep may move a body 2.5 cm), turning
   // fast and not moving. A ball spinning and a capsule rolling on its side (spinning about its own axis) move no
@@ -649,11 +661,7 @@ TEST_CASE("substeps: a turn that moves no point of the shape asks for none") {
   auto substeps = [](Body kind) {
     World w;
     w.settings().gravity = {0, 0, 0};
-    BodyDef plate;
-    plate.shape = makeBox({4, 0.1, 4});
-    plate.origin = {0, -0.05, 0};
-    plate.isStatic = true;
-    w.addBody(plate);
+    addPlate(w);
     BodyDef d;
     d.density = 1000;
     glm::dvec3 spin(0);
@@ -702,11 +710,7 @@ TEST_CASE("a shape's bounding radius is its farthest point's distance from its o
   // Every point the shape's distance says is inside (random points in its bounds box) and every sample (with its
   // radius) lies within the bounding radius, and the farthest sample reaches it: the least sphere about the
   // origin (a sphere's radius, not its bounds box's corner; a mesh's farthest vertex).
-  uint64_t state = 5;
-  auto u = [&]() {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(5);
   const std::vector<std::shared_ptr<Shape>> shapes = {makeBox({0.3, 0.5, 0.7}), makeSphere(0.2), makeCapsule(0.1, 0.6),
                                                       makeCylinder(0.2, 0.5),
                                                       makeMeshShape(torusMesh(0.3f, 0.1f, 16, 8), 32)};
@@ -736,21 +740,13 @@ TEST_CASE("substeps: a turning box or capsule asks for what its fastest sample m
   // corners are among them; a capsule's lie on its axis) needs to move no more than half the thinner half
   // thickness in one. The bound is the samples' own speed: no fewer substeps (a sample would move too far), and
   // no more (a box's half diagonal turning at right angles to the turn, a capsule's whole length, ask for more).
-  uint64_t state = 7;
-  auto u = [&]() {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return static_cast<double>(state >> 11) / 9007199254740992.0;
-  };
+  Uniform u(7);
   const double h = 1.0 / 240;
   int split = 0, tried = 0;
   for (int k = 0; k < 60; ++k) {
     World w;
     w.settings().gravity = {0, 0, 0};
-    BodyDef plate;
-    plate.shape = makeBox({4, 0.1, 4});
-    plate.origin = {0, -0.05, 0};
-    plate.isStatic = true;
-    w.addBody(plate);
+    addPlate(w);
     BodyDef d;
     d.density = 1000;
     const bool box = k % 2 == 0;
